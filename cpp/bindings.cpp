@@ -1,0 +1,251 @@
+// Python bindings of the native core (private module socialnav._core).
+// Arrays are float64/int C-contiguous NumPy arrays; the Python façade checks shapes and dtypes
+// and these bindings check them again, so a wrong buffer raises instead of corrupting memory.
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/string.h>
+
+#include <stdexcept>
+#include <string>
+
+#include "orca.hpp"
+#include "robot_policies.hpp"
+#include "social_force.hpp"
+#include "world.hpp"
+
+namespace nb = nanobind;
+using namespace nb::literals;
+using socialnav::Vec2;
+
+template <typename T>
+using Array = nb::ndarray<T, nb::numpy, nb::c_contig, nb::device::cpu>;
+
+namespace {
+
+template <typename T>
+T* checked(Array<T>& a, const char* name, size_t expected) {
+  if (a.size() != expected)
+    throw std::invalid_argument(std::string(name) + ": expected " + std::to_string(expected) +
+                                " elements, got " + std::to_string(a.size()));
+  return a.data();
+}
+
+template <typename T>
+T* optional_checked(nb::object obj, const char* name, size_t expected) {
+  if (obj.is_none()) return nullptr;
+  Array<T> a = nb::cast<Array<T>>(obj);
+  return checked(a, name, expected);
+}
+
+// Keeps the arrays alive for as long as the world points into them.
+struct PyWorld {
+  nb::list keep_alive;
+  std::unique_ptr<socialnav::World> world;
+};
+
+Vec2 vec(const Array<double>& a) { return Vec2{a.data()[0], a.data()[1]}; }
+
+}  // namespace
+
+NB_MODULE(_core, m) {
+  m.doc() = "socialnav native core: ORCA, social force and the batched crowd world.";
+
+  nb::class_<socialnav::OrcaParams>(m, "OrcaParams")
+      .def(nb::init<>())
+      .def_rw("neighbor_dist", &socialnav::OrcaParams::neighbor_dist)
+      .def_rw("max_neighbors", &socialnav::OrcaParams::max_neighbors)
+      .def_rw("time_horizon", &socialnav::OrcaParams::time_horizon);
+
+  nb::class_<socialnav::SocialForceParams>(m, "SocialForceParams")
+      .def(nb::init<>())
+      .def_rw("relaxation_time", &socialnav::SocialForceParams::relaxation_time)
+      .def_rw("v0", &socialnav::SocialForceParams::v0)
+      .def_rw("sigma", &socialnav::SocialForceParams::sigma)
+      .def_rw("step_time", &socialnav::SocialForceParams::step_time)
+      .def_rw("fov_half_angle", &socialnav::SocialForceParams::fov_half_angle)
+      .def_rw("outside_fov_weight", &socialnav::SocialForceParams::outside_fov_weight)
+      .def_rw("max_speed_factor", &socialnav::SocialForceParams::max_speed_factor);
+
+  using C = socialnav::WorldConfig;
+  nb::class_<C>(m, "WorldConfig")
+      .def(nb::init<>())
+      .def_rw("batch", &C::batch)
+      .def_rw("agents", &C::agents)
+      .def_rw("dt", &C::dt)
+      .def_rw("time_limit", &C::time_limit)
+      .def_rw("human_model", &C::human_model)
+      .def_rw("robot_visible", &C::robot_visible)
+      .def_rw("kinematics", &C::kinematics)
+      .def_rw("rotation_limit", &C::rotation_limit)
+      .def_rw("crowdsim_compat", &C::crowdsim_compat)
+      .def_rw("discomfort_dist", &C::discomfort_dist)
+      .def_rw("success_reward", &C::success_reward)
+      .def_rw("collision_penalty", &C::collision_penalty)
+      .def_rw("discomfort_penalty_factor", &C::discomfort_penalty_factor)
+      .def_rw("orca", &C::orca)
+      .def_rw("orca_radius_margin", &C::orca_radius_margin)
+      .def_rw("human_safety_space", &C::human_safety_space)
+      .def_rw("social_force", &C::social_force)
+      .def_rw("continue_after_success", &C::continue_after_success)
+      .def_rw("continuation_cap", &C::continuation_cap)
+      .def_rw("history_len", &C::history_len)
+      .def_rw("threads", &C::threads);
+
+  m.attr("STATUS_IDLE") = static_cast<int>(socialnav::kIdle);
+  m.attr("STATUS_RUNNING") = static_cast<int>(socialnav::kRunning);
+  m.attr("STATUS_SUCCESS") = static_cast<int>(socialnav::kSuccess);
+  m.attr("STATUS_COLLISION") = static_cast<int>(socialnav::kCollision);
+  m.attr("STATUS_TIMEOUT") = static_cast<int>(socialnav::kTimeout);
+  m.attr("STATUS_CONTINUING") = static_cast<int>(socialnav::kContinuing);
+  m.attr("HUMAN_ORCA") = static_cast<int>(socialnav::kHumanOrca);
+  m.attr("HUMAN_SOCIAL_FORCE") = static_cast<int>(socialnav::kHumanSocialForce);
+  m.attr("HUMAN_LINEAR") = static_cast<int>(socialnav::kHumanLinear);
+  m.attr("HOLONOMIC") = static_cast<int>(socialnav::kHolonomic);
+  m.attr("UNICYCLE") = static_cast<int>(socialnav::kUnicycle);
+
+  nb::class_<PyWorld>(m, "World")
+      .def(
+          "__init__",
+          [](PyWorld* self, const C& config, Array<double> position, Array<double> velocity,
+             Array<double> goal, Array<double> radius, Array<double> v_pref, Array<uint8_t> mask,
+             Array<double> theta, Array<int32_t> steps, Array<int8_t> status, Array<double> reward,
+             Array<double> dmin, Array<uint8_t> done, Array<int32_t> overlaps, Array<double> arrival,
+             Array<int32_t> end_step, nb::object hist_position, nb::object hist_velocity,
+             nb::object hist_dmin) {
+            const size_t B = static_cast<size_t>(config.batch);
+            const size_t A = static_cast<size_t>(config.agents);
+            const size_t T = static_cast<size_t>(config.history_len);
+            socialnav::WorldBuffers buf{};
+            buf.position = checked(position, "position", B * A * 2);
+            buf.velocity = checked(velocity, "velocity", B * A * 2);
+            buf.goal = checked(goal, "goal", B * A * 2);
+            buf.radius = checked(radius, "radius", B * A);
+            buf.v_pref = checked(v_pref, "v_pref", B * A);
+            buf.mask = checked(mask, "mask", B * A);
+            buf.theta = checked(theta, "theta", B);
+            buf.steps = checked(steps, "steps", B);
+            buf.status = checked(status, "status", B);
+            buf.reward = checked(reward, "reward", B);
+            buf.dmin = checked(dmin, "dmin", B);
+            buf.done = checked(done, "done", B);
+            buf.overlaps = checked(overlaps, "overlaps", B);
+            buf.arrival = checked(arrival, "arrival", B * A);
+            buf.end_step = checked(end_step, "end_step", B);
+            buf.hist_position = optional_checked<double>(hist_position, "hist_position", B * T * A * 2);
+            buf.hist_velocity = optional_checked<double>(hist_velocity, "hist_velocity", B * T * A * 2);
+            buf.hist_dmin = optional_checked<double>(hist_dmin, "hist_dmin", B * T);
+            if (T > 0 && (!buf.hist_position || !buf.hist_velocity || !buf.hist_dmin))
+              throw std::invalid_argument("history_len > 0 needs hist_position, hist_velocity and hist_dmin");
+            new (self) PyWorld();
+            self->world = std::make_unique<socialnav::World>(config, buf);
+            for (nb::handle h : {nb::cast(position), nb::cast(velocity), nb::cast(goal), nb::cast(radius),
+                                 nb::cast(v_pref), nb::cast(mask), nb::cast(theta), nb::cast(steps),
+                                 nb::cast(status), nb::cast(reward), nb::cast(dmin), nb::cast(done),
+                                 nb::cast(overlaps), nb::cast(arrival), nb::cast(end_step)})
+              self->keep_alive.append(h);
+            self->keep_alive.append(hist_position);
+            self->keep_alive.append(hist_velocity);
+            self->keep_alive.append(hist_dmin);
+          },
+          "config"_a, "position"_a, "velocity"_a, "goal"_a, "radius"_a, "v_pref"_a, "mask"_a, "theta"_a,
+          "steps"_a, "status"_a, "reward"_a, "dmin"_a, "done"_a, "overlaps"_a, "arrival"_a, "end_step"_a,
+          "hist_position"_a.none(), "hist_velocity"_a.none(), "hist_dmin"_a.none())
+      .def(
+          "step",
+          [](PyWorld& self, Array<double> actions) {
+            const auto& c = self.world->config();
+            const double* a = checked(actions, "actions", static_cast<size_t>(c.batch) * 2);
+            nb::gil_scoped_release release;
+            self.world->step(a);
+          },
+          "actions"_a, "Advance every running episode by one step (GIL released).");
+
+  nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
+      .def(nb::init<int>(), "threads"_a)
+      .def_prop_ro("size", &socialnav::ThreadPool::size);
+
+  m.def(
+      "robot_actions",
+      [](const std::string& policy, Array<double> robot, Array<double> humans, Array<bool> mask,
+         Array<bool> active, int kinematics, double rotation_limit, double dt,
+         const socialnav::OrcaParams& orca, double radius_margin, double safety_space,
+         const socialnav::SocialForceParams& social_force, socialnav::ThreadPool& pool, Array<double> out) {
+        if (robot.ndim() != 2 || robot.shape(1) != 9) throw std::invalid_argument("robot must be (B, 9)");
+        const size_t B = robot.shape(0);
+        if (humans.ndim() != 3 || humans.shape(0) != B || humans.shape(2) != 5)
+          throw std::invalid_argument("humans must be (B, N, 5)");
+        const size_t N = humans.shape(1);
+        checked(mask, "mask", B * N);
+        checked(active, "active", B);
+        double* o = checked(out, "out", B * 2);
+        const socialnav::ObservationView obs{static_cast<int>(B), static_cast<int>(N), robot.data(),
+                                             humans.data(), reinterpret_cast<const uint8_t*>(mask.data()),
+                                             reinterpret_cast<const uint8_t*>(active.data())};
+        const socialnav::ActionFormat format{kinematics, rotation_limit};
+        if (policy == "linear") {
+          socialnav::linear_robot_actions(obs, format, dt, o);
+        } else if (policy == "orca") {
+          nb::gil_scoped_release release;
+          socialnav::orca_robot_actions(obs, format, orca, radius_margin, safety_space, dt, pool, o);
+        } else if (policy == "social_force") {
+          nb::gil_scoped_release release;
+          socialnav::social_force_robot_actions(obs, format, social_force, dt, pool, o);
+        } else {
+          throw std::invalid_argument("unknown native robot policy '" + policy +
+                                      "'; valid: linear, orca, social_force");
+        }
+      },
+      "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a,
+      "orca"_a, "radius_margin"_a, "safety_space"_a, "social_force"_a, "pool"_a, "out"_a,
+      "Batched actions of a native robot policy, written into out (B, 2).");
+
+  m.def(
+      "orca_velocity",
+      [](Array<double> position, Array<double> velocity, double radius, double max_speed,
+         Array<double> pref_velocity, Array<double> neighbor_positions, Array<double> neighbor_velocities,
+         Array<double> neighbor_radii, double time_horizon, double time_step, double neighbor_dist,
+         int max_neighbors) {
+        const size_t n = neighbor_radii.size();
+        if (neighbor_positions.size() != 2 * n || neighbor_velocities.size() != 2 * n)
+          throw std::invalid_argument("neighbour arrays must be (K, 2), (K, 2) and (K,)");
+        if (max_neighbors < 0 || max_neighbors > socialnav::kMaxOrcaNeighbors)
+          throw std::invalid_argument("max_neighbors out of range");
+        std::vector<socialnav::OrcaNeighbor> candidates(n);
+        for (size_t k = 0; k < n; ++k)
+          candidates[k] = socialnav::OrcaNeighbor{
+              Vec2{neighbor_positions.data()[2 * k], neighbor_positions.data()[2 * k + 1]},
+              Vec2{neighbor_velocities.data()[2 * k], neighbor_velocities.data()[2 * k + 1]},
+              neighbor_radii.data()[k]};
+        socialnav::OrcaParams params;
+        params.neighbor_dist = neighbor_dist;
+        params.max_neighbors = max_neighbors;
+        params.time_horizon = time_horizon;
+        socialnav::OrcaScratch scratch;
+        const socialnav::OrcaAgent self{vec(position), vec(velocity), radius, max_speed, vec(pref_velocity)};
+        const Vec2 v = socialnav::orca_new_velocity_select(self, candidates.data(), static_cast<int>(n),
+                                                            params, time_step, scratch);
+        return nb::make_tuple(v.x, v.y);
+      },
+      "position"_a, "velocity"_a, "radius"_a, "max_speed"_a, "pref_velocity"_a, "neighbor_positions"_a,
+      "neighbor_velocities"_a, "neighbor_radii"_a, "time_horizon"_a = 5.0, "time_step"_a = 0.25,
+      "neighbor_dist"_a = 10.0, "max_neighbors"_a = 10,
+      "New velocity of one agent under ORCA (RVO2 semantics, no obstacles).");
+
+  m.def(
+      "social_force_velocity",
+      [](Array<double> position, Array<double> velocity, Array<double> desired_velocity, double max_speed,
+         Array<double> other_positions, Array<double> other_velocities,
+         const socialnav::SocialForceParams& params, double dt) {
+        const size_t n = other_positions.size() / 2;
+        std::vector<socialnav::SocialForceOther> others(n);
+        for (size_t k = 0; k < n; ++k)
+          others[k] = socialnav::SocialForceOther{
+              Vec2{other_positions.data()[2 * k], other_positions.data()[2 * k + 1]},
+              Vec2{other_velocities.data()[2 * k], other_velocities.data()[2 * k + 1]}};
+        const socialnav::SocialForceAgent self{vec(position), vec(velocity), vec(desired_velocity), max_speed};
+        const Vec2 v = socialnav::social_force_new_velocity(self, others.data(), static_cast<int>(n), params, dt);
+        return nb::make_tuple(v.x, v.y);
+      },
+      "position"_a, "velocity"_a, "desired_velocity"_a, "max_speed"_a, "other_positions"_a,
+      "other_velocities"_a, "params"_a, "dt"_a = 0.25);
+}

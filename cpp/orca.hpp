@@ -1,0 +1,77 @@
+// Optimal Reciprocal Collision Avoidance for one agent among neighbours.
+//
+// J. van den Berg, S. J. Guy, M. Lin, D. Manocha, "Reciprocal n-body collision avoidance",
+// Robotics Research (ISRR 2009), Springer Tracts in Advanced Robotics 70, 2011, pp. 3-19.
+// Implemented from the paper's description: one half-plane of permitted velocities per
+// neighbour (Sec. 4), an incremental 2-D linear program that finds the permitted velocity
+// closest to the preferred one inside the max-speed disc, and, when the half-planes leave no
+// room, a 3-D linear program that minimises the largest penetration (Sec. 5.3).
+#pragma once
+
+#include "vec2.hpp"
+
+namespace socialnav {
+
+struct OrcaParams {
+  double neighbor_dist = 10.0;  // [m] neighbours farther than this are ignored
+  int max_neighbors = 10;       // the closest ones are kept
+  double time_horizon = 5.0;    // tau [s]
+};
+
+// A directed line; the permitted half-plane lies to its left.
+struct Line {
+  Vec2 point;
+  Vec2 direction;
+};
+
+constexpr int kMaxOrcaNeighbors = 64;
+constexpr double kOrcaEpsilon = 1e-5;  // tolerance for parallel lines, as in the RVO2 library
+
+// Reusable buffers so a solve allocates nothing.
+struct OrcaScratch {
+  int count = 0;
+  double range_sq = 0.0;
+  int index[kMaxOrcaNeighbors];
+  double dist_sq[kMaxOrcaNeighbors];
+  Line lines[kMaxOrcaNeighbors];
+  Line projected[kMaxOrcaNeighbors];
+
+  void begin(double neighbor_dist) {
+    count = 0;
+    range_sq = neighbor_dist * neighbor_dist;
+  }
+  // Keeps the `max_neighbors` closest candidates strictly within range, sorted by distance
+  // (ties keep insertion order); once full, the range shrinks to the farthest kept one.
+  void offer(int candidate, double candidate_dist_sq, int max_neighbors);
+};
+
+struct OrcaAgent {
+  Vec2 position;
+  Vec2 velocity;
+  double radius;
+  double max_speed;
+  Vec2 pref_velocity;
+};
+
+struct OrcaNeighbor {
+  Vec2 position;
+  Vec2 velocity;
+  double radius;
+};
+
+// New velocity of `self` given `neighbors[0..n)` already selected and sorted by distance.
+Vec2 orca_new_velocity(const OrcaAgent& self, const OrcaNeighbor* neighbors, int n,
+                       double time_horizon, double time_step, OrcaScratch& scratch);
+
+// Convenience used by tests and single-agent callers: selects neighbours (range, count) first.
+Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n,
+                              const OrcaParams& params, double time_step, OrcaScratch& scratch);
+
+// Preferred velocity of CrowdSim: the vector to the goal, unit length beyond 1 m.
+inline Vec2 crowdsim_pref_velocity(Vec2 position, Vec2 goal) {
+  Vec2 to_goal = goal - position;
+  double d = norm(to_goal);
+  return d > 1.0 ? to_goal / d : to_goal;
+}
+
+}  // namespace socialnav

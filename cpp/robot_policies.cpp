@@ -1,0 +1,109 @@
+#include "robot_policies.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace socialnav {
+
+namespace {
+
+// Turns a velocity command into the action format. A unicycle turns towards the commanded
+// velocity as far as its rotation limit allows and drives at the commanded speed.
+void write_action(const ActionFormat& format, double theta, Vec2 v, double* out) {
+  if (format.kinematics == 0) {
+    out[0] = v.x;
+    out[1] = v.y;
+    return;
+  }
+  const double speed = norm(v);
+  double rot = 0.0;
+  if (speed > 1e-12) {
+    const double a = std::atan2(v.y, v.x) - theta;
+    rot = std::atan2(std::sin(a), std::cos(a));
+  }
+  out[0] = speed;
+  out[1] = std::min(std::max(rot, -format.rotation_limit), format.rotation_limit);
+}
+
+struct RobotRow {
+  Vec2 p, v, g;
+  double radius, v_pref, theta;
+};
+
+inline RobotRow robot_row(const ObservationView& obs, int b) {
+  const double* r = obs.robot + static_cast<size_t>(b) * 9;
+  return RobotRow{{r[0], r[1]}, {r[2], r[3]}, {r[5], r[6]}, r[4], r[7], r[8]};
+}
+
+}  // namespace
+
+void linear_robot_actions(const ObservationView& obs, const ActionFormat& format, double dt, double* out) {
+  for (int b = 0; b < obs.batch; ++b) {
+    out[2 * b] = out[2 * b + 1] = 0.0;
+    if (!obs.active[b]) continue;
+    const RobotRow r = robot_row(obs, b);
+    const Vec2 to_goal = r.g - r.p;
+    const double d = norm(to_goal);
+    // Full speed towards the goal, but never past it.
+    const Vec2 v = d > 1e-12 ? (std::min(r.v_pref, d / dt) / d) * to_goal : Vec2{};
+    write_action(format, r.theta, v, out + 2 * b);
+  }
+}
+
+void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, const OrcaParams& params,
+                        double radius_margin, double safety_space, double dt, ThreadPool& pool,
+                        double* out) {
+  const int N = obs.humans;
+  pool.parallel_for(obs.batch, [&](int begin, int end, int) {
+    OrcaScratch scratch;
+    OrcaNeighbor nb[kMaxOrcaNeighbors];
+    for (int b = begin; b < end; ++b) {
+      out[2 * b] = out[2 * b + 1] = 0.0;
+      if (!obs.active[b]) continue;
+      const RobotRow r = robot_row(obs, b);
+      const double* h = obs.human + static_cast<size_t>(b) * N * 5;
+      const uint8_t* m = obs.mask + static_cast<size_t>(b) * N;
+      scratch.begin(params.neighbor_dist);
+      for (int j = 0; j < N; ++j)
+        if (m[j]) scratch.offer(j, abs_sq(Vec2{h[5 * j], h[5 * j + 1]} - r.p), params.max_neighbors);
+      const double margin = radius_margin + safety_space;
+      for (int k = 0; k < scratch.count; ++k) {
+        const double* hj = h + 5 * scratch.index[k];
+        nb[k] = OrcaNeighbor{{hj[0], hj[1]}, {hj[2], hj[3]}, hj[4] + margin};
+      }
+      const OrcaAgent self{r.p, r.v, r.radius + margin, r.v_pref, crowdsim_pref_velocity(r.p, r.g)};
+      const Vec2 v = orca_new_velocity(self, nb, scratch.count, params.time_horizon, dt, scratch);
+      write_action(format, r.theta, v, out + 2 * b);
+    }
+  });
+}
+
+void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format,
+                                const SocialForceParams& params, double dt, ThreadPool& pool,
+                                double* out) {
+  const int N = obs.humans;
+  pool.parallel_for(obs.batch, [&](int begin, int end, int) {
+    // Grows once per thread to the largest crowd seen; no allocation in steady state.
+    thread_local std::vector<SocialForceOther> others;
+    if (others.size() < static_cast<size_t>(N)) others.resize(static_cast<size_t>(N));
+    for (int b = begin; b < end; ++b) {
+      out[2 * b] = out[2 * b + 1] = 0.0;
+      if (!obs.active[b]) continue;
+      const RobotRow r = robot_row(obs, b);
+      const double* h = obs.human + static_cast<size_t>(b) * N * 5;
+      const uint8_t* m = obs.mask + static_cast<size_t>(b) * N;
+      int n = 0;
+      for (int j = 0; j < N; ++j)
+        if (m[j]) others[n++] = SocialForceOther{{h[5 * j], h[5 * j + 1]}, {h[5 * j + 2], h[5 * j + 3]}};
+      const Vec2 to_goal = r.g - r.p;
+      const double d = norm(to_goal);
+      const Vec2 desired = d > 1e-9 ? (r.v_pref * std::min(1.0, d) / d) * to_goal : Vec2{};
+      // The robot never exceeds its own v_pref, unlike a pedestrian's 1.3x margin.
+      const SocialForceAgent self{r.p, r.v, desired, r.v_pref};
+      write_action(format, r.theta, social_force_new_velocity(self, others.data(), n, params, dt), out + 2 * b);
+    }
+  });
+}
+
+}  // namespace socialnav

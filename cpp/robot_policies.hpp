@@ -1,0 +1,41 @@
+// Batched robot policies that need no learning: linear, ORCA and social force.
+// They read observations (the same arrays a learned policy gets), never the world, and write
+// actions in the world's format: (vx, vy) for a holonomic robot, (v, d theta) for a unicycle.
+#pragma once
+
+#include <cstdint>
+
+#include "orca.hpp"
+#include "social_force.hpp"
+#include "thread_pool.hpp"
+
+namespace socialnav {
+
+// Observation layout: robot (B, 9) = px, py, vx, vy, radius, gx, gy, v_pref, theta;
+// humans (B, N, 5) = px, py, vx, vy, radius; mask (B, N); active (B,) episodes to act for.
+struct ObservationView {
+  int batch;
+  int humans;
+  const double* robot;
+  const double* human;
+  const uint8_t* mask;
+  const uint8_t* active;
+};
+
+struct ActionFormat {
+  int kinematics;         // 0 holonomic, 1 unicycle
+  double rotation_limit;  // [rad] per step, unicycle only
+};
+
+void linear_robot_actions(const ObservationView& obs, const ActionFormat& format, double dt, double* out);
+
+// CrowdNav's ORCA policy: own and neighbours' radii inflated by margin + safety_space.
+void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, const OrcaParams& params,
+                        double radius_margin, double safety_space, double dt, ThreadPool& pool,
+                        double* out);
+
+void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format,
+                                const SocialForceParams& params, double dt, ThreadPool& pool,
+                                double* out);
+
+}  // namespace socialnav

@@ -1,0 +1,70 @@
+#include "thread_pool.hpp"
+
+namespace socialnav {
+
+ThreadPool::ThreadPool(int threads) {
+  for (int w = 1; w < threads; ++w) workers_.emplace_back([this, w] { worker_loop(w); });
+}
+
+ThreadPool::~ThreadPool() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  start_cv_.notify_all();
+  for (auto& t : workers_) t.join();
+}
+
+namespace {
+inline void chunk(int n, int parts, int part, int& begin, int& end) {
+  begin = static_cast<int>(static_cast<long>(n) * part / parts);
+  end = static_cast<int>(static_cast<long>(n) * (part + 1) / parts);
+}
+}  // namespace
+
+void ThreadPool::parallel_for(int n, const std::function<void(int, int, int)>& fn) {
+  const int parts = size();
+  if (parts == 1 || n < 2 * parts) {
+    fn(0, n, 0);
+    return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    job_ = &fn;
+    job_n_ = n;
+    pending_ = parts - 1;
+    ++generation_;
+  }
+  start_cv_.notify_all();
+  int begin, end;
+  chunk(n, parts, 0, begin, end);
+  fn(begin, end, 0);
+  std::unique_lock<std::mutex> lock(mutex_);
+  done_cv_.wait(lock, [this] { return pending_ == 0; });
+  job_ = nullptr;
+}
+
+void ThreadPool::worker_loop(int worker) {
+  long seen = 0;
+  for (;;) {
+    const std::function<void(int, int, int)>* job;
+    int n;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      start_cv_.wait(lock, [&] { return stop_ || generation_ != seen; });
+      if (stop_) return;
+      seen = generation_;
+      job = job_;
+      n = job_n_;
+    }
+    int begin, end;
+    chunk(n, size(), worker, begin, end);
+    (*job)(begin, end, worker);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (--pending_ == 0) done_cv_.notify_one();
+    }
+  }
+}
+
+}  // namespace socialnav

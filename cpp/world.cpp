@@ -1,0 +1,261 @@
+#include "world.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace socialnav {
+
+namespace {
+
+constexpr double kTimeEps = 1e-9;
+
+inline Vec2 load(const double* p) { return Vec2{p[0], p[1]}; }
+inline void store(double* p, Vec2 v) {
+  p[0] = v.x;
+  p[1] = v.y;
+}
+
+// Minimum distance between two discs' centres over [0, dt] when both move linearly:
+// relative position d(t) = d0 + dv t.
+inline double swept_centre_distance(Vec2 d0, Vec2 dv, double dt) {
+  const double dv_sq = abs_sq(dv);
+  double t = 0.0;
+  if (dv_sq > 0.0) t = std::min(std::max(-dot(d0, dv) / dv_sq, 0.0), dt);
+  return norm(d0 + t * dv);
+}
+
+}  // namespace
+
+World::World(const WorldConfig& config, const WorldBuffers& buffers)
+    : config_(config), buf_(buffers) {
+  if (config.batch < 1) throw std::invalid_argument("batch must be >= 1, got " + std::to_string(config.batch));
+  if (config.agents < 1) throw std::invalid_argument("agents must be >= 1");
+  if (!(config.dt > 0.0)) throw std::invalid_argument("dt must be > 0");
+  if (config.orca.max_neighbors < 0 || config.orca.max_neighbors > kMaxOrcaNeighbors)
+    throw std::invalid_argument("orca max_neighbors must be in [0, " + std::to_string(kMaxOrcaNeighbors) + "]");
+  const int threads = std::max(1, config.threads);
+  new_velocity_.assign(static_cast<size_t>(config.batch) * config.agents * 2, 0.0);
+  orca_scratch_.resize(threads);
+  neighbor_scratch_.assign(threads, std::vector<OrcaNeighbor>(config.agents));
+  sf_scratch_.assign(threads, std::vector<SocialForceOther>(config.agents));
+  pool_ = std::make_unique<ThreadPool>(threads);
+}
+
+void World::record(int b, int sample) {
+  if (!buf_.hist_position || sample >= config_.history_len) return;
+  const int A = config_.agents;
+  const size_t src = static_cast<size_t>(b) * A * 2;
+  const size_t dst = (static_cast<size_t>(b) * config_.history_len + sample) * A * 2;
+  for (int k = 0; k < A * 2; ++k) {
+    buf_.hist_position[dst + k] = buf_.position[src + k];
+    buf_.hist_velocity[dst + k] = buf_.velocity[src + k];
+  }
+  if (buf_.hist_dmin) buf_.hist_dmin[static_cast<size_t>(b) * config_.history_len + sample] = buf_.dmin[b];
+}
+
+void World::human_velocities(int b, int worker) {
+  const int A = config_.agents;
+  const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+  const double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
+  const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
+  const double* radius = buf_.radius + static_cast<size_t>(b) * A;
+  const double* v_pref = buf_.v_pref + static_cast<size_t>(b) * A;
+  const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+  double* out = new_velocity_.data() + static_cast<size_t>(b) * A * 2;
+  const int first_other = config_.robot_visible ? 0 : 1;
+
+  for (int i = 1; i < A; ++i) {
+    if (!mask[i]) continue;
+    const Vec2 p = load(pos + 2 * i);
+    const Vec2 g = load(goal + 2 * i);
+    Vec2 v_new;
+    if (config_.human_model == kHumanOrca) {
+      OrcaScratch& scratch = orca_scratch_[worker];
+      std::vector<OrcaNeighbor>& nb = neighbor_scratch_[worker];
+      scratch.begin(config_.orca.neighbor_dist);
+      for (int j = first_other; j < A; ++j) {
+        if (j == i || !mask[j]) continue;
+        scratch.offer(j, abs_sq(load(pos + 2 * j) - p), config_.orca.max_neighbors);
+      }
+      const double margin = config_.orca_radius_margin + config_.human_safety_space;
+      for (int k = 0; k < scratch.count; ++k) {
+        const int j = scratch.index[k];
+        nb[k] = OrcaNeighbor{load(pos + 2 * j), load(vel + 2 * j), radius[j] + margin};
+      }
+      const OrcaAgent self{p, load(vel + 2 * i), radius[i] + margin, v_pref[i],
+                           crowdsim_pref_velocity(p, g)};
+      v_new = orca_new_velocity(self, nb.data(), scratch.count, config_.orca.time_horizon,
+                                config_.dt, scratch);
+    } else if (config_.human_model == kHumanSocialForce) {
+      std::vector<SocialForceOther>& others = sf_scratch_[worker];
+      int n = 0;
+      for (int j = first_other; j < A; ++j) {
+        if (j == i || !mask[j]) continue;
+        others[n++] = SocialForceOther{load(pos + 2 * j), load(vel + 2 * j)};
+      }
+      const Vec2 to_goal = g - p;
+      const double d = norm(to_goal);
+      // Desired speed v_pref, easing off inside the last metre so that pedestrians stop at the goal.
+      const Vec2 desired = d > 1e-9 ? (v_pref[i] * std::min(1.0, d) / d) * to_goal : Vec2{};
+      const SocialForceAgent self{p, load(vel + 2 * i), desired,
+                                  config_.social_force.max_speed_factor * v_pref[i]};
+      v_new = social_force_new_velocity(self, others.data(), n, config_.social_force, config_.dt);
+    } else {
+      const Vec2 to_goal = g - p;
+      const double d = norm(to_goal);
+      // Straight to the goal at v_pref without overshooting it.
+      v_new = d > 1e-12 ? (std::min(v_pref[i], d / config_.dt) / d) * to_goal : Vec2{};
+    }
+    store(out + 2 * i, v_new);
+  }
+}
+
+void World::step_episode(int b, const double* actions, int worker) {
+  const int A = config_.agents;
+  int8_t& status = buf_.status[b];
+  buf_.done[b] = 0;
+  buf_.reward[b] = 0.0;
+  if (status != kRunning && status != kContinuing) return;
+
+  double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+  double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
+  const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
+  const double* radius = buf_.radius + static_cast<size_t>(b) * A;
+  const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+  double* arrival = buf_.arrival + static_cast<size_t>(b) * A;
+  const double* new_vel = new_velocity_.data() + static_cast<size_t>(b) * A * 2;
+  const double dt = config_.dt;
+
+  if (buf_.steps[b] == 0) record(b, 0);
+
+  // 1. Humans decide from the current state.
+  human_velocities(b, worker);
+
+  // 2. Robot action -> velocity.
+  Vec2 v_robot;
+  double theta = buf_.theta[b];
+  if (status == kContinuing) {
+    v_robot = Vec2{};
+  } else if (config_.kinematics == kHolonomic) {
+    v_robot = Vec2{actions[2 * b], actions[2 * b + 1]};
+    const double speed = norm(v_robot);
+    const double v_max = buf_.v_pref[static_cast<size_t>(b) * A];
+    if (speed > v_max) v_robot = (v_max / speed) * v_robot;
+  } else {
+    const double v_max = buf_.v_pref[static_cast<size_t>(b) * A];
+    const double v = std::min(std::max(actions[2 * b], -v_max), v_max);
+    const double rot = std::min(std::max(actions[2 * b + 1], -config_.rotation_limit), config_.rotation_limit);
+    theta += rot;
+    v_robot = Vec2{v * std::cos(theta), v * std::sin(theta)};
+  }
+
+  // 3. Swept collision test of the robot against every human over the step.
+  const Vec2 p_robot = load(pos);
+  double dmin = std::numeric_limits<double>::infinity();
+  if (status == kRunning) {
+    for (int i = 1; i < A; ++i) {
+      if (!mask[i]) continue;
+      // CrowdSim sweeps with the human's previous velocity, not the one it applies now.
+      const Vec2 v_h = config_.crowdsim_compat ? load(vel + 2 * i) : load(new_vel + 2 * i);
+      const double d = swept_centre_distance(load(pos + 2 * i) - p_robot, v_h - v_robot, dt) -
+                       radius[0] - radius[i];
+      dmin = std::min(dmin, d);
+    }
+  }
+  buf_.dmin[b] = dmin;
+
+  // 4. Everyone moves.
+  store(pos, p_robot + dt * v_robot);
+  store(vel, v_robot);
+  buf_.theta[b] = theta;
+  for (int i = 1; i < A; ++i) {
+    if (!mask[i]) continue;
+    const Vec2 v = load(new_vel + 2 * i);
+    store(pos + 2 * i, load(pos + 2 * i) + dt * v);
+    store(vel + 2 * i, v);
+  }
+  const int steps_before = buf_.steps[b];
+  const int steps = steps_before + 1;
+  buf_.steps[b] = steps;
+  const double t_before = steps_before * dt;  // products, not sums: no drift over long episodes
+  const double t = steps * dt;
+
+  // First arrivals (M_III) of every agent at the goal it had at reset.
+  bool all_humans_arrived = true;
+  for (int i = 0; i < A; ++i) {
+    if (!mask[i]) continue;
+    if (std::isnan(arrival[i]) && norm(load(pos + 2 * i) - load(goal + 2 * i)) < radius[i]) arrival[i] = t;
+    if (i > 0 && std::isnan(arrival[i])) all_humans_arrived = false;
+  }
+
+  // 6. Human-human overlaps never end an episode; CrowdSim does not count them.
+  if (!config_.crowdsim_compat) {
+    int count = 0;
+    for (int i = 1; i < A; ++i) {
+      if (!mask[i]) continue;
+      for (int j = i + 1; j < A; ++j) {
+        if (!mask[j]) continue;
+        const double r = radius[i] + radius[j];
+        if (abs_sq(load(pos + 2 * i) - load(pos + 2 * j)) < r * r) ++count;
+      }
+    }
+    buf_.overlaps[b] += count;
+  }
+
+  // 5. Outcome and reward.
+  if (status == kContinuing) {
+    if (all_humans_arrived || t >= config_.continuation_cap - kTimeEps) {
+      status = kSuccess;
+      buf_.done[b] = 1;
+    }
+    record(b, steps);
+    return;
+  }
+  const bool reached = norm(load(pos) - load(goal)) < radius[0];
+  const bool collided = dmin < 0.0;
+  int8_t outcome = kRunning;
+  if (config_.crowdsim_compat) {
+    // CrowdSim tests the clock before the step and lets a timeout win over everything else.
+    if (t_before >= config_.time_limit - 1.0 - kTimeEps) outcome = kTimeout;
+    else if (collided) outcome = kCollision;
+    else if (reached) outcome = kSuccess;
+  } else {
+    if (collided) outcome = kCollision;
+    else if (reached) outcome = kSuccess;
+    else if (t >= config_.time_limit - kTimeEps) outcome = kTimeout;
+  }
+  double reward = 0.0;
+  if (outcome == kCollision) reward = config_.collision_penalty;
+  else if (outcome == kSuccess) reward = config_.success_reward;
+  else if (outcome == kRunning && dmin < config_.discomfort_dist)
+    reward = (dmin - config_.discomfort_dist) * config_.discomfort_penalty_factor * dt;
+  buf_.reward[b] = reward;
+
+  if (outcome != kRunning) {
+    buf_.end_step[b] = steps;
+    if (outcome == kSuccess && config_.continue_after_success && !all_humans_arrived &&
+        t < config_.continuation_cap - kTimeEps) {
+      status = kContinuing;  // the caller sees the outcome through end_step; done comes later
+    } else {
+      status = outcome;
+      buf_.done[b] = 1;
+    }
+  }
+  record(b, steps);
+}
+
+void World::step(const double* actions) {
+  const int B = config_.batch;
+  for (int b = 0; b < B; ++b) {
+    if (buf_.status[b] != kRunning) continue;
+    if (!std::isfinite(actions[2 * b]) || !std::isfinite(actions[2 * b + 1]))
+      throw std::invalid_argument("action of episode slot " + std::to_string(b) + " is not finite");
+  }
+  pool_->parallel_for(B, [&](int begin, int end, int worker) {
+    for (int b = begin; b < end; ++b) step_episode(b, actions, worker);
+  });
+}
+
+}  // namespace socialnav

@@ -1,0 +1,100 @@
+// The batched crowd world: B episodes x (1 robot + N humans) advanced in lockstep.
+//
+// State lives in caller-owned, C-contiguous arrays (structure of arrays, SI units); the world
+// keeps raw pointers to them and writes in place, so the Python side reads the state without
+// copies and resets finished episodes by writing into the same arrays. Semantics follow
+// CrowdSim (Chen et al., ICRA 2019) as described in the project's spec/simulator.md.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "orca.hpp"
+#include "social_force.hpp"
+#include "thread_pool.hpp"
+
+namespace socialnav {
+
+enum Status : int8_t {
+  kIdle = -1,       // slot holds no episode
+  kRunning = 0,
+  kSuccess = 1,
+  kCollision = 2,
+  kTimeout = 3,
+  kContinuing = 4,  // robot succeeded and is parked; humans still walking (M_III)
+};
+
+enum HumanModel : int { kHumanOrca = 0, kHumanSocialForce = 1, kHumanLinear = 2 };
+enum Kinematics : int { kHolonomic = 0, kUnicycle = 1 };
+
+struct WorldConfig {
+  int batch = 0;
+  int agents = 0;  // 1 robot + N human slots
+  double dt = 0.25;
+  double time_limit = 25.0;
+  int human_model = kHumanOrca;
+  bool robot_visible = false;
+  int kinematics = kHolonomic;
+  double rotation_limit = 0.7853981633974483;  // |d theta| per step for the unicycle [rad]
+  bool crowdsim_compat = false;
+  double discomfort_dist = 0.2;
+  double success_reward = 1.0;
+  double collision_penalty = -0.25;
+  double discomfort_penalty_factor = 0.5;
+  OrcaParams orca;
+  double orca_radius_margin = 0.01;  // CrowdSim adds 1 cm to every radius in ORCA
+  double human_safety_space = 0.0;
+  SocialForceParams social_force;
+  bool continue_after_success = false;
+  double continuation_cap = 100.0;  // [s] since the start of the episode
+  int history_len = 0;              // samples recorded per episode; 0 disables recording
+  int threads = 1;
+};
+
+struct WorldBuffers {
+  double* position;      // (B, A, 2)
+  double* velocity;      // (B, A, 2) velocity applied in the last step
+  double* goal;          // (B, A, 2)
+  double* radius;        // (B, A)
+  double* v_pref;        // (B, A)
+  uint8_t* mask;         // (B, A) agent slot in use (robot always 1)
+  double* theta;         // (B,) robot heading
+  int32_t* steps;        // (B,) steps taken in the episode
+  int8_t* status;        // (B,) Status
+  double* reward;        // (B,) reward of the last step
+  double* dmin;          // (B,) minimum swept clearance of the last step
+  uint8_t* done;         // (B,) episode finished in the last step
+  int32_t* overlaps;     // (B,) human-human overlap count so far
+  double* arrival;       // (B, A) first arrival time at the goal, NaN before
+  int32_t* end_step;     // (B,) step at which the robot's outcome was decided, -1 before
+  double* hist_position; // (B, T, A, 2) or null
+  double* hist_velocity; // (B, T, A, 2) or null
+  double* hist_dmin;     // (B, T) or null (entry k: clearance during step k; entry 0 unused)
+};
+
+class World {
+ public:
+  World(const WorldConfig& config, const WorldBuffers& buffers);
+
+  const WorldConfig& config() const { return config_; }
+
+  // Advances every running episode by one step; actions (B, 2) are (vx, vy) for a holonomic
+  // robot or (v, d theta) for a unicycle. Throws std::invalid_argument on non-finite actions.
+  void step(const double* actions);
+
+ private:
+  void step_episode(int b, const double* actions, int worker);
+  void human_velocities(int b, int worker);
+  void record(int b, int sample);
+
+  WorldConfig config_;
+  WorldBuffers buf_;
+  std::vector<double> new_velocity_;  // (B, A, 2) scratch
+  std::vector<OrcaScratch> orca_scratch_;
+  std::vector<std::vector<OrcaNeighbor>> neighbor_scratch_;
+  std::vector<std::vector<SocialForceOther>> sf_scratch_;
+  std::unique_ptr<ThreadPool> pool_;
+};
+
+}  // namespace socialnav

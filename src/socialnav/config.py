@@ -1,0 +1,87 @@
+"""Typed settings loaded from plain dicts / YAML: nested frozen dataclasses, strict keys.
+
+Errors name the dotted path of the offending field (``world.orca.time_horizon``) and its value,
+so a typo in a YAML preset is reported instead of silently ignored.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import types
+import typing
+from collections.abc import Mapping
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+
+
+class ConfigError(ValueError):
+    """A setting is unknown, of the wrong type or out of range."""
+
+
+def from_dict(cls: type[T], data: Mapping[str, Any] | None, path: str = "") -> T:
+    """Builds the frozen dataclass ``cls`` from ``data``, recursing into nested dataclasses.
+
+    Args:
+        cls: A dataclass type.
+        data: Field values; missing fields keep their defaults.
+        path: Dotted prefix used in error messages.
+
+    Raises:
+        ConfigError: On unknown keys (the valid ones are listed) or invalid values.
+    """
+    data = dict(data or {})
+    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        where = f"{path}." if path else ""
+        raise ConfigError(
+            f"unknown setting(s) {', '.join(where + u for u in unknown)}; valid: {', '.join(sorted(fields))}"
+        )
+    hints = typing.get_type_hints(cls)
+    kwargs = {}
+    for name, value in data.items():
+        hint = hints.get(name)
+        sub = f"{path}.{name}" if path else name
+        if dataclasses.is_dataclass(hint) and isinstance(value, Mapping):
+            kwargs[name] = from_dict(hint, value, sub)  # type: ignore[arg-type]
+        else:
+            kwargs[name] = _coerce(value, hint, sub)
+    try:
+        return cls(**kwargs)
+    except ConfigError as err:
+        if path and not str(err).startswith(path):
+            raise ConfigError(f"{path}.{err}") from None
+        raise
+
+
+def to_dict(obj: Any) -> dict[str, Any]:
+    """Plain-dict form of a settings dataclass (JSON/YAML serialisable)."""
+    return dataclasses.asdict(obj)
+
+
+def _coerce(value: Any, hint: Any, path: str) -> Any:
+    """Accepts ints for float fields (YAML writes ``25`` for ``25.0``); rejects other mismatches."""
+    origin = typing.get_origin(hint)
+    if hint is float and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if hint in (float, int, str, bool) and not isinstance(value, hint):
+        raise ConfigError(f"{path} must be of type {hint.__name__}, got {value!r}")
+    if hint is int and isinstance(value, bool):
+        raise ConfigError(f"{path} must be an integer, got {value!r}")
+    if origin in (typing.Union, types.UnionType) and value is not None:
+        for arg in typing.get_args(hint):
+            if arg is type(None):
+                continue
+            try:
+                return _coerce(value, arg, path)
+            except ConfigError:
+                continue
+        raise ConfigError(f"{path} has an invalid value {value!r}")
+    return value
+
+
+def check(condition: bool, field: str, value: Any, requirement: str) -> None:
+    """Raises a ConfigError naming ``field`` unless ``condition`` holds."""
+    if not condition:
+        raise ConfigError(f"{field} {requirement}, got {value!r}")

@@ -1,0 +1,39 @@
+"""CrowdSim's discrete action set (spec/simulator.md), NumPy version for non-torch users."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def action_speeds(v_pref: float, samples: int = 5) -> np.ndarray:
+    """Exponentially spaced speeds (e^{(i+1)/5} - 1)/(e - 1)·v_pref, i = 0..samples-1 [m/s]."""
+    i = np.arange(samples, dtype=float)
+    return (np.exp((i + 1) / samples) - 1.0) / (math.e - 1.0) * v_pref
+
+
+def discrete_actions(kinematics: str, v_pref: float, rotation_limit: float = math.pi / 4,
+                     speed_samples: int = 5, rotation_samples: int = 16) -> np.ndarray:
+    """The 1 + speeds × rotations action set; row 0 is stop.
+
+    Holonomic rows are world-frame (vx, vy) with headings k·2π/16. Unicycle rows are (v, dθ) with
+    16 rotations spread evenly over [-limit, limit]; with an even count CrowdSim's
+    ``np.linspace(-limit, limit, 16)`` misses dθ = 0, so the grid used here is
+    ``linspace(-limit, limit, 17)`` without its last point, which keeps 0 and 16 rotations.
+
+    Returns:
+        (1 + speed_samples·rotation_samples, 2) array.
+    """
+    if kinematics not in ("holonomic", "unicycle"):
+        raise ValueError(f"kinematics must be 'holonomic' or 'unicycle', got {kinematics!r}")
+    speeds = action_speeds(v_pref, speed_samples)
+    if kinematics == "holonomic":
+        headings = np.arange(rotation_samples) * 2 * math.pi / rotation_samples
+        s, h = np.meshgrid(speeds, headings, indexing="ij")
+        rows = np.stack([s * np.cos(h), s * np.sin(h)], axis=-1).reshape(-1, 2)
+    else:
+        rotations = np.linspace(-rotation_limit, rotation_limit, rotation_samples + 1)[:-1]
+        s, r = np.meshgrid(speeds, rotations, indexing="ij")
+        rows = np.stack([s, r], axis=-1).reshape(-1, 2)
+    return np.concatenate([np.zeros((1, 2)), rows], axis=0)

@@ -1,0 +1,256 @@
+"""The batched World: B episode slots advanced by one native call per step.
+
+Episodes come from an :class:`EpisodeStream` (scenario, split, index range). A finished episode is
+recorded as a :class:`~socialnav.trajectory.Trajectory` and its slot is refilled in place from the
+stream (auto-reset), so the batch never shrinks until the stream runs dry; then slots go idle.
+Because every episode's initial state depends only on its (scenario, split, index) and episodes never
+interact, an episode's trajectory is the same whatever the batch size or slot it ran in.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from socialnav import _core
+from socialnav.scenarios import EpisodeBatch, Scenario, episode_seeds
+from socialnav.sim.observation import Observation, build_observation
+from socialnav.sim.recorder import Recorder
+from socialnav.sim.settings import WorldSettings
+
+OUTCOMES = {_core.STATUS_SUCCESS: "success", _core.STATUS_COLLISION: "collision", _core.STATUS_TIMEOUT: "timeout"}
+_HUMAN_MODEL_IDS = {"orca": _core.HUMAN_ORCA, "social_force": _core.HUMAN_SOCIAL_FORCE,
+                    "linear": _core.HUMAN_LINEAR}
+
+
+class EpisodeStream:
+    """Hands out episodes (scenario, split, index) in index order: ``start, start+1, …``.
+
+    Args:
+        scenario: The scenario generator.
+        split: "train", "val" or "test" (decides the seeds).
+        start: First episode index.
+        count: Number of episodes, or None for an endless stream (training).
+    """
+
+    def __init__(self, scenario: Scenario, split: str = "test", start: int = 0, count: int | None = None):
+        if count is not None and count < 0:
+            raise ValueError(f"count must be >= 0, got {count}")
+        episode_seeds(split, np.zeros(1, dtype=np.int64))  # validates the split name early
+        self.scenario = scenario
+        self.split = split
+        self.next_index = start
+        self.stop = None if count is None else start + count
+
+    @property
+    def remaining(self) -> int | None:
+        return None if self.stop is None else self.stop - self.next_index
+
+    def take(self, k: int) -> EpisodeBatch | None:
+        """The next ``min(k, remaining)`` episodes, or None when exhausted."""
+        if self.stop is not None:
+            k = min(k, self.stop - self.next_index)
+        if k <= 0:
+            return None
+        indices = np.arange(self.next_index, self.next_index + k, dtype=np.int64)
+        self.next_index += k
+        return self.scenario.generate(indices, episode_seeds(self.split, indices))
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """What one batched step returns (arrays over the B slots).
+
+    Attributes:
+        reward: (B,) reward of the step (0 for idle slots).
+        terminated: (B,) episode ended by success or collision in this step.
+        truncated: (B,) episode ended by the time limit in this step.
+        finished: trajectories of the episodes that ended in this step (empty when not recording).
+        final_observation: observation of the finished slots before their reset (rows where done).
+    """
+
+    reward: np.ndarray
+    terminated: np.ndarray
+    truncated: np.ndarray
+    finished: list
+    final_observation: Observation | None
+
+
+class World:
+    """B episode slots of (1 robot + N humans) stepped in lockstep by the native core.
+
+    Args:
+        settings: Simulator semantics.
+        scenario: Where episodes come from.
+        batch_size: Number of slots B.
+        split, start, count: The episode stream (see :class:`EpisodeStream`).
+        record: Keep per-episode histories and emit trajectories when episodes finish.
+        tags: Extra settings stored in every trajectory (policy name, information setting, …).
+    """
+
+    def __init__(self, settings: WorldSettings, scenario: Scenario, batch_size: int, *, split: str = "test",
+                 start: int = 0, count: int | None = None, record: bool = True, tags: dict | None = None):
+        if not isinstance(batch_size, int | np.integer) or batch_size < 1:
+            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+        self.settings = settings
+        self.scenario = scenario
+        self.stream = EpisodeStream(scenario, split, start, count)
+        B, A = int(batch_size), 1 + int(scenario.n_humans)
+        self.batch_size, self.n_agents = B, A
+        self.position = np.zeros((B, A, 2))
+        self.velocity = np.zeros((B, A, 2))
+        self.goal = np.zeros((B, A, 2))
+        self.radius = np.zeros((B, A))
+        self.v_pref = np.zeros((B, A))
+        self.mask = np.zeros((B, A), dtype=np.uint8)
+        self.theta = np.zeros(B)
+        self.steps = np.zeros(B, dtype=np.int32)
+        self.status = np.full(B, _core.STATUS_IDLE, dtype=np.int8)
+        self.reward = np.zeros(B)
+        self.dmin = np.full(B, np.inf)
+        self.done = np.zeros(B, dtype=np.uint8)
+        self.overlaps = np.zeros(B, dtype=np.int32)
+        self.arrival = np.full((B, A), np.nan)
+        self.end_step = np.full(B, -1, dtype=np.int32)
+        self.episode_index = np.full(B, -1, dtype=np.int64)
+        self.episode_seed = np.full(B, -1, dtype=np.int64)
+        T = settings.history_length() if record else 0
+        hist = (np.zeros((B, T, A, 2)), np.zeros((B, T, A, 2)), np.zeros((B, T))) if record else (None,) * 3
+        self._recorder = Recorder(self, *hist, tags or {}) if record else None
+        self._core = _core.World(self._core_config(B, A, T), self.position, self.velocity, self.goal, self.radius,
+                                 self.v_pref, self.mask, self.theta, self.steps, self.status, self.reward,
+                                 self.dmin, self.done, self.overlaps, self.arrival, self.end_step, *hist)
+        self._actions = np.zeros((B, 2))
+
+    def _core_config(self, B: int, A: int, T: int) -> _core.WorldConfig:
+        s = self.settings
+        c = _core.WorldConfig()
+        c.batch, c.agents, c.history_len, c.threads = B, A, T, s.resolved_threads
+        c.dt, c.time_limit = s.dt, s.time_limit
+        c.human_model = _HUMAN_MODEL_IDS[s.human_model]
+        c.robot_visible = s.visibility == "visible"
+        c.kinematics = _core.HOLONOMIC if s.kinematics == "holonomic" else _core.UNICYCLE
+        c.rotation_limit = s.rotation_limit
+        c.crowdsim_compat = s.crowdsim_compat
+        c.discomfort_dist = s.reward.discomfort_dist
+        c.success_reward = s.reward.success_reward
+        c.collision_penalty = s.reward.collision_penalty
+        c.discomfort_penalty_factor = s.reward.discomfort_penalty_factor
+        c.orca = orca_params(s)
+        c.orca_radius_margin = s.orca.radius_margin
+        c.human_safety_space = s.orca.safety_space
+        c.social_force = social_force_params(s)
+        c.continue_after_success = s.continue_after_success
+        c.continuation_cap = s.continuation_cap
+        return c
+
+    # -- episode management -------------------------------------------------------------------
+    def reset(self) -> Observation:
+        """Fills every slot with the next episodes of the stream and returns the observation."""
+        self.status[:] = _core.STATUS_IDLE
+        self._fill(np.arange(self.batch_size))
+        return self.observe()
+
+    def _fill(self, slots: np.ndarray) -> None:
+        episodes = self.stream.take(len(slots))
+        n = 0 if episodes is None else len(episodes.indices)
+        if n:
+            self._load(slots[:n], episodes)
+        self.status[slots[n:]] = _core.STATUS_IDLE
+        self.episode_index[slots[n:]] = -1
+
+    def _load(self, slots: np.ndarray, ep: EpisodeBatch) -> None:
+        for name in ("robot_start", "robot_goal", "robot_theta", "robot_radius", "robot_v_pref", "human_start",
+                     "human_goal", "human_radius", "human_v_pref"):
+            value = getattr(ep, name)
+            if not np.all(np.isfinite(value)):
+                bad = np.argwhere(~np.isfinite(value))[0]
+                raise ValueError(f"scenario {type(self.scenario).__name__} produced a non-finite {name} "
+                                 f"for episode index {int(ep.indices[bad[0]])}")
+        self.position[slots, 0] = ep.robot_start
+        self.position[slots, 1:] = ep.human_start
+        self.velocity[slots] = 0.0
+        self.goal[slots, 0] = ep.robot_goal
+        self.goal[slots, 1:] = ep.human_goal
+        self.radius[slots, 0] = ep.robot_radius
+        self.radius[slots, 1:] = ep.human_radius
+        self.v_pref[slots, 0] = ep.robot_v_pref
+        self.v_pref[slots, 1:] = ep.human_v_pref
+        self.mask[slots, 0] = 1
+        self.mask[slots, 1:] = ep.human_mask
+        self.theta[slots] = ep.robot_theta
+        self.steps[slots] = 0
+        self.reward[slots] = 0.0
+        self.dmin[slots] = np.inf
+        self.done[slots] = 0
+        self.overlaps[slots] = 0
+        self.arrival[slots] = np.nan
+        self.end_step[slots] = -1
+        self.episode_index[slots] = ep.indices
+        self.episode_seed[slots] = ep.seeds
+        self.status[slots] = _core.STATUS_RUNNING
+
+    # -- stepping -------------------------------------------------------------------------------
+    @property
+    def active(self) -> np.ndarray:
+        """(B,) slots whose robot still acts."""
+        return self.status == _core.STATUS_RUNNING
+
+    @property
+    def busy(self) -> bool:
+        """True while any slot holds an unfinished episode (running or continuing)."""
+        return bool(np.any((self.status == _core.STATUS_RUNNING) | (self.status == _core.STATUS_CONTINUING)))
+
+    def observe(self) -> Observation:
+        return build_observation(self.position, self.velocity, self.goal, self.radius, self.v_pref, self.mask,
+                                 self.theta, self.active, self.steps * self.settings.dt, self.settings.dt,
+                                 self.settings.kinematics)
+
+    def step(self, actions: np.ndarray, *, final_observation: bool = False) -> StepResult:
+        """Advances all slots by dt; finished episodes are recorded and their slots refilled.
+
+        Args:
+            actions: (B, 2) robot actions ((vx, vy) holonomic, (v, dθ) unicycle); rows of
+                inactive slots are ignored.
+            final_observation: Also return the observation of finished slots before their reset.
+        """
+        actions = np.asarray(actions, dtype=np.float64)
+        if actions.shape != (self.batch_size, 2):
+            raise ValueError(f"actions must have shape ({self.batch_size}, 2), got {actions.shape}")
+        np.copyto(self._actions, actions)
+        self._core.step(self._actions)
+        reward = self.reward.copy()
+        done_slots = np.flatnonzero(self.done)
+        terminated = np.zeros(self.batch_size, dtype=bool)
+        truncated = np.zeros(self.batch_size, dtype=bool)
+        finished: list = []
+        final_obs = None
+        if done_slots.size:
+            # end_step marks the robot's outcome; a timeout is a truncation, not a termination.
+            outcome_status = self.status[done_slots]
+            truncated[done_slots] = outcome_status == _core.STATUS_TIMEOUT
+            terminated[done_slots] = outcome_status != _core.STATUS_TIMEOUT
+            if final_observation:
+                final_obs = self.observe().take(done_slots)
+            if self._recorder is not None:
+                finished = self._recorder.collect(done_slots)
+            self._fill(done_slots)
+        return StepResult(reward, terminated, truncated, finished, final_obs)
+
+
+def orca_params(settings: WorldSettings) -> _core.OrcaParams:
+    p = _core.OrcaParams()
+    p.neighbor_dist = settings.orca.neighbor_dist
+    p.max_neighbors = settings.orca.max_neighbors
+    p.time_horizon = settings.orca.time_horizon
+    return p
+
+
+def social_force_params(settings: WorldSettings) -> _core.SocialForceParams:
+    sf = settings.social_force
+    p = _core.SocialForceParams()
+    p.relaxation_time, p.v0, p.sigma, p.step_time = sf.relaxation_time, sf.v0, sf.sigma, sf.step_time
+    p.fov_half_angle = np.deg2rad(sf.fov_half_angle)
+    p.outside_fov_weight, p.max_speed_factor = sf.outside_fov_weight, sf.max_speed_factor
+    return p
