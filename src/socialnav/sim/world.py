@@ -34,14 +34,22 @@ class EpisodeStream:
         count: Number of episodes, or None for an endless stream (training).
     """
 
+    #: Episodes generated per call: generation has a fixed cost per call, and a world refills only
+    #: a few slots per step, so episodes are generated ahead in chunks (results do not change:
+    #: each episode depends only on its own index).
+    chunk_size = 1024
+
     def __init__(self, scenario: Scenario, split: str = "test", start: int = 0, count: int | None = None):
         if count is not None and count < 0:
             raise ValueError(f"count must be >= 0, got {count}")
         episode_seeds(split, np.zeros(1, dtype=np.int64))  # validates the split name early
         self.scenario = scenario
         self.split = split
-        self.next_index = start
+        self.next_index = start  # next index handed out
+        self._generated = start  # next index to generate
         self.stop = None if count is None else start + count
+        self._buffer: EpisodeBatch | None = None
+        self._buffer_pos = 0
 
     @property
     def remaining(self) -> int | None:
@@ -53,9 +61,21 @@ class EpisodeStream:
             k = min(k, self.stop - self.next_index)
         if k <= 0:
             return None
-        indices = np.arange(self.next_index, self.next_index + k, dtype=np.int64)
+        buffered = 0 if self._buffer is None else len(self._buffer) - self._buffer_pos
+        if buffered < k:
+            n = max(k - buffered, self.chunk_size)
+            if self.stop is not None:
+                n = min(n, self.stop - self._generated)
+            indices = np.arange(self._generated, self._generated + n, dtype=np.int64)
+            fresh = self.scenario.generate(indices, episode_seeds(self.split, indices))
+            self._generated += n
+            parts = [fresh] if buffered == 0 else [self._buffer.take(slice(self._buffer_pos, None)), fresh]
+            self._buffer = parts[0] if len(parts) == 1 else EpisodeBatch.concat(parts)
+            self._buffer_pos = 0
+        out = self._buffer.take(slice(self._buffer_pos, self._buffer_pos + k))
+        self._buffer_pos += k
         self.next_index += k
-        return self.scenario.generate(indices, episode_seeds(self.split, indices))
+        return out
 
 
 @dataclass(frozen=True)
@@ -151,6 +171,12 @@ class World:
         self.status[:] = _core.STATUS_IDLE
         self._fill(np.arange(self.batch_size))
         return self.observe()
+
+    def restart(self, start: int) -> Observation:
+        """Restarts the episode stream at index ``start`` and refills every slot from it."""
+        self.stream = EpisodeStream(self.scenario, self.stream.split, start,
+                                    None if self.stream.stop is None else max(self.stream.stop - start, 0))
+        return self.reset()
 
     def _fill(self, slots: np.ndarray) -> None:
         episodes = self.stream.take(len(slots))

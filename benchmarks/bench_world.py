@@ -1,0 +1,91 @@
+"""Throughput of the batched world: 5 ORCA humans + an ORCA robot in circle crossing.
+
+Measures env-steps/s (one env-step = one episode advanced by dt, robot policy included) of the
+batched world, and in the same run the same workload on navground's simulator (6 ORCA agents,
+all active), if navground is installed. Prints human-readable lines, then one JSON object last.
+
+    python benchmarks/bench_world.py [--batch 4096] [--seconds 5] [--threads 0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import sys
+import time
+
+import numpy as np
+
+from socialnav.policies import make_policy
+from socialnav.scenarios import make_scenario
+from socialnav.sim.settings import WorldSettings
+from socialnav.sim.world import World
+
+CROWDNAV_ENV_STEPS_PER_S = 4134  # CrowdNav's simulator on a 2-core machine (issue #2)
+
+
+def measure_socialnav(batch: int, seconds: float, threads: int) -> dict:
+    settings = WorldSettings(time_limit=25.0, threads=threads)
+    world = World(settings, make_scenario("circle_crossing", n_humans=5), batch, split="train", record=False)
+    policy = make_policy("orca", safety_space=0.0, threads=threads)
+    world.reset()
+    for _ in range(50):  # warm-up: fills the episode prefetch buffer, pages in memory
+        world.step(policy.act(world.observe()))
+    rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    env_steps, calls = 0, 0
+    start = time.perf_counter()
+    while time.perf_counter() - start < seconds:
+        env_steps += int(world.active.sum())
+        world.step(policy.act(world.observe()))
+        calls += 1
+    elapsed = time.perf_counter() - start
+    rss_after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    state_arrays = [world.position, world.velocity, world.goal, world.radius, world.v_pref, world.mask,
+                    world.theta, world.steps, world.status, world.reward, world.dmin, world.done,
+                    world.overlaps, world.arrival, world.end_step]
+    return {
+        "env_steps_per_s": env_steps / elapsed,
+        "agent_steps_per_s": 6 * env_steps / elapsed,
+        "batch_calls_per_s": calls / elapsed,
+        "state_bytes_per_episode": sum(a.nbytes for a in state_arrays) / batch,
+        "peak_rss_growth_mb": (rss_after - rss_before) / 1024,
+        "threads": settings.resolved_threads,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--batch", type=int, default=4096)
+    parser.add_argument("--seconds", type=float, default=5.0)
+    parser.add_argument("--threads", type=int, default=0)
+    args = parser.parse_args()
+
+    ours = measure_socialnav(args.batch, args.seconds, args.threads)
+    print(f"socialnav: {ours['env_steps_per_s']:,.0f} env-steps/s (B={args.batch}, {ours['threads']} threads, "
+          f"{os.cpu_count()} cores)")
+    result = {"batch": args.batch, "cpu_count": os.cpu_count(), **ours}
+    try:
+        sys.path.insert(0, os.path.dirname(__file__))
+        from _navground_workload import navground_env_steps_per_s
+
+        ng = navground_env_steps_per_s(seconds=args.seconds)
+        result["navground_env_steps_per_s"] = ng["env_steps_per_s"]
+        result["ratio_vs_navground"] = ours["env_steps_per_s"] / ng["env_steps_per_s"]
+        print(f"navground: {ng['env_steps_per_s']:,.0f} env-steps/s (6 ORCA agents) -> ratio "
+              f"{result['ratio_vs_navground']:.1f}x")
+    except ImportError as err:
+        print(f"navground not measured: {err}")
+        result["navground_env_steps_per_s"] = None
+        result["ratio_vs_navground"] = None
+    result["ratio_vs_crowdnav"] = ours["env_steps_per_s"] / CROWDNAV_ENV_STEPS_PER_S
+    result["target_env_steps_per_s"] = 100 * CROWDNAV_ENV_STEPS_PER_S
+    result["meets_target"] = bool(ours["env_steps_per_s"] >= 100 * CROWDNAV_ENV_STEPS_PER_S and
+                                  (result["ratio_vs_navground"] or 0) >= 2.0)
+    print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in result.items()}))
+
+
+if __name__ == "__main__":
+    np.seterr(all="ignore")
+    main()

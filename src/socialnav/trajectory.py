@@ -1,0 +1,253 @@
+"""The Trajectory type: the contract between simulation and evaluation.
+
+A :class:`Trajectory` holds one episode as time-major arrays (see ``docs/internals.md``). Metrics are
+pure functions of it, so simulated episodes, real robot logs and pedestrian datasets are scored by the
+same code. :func:`write_trajectories` / :func:`read_trajectories` store many episodes in one long
+table (one row per episode, sample and agent) as Parquet or CSV; the column schema is documented in
+``docs/trajectory_format.md``. The IO lives in :mod:`socialnav.trajectory_io` and is re-exported here;
+``pyarrow`` is imported only when a file is read or written.
+
+Sample 0 is the initial state and sample k the state after step k, at time t_k = k·dt. Continuation
+samples (``continuation``, used by M_III) follow the episode: continuation row m (0-based) is the state
+after step K + m + 1, at time (K + m + 1)·dt, with the robot parked at its goal.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "OUTCOMES",
+    "ROLES",
+    "Trajectory",
+    "TrajectoryFormatError",
+    "read_trajectories",
+    "write_trajectories",
+]
+
+OUTCOMES: tuple[str, ...] = ("success", "collision", "timeout", "unknown")
+"""Allowed values of :attr:`Trajectory.outcome`; ``unknown`` is for logs."""
+
+ROLES: tuple[str, ...] = ("robot", "human")
+"""Allowed values of :attr:`Trajectory.roles`; agent 0 is always the robot."""
+
+
+class TrajectoryFormatError(ValueError):
+    """A trajectory file or array does not follow the documented schema.
+
+    Messages name the file, the column and the row (1-based data row, header excluded) where the
+    problem was found, so that a hand-written log can be fixed without guessing.
+    """
+
+
+def _frozen_array(value: Any, name: str, shape: tuple[int | None, ...]) -> np.ndarray:
+    """Copy ``value`` to a read-only float64 array and check its shape (None = any length)."""
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"Trajectory.{name}: cannot convert to a float array ({exc})") from exc
+    if arr.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, arr.shape)):
+        want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
+        raise ValueError(f"Trajectory.{name}: expected shape {want}, got {arr.shape}")
+    arr.setflags(write=False)
+    return arr
+
+
+def _require_finite(arr: np.ndarray, name: str) -> None:
+    if not np.all(np.isfinite(arr)):
+        bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+        raise ValueError(f"Trajectory.{name}: non-finite value {arr[bad]!r} at index {bad}")
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """One episode of one robot among humans, time-major (see ``docs/internals.md``).
+
+    Arrays are copied to read-only float64 on construction, so a Trajectory can be shared safely.
+
+    Attributes:
+        dt: Step length [s], > 0.
+        positions: Agent positions [m], shape (K+1, A, 2); agent 0 is the robot.
+        velocities: Velocity applied during step k [m/s], shape (K+1, A, 2); sample 0 holds the
+            initial velocity. Metrics use velocities executed between samples, (p_k − p_{k−1})/dt.
+        radii: Agent radii [m], shape (A,).
+        v_pref: Preferred speeds [m/s], shape (A,).
+        goals: Goal each agent had at reset [m], shape (A, 2).
+        roles: "robot" for agent 0, "human" for the others, shape (A,).
+        outcome: One of ``OUTCOMES``.
+        min_clearance: Simulator's swept minimum robot–human clearance per step [m], shape (K,), or
+            None when not available (logs).
+        continuation: Positions after the robot's episode with the robot parked at its goal [m],
+            shape (M, A, 2), or None. Row m is at time (K + m + 1)·dt.
+        human_overlaps: Human–human overlap count reported by the simulator, or None.
+        settings: Free-form settings (scenario, split, index, seed, visibility, human_model, policy,
+            information, ...), JSON-serialisable.
+    """
+
+    dt: float
+    positions: np.ndarray
+    velocities: np.ndarray
+    radii: np.ndarray
+    v_pref: np.ndarray
+    goals: np.ndarray
+    roles: tuple[str, ...]
+    outcome: str = "unknown"
+    min_clearance: np.ndarray | None = None
+    continuation: np.ndarray | None = None
+    human_overlaps: int | None = None
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__  # frozen: normalise fields once, here
+        dt = float(self.dt)
+        if not np.isfinite(dt) or dt <= 0.0:
+            raise ValueError(f"Trajectory.dt: must be finite and > 0, got {self.dt!r}")
+        set_(self, "dt", dt)
+        pos = _frozen_array(self.positions, "positions", (None, None, 2))
+        n_samples, n_agents = pos.shape[:2]
+        if n_samples < 1 or n_agents < 1:
+            raise ValueError(f"Trajectory.positions: need >= 1 sample and >= 1 agent, got {pos.shape}")
+        _require_finite(pos, "positions")
+        set_(self, "positions", pos)
+        vel = _frozen_array(self.velocities, "velocities", (n_samples, n_agents, 2))
+        _require_finite(vel, "velocities")
+        set_(self, "velocities", vel)
+        for name in ("radii", "v_pref"):
+            arr = _frozen_array(getattr(self, name), name, (n_agents,))
+            _require_finite(arr, name)
+            if np.any(arr < 0.0):
+                raise ValueError(f"Trajectory.{name}: must be >= 0, got {arr.tolist()}")
+            set_(self, name, arr)
+        goals = _frozen_array(self.goals, "goals", (n_agents, 2))
+        _require_finite(goals, "goals")
+        set_(self, "goals", goals)
+        roles = tuple(str(r) for r in np.asarray(self.roles, dtype=object).reshape(-1))
+        if len(roles) != n_agents:
+            raise ValueError(f"Trajectory.roles: expected {n_agents} roles, got {len(roles)}")
+        if roles[0] != "robot" or any(r != "human" for r in roles[1:]):
+            raise ValueError(
+                f"Trajectory.roles: agent 0 must be 'robot' and the others 'human', got {list(roles)}"
+            )
+        set_(self, "roles", roles)
+        if self.outcome not in OUTCOMES:
+            raise ValueError(f"Trajectory.outcome: must be one of {OUTCOMES}, got {self.outcome!r}")
+        if self.min_clearance is not None:
+            mc = _frozen_array(self.min_clearance, "min_clearance", (n_samples - 1,))
+            if np.any(np.isnan(mc)):
+                raise ValueError("Trajectory.min_clearance: contains NaN")
+            set_(self, "min_clearance", mc)
+        if self.continuation is not None:
+            cont = _frozen_array(self.continuation, "continuation", (None, n_agents, 2))
+            _require_finite(cont, "continuation")
+            set_(self, "continuation", cont)
+        if self.human_overlaps is not None:
+            ho = int(self.human_overlaps)
+            if ho != self.human_overlaps or ho < 0:
+                raise ValueError(
+                    f"Trajectory.human_overlaps: must be a non-negative int, got {self.human_overlaps!r}"
+                )
+            set_(self, "human_overlaps", ho)
+        if not isinstance(self.settings, Mapping):
+            raise ValueError(f"Trajectory.settings: must be a mapping, got {type(self.settings)}")
+        set_(self, "settings", dict(self.settings))
+
+    # ------------------------------------------------------------------ derived quantities
+    @property
+    def n_steps(self) -> int:
+        """Number of steps K (samples are 0..K)."""
+        return self.positions.shape[0] - 1
+
+    @property
+    def n_agents(self) -> int:
+        """Number of agents A = 1 + number of humans."""
+        return self.positions.shape[1]
+
+    @property
+    def n_humans(self) -> int:
+        """Number of humans A − 1."""
+        return self.positions.shape[1] - 1
+
+    @property
+    def duration(self) -> float:
+        """Episode duration T = K·dt [s]."""
+        return self.n_steps * self.dt
+
+    @property
+    def times(self) -> np.ndarray:
+        """Sample times t_k = k·dt [s], shape (K+1,)."""
+        return np.arange(self.n_steps + 1) * self.dt
+
+    def executed_velocities(self) -> np.ndarray:
+        """Velocities executed between samples, v_k = (p_k − p_{k−1})/dt for k = 1..K.
+
+        Returns:
+            [m/s], shape (K, A, 2); row k−1 holds v_k.
+        """
+        return np.diff(self.positions, axis=0) / self.dt
+
+    @classmethod
+    def from_positions(
+        cls,
+        positions: np.ndarray,
+        dt: float,
+        *,
+        radii: float | np.ndarray = 0.3,
+        v_pref: float | np.ndarray = 1.0,
+        goals: np.ndarray | None = None,
+        outcome: str = "unknown",
+        **kwargs: Any,
+    ) -> Trajectory:
+        """Build a Trajectory from positions alone, deriving velocities by finite differences.
+
+        Velocity k (k ≥ 1) is (p_k − p_{k−1})/dt; sample 0 copies velocity 1 (zero when K = 0),
+        because a log rarely records the velocity before its first sample.
+
+        Args:
+            positions: [m], shape (K+1, A, 2), agent 0 the robot.
+            dt: Step [s].
+            radii: [m], scalar or shape (A,).
+            v_pref: [m/s], scalar or shape (A,).
+            goals: [m], shape (A, 2); defaults to each agent's last position.
+            outcome: One of ``OUTCOMES``.
+            **kwargs: Other Trajectory fields (min_clearance, continuation, settings, ...).
+
+        Returns:
+            The validated Trajectory.
+        """
+        pos = np.asarray(positions, dtype=np.float64)
+        if pos.ndim != 3 or pos.shape[-1] != 2:
+            raise ValueError(f"Trajectory.positions: expected shape (K+1, A, 2), got {pos.shape}")
+        n_agents = pos.shape[1]
+        vel = np.zeros_like(pos)
+        if pos.shape[0] > 1:
+            vel[1:] = np.diff(pos, axis=0) / float(dt)
+            vel[0] = vel[1]
+        return cls(
+            dt=dt,
+            positions=pos,
+            velocities=vel,
+            radii=np.broadcast_to(np.asarray(radii, dtype=np.float64), (n_agents,)),
+            v_pref=np.broadcast_to(np.asarray(v_pref, dtype=np.float64), (n_agents,)),
+            goals=pos[-1] if goals is None else goals,
+            roles=("robot",) + ("human",) * (n_agents - 1),
+            outcome=outcome,
+            **kwargs,
+        )
+
+
+def write_trajectories(path: Any, trajs: Any) -> None:
+    """Write trajectories to ``path`` (``.parquet`` or ``.csv``) atomically; see trajectory_io."""
+    from socialnav.trajectory_io import write_trajectories as _write
+
+    _write(path, trajs)
+
+
+def read_trajectories(path: Any, *, resample: bool = False, dt: float | None = None) -> list[Trajectory]:
+    """Read trajectories from ``path`` (``.parquet`` or ``.csv``); see trajectory_io."""
+    from socialnav.trajectory_io import read_trajectories as _read
+
+    return _read(path, resample=resample, dt=dt)

@@ -1,0 +1,512 @@
+"""Parquet/CSV IO for :class:`socialnav.trajectory.Trajectory` (long format).
+
+One row per (episode, sample, agent); the schema is documented in ``docs/trajectory_format.md``.
+Reading validates strictly and names the file, column and row (1-based data row, header excluded;
+a CSV's line number is row + 1) of the first problem. ``pyarrow`` is imported lazily so that
+``import socialnav.metrics`` stays NumPy-only.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from socialnav.trajectory import OUTCOMES, ROLES, Trajectory, TrajectoryFormatError
+
+__all__ = ["REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "read_trajectories", "write_trajectories"]
+
+REQUIRED_COLUMNS: tuple[str, ...] = ("episode", "t", "agent", "x", "y", "radius", "gx", "gy", "v_pref")
+OPTIONAL_COLUMNS: tuple[str, ...] = (
+    "role", "vx", "vy", "outcome", "continuation", "min_clearance", "human_overlaps", "settings",
+)
+_FLOAT_COLUMNS = ("t", "x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref", "min_clearance")
+_WRITE_ORDER = (
+    "episode", "t", "agent", "role", "x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref", "outcome",
+    "continuation", "min_clearance", "human_overlaps", "settings",
+)
+_METADATA_KEY = b"socialnav"
+_FORMAT_VERSION = 1
+# Relative tolerance on sample spacing: CSV text round-trips k·dt exactly, but logs written by other
+# tools carry float noise of order 1e-12 s; real jitter (ms) is far above this.
+_DT_RTOL = 1e-6
+
+
+def _suffix(path: Path) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in (".parquet", ".csv"):
+        raise TrajectoryFormatError(f"{path}: unsupported suffix {path.suffix!r}; use .parquet or .csv")
+    return suffix
+
+
+# ---------------------------------------------------------------------------------------- writing
+def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]) -> None:
+    """Write trajectories to one Parquet or CSV file, atomically.
+
+    The table is written to a temporary file in the same directory and moved over ``path`` with
+    ``os.replace``, so readers never see a half-written file. Each episode is keyed by
+    ``settings["episode"]`` when present, else by its position in ``trajs``.
+
+    Args:
+        path: Destination; the suffix (``.parquet`` or ``.csv``) selects the format.
+        trajs: Trajectories to write.
+
+    Raises:
+        TrajectoryFormatError: Unsupported suffix, duplicated episode keys or settings that are not
+            JSON-serialisable.
+    """
+    import pyarrow as pa
+
+    path = Path(path)
+    suffix = _suffix(path)
+    trajs = list(trajs)
+    keys = [tr.settings.get("episode", i) for i, tr in enumerate(trajs)]
+    if len({str(k) for k in keys}) != len(keys):
+        raise TrajectoryFormatError(f"{path}: duplicated episode keys {keys}")
+    cols: dict[str, list[np.ndarray]] = {c: [] for c in _WRITE_ORDER}
+    settings_json: dict[str, str] = {}
+    for key, tr in zip(keys, trajs):
+        try:
+            settings_json[str(key)] = json.dumps(tr.settings, sort_keys=True)
+        except TypeError as exc:
+            raise TrajectoryFormatError(f"{path}: episode {key!r}: settings not JSON-serialisable: {exc}")
+        n_main, n_agents = tr.positions.shape[:2]
+        cont = tr.continuation if tr.continuation is not None else np.zeros((0, n_agents, 2))
+        n_rows = (n_main + cont.shape[0]) * n_agents
+        pos = np.concatenate([tr.positions, cont]).reshape(-1, 2)
+        vel = np.concatenate([tr.velocities, np.full_like(cont, np.nan)]).reshape(-1, 2)
+        t = np.repeat(np.arange(n_main + cont.shape[0]) * tr.dt, n_agents)
+        agent = np.tile(np.arange(n_agents), n_main + cont.shape[0])
+        mc = np.full(n_rows, np.nan)
+        if tr.min_clearance is not None:
+            mc[n_agents : n_main * n_agents : n_agents] = tr.min_clearance  # robot rows, k >= 1
+        settings_col = np.full(n_rows, "", dtype=object)
+        settings_col[0] = settings_json[str(key)]
+        per_row = {
+            "episode": np.full(n_rows, key, dtype=object),
+            "t": t, "agent": agent, "x": pos[:, 0], "y": pos[:, 1], "vx": vel[:, 0], "vy": vel[:, 1],
+            "role": np.asarray(tr.roles, dtype=object)[agent],
+            "radius": tr.radii[agent], "gx": tr.goals[agent, 0], "gy": tr.goals[agent, 1],
+            "v_pref": tr.v_pref[agent],
+            "outcome": np.full(n_rows, tr.outcome, dtype=object),
+            "continuation": np.repeat(np.arange(n_main + cont.shape[0]) >= n_main, n_agents),
+            "min_clearance": mc,
+            "human_overlaps": np.full(n_rows, -1 if tr.human_overlaps is None else tr.human_overlaps),
+            "settings": settings_col,
+        }
+        for name, values in per_row.items():
+            cols[name].append(np.asarray(values))
+    arrays: dict[str, Any] = {}
+    all_int = all(isinstance(k, (int, np.integer)) and not isinstance(k, bool) for k in keys)
+    for name, parts in cols.items():
+        values = np.concatenate(parts) if parts else np.zeros(0)
+        if name == "episode":
+            arrays[name] = pa.array(values.astype(np.int64) if all_int else [str(v) for v in values],
+                                    type=pa.int64() if all_int else pa.string())
+        elif name in ("role", "outcome", "settings"):
+            if name == "settings" and suffix == ".parquet":
+                continue  # Parquet keeps settings in the file metadata instead
+            arrays[name] = pa.array([str(v) for v in values], type=pa.string())
+        elif name == "agent":
+            arrays[name] = pa.array(values.astype(np.int64))
+        elif name == "continuation":
+            arrays[name] = pa.array(values.astype(bool))
+        elif name == "human_overlaps":
+            vals = values.astype(np.int64)
+            if np.all(vals < 0):
+                continue
+            arrays[name] = pa.array(vals, mask=vals < 0)
+        else:
+            vals = values.astype(np.float64)
+            if name == "min_clearance" and np.all(np.isnan(vals)):
+                continue
+            arrays[name] = pa.array(vals, mask=np.isnan(vals))  # NaN is written as an empty cell
+    table = pa.table(arrays)
+    if suffix == ".parquet":
+        meta = {"format_version": _FORMAT_VERSION, "settings": settings_json}
+        table = table.replace_schema_metadata({_METADATA_KEY: json.dumps(meta).encode()})
+    _atomic_write(path, table, suffix)
+
+
+def _atomic_write(path: Path, table: Any, suffix: str) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
+    os.close(fd)
+    try:
+        if suffix == ".parquet":
+            import pyarrow.parquet as pq
+
+            pq.write_table(table, tmp)
+        else:
+            import pyarrow.csv as pcsv
+
+            pcsv.write_csv(table, tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+# ---------------------------------------------------------------------------------------- reading
+class _Table:
+    """Columns of the file as NumPy arrays, plus helpers that raise errors naming file/column/row."""
+
+    def __init__(self, path: Path) -> None:
+        import pyarrow as pa
+
+        self.path = path
+        suffix = _suffix(path)
+        if not path.exists():
+            raise FileNotFoundError(f"{path}: no such file")
+        meta_settings: dict[str, str] = {}
+        if suffix == ".parquet":
+            import pyarrow.parquet as pq
+
+            table = pq.read_table(path)
+            raw = (table.schema.metadata or {}).get(_METADATA_KEY)
+            if raw is not None:
+                meta_settings = json.loads(raw.decode()).get("settings", {})
+        else:
+            import pyarrow.csv as pcsv
+
+            strings = {c: pa.string() for c in ("role", "outcome", "settings")}
+            table = pcsv.read_csv(path, convert_options=pcsv.ConvertOptions(column_types=strings))
+        self.meta_settings = meta_settings
+        self.n_rows = table.num_rows
+        missing = [c for c in REQUIRED_COLUMNS if c not in table.column_names]
+        if missing:
+            raise TrajectoryFormatError(
+                f"{path}: missing required column(s) {missing}; columns present: {table.column_names}"
+            )
+        self.cols: dict[str, np.ndarray] = {}
+        for name in table.column_names:
+            if name not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS:
+                continue  # extra columns are allowed and ignored
+            col = table.column(name)
+            if name in _FLOAT_COLUMNS:
+                try:
+                    arr = col.cast(pa.float64()).to_numpy()
+                except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
+                    raise TrajectoryFormatError(f"{path}: column '{name}': not numeric ({exc})") from exc
+            else:
+                arr = np.asarray(col.to_pylist(), dtype=object)
+            self.cols[name] = arr
+
+    def fail(self, column: str, row_index: int | None, message: str) -> TrajectoryFormatError:
+        where = f"column '{column}'" + ("" if row_index is None else f", row {row_index + 1}")
+        return TrajectoryFormatError(f"{self.path}: {where}: {message}")
+
+    def int_column(self, name: str) -> np.ndarray:
+        values = self.cols[name]
+        out = np.empty(len(values), dtype=np.int64)
+        for i, v in enumerate(values):
+            try:
+                iv = int(v)
+                if iv != float(v):
+                    raise ValueError
+            except (TypeError, ValueError):
+                raise self.fail(name, i, f"expected an integer, got {v!r}") from None
+            out[i] = iv
+        return out
+
+    def require_finite(self, name: str) -> None:
+        arr = self.cols[name]
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            raise self.fail(name, int(bad[0]), f"value is {arr[bad[0]]} (missing or not finite)")
+
+
+def read_trajectories(
+    path: str | os.PathLike[str], *, resample: bool = False, dt: float | None = None
+) -> list[Trajectory]:
+    """Read trajectories from a Parquet or CSV file in the long format.
+
+    Episodes are returned in order of first appearance; ``settings["episode"]`` holds each key.
+    Agents are ordered robot first, then humans by increasing ``agent`` id; when the ids are not
+    0..A−1 the original ids are kept in ``settings["agent_ids"]``. A time origin t_0 ≠ 0 is kept in
+    ``settings["t0"]``.
+
+    Args:
+        path: ``.parquet`` or ``.csv`` file.
+        resample: If True, episodes with irregular or per-agent timestamps are resampled by linear
+            interpolation to a fixed step on [latest agent start, earliest agent end]; ``min_clearance``
+            (a per-step swept value) is then dropped and ``settings["resampled"]`` is set. If False,
+            such episodes raise an error.
+        dt: Step [s] to resample to, or to assume for one-sample episodes. Default: (t_K − t_0)/K
+            on a regular grid, the median of the robot's steps when resampling (both rounded to 12
+            significant digits, which recovers a dt written as text exactly).
+
+    Returns:
+        One Trajectory per episode.
+
+    Raises:
+        TrajectoryFormatError: The file breaks the schema; the message names file, column and row.
+    """
+    tab = _Table(Path(path))
+    for name in ("t", "x", "y", "radius", "gx", "gy", "v_pref"):
+        tab.require_finite(name)
+    agents = tab.int_column("agent")
+    episode_raw = tab.cols["episode"]
+    episode_keys = np.array([str(v) for v in episode_raw], dtype=object)
+    _, first, inverse = np.unique(episode_keys, return_index=True, return_inverse=True)
+    trajs = []
+    for group in np.argsort(first, kind="stable"):
+        rows = np.flatnonzero(inverse == group)
+        trajs.append(_read_episode(tab, rows, agents, episode_raw[rows[0]], resample, dt))
+    return trajs
+
+
+def _constant(tab: _Table, name: str, rows: np.ndarray, *, allow_empty: bool = True) -> Any:
+    """The single value of a per-agent or per-episode column over ``rows`` (None when all empty)."""
+    values = tab.cols[name][rows]
+    empty = np.array([v is None or v == "" or (isinstance(v, float) and np.isnan(v)) for v in values])
+    if np.all(empty):
+        return None
+    ref_i = int(np.flatnonzero(~empty)[0])
+    for i in np.flatnonzero(~empty):
+        if values[i] != values[ref_i]:
+            raise tab.fail(name, int(rows[i]), f"value {values[i]!r} differs from {values[ref_i]!r} "
+                           f"(row {rows[ref_i] + 1}); it must be constant per episode/agent")
+    if not allow_empty and np.any(empty):
+        raise tab.fail(name, int(rows[np.flatnonzero(empty)[0]]), "value missing")
+    return values[ref_i]
+
+
+def _read_episode(
+    tab: _Table, rows: np.ndarray, agents: np.ndarray, key: Any, resample: bool, dt_arg: float | None
+) -> Trajectory:
+    cols = tab.cols
+    ep_agents = agents[rows]
+    ids = np.unique(ep_agents)
+    if 0 not in ids:
+        raise tab.fail("agent", int(rows[0]), f"episode {key!r} has no robot (agent 0)")
+    if np.any(ids < 0):
+        raise tab.fail("agent", int(rows[np.flatnonzero(ep_agents < 0)[0]]), "agent ids must be >= 0")
+    cont_flag = np.zeros(len(rows), dtype=bool)
+    if "continuation" in cols:
+        for j, v in enumerate(cols["continuation"][rows]):
+            if v in (True, 1, "true", "True"):
+                cont_flag[j] = True
+            elif v not in (False, 0, None, "", "false", "False"):
+                raise tab.fail("continuation", int(rows[j]), f"expected true/false, got {v!r}")
+    per_agent: list[dict[str, Any]] = []
+    for a in ids:
+        sel = np.flatnonzero(ep_agents == a)
+        arows = rows[sel]
+        t = cols["t"][arows]
+        steps = np.diff(t)
+        if np.any(steps <= 0):
+            i = int(np.flatnonzero(steps <= 0)[0])
+            raise tab.fail("t", int(arows[i + 1]), f"time not increasing for episode {key!r}, agent {a}: "
+                           f"{t[i]} -> {t[i + 1]} (dt = {steps[i]:g} s <= 0)")
+        is_cont = cont_flag[sel]
+        if np.any(np.diff(is_cont.astype(int)) < 0):
+            i = int(np.flatnonzero(np.diff(is_cont.astype(int)) < 0)[0])
+            raise tab.fail("continuation", int(arows[i + 1]), "main sample after a continuation sample")
+        if not np.any(~is_cont):
+            raise tab.fail("continuation", int(arows[0]), f"agent {a} has only continuation samples")
+        role = _constant(tab, "role", arows) if "role" in cols else None
+        want = "robot" if a == 0 else "human"
+        if role is not None and role != want:
+            bad = "role must be one of " + str(ROLES) if role not in ROLES else f"agent {a} must be {want!r}"
+            raise tab.fail("role", int(arows[0]), f"{bad}, got {role!r}")
+        vel = None
+        if "vx" in cols and "vy" in cols:
+            vel = np.stack([cols["vx"][arows], cols["vy"][arows]], axis=1)
+            main_bad = np.flatnonzero(~np.all(np.isfinite(vel), axis=1) & ~is_cont)
+            if main_bad.size:
+                c = "vx" if not np.isfinite(vel[main_bad[0], 0]) else "vy"
+                raise tab.fail(c, int(arows[main_bad[0]]), "missing or not finite (drop the vx/vy columns "
+                               "to derive velocities from positions)")
+        per_agent.append({
+            "rows": arows, "t": t, "cont": is_cont,
+            "pos": np.stack([cols["x"][arows], cols["y"][arows]], axis=1), "vel": vel,
+            "radius": _constant(tab, "radius", arows), "v_pref": _constant(tab, "v_pref", arows),
+            "goal": (_constant(tab, "gx", arows), _constant(tab, "gy", arows)),
+        })
+    robot = per_agent[0]
+    settings = _episode_settings(tab, rows, key)
+    outcome = "unknown"
+    if "outcome" in cols:
+        outcome = _constant(tab, "outcome", rows) or "unknown"
+        if outcome not in OUTCOMES:
+            raise tab.fail("outcome", int(rows[0]), f"must be one of {OUTCOMES}, got {outcome!r}")
+    overlaps = None
+    if "human_overlaps" in cols:
+        ho = _constant(tab, "human_overlaps", rows)
+        overlaps = None if ho is None else int(ho)
+    grid_t = robot["t"][~robot["cont"]]
+    regular, dt = _check_grid(tab, per_agent, dt_arg, key)
+    if not regular and not resample:
+        raise _regular_error(tab, per_agent, dt, key)
+    if not regular and dt_arg is None:
+        dt = float(f"{np.median(np.diff(grid_t)):.12g}")
+    min_clearance = None
+    if regular:
+        pos = np.stack([p["pos"][~p["cont"]] for p in per_agent], axis=1)
+        vel = _velocities(per_agent, pos, dt)
+        cont = _regular_continuation(tab, per_agent, grid_t[-1], dt, key)
+        if "min_clearance" in cols:
+            min_clearance = _min_clearance(tab, robot)
+    else:
+        pos, vel, cont, grid_t = _resample(per_agent, dt)
+        settings["resampled"] = True
+    if grid_t[0] != 0.0:
+        settings["t0"] = float(grid_t[0])
+    if not np.array_equal(ids, np.arange(len(ids))):
+        settings["agent_ids"] = [int(i) for i in ids]
+    return Trajectory(
+        dt=dt, positions=pos, velocities=vel,
+        radii=np.array([p["radius"] for p in per_agent], dtype=float),
+        v_pref=np.array([p["v_pref"] for p in per_agent], dtype=float),
+        goals=np.array([p["goal"] for p in per_agent], dtype=float),
+        roles=("robot",) + ("human",) * (len(ids) - 1), outcome=outcome,
+        min_clearance=min_clearance, continuation=cont, human_overlaps=overlaps, settings=settings,
+    )
+
+
+def _episode_settings(tab: _Table, rows: np.ndarray, key: Any) -> dict[str, Any]:
+    text = tab.meta_settings.get(str(key))
+    row = int(rows[0])
+    if text is None and "settings" in tab.cols:
+        text = _constant(tab, "settings", rows)
+        nonempty = [r for r in rows if tab.cols["settings"][r] not in (None, "")]
+        row = int(nonempty[0]) if nonempty else row
+    settings: dict[str, Any] = {}
+    if text:
+        try:
+            settings = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise tab.fail("settings", row, f"invalid JSON ({exc})") from None
+        if not isinstance(settings, dict):
+            raise tab.fail("settings", row, "settings JSON must be an object")
+    settings["episode"] = key.item() if isinstance(key, np.generic) else key
+    return settings
+
+
+def _check_grid(
+    tab: _Table, per_agent: list[dict[str, Any]], dt_arg: float | None, key: Any
+) -> tuple[bool, float]:
+    """Whether all agents share one regular main time grid, and the step to use [s]."""
+    robot_t = per_agent[0]["t"][~per_agent[0]["cont"]]
+    steps = np.diff(robot_t)
+    if dt_arg is not None:
+        dt = float(dt_arg)
+        if not np.isfinite(dt) or dt <= 0:
+            raise TrajectoryFormatError(f"{tab.path}: dt argument must be > 0, got {dt_arg!r}")
+    elif steps.size:
+        # the span over the step count is the least noisy estimate on a regular grid; rounding to 12
+        # significant digits recovers the written dt exactly (k·0.1 written as text is not exact)
+        dt = float(f"{(robot_t[-1] - robot_t[0]) / steps.size:.12g}")
+    else:
+        raise tab.fail("t", int(per_agent[0]["rows"][0]), f"episode {key!r} has one sample: pass dt=")
+    tol = _DT_RTOL * dt
+    regular = bool(np.all(np.abs(steps - dt) <= tol))
+    for p in per_agent[1:]:
+        t = p["t"][~p["cont"]]
+        regular &= t.shape == robot_t.shape and bool(np.all(np.abs(t - robot_t) <= tol))
+    return regular, dt
+
+
+def _regular_error(tab: _Table, per_agent: list[dict[str, Any]], dt: float, key: Any) -> TrajectoryFormatError:
+    """Describe the first sample that breaks a shared regular grid."""
+    robot = per_agent[0]
+    robot_t = robot["t"][~robot["cont"]]
+    tol = _DT_RTOL * dt
+    hint = " (pass resample=True to interpolate to a fixed dt)"
+    steps = np.diff(robot_t)
+    ref = float(np.median(steps)) if steps.size else dt  # the typical step, to point at the odd one
+    if steps.size and np.all(np.abs(steps - ref) <= tol) and abs(ref - dt) > tol:
+        return tab.fail("t", int(robot["rows"][1]), f"episode {key!r} is sampled every {ref:g} s but "
+                        f"dt={dt:g} was passed{hint}")
+    for i, step in enumerate(steps):
+        if abs(step - ref) > tol:
+            return tab.fail("t", int(robot["rows"][i + 1]), f"irregular sampling in episode {key!r}: step "
+                            f"{step:g} s, typical step {ref:g} s{hint}")
+    for a, p in enumerate(per_agent[1:], start=1):
+        t = p["t"][~p["cont"]]
+        n = min(len(t), len(robot_t))
+        off = np.flatnonzero(np.abs(t[:n] - robot_t[:n]) > tol)
+        if off.size:
+            i = int(off[0])
+            return tab.fail("t", int(p["rows"][i]), f"episode {key!r}: agent row {a} at t = {t[i]:g} s, "
+                            f"the robot at t = {robot_t[i]:g} s{hint}")
+        if len(t) != len(robot_t):
+            return tab.fail("t", int(p["rows"][n - 1]), f"episode {key!r}: agent row {a} has {len(t)} "
+                            f"samples, the robot {len(robot_t)}{hint}")
+    return tab.fail("t", int(robot["rows"][0]), f"irregular sampling in episode {key!r}{hint}")
+
+
+def _velocities(per_agent: list[dict[str, Any]], pos: np.ndarray, dt: float) -> np.ndarray:
+    if per_agent[0]["vel"] is not None:
+        return np.stack([p["vel"][~p["cont"]] for p in per_agent], axis=1)
+    vel = np.zeros_like(pos)
+    if pos.shape[0] > 1:
+        vel[1:] = np.diff(pos, axis=0) / dt
+        vel[0] = vel[1]  # the velocity before the first logged sample is unknown
+    return vel
+
+
+def _regular_continuation(
+    tab: _Table, per_agent: list[dict[str, Any]], t_end: float, dt: float, key: Any
+) -> np.ndarray | None:
+    robot = per_agent[0]
+    n = int(np.sum(robot["cont"]))
+    if n == 0 and not any(np.any(p["cont"]) for p in per_agent):
+        return None
+    expected = t_end + dt * np.arange(1, n + 1)
+    for a, p in enumerate(per_agent):
+        t = p["t"][p["cont"]]
+        rows = p["rows"][p["cont"]]
+        if len(t) != n:
+            raise tab.fail("continuation", int(rows[0] if len(rows) else p["rows"][-1]),
+                           f"episode {key!r}: agent row {a} has {len(t)} continuation samples, robot {n}")
+        off = np.flatnonzero(np.abs(t - expected) > _DT_RTOL * dt * np.arange(1, n + 1))
+        if off.size:
+            raise tab.fail("t", int(rows[off[0]]), f"continuation sample at t = {t[off[0]]:g} s, expected "
+                           f"{expected[off[0]]:g} s (continuation must continue the grid)")
+    return np.stack([p["pos"][p["cont"]] for p in per_agent], axis=1)
+
+
+def _min_clearance(tab: _Table, robot: dict[str, Any]) -> np.ndarray | None:
+    rows = robot["rows"][~robot["cont"]][1:]
+    values = tab.cols["min_clearance"][rows]
+    if np.all(np.isnan(values)):
+        return None
+    if np.any(np.isnan(values)):
+        raise tab.fail("min_clearance", int(rows[np.flatnonzero(np.isnan(values))[0]]),
+                       "missing on a robot row; give it on every robot row after the first or on none")
+    return values
+
+
+def _resample(
+    per_agent: list[dict[str, Any]], dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+    """Linear interpolation of every agent onto t_0 + k·dt over the common time span."""
+    main = [(p["t"][~p["cont"]], p["pos"][~p["cont"]]) for p in per_agent]
+    t0 = max(t[0] for t, _ in main)
+    t1 = min(t[-1] for t, _ in main)
+    if t1 < t0:
+        raise TrajectoryFormatError("agents' time spans do not overlap; cannot resample")
+    k = int(np.floor((t1 - t0) / dt + 1e-9))
+    grid = t0 + dt * np.arange(k + 1)
+    pos = np.stack([np.stack([np.interp(grid, t, x[:, d]) for d in (0, 1)], -1) for t, x in main], 1)
+    if per_agent[0]["vel"] is not None:
+        vel = np.stack([np.stack([np.interp(grid, p["t"][~p["cont"]], p["vel"][~p["cont"], d])
+                                  for d in (0, 1)], -1) for p in per_agent], 1)
+    else:
+        vel = _velocities([{"vel": None}], pos, dt)
+    cont = None
+    if all(np.any(p["cont"]) for p in per_agent):
+        c_end = min(p["t"][-1] for p in per_agent)
+        m = int(np.floor((c_end - grid[-1]) / dt + 1e-9))
+        if m > 0:
+            c_grid = grid[-1] + dt * np.arange(1, m + 1)
+            cont = np.stack([np.stack([np.interp(c_grid, p["t"], p["pos"][:, d]) for d in (0, 1)], -1)
+                             for p in per_agent], 1)
+    return pos, vel, cont, grid

@@ -1,0 +1,65 @@
+"""Gymnasium contract of the single and the vector env."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import socialnav.sim.registration  # noqa: F401  (registers the ids)
+from socialnav.sim.env import SocialNavEnv, SocialNavVectorEnv
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"action_set": "discrete"}, {"world": {"kinematics": "unicycle"}}])
+def test_single_env_passes_gymnasium_checker(kwargs):
+    check_env(SocialNavEnv(**kwargs), skip_render_check=True)
+
+
+def test_registered_ids_make_both_envs():
+    env = gym.make("socialnav/CircleCrossing-v0")
+    obs, info = env.reset(seed=5)
+    assert obs["humans"].shape == (5, 5) and info["episode_index"] == 5
+    venv = gym.make_vec("socialnav/CircleCrossing-v0", num_envs=4, vectorization_mode="vector_entry_point")
+    obs, _ = venv.reset(seed=0)
+    assert obs["robot"].shape == (4, 9)
+
+
+def test_reset_seed_reproduces_the_episode():
+    env = SocialNavEnv()
+    first, _ = env.reset(seed=11)
+    env.step(np.array([0.0, 1.0]))
+    again, _ = env.reset(seed=11)
+    np.testing.assert_array_equal(first["humans"], again["humans"])
+    other, _ = env.reset(seed=12)
+    assert not np.array_equal(first["humans"], other["humans"])
+
+
+def test_single_env_episode_ends_with_outcome():
+    env = SocialNavEnv(world={"human_model": "linear"})
+    env.reset(seed=0)
+    for _ in range(200):
+        obs, reward, terminated, truncated, info = env.step(np.array([0.0, 1.0]))
+        if terminated or truncated:
+            break
+    assert info["outcome"] in ("success", "collision", "timeout")
+    assert (reward == 1.0) == (info["outcome"] == "success")
+
+
+def test_vector_env_autoresets_in_the_same_step():
+    venv = SocialNavVectorEnv(num_envs=8, world={"human_model": "linear"})
+    obs, info = venv.reset(seed=0)
+    np.testing.assert_array_equal(info["episode_index"], np.arange(8))
+    seen_final = False
+    for _ in range(200):
+        obs, reward, terminated, truncated, info = venv.step(np.tile([0.0, 1.0], (8, 1)))
+        assert reward.shape == (8,) and terminated.dtype == bool
+        done = terminated | truncated
+        if done.any():
+            seen_final = True
+            b = int(np.flatnonzero(done)[0])
+            assert info["_final_obs"][b]
+            assert info["final_obs"][b]["robot"].shape == (9,)
+            assert info["episode_index"][b] >= 8  # the slot already holds a fresh episode
+            assert obs["robot"][b][1] == pytest.approx(-4.0)  # the new episode's start
+            break
+    assert seen_final
+    assert venv.observation_space.contains(obs)
