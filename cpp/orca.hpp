@@ -67,11 +67,13 @@ Vec2 orca_new_velocity(const OrcaAgent& self, const OrcaNeighbor* neighbors, int
 Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n,
                               const OrcaParams& params, double time_step, OrcaScratch& scratch);
 
-// Preferred velocity of CrowdSim: the vector to the goal, unit length beyond 1 m.
-inline Vec2 crowdsim_pref_velocity(Vec2 position, Vec2 goal) {
+// Preferred velocity of CrowdSim: the vector to the goal [per second], cut to length `speed`
+// beyond `speed` metres. CrowdSim uses speed = 1 for everyone (humans keep that); the robot's ORCA
+// policy passes its v_pref so that a robot faster than 1 m/s prefers its own speed.
+inline Vec2 crowdsim_pref_velocity(Vec2 position, Vec2 goal, double speed = 1.0) {
   Vec2 to_goal = goal - position;
   double d = norm(to_goal);
-  return d > 1.0 ? to_goal / d : to_goal;
+  return d > speed ? (speed / d) * to_goal : to_goal;
 }
 
 }  // namespace socialnav

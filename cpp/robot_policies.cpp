@@ -72,7 +72,7 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
         const double* hj = h + 5 * scratch.index[k];
         nb[k] = OrcaNeighbor{{hj[0], hj[1]}, {hj[2], hj[3]}, hj[4] + margin};
       }
-      const OrcaAgent self{r.p, r.v, r.radius + margin, r.v_pref, crowdsim_pref_velocity(r.p, r.g)};
+      const OrcaAgent self{r.p, r.v, r.radius + margin, r.v_pref, crowdsim_pref_velocity(r.p, r.g, r.v_pref)};
       const Vec2 v = orca_new_velocity(self, nb, scratch.count, params.time_horizon, dt, scratch);
       write_action(format, r.theta, v, out + 2 * b);
     }

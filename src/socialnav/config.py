@@ -63,6 +63,9 @@ def to_dict(obj: Any) -> dict[str, Any]:
 def _coerce(value: Any, hint: Any, path: str) -> Any:
     """Accepts ints for float fields (YAML writes ``25`` for ``25.0``); rejects other mismatches."""
     origin = typing.get_origin(hint)
+    if origin is tuple and isinstance(value, list | tuple):
+        item = typing.get_args(hint)[0] if typing.get_args(hint) else Any
+        return tuple(_coerce(v, item, f"{path}[{i}]") for i, v in enumerate(value))
     if hint is float and isinstance(value, int) and not isinstance(value, bool):
         return float(value)
     if hint in (float, int, str, bool) and not isinstance(value, hint):

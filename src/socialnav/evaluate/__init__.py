@@ -1,0 +1,1 @@
+"""The evaluation protocol: plan, run, aggregate and report (see docs/protocol.md)."""

@@ -1,0 +1,81 @@
+"""What a protocol run consists of: cells (policy × scenario × visibility) split into chunks."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from socialnav.config import ConfigError
+from socialnav.presets import Preset
+from socialnav.scenarios import Scenario, get_scenario, make_scenario
+from socialnav.sim.settings import WorldSettings
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One (scenario, visibility) pass of the protocol."""
+
+    scenario: str
+    visibility: str
+    episodes: int
+    single_human: bool
+
+    @property
+    def key(self) -> str:
+        return f"{self.scenario}__{self.visibility}"
+
+    def chunks(self, size: int) -> list[tuple[int, int]]:
+        return [(start, min(start + size, self.episodes)) for start in range(0, self.episodes, size)]
+
+
+def plan_cells(preset: Preset, scenarios: list[str] | None = None, episodes: int | None = None,
+               visibility: str | None = None) -> list[Cell]:
+    """The cells of a run; ``scenarios``/``episodes``/``visibility`` override the preset's.
+
+    Multi-human scenarios run invisible (all metrics) and, for ``both``/``visible``, visible (M_III,
+    with the continuation after the robot's arrival). Single-human sweeps (M_VI) run invisible;
+    their size is 20 offsets × repeats (``episodes`` caps it for quick runs).
+    """
+    ev = preset.evaluation
+    visibility = visibility or ev.visibility
+    passes = ("invisible", "visible") if visibility == "both" else (visibility,)
+    if visibility not in ("invisible", "visible", "both"):
+        raise ConfigError(f"visibility must be invisible, visible or both, got {visibility!r}")
+    if episodes is not None and episodes < 1:
+        raise ConfigError(f"episodes must be >= 1, got {episodes}")
+    names = list(scenarios) if scenarios else [*ev.multi_human, *ev.single_human]
+    for name in names:
+        get_scenario(name)  # unknown names raise, listing the valid ones
+    cells = []
+    for name in names:
+        single = name in ev.single_human or _is_single_human(name)
+        if single:
+            if "invisible" in passes:
+                n = make_single(preset, name).n_episodes
+                cells.append(Cell(name, "invisible", min(n, episodes) if episodes else n, True))
+        else:
+            for vis in passes:
+                cells.append(Cell(name, vis, episodes or ev.episodes, False))
+    return cells
+
+
+def _is_single_human(name: str) -> bool:
+    return name in ("passing", "overtaking", "crossing")
+
+
+def make_single(preset: Preset, name: str) -> Scenario:
+    return make_scenario(name, n_humans=1, robot_v_pref=preset.robot.v_pref, robot_radius=preset.robot.radius,
+                         repeats=preset.evaluation.repeats)
+
+
+def cell_scenario(preset: Preset, cell: Cell) -> Scenario:
+    if cell.single_human:
+        return make_single(preset, cell.scenario)
+    return make_scenario(cell.scenario, n_humans=preset.evaluation.n_humans, robot_v_pref=preset.robot.v_pref,
+                         robot_radius=preset.robot.radius)
+
+
+def cell_world_settings(preset: Preset, cell: Cell) -> WorldSettings:
+    visible = cell.visibility == "visible"
+    return dataclasses.replace(preset.world, visibility=cell.visibility, continue_after_success=visible,
+                               continuation_cap=preset.evaluation.continuation_cap)

@@ -1,0 +1,156 @@
+"""Result files and the paper's table layouts (Markdown and LaTeX).
+
+Table II (Wang et al. 2022): success/collision/timeout %, navigation time and M_I–M_V as
+mean ± std, pooled over the multi-human scenarios; every column from the invisible pass except
+M_III, which comes from the visible pass. Table III: M_VI left/right % per single-human scenario.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from socialnav.evaluate.files import atomic_write_json, atomic_write_text
+from socialnav.metrics import list_metrics
+from socialnav.presets import Preset
+
+# (header, key prefix, visibility of the pass it comes from, digits)
+TABLE2_COLUMNS = [
+    ("M_I (s)", "m1_personal_space.duration_s@eps=0.2,", "invisible", 2),
+    ("M_II (s)", "m2_projected_path.duration_s@tau=1,", "invisible", 2),
+    ("M_III (steps)", "m3_aggregated_time.steps@", "visible", 2),
+    ("M_III (s)", "m3_aggregated_time.time_s@", "visible", 2),
+    ("M_IV ((m/s³)²)", "m4_jerk.mean_sq", "invisible", 2),
+    ("M_V (s)", "m5_walking_speed.duration_s@", "invisible", 2),
+    ("M_V≥ (s)", "m5_walking_speed.duration_s_ge@", "invisible", 2),
+]
+SIDE_SCENARIOS = ("passing", "overtaking", "crossing")
+
+
+def write_reports(out: Path, summary: list[dict[str, Any]], rows: list[dict[str, Any]], preset: Preset) -> None:
+    """Writes summary.json/csv and the Table II/III layouts into ``out`` (all atomic)."""
+    metrics = [{"name": m.name, "unit": m.unit, "direction": m.direction, "social": m.social,
+                "outputs": dict(m.outputs), "description": m.description} for m in list_metrics()]
+    atomic_write_json(out / "summary.json", {"preset": preset.name, "rows": summary, "metrics": metrics})
+    atomic_write_text(out / "summary.csv", to_csv(summary))
+    atomic_write_text(out / "table2.md", table2(summary, "md"))
+    atomic_write_text(out / "table2.tex", table2(summary, "tex"))
+    atomic_write_text(out / "table3.md", table3(summary, "md"))
+    atomic_write_text(out / "table3.tex", table3(summary, "tex"))
+
+
+def to_csv(summary: Sequence[dict[str, Any]]) -> str:
+    columns: list[str] = []
+    for row in summary:
+        columns.extend(k for k in row if k not in columns)
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=columns)
+    writer.writeheader()
+    for row in summary:
+        writer.writerow(row)
+    return buf.getvalue()
+
+
+def _find(row: dict[str, Any] | None, prefix: str, stat: str) -> float:
+    if row is None:
+        return math.nan
+    for key, value in row.items():
+        if key.startswith(prefix) and key.endswith(f".{stat}"):
+            return value
+    return math.nan
+
+
+def _pm(mean: float, std: float, digits: int) -> str:
+    if mean is None or not math.isfinite(mean):
+        return "–"
+    return f"{mean:.{digits}f} ± {std:.{digits}f}" if std is not None and math.isfinite(std) else f"{mean:.{digits}f}"
+
+
+def _pct(x: float) -> str:
+    return "–" if x is None or not math.isfinite(x) else f"{100 * x:.2f}"
+
+
+def _index(summary: Sequence[dict[str, Any]]) -> dict[tuple[str, str, str], dict[str, Any]]:
+    return {(r["policy"], r["scenario"], r["visibility"]): r for r in summary}
+
+
+def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> list[list[str]]:
+    idx = _index(summary)
+    policies = list(dict.fromkeys(r["policy"] for r in summary))
+    if scenario == "pooled" and not any(k[1] == "pooled" for k in idx):
+        # A preset with a single multi-human scenario: its own row is the pooled one.
+        multi = [r["scenario"] for r in summary if "m6_left_pct" not in r]
+        scenario = multi[0] if multi else scenario
+    out = []
+    for p in policies:
+        inv, vis = idx.get((p, scenario, "invisible")), idx.get((p, scenario, "visible"))
+        base = inv or vis
+        if base is None:
+            continue
+        cells = [p, _pct(base.get("success_rate")), _pct(base.get("collision_rate")),
+                 _pct(base.get("timeout_rate")), _pm(base.get("nav_time_s"), base.get("nav_time_s_std"), 2)]
+        for _, prefix, visibility, digits in TABLE2_COLUMNS:
+            row = inv if visibility == "invisible" else vis
+            cells.append(_pm(_find(row, prefix, "mean"), _find(row, prefix, "std"), digits))
+        out.append(cells)
+    return out
+
+
+def table2(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
+    header = ["Policy", "Success %", "Collision %", "Timeout %", "Nav. time (s)", *[c[0] for c in TABLE2_COLUMNS]]
+    parts = [_render("Table II: pooled over the multi-human scenarios (invisible robot; M_III visible)", header,
+                     table2_rows(summary), fmt)]
+    scenarios = [s for s in dict.fromkeys(r["scenario"] for r in summary) if s != "pooled" and not
+                 any("m6_left_pct" in r for r in summary if r["scenario"] == s)]
+    for s in scenarios:
+        parts.append(_render(f"Table II, {s}", header, table2_rows(summary, s), fmt))
+    return "\n".join(parts)
+
+
+def table3_rows(summary: Sequence[dict[str, Any]]) -> list[list[str]]:
+    idx = _index(summary)
+    policies = list(dict.fromkeys(r["policy"] for r in summary))
+    out = []
+    for p in policies:
+        cells = [p]
+        for s in SIDE_SCENARIOS:
+            row = idx.get((p, s, "invisible"))
+            left = row.get("m6_left_pct") if row else None
+            right = row.get("m6_right_pct") if row else None
+            cells += [_num(left), _num(right)]
+        if any(c != "–" for c in cells[1:]):
+            out.append(cells)
+    return out
+
+
+def _num(x: Any) -> str:
+    return "–" if x is None or not math.isfinite(x) else f"{x:.0f}"
+
+
+def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
+    header = ["Policy", "Passing L %", "Passing R %", "Overtaking L %", "Overtaking R %", "Crossing L % (behind)",
+              "Crossing R % (front)"]
+    return _render("Table III: M_VI side preference (successful single-human cases)", header, table3_rows(summary),
+                   fmt)
+
+
+def _render(title: str, header: list[str], rows: list[list[str]], fmt: str) -> str:
+    if fmt == "md":
+        lines = [f"### {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+        lines += ["| " + " | ".join(r) + " |" for r in rows]
+        return "\n".join(lines) + "\n"
+    if fmt == "tex":
+        def esc(s: str) -> str:
+            return (s.replace("\\", "\\textbackslash{}").replace("%", "\\%").replace("_", "\\_")
+                    .replace("±", "$\\pm$").replace("³", "$^3$").replace("²", "$^2$").replace("≥", "$\\geq$")
+                    .replace("–", "--"))
+        lines = [f"% {title}", "\\begin{tabular}{l" + "r" * (len(header) - 1) + "}", "\\hline",
+                 " & ".join(esc(h) for h in header) + " \\\\", "\\hline"]
+        lines += [" & ".join(esc(c) for c in r) + " \\\\" for r in rows]
+        lines += ["\\hline", "\\end{tabular}"]
+        return "\n".join(lines) + "\n"
+    raise ValueError(f"unknown table format {fmt!r}; valid: md, tex")

@@ -1,0 +1,156 @@
+"""The protocol runner: simulate every cell of a preset with one policy, score, aggregate, write.
+
+Results live in an output directory:
+
+    manifest.json                  what was run (preset, policy, cells); checked on resume
+    episodes/<cell>/<a>-<b>.parquet  one row per episode (ids, outcome, every metric), atomic
+    summary.json / summary.csv     per (policy, scenario, visibility) and pooled aggregates
+    table2.md / table2.tex         the paper's Table II layout (+ per-scenario tables)
+    table3.md / table3.tex         the paper's Table III layout (M_VI side preference)
+
+A chunk file is written only when all its episodes are scored, so an interrupted run resumes by
+skipping the chunk files that exist: nothing finished is recomputed or lost.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from socialnav.evaluate.files import atomic_write_json, atomic_write_rows_parquet
+from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, plan_cells
+from socialnav.evaluate.report import write_reports
+from socialnav.evaluate.summary import summarize_episodes
+from socialnav.metrics import score_episode
+from socialnav.policies.base import Policy
+from socialnav.presets import Preset
+from socialnav.sim.world import World
+
+SIDE_LABEL = {1.0: "left", -1.0: "right", 0.0: "unlabelled"}
+SIDE_KEY = "m6_side_preference.sign@frame=world"
+
+
+class ResumeMismatchError(RuntimeError):
+    """The output directory holds results of a different run configuration."""
+
+
+@dataclass(frozen=True)
+class ProtocolResult:
+    out_dir: Path
+    rows: list[dict[str, Any]]  # per-episode rows
+    summary: list[dict[str, Any]]  # aggregate rows
+    computed_episodes: int  # episodes simulated by this call (0 when everything was resumed)
+
+
+def run_chunk(policy: Policy, preset: Preset, cell: Cell, start: int, stop: int, label: str,
+              batch_size: int = 256) -> list[dict[str, Any]]:
+    """Simulates and scores episodes [start, stop) of a cell; one row per episode, in index order."""
+    settings = cell_world_settings(preset, cell)
+    world = World(settings, cell_scenario(preset, cell), min(batch_size, stop - start),
+                  split=preset.evaluation.split, start=start, count=stop - start,
+                  tags={"policy": label, "information": getattr(policy, "information", "none")})
+    world.reset()
+    rows = []
+    while world.busy:
+        for traj in world.step(policy.act(world.observe())).finished:
+            row = {"policy": label, "scenario": cell.scenario, "visibility": cell.visibility,
+                   "index": traj.settings["index"], "seed": traj.settings["seed"], "outcome": traj.outcome,
+                   "information": traj.settings["information"], **score_episode(traj)}
+            if cell.single_human:
+                sign = row.get(SIDE_KEY, np.nan)
+                row["side"] = "failed" if traj.outcome != "success" else SIDE_LABEL.get(sign, "unlabelled")
+            rows.append(row)
+    return sorted(rows, key=lambda r: r["index"])
+
+
+def run_protocol(policy: Policy, preset: Preset, out_dir: str | Path, *, label: str | None = None,
+                 scenarios: Sequence[str] | None = None, episodes: int | None = None,
+                 visibility: str | None = None, progress: bool = True, extra_manifest: dict | None = None,
+                 batch_size: int = 256) -> ProtocolResult:
+    """Runs (or resumes) the protocol of ``preset`` for ``policy`` and writes every result file.
+
+    Args:
+        policy: The robot policy.
+        preset: The protocol (world, robot, scenarios, episode counts).
+        out_dir: Result directory; an existing one with the same manifest is resumed.
+        label: Policy name in the results (default ``policy.name``).
+        scenarios, episodes, visibility: Overrides of the preset's evaluation settings.
+        progress: Show a progress bar on stderr.
+        extra_manifest: Extra fields recorded in the manifest (e.g. the checkpoint path).
+        batch_size: Episodes simulated in lockstep.
+
+    Raises:
+        ResumeMismatchError: ``out_dir`` holds a different run's results.
+    """
+    out = Path(out_dir)
+    label = label or policy.name
+    cells = plan_cells(preset, list(scenarios) if scenarios else None, episodes, visibility)
+    chunk = preset.evaluation.chunk_size
+    manifest = {
+        "preset": preset.to_dict(),
+        "policy": {"label": label, **policy.describe()},
+        "cells": [{"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells],
+        "chunk_size": chunk,
+        **(extra_manifest or {}),
+    }
+    _check_or_write_manifest(out, manifest)
+
+    todo = [(cell, a, b) for cell in cells for a, b in cell.chunks(chunk) if not _chunk_path(out, cell, a, b).exists()]
+    total = sum(c.episodes for c in cells)
+    done = total - sum(b - a for _, a, b in todo)
+    bar = _progress(total, done, progress)
+    computed = 0
+    for cell, a, b in todo:
+        bar.set_description(f"{label} {cell.scenario} {cell.visibility}")
+        rows = run_chunk(policy, preset, cell, a, b, label, batch_size)
+        atomic_write_rows_parquet(_chunk_path(out, cell, a, b), rows)
+        computed += b - a
+        bar.update(b - a)
+    bar.close()
+
+    rows = read_episode_rows(out, cells, chunk)
+    summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
+    write_reports(out, summary, rows, preset)
+    return ProtocolResult(out, rows, summary, computed)
+
+
+def read_episode_rows(out: Path, cells: list[Cell], chunk: int) -> list[dict[str, Any]]:
+    import pyarrow.parquet as pq
+
+    rows: list[dict[str, Any]] = []
+    for cell in cells:
+        for a, b in cell.chunks(chunk):
+            rows.extend(pq.read_table(_chunk_path(out, cell, a, b)).to_pylist())
+    return rows
+
+
+def _chunk_path(out: Path, cell: Cell, a: int, b: int) -> Path:
+    return out / "episodes" / cell.key / f"{a:05d}-{b:05d}.parquet"
+
+
+def _check_or_write_manifest(out: Path, manifest: dict) -> None:
+    import json
+
+    path = out / "manifest.json"
+    normalised = json.loads(json.dumps(manifest, default=list))
+    if path.exists():
+        previous = json.loads(path.read_text())
+        if previous != normalised:
+            changed = sorted(k for k in set(previous) | set(normalised) if previous.get(k) != normalised.get(k))
+            raise ResumeMismatchError(
+                f"{out} holds results of a different run (differs in: {', '.join(changed)}); "
+                "use another --out directory or delete it")
+        return
+    atomic_write_json(path, normalised)
+
+
+def _progress(total: int, initial: int, enabled: bool):
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=initial, unit="ep", disable=not enabled, file=sys.stderr, leave=False,
+                dynamic_ncols=True)

@@ -1,0 +1,28 @@
+"""Social-conformity metrics: pure NumPy functions of a :class:`socialnav.trajectory.Trajectory`.
+
+Importing this package registers every metric (basic, M_I–M_VI) and imports NumPy only. Score one
+episode with :func:`score_episode`; aggregate with :func:`summarize`. See ``docs/metrics.md``.
+"""
+
+from socialnav.metrics import basic, comfort, naturalness, sociability  # noqa: F401  (registration)
+from socialnav.metrics.aggregate import summarize, summarize_rows
+from socialnav.metrics.naturalness import WalkingSpeedWarning
+from socialnav.metrics.registry import Metric, get_metric, list_metrics, metric_key, parse_key, register_metric
+from socialnav.metrics.score import score_episode, score_keys
+from socialnav.metrics.sociability import side_preference, summarize_side_preference
+
+__all__ = [
+    "Metric",
+    "WalkingSpeedWarning",
+    "get_metric",
+    "list_metrics",
+    "metric_key",
+    "parse_key",
+    "register_metric",
+    "score_episode",
+    "score_keys",
+    "side_preference",
+    "summarize",
+    "summarize_rows",
+    "summarize_side_preference",
+]

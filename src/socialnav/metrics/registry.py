@@ -1,0 +1,179 @@
+"""Metric registry: every metric declares its name, units, direction and parameters.
+
+Metrics register themselves where they are defined (``@register_metric(...)``), so there is no
+central list to keep in sync. :func:`socialnav.metrics.score.score_episode` runs every registered
+metric and flattens the results into keys built by :func:`metric_key`:
+
+    ``<metric>[.<output>][@<param>=<value>,...]``
+
+The output part is omitted for single-valued metrics (output ``value``) and the parameter part when
+the metric has no parameters; all parameters are listed, in declaration order, so that values
+computed under different settings never share a key. Examples: ``success``,
+``m1_personal_space.duration_s@eps=0.2,distance=clearance``, ``m4_jerk.mean_sq``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+__all__ = [
+    "Metric",
+    "get_metric",
+    "list_metrics",
+    "metric_key",
+    "parse_key",
+    "register_metric",
+]
+
+Direction = Literal["lower", "higher", "none"]
+MetricFn = Callable[..., dict[str, float]]
+
+WANG2022 = (
+    "Wang, Chan, Carreno-Medrano, Cosgun, Croft, 'Metrics for Evaluating Social Conformity of Crowd "
+    "Navigation Algorithms', ARSO 2022 (arXiv 2202.01045)"
+)
+JIN2020 = "Jin et al., 'Mapless Navigation among Dynamics with Social-safety-awareness', ICRA 2020"
+
+_REGISTRY: dict[str, Metric] = {}
+
+
+@dataclass(frozen=True)
+class Metric:
+    """A registered metric.
+
+    Attributes:
+        name: Short unique name, the first part of every flat key.
+        unit: Unit of the primary (first) output.
+        direction: "lower" or "higher" is better, or "none" (descriptive only).
+        parameters: Default parameter values, passed as keyword arguments to ``fn``.
+        description: One-line description.
+        reference: Paper and equation/section implemented.
+        outputs: Output name -> unit, in reporting order.
+        variants: Parameter overrides reported by default (e.g. ε = 0.2 and 1.2); each is merged
+            over ``parameters``. One empty override means "defaults only".
+        social: Only meaningful on successful episodes (NaN otherwise in ``score_episode``).
+        fn: ``fn(traj, **params) -> {output: value}``.
+    """
+
+    name: str
+    unit: str
+    direction: Direction
+    parameters: Mapping[str, Any]
+    description: str
+    reference: str
+    outputs: Mapping[str, str]
+    variants: tuple[Mapping[str, Any], ...] = ({},)
+    social: bool = False
+    fn: MetricFn = field(default=lambda traj: {}, repr=False)
+
+    def resolve(self, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """Defaults merged with ``overrides``; unknown parameter names raise a KeyError."""
+        overrides = dict(overrides or {})
+        unknown = set(overrides) - set(self.parameters)
+        if unknown:
+            raise KeyError(f"metric {self.name!r}: unknown parameter(s) {sorted(unknown)}; "
+                           f"valid: {list(self.parameters)}")
+        return {**self.parameters, **overrides}
+
+    def __call__(self, traj: Any, **params: Any) -> dict[str, float]:
+        """Compute the metric's outputs on one trajectory with resolved parameters."""
+        return self.fn(traj, **self.resolve(params))
+
+    def keys(self, params: Mapping[str, Any] | None = None) -> list[str]:
+        """Flat keys of this metric's outputs for one parameter setting (see module docstring)."""
+        resolved = self.resolve(params)
+        return [metric_key(self.name, out, resolved) for out in self.outputs]
+
+
+def _format_value(value: Any) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (float, np.floating)):
+        return np.format_float_positional(float(value), trim="-")
+    return str(value)
+
+
+def metric_key(name: str, output: str, params: Mapping[str, Any] | None = None) -> str:
+    """Build a flat key ``<name>[.<output>][@k=v,...]``.
+
+    Args:
+        name: Metric name.
+        output: Output name; ``"value"`` is omitted from the key.
+        params: Resolved parameters, in declaration order.
+
+    Returns:
+        The key, e.g. ``m2_projected_path.fraction@tau=0.5,anchor=rear``.
+    """
+    key = name if output == "value" else f"{name}.{output}"
+    if params:
+        key += "@" + ",".join(f"{k}={_format_value(v)}" for k, v in params.items())
+    return key
+
+
+def parse_key(key: str) -> tuple[str, str, dict[str, str]]:
+    """Split a flat key into (metric name, output, parameters as strings); inverse of metric_key."""
+    head, _, tail = key.partition("@")
+    name, _, output = head.partition(".")
+    params = dict(item.split("=", 1) for item in tail.split(",")) if tail else {}
+    return name, output or "value", params
+
+
+def register_metric(
+    name: str,
+    *,
+    unit: str,
+    direction: Direction,
+    outputs: Mapping[str, str],
+    reference: str,
+    parameters: Mapping[str, Any] | None = None,
+    variants: tuple[Mapping[str, Any], ...] = ({},),
+    social: bool = False,
+    description: str | None = None,
+) -> Callable[[MetricFn], MetricFn]:
+    """Decorator registering ``fn(traj, **params) -> {output: value}`` as a metric.
+
+    The function is returned unchanged so it stays callable directly; the description defaults to
+    the first line of its docstring.
+
+    Raises:
+        ValueError: The name is taken or the direction is not lower/higher/none.
+    """
+    if direction not in ("lower", "higher", "none"):
+        raise ValueError(f"metric {name!r}: direction must be lower/higher/none, got {direction!r}")
+
+    def wrap(fn: MetricFn) -> MetricFn:
+        if name in _REGISTRY:
+            raise ValueError(f"metric {name!r} is already registered")
+        metric = Metric(
+            name=name, unit=unit, direction=direction, parameters=dict(parameters or {}),
+            description=description or (fn.__doc__ or "").strip().splitlines()[0],
+            reference=reference, outputs=dict(outputs), variants=tuple(variants), social=social,
+            fn=fn,
+        )
+        for variant in metric.variants:
+            metric.resolve(variant)  # fail at import time on a misspelt variant parameter
+        _REGISTRY[name] = metric
+        return fn
+
+    return wrap
+
+
+def list_metrics() -> list[Metric]:
+    """All registered metrics, in registration order."""
+    return list(_REGISTRY.values())
+
+
+def get_metric(name: str) -> Metric:
+    """The metric registered under ``name``.
+
+    Raises:
+        KeyError: Unknown name; the message lists the valid names.
+    """
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise KeyError(f"unknown metric {name!r}; valid names: {sorted(_REGISTRY)}") from None

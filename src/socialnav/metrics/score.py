@@ -1,0 +1,75 @@
+"""Score one episode with every registered metric, as a flat ``{key: float}`` row.
+
+Keys follow :func:`socialnav.metrics.registry.metric_key`: ``<metric>[.<output>][@<param>=<value>,...]``
+with every parameter spelled out, e.g. ``m1_personal_space.duration_s@eps=0.2,distance=clearance``.
+Each metric contributes one group of keys per parameter variant it reports by default (ε ∈ {0.2, 1.2}
+for M_I, τ ∈ {0.5, 1, 2} for M_II). Social metrics (M_I–M_VI) are NaN unless the outcome is success,
+as in Wang et al., ARSO 2022 (arXiv 2202.01045), which computes them on successful episodes only;
+basic metrics are computed on every episode.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, Union
+
+from socialnav.metrics.registry import Metric, list_metrics
+from socialnav.trajectory import Trajectory
+
+__all__ = ["ParamsSpec", "score_episode", "score_keys"]
+
+ParamsSpec = Mapping[str, Union[Mapping[str, Any], Sequence[Mapping[str, Any]]]]
+"""Per metric name: one parameter override (dict) or several (list of dicts, one key group each)."""
+
+
+def _variants(metric: Metric, params: ParamsSpec | None) -> list[dict[str, Any]]:
+    spec = (params or {}).get(metric.name)
+    if spec is None:
+        return [metric.resolve(v) for v in metric.variants]
+    if isinstance(spec, Mapping):
+        return [metric.resolve(spec)]
+    return [metric.resolve(v) for v in spec]
+
+
+def _check_names(params: ParamsSpec | None) -> None:
+    known = {m.name for m in list_metrics()}
+    unknown = set(params or {}) - known
+    if unknown:
+        raise KeyError(f"unknown metric(s) {sorted(unknown)} in params; valid names: {sorted(known)}")
+
+
+def score_keys(params: ParamsSpec | None = None) -> list[str]:
+    """The keys :func:`score_episode` returns for these params, in order (for table columns)."""
+    _check_names(params)
+    return [key for m in list_metrics() for v in _variants(m, params) for key in m.keys(v)]
+
+
+def score_episode(
+    traj: Trajectory, params: ParamsSpec | None = None, *, require_success: bool = True
+) -> dict[str, float]:
+    """Compute every registered metric on one episode.
+
+    Args:
+        traj: The episode.
+        params: Optional overrides per metric name, e.g. ``{"m1_personal_space": {"distance":
+            "centre"}}`` (one setting, merged over the defaults) or ``{"m2_projected_path": [{"tau":
+            1.0, "anchor": "front"}]}`` (one key group per setting). Metrics not named keep their
+            default variants.
+        require_success: If True (default, the paper's protocol), social metrics are NaN unless
+            ``traj.outcome == "success"``. Set False to score logs whose outcome is ``unknown``.
+
+    Returns:
+        ``{flat key: value}`` with the same keys for every episode (see :func:`score_keys`).
+    """
+    _check_names(params)
+    row: dict[str, float] = {}
+    gated = require_success and traj.outcome != "success"
+    for metric in list_metrics():
+        for variant in _variants(metric, params):
+            keys = metric.keys(variant)
+            if metric.social and gated:
+                row.update({k: float("nan") for k in keys})
+                continue
+            values = metric.fn(traj, **variant)
+            row.update({k: float(values[out]) for k, out in zip(keys, metric.outputs)})
+    return row

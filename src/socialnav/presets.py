@@ -1,0 +1,110 @@
+"""Protocol presets: typed settings loaded from the YAML files shipped in ``socialnav/configs``.
+
+A preset fixes the world's semantics, the robot, the evaluation protocol (which scenarios, how many
+episodes, which visibility passes) and the training scenario mix. ``load_preset("wang2022")`` loads
+a shipped one; a path to a YAML file loads a user's own.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from socialnav.config import ConfigError, check, from_dict
+from socialnav.sim.settings import VISIBILITIES, WorldSettings
+
+MULTI_HUMAN = ("circle_crossing", "random", "parallel_traffic", "perpendicular_traffic")
+SINGLE_HUMAN = ("passing", "overtaking", "crossing")
+VISIBILITY_CHOICES = (*VISIBILITIES, "both")
+
+
+@dataclass(frozen=True)
+class RobotSettings:
+    v_pref: float = 1.0  # [m/s]
+    radius: float = 0.3  # [m]
+
+    def __post_init__(self) -> None:
+        check(self.v_pref > 0, "robot.v_pref", self.v_pref, "must be > 0")
+        check(self.radius > 0, "robot.radius", self.radius, "must be > 0")
+
+
+@dataclass(frozen=True)
+class EvaluationSettings:
+    split: str = "test"
+    multi_human: tuple[str, ...] = MULTI_HUMAN
+    single_human: tuple[str, ...] = SINGLE_HUMAN
+    n_humans: int = 5
+    episodes: int = 500  # per multi-human scenario
+    repeats: int = 1  # per single-human offset
+    visibility: str = "both"
+    continuation_cap: float = 100.0  # [s] M_III continuation after the robot's arrival
+    chunk_size: int = 250  # episodes per result file (the unit of resumption)
+
+    def __post_init__(self) -> None:
+        check(self.n_humans >= 1, "evaluation.n_humans", self.n_humans, "must be >= 1")
+        check(self.episodes >= 1, "evaluation.episodes", self.episodes, "must be >= 1")
+        check(self.repeats >= 1, "evaluation.repeats", self.repeats, "must be >= 1")
+        check(self.chunk_size >= 1, "evaluation.chunk_size", self.chunk_size, "must be >= 1")
+        check(self.visibility in VISIBILITY_CHOICES, "evaluation.visibility", self.visibility,
+              f"must be one of {', '.join(VISIBILITY_CHOICES)}")
+
+
+@dataclass(frozen=True)
+class TrainingScenarios:
+    scenarios: tuple[str, ...] = MULTI_HUMAN
+    n_humans: int = 5
+    visibility: str = "invisible"
+
+
+@dataclass(frozen=True)
+class Preset:
+    name: str = "custom"
+    description: str = ""
+    world: WorldSettings = field(default_factory=WorldSettings)
+    robot: RobotSettings = field(default_factory=RobotSettings)
+    policies: dict[str, Any] = field(default_factory=dict)  # per-policy parameter defaults
+    evaluation: EvaluationSettings = field(default_factory=EvaluationSettings)
+    training: TrainingScenarios = field(default_factory=TrainingScenarios)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    def policy_params(self, policy: str) -> dict[str, Any]:
+        return dict(self.policies.get(policy, {}))
+
+
+def shipped_presets() -> list[str]:
+    return sorted(p.name[:-5] for p in resources.files("socialnav.configs").iterdir() if p.name.endswith(".yaml"))
+
+
+def load_preset(name_or_path: str | Path) -> Preset:
+    """Loads a shipped preset by name or a YAML file by path.
+
+    Raises:
+        ConfigError: Unknown preset name (the shipped ones are listed) or invalid settings (the file
+            and the dotted field are named).
+    """
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml") or path.exists():
+        if not path.exists():
+            raise ConfigError(f"preset file {path} does not exist")
+        text, source = path.read_text(), str(path)
+    else:
+        names = shipped_presets()
+        if str(name_or_path) not in names:
+            raise ConfigError(f"unknown preset {name_or_path!r}; shipped: {', '.join(names)}")
+        text = (resources.files("socialnav.configs") / f"{name_or_path}.yaml").read_text()
+        source = f"{name_or_path}.yaml"
+    try:
+        data = yaml.safe_load(text) or {}
+    except yaml.YAMLError as err:
+        raise ConfigError(f"{source}: not valid YAML: {err}") from None
+    try:
+        return from_dict(Preset, data)
+    except ConfigError as err:
+        raise ConfigError(f"{source}: {err}") from None

@@ -1,0 +1,1 @@
+"""Training of the learned policies: imitation from ORCA, then value-based RL (needs torch)."""

@@ -1,0 +1,23 @@
+"""`socialnav train` argument parsing (kept free of torch imports)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_train_parser(sub: argparse._SubParsersAction) -> None:
+    tr = sub.add_parser("train", help="train a learned policy (imitation from ORCA, then value-based RL)")
+    tr.add_argument("--policy", required=True, help="cadrl, lstm_rl, sarl or om_sarl")
+    tr.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
+    tr.add_argument("--out", help="run directory (default runs/train/<preset>-<policy>-s<seed>); resumed if it exists")
+    tr.add_argument("--seed", type=int, default=0)
+    tr.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
+    tr.add_argument("--config", help="YAML file overriding training settings")
+    tr.add_argument("--no-progress", action="store_true")
+    tr.set_defaults(run=_run)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from socialnav.train.trainer import train_from_args
+
+    return train_from_args(args)

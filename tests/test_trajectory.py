@@ -1,0 +1,231 @@
+"""Tests of the Trajectory type and its Parquet/CSV long format."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from socialnav.trajectory import Trajectory, TrajectoryFormatError, read_trajectories, write_trajectories
+
+HEADER = "episode,t,agent,x,y,radius,gx,gy,v_pref"
+
+
+def _random_traj(rng: np.random.Generator, k: int, a: int, **kwargs) -> Trajectory:
+    pos = rng.normal(size=(k + 1, a, 2))
+    return Trajectory(
+        dt=kwargs.pop("dt", 0.1), positions=pos, velocities=rng.normal(size=pos.shape),
+        radii=rng.uniform(0.2, 0.4, a), v_pref=rng.uniform(0.5, 1.5, a), goals=rng.normal(size=(a, 2)),
+        roles=["robot"] + ["human"] * (a - 1), **kwargs,
+    )
+
+
+def _csv(tmp_path: Path, lines: list[str], name: str = "log.csv") -> Path:
+    path = tmp_path / name
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _two_agent_lines(ts: list[float], header: str = HEADER) -> list[str]:
+    """Robot along +x at 1 m/s and a static human, one row per (sample, agent)."""
+    lines = [header]
+    for t in ts:
+        lines.append(f"0,{t},0,{t},0,0.3,5,0,1")
+        lines.append(f"0,{t},1,2,1,0.3,2,1,1")
+    return lines
+
+
+# ------------------------------------------------------------------------------- construction
+def test_validation_names_field_and_value() -> None:
+    rng = np.random.default_rng(0)
+    good = _random_traj(rng, 4, 2)
+    fields = {f.name: getattr(good, f.name) for f in dataclasses.fields(good)}
+    cases = {
+        "dt": ({"dt": 0.0}, "0.0"),
+        "outcome": ({"outcome": "won"}, "'won'"),
+        "roles": ({"roles": ("human", "robot")}, "robot"),
+        "velocities": ({"velocities": np.zeros((5, 3, 2))}, "(5, 3, 2)"),
+        "min_clearance": ({"min_clearance": np.zeros(5)}, "(5,)"),
+    }
+    for field, (change, value) in cases.items():
+        with pytest.raises(ValueError, match=rf"Trajectory\.{field}") as err:
+            Trajectory(**{**fields, **change})
+        assert value in str(err.value)
+    pos = np.array(good.positions)
+    pos[2, 1, 0] = np.nan
+    with pytest.raises(ValueError, match=r"Trajectory\.positions.*nan.*\(2, 1, 0\)"):
+        Trajectory(**{**fields, "positions": pos})
+    with pytest.raises(ValueError, match=r"Trajectory\.dt"):
+        Trajectory(**{**fields, "dt": -0.1})
+
+
+def test_frozen_and_read_only() -> None:
+    traj = _random_traj(np.random.default_rng(1), 3, 2)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        traj.dt = 1.0  # type: ignore[misc]
+    with pytest.raises(ValueError):
+        traj.positions[0, 0, 0] = 1.0
+
+
+def test_from_positions_derives_velocities() -> None:
+    pos = np.array([[[0.0, 0.0]], [[0.1, 0.0]], [[0.3, 0.0]]])
+    traj = Trajectory.from_positions(pos, 0.1)
+    np.testing.assert_allclose(traj.velocities[:, 0, 0], [1.0, 1.0, 2.0])
+    np.testing.assert_allclose(traj.executed_velocities()[:, 0, 0], [1.0, 2.0])
+    assert traj.n_steps == 2 and traj.duration == pytest.approx(0.2) and traj.roles == ("robot",)
+
+
+# ------------------------------------------------------------------------------- round trip
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+def test_round_trip_is_exact(tmp_path: Path, suffix: str) -> None:
+    rng = np.random.default_rng(2)
+    trajs = [
+        _random_traj(rng, 7, 2, outcome="success", settings={"scenario": "passing", "seed": 3}),
+        _random_traj(rng, 5, 4, outcome="collision", min_clearance=rng.normal(size=5), human_overlaps=2),
+        _random_traj(rng, 6, 3, dt=0.25, continuation=rng.normal(size=(4, 3, 2)),
+                     settings={"episode": "walk-7", "policy": {"type": "orca", "radius": 0.3}}),
+    ]
+    path = tmp_path / f"trajs{suffix}"
+    write_trajectories(path, trajs)
+    back = read_trajectories(path)
+    assert len(back) == len(trajs)
+    for i, (a, b) in enumerate(zip(trajs, back)):
+        assert b.dt == a.dt
+        for name in ("positions", "velocities", "radii", "v_pref", "goals"):
+            np.testing.assert_array_equal(getattr(b, name), getattr(a, name), err_msg=name)
+        for name in ("min_clearance", "continuation"):
+            x, y = getattr(a, name), getattr(b, name)
+            assert (x is None) == (y is None), name
+            if x is not None:
+                np.testing.assert_array_equal(y, x, err_msg=name)
+        assert (b.roles, b.outcome, b.human_overlaps) == (a.roles, a.outcome, a.human_overlaps)
+        # mixed int/str keys are written as a string column, so read back as strings
+        assert b.settings == {**a.settings, "episode": a.settings.get("episode", str(i))}
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left behind
+
+
+def test_atomic_write_keeps_old_file_on_failure(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import pyarrow.csv
+
+    path = tmp_path / "t.csv"
+    write_trajectories(path, [_random_traj(np.random.default_rng(3), 2, 2)])
+    before = path.read_bytes()
+
+    def boom(*args: object, **kwargs: object) -> None:
+        raise OSError("disk full")
+
+    monkeypatch.setattr(pyarrow.csv, "write_csv", boom)
+    with pytest.raises(OSError, match="disk full"):
+        write_trajectories(path, [_random_traj(np.random.default_rng(4), 3, 2)])
+    assert path.read_bytes() == before
+    assert os.listdir(tmp_path) == ["t.csv"]
+
+
+def test_hand_written_minimal_log(tmp_path: Path) -> None:
+    path = _csv(tmp_path, _two_agent_lines([10.0, 10.5, 11.0]))
+    (traj,) = read_trajectories(path)
+    assert traj.dt == 0.5 and traj.outcome == "unknown" and traj.roles == ("robot", "human")
+    np.testing.assert_allclose(traj.velocities[:, 0], [[1, 0], [1, 0], [1, 0]])
+    np.testing.assert_allclose(traj.goals, [[5, 0], [2, 1]])
+    assert traj.settings == {"episode": 0, "t0": 10.0}
+    assert traj.min_clearance is None and traj.continuation is None
+
+
+def test_agent_ids_sorted_robot_first(tmp_path: Path) -> None:
+    lines = [HEADER + ",role"]
+    for t in (0.0, 0.1):
+        lines += [f"e,{t},42,1,1,0.3,0,0,1,human", f"e,{t},0,0,0,0.3,1,1,1,robot", f"e,{t},7,2,2,0.2,0,0,1,human"]
+    (traj,) = read_trajectories(_csv(tmp_path, lines))
+    np.testing.assert_array_equal(traj.positions[0, :, 0], [0, 2, 1])
+    assert traj.settings["agent_ids"] == [0, 7, 42] and traj.settings["episode"] == "e"
+
+
+def test_resample_irregular_log(tmp_path: Path) -> None:
+    path = _csv(tmp_path, _two_agent_lines([0.0, 0.1, 0.3, 0.4]))
+    with pytest.raises(TrajectoryFormatError, match="resample=True"):
+        read_trajectories(path)
+    (traj,) = read_trajectories(path, resample=True, dt=0.1)
+    assert traj.dt == 0.1 and traj.settings["resampled"] is True
+    # linear motion x = t is reproduced exactly by linear interpolation
+    np.testing.assert_allclose(traj.positions[:, 0, 0], [0.0, 0.1, 0.2, 0.3, 0.4], atol=1e-12)
+    np.testing.assert_allclose(traj.positions[:, 1], np.tile([2.0, 1.0], (5, 1)))
+
+
+def test_resample_per_agent_timestamps(tmp_path: Path) -> None:
+    lines = [HEADER]
+    for t in (0.0, 0.2, 0.4, 0.6):
+        lines.append(f"0,{t},0,{t},0,0.3,5,0,1")
+    for t in (0.05, 0.35, 0.65):
+        lines.append(f"0,{t},1,{2 * t},1,0.3,2,1,1")
+    (traj,) = read_trajectories(_csv(tmp_path, lines), resample=True, dt=0.1)
+    # common span [0.05, 0.6]: grid 0.05, 0.15, ..., 0.55
+    np.testing.assert_allclose(traj.positions[:, 0, 0], 0.05 + 0.1 * np.arange(6), atol=1e-12)
+    np.testing.assert_allclose(traj.positions[:, 1, 0], 2 * (0.05 + 0.1 * np.arange(6)), atol=1e-12)
+    assert traj.settings["t0"] == pytest.approx(0.05)
+
+
+# ------------------------------------------------------------------------------- bad input
+def _expect(path: Path, column: str, row: int | None, match: str = "", **kwargs: object) -> None:
+    with pytest.raises(TrajectoryFormatError) as err:
+        read_trajectories(path, **kwargs)
+    msg = str(err.value)
+    assert str(path) in msg, msg
+    assert f"'{column}'" in msg, msg
+    if row is not None:
+        assert f"row {row}" in msg, msg
+    assert match in msg, msg
+
+
+def test_missing_column(tmp_path: Path) -> None:
+    path = _csv(tmp_path, [line.rsplit(",", 1)[0] for line in _two_agent_lines([0, 0.1])])
+    _expect(path, "v_pref", None, "missing required column")
+
+
+def test_nan_position(tmp_path: Path) -> None:
+    lines = _two_agent_lines([0.0, 0.1, 0.2])
+    lines[4] = "0,0.1,1,nan,1,0.3,2,1,1"  # data row 4
+    _expect(_csv(tmp_path, lines), "x", 4)
+    lines[4] = "0,0.1,1,,1,0.3,2,1,1"  # empty cell
+    _expect(_csv(tmp_path, lines, "b.csv"), "x", 4)
+
+
+def test_non_increasing_time(tmp_path: Path) -> None:
+    lines = _two_agent_lines([0.0, 0.2, 0.1])
+    _expect(_csv(tmp_path, lines), "t", 5, "not increasing")
+    lines = _two_agent_lines([0.0, 0.1, 0.1])  # zero dt
+    _expect(_csv(tmp_path, lines, "z.csv"), "t", 5, "<= 0")
+
+
+def test_irregular_sampling_names_row(tmp_path: Path) -> None:
+    _expect(_csv(tmp_path, _two_agent_lines([0.0, 0.1, 0.2, 0.35, 0.45])), "t", 7, "irregular")
+
+
+def test_robotless_episode(tmp_path: Path) -> None:
+    lines = _two_agent_lines([0.0, 0.1])
+    lines += ["7,0.0,1,0,0,0.3,0,0,1", "7,0.1,1,0,0,0.3,0,0,1"]
+    _expect(_csv(tmp_path, lines), "agent", 5, "no robot")
+
+
+def test_per_agent_constant_and_outcome(tmp_path: Path) -> None:
+    lines = _two_agent_lines([0.0, 0.1])
+    lines[3] = "0,0.1,0,0.1,0,0.4,5,0,1"  # robot radius changes on data row 3
+    _expect(_csv(tmp_path, lines), "radius", 3, "constant")
+    lines = [HEADER + ",outcome"] + [line + ",crashed" for line in _two_agent_lines([0.0, 0.1])[1:]]
+    _expect(_csv(tmp_path, lines, "o.csv"), "outcome", 1, "crashed")
+
+
+def test_wrong_role_and_bad_suffix(tmp_path: Path) -> None:
+    lines = [HEADER + ",role"] + [line + ",human" for line in _two_agent_lines([0.0, 0.1])[1:]]
+    _expect(_csv(tmp_path, lines), "role", 1, "robot")
+    with pytest.raises(TrajectoryFormatError, match="suffix"):
+        read_trajectories(tmp_path / "x.json")
+
+
+def test_continuation_after_main_samples(tmp_path: Path) -> None:
+    lines = [HEADER + ",continuation"]
+    for t, cont in ((0.0, "false"), (0.1, "true"), (0.2, "false")):
+        lines += [f"0,{t},0,{t},0,0.3,5,0,1,{cont}", f"0,{t},1,2,1,0.3,2,1,1,{cont}"]
+    _expect(_csv(tmp_path, lines), "continuation", 5, "after a continuation")
