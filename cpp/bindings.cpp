@@ -158,7 +158,16 @@ NB_MODULE(_core, m) {
             nb::gil_scoped_release release;
             self.world->step(a);
           },
-          "actions"_a, "Advance every running episode by one step (GIL released).");
+          "actions"_a, "Advance every running episode by one step (GIL released).")
+      .def(
+          "preview_humans",
+          [](PyWorld& self, Array<double> out) {
+            const auto& c = self.world->config();
+            double* o = checked(out, "out", static_cast<size_t>(c.batch) * (c.agents - 1) * 5);
+            nb::gil_scoped_release release;
+            self.world->preview_humans(o);
+          },
+          "out"_a, "The humans' exact next states (B, N, 5) without stepping.");
 
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
       .def(nb::init<int>(), "threads"_a)

@@ -246,6 +246,34 @@ void World::step_episode(int b, const double* actions, int worker) {
   record(b, steps);
 }
 
+void World::preview_humans(double* out) {
+  const int A = config_.agents;
+  const int N = A - 1;
+  pool_->parallel_for(config_.batch, [&](int begin, int end, int worker) {
+    for (int b = begin; b < end; ++b) {
+      double* o = out + static_cast<size_t>(b) * N * 5;
+      const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+      const double* radius = buf_.radius + static_cast<size_t>(b) * A;
+      const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+      const bool live = buf_.status[b] == kRunning || buf_.status[b] == kContinuing;
+      if (live) human_velocities(b, worker);
+      const double* v = new_velocity_.data() + static_cast<size_t>(b) * A * 2;
+      for (int i = 1; i < A; ++i) {
+        double* h = o + 5 * (i - 1);
+        if (!live || !mask[i]) {
+          h[0] = h[1] = h[2] = h[3] = h[4] = 0.0;
+          continue;
+        }
+        h[0] = pos[2 * i] + config_.dt * v[2 * i];
+        h[1] = pos[2 * i + 1] + config_.dt * v[2 * i + 1];
+        h[2] = v[2 * i];
+        h[3] = v[2 * i + 1];
+        h[4] = radius[i];
+      }
+    }
+  });
+}
+
 void World::step(const double* actions) {
   const int B = config_.batch;
   for (int b = 0; b < B; ++b) {

@@ -83,6 +83,11 @@ class World {
   // robot or (v, d theta) for a unicycle. Throws std::invalid_argument on non-finite actions.
   void step(const double* actions);
 
+  // The humans' exact next states (B, N, 5: px, py, vx, vy, radius) without advancing anything:
+  // the "oracle" information some policies are given. Human motion depends on the robot only
+  // through its current state (when visible), never on the robot's next action.
+  void preview_humans(double* out);
+
  private:
   void step_episode(int b, const double* actions, int worker);
   void human_velocities(int b, int worker);

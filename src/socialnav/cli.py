@@ -41,6 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--policy", default="orca", help="registered policy name (see `socialnav list`); default orca")
     ev.add_argument("--checkpoint", help="checkpoint of a learned policy (from `socialnav train`)")
     ev.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
+    ev.add_argument("--information", choices=["constant_velocity", "oracle"],
+                    help="learned policies: how the humans' next states are predicted in the lookahead "
+                         "(default: the checkpoint's)")
     ev.add_argument("--scenario", nargs="+", help="only these scenarios (default: the preset's)")
     ev.add_argument("--episodes", type=int, help="episodes per scenario (default: the preset's)")
     ev.add_argument("--visibility", choices=["invisible", "visible", "both"], help="default: the preset's")
@@ -77,7 +80,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from socialnav.presets import load_preset
 
     preset = load_preset(args.preset)
-    policy = build_policy(args.policy, preset, args.checkpoint)
+    overrides = {"information": args.information} if args.information else {}
+    policy = build_policy(args.policy, preset, args.checkpoint, **overrides)
     label = args.label or args.policy
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")
     with warnings.catch_warnings(record=True) as caught:

@@ -63,3 +63,15 @@ def test_vector_env_autoresets_in_the_same_step():
             break
     assert seen_final
     assert venv.observation_space.contains(obs)
+
+
+@pytest.mark.parametrize("kinematics", ["holonomic", "unicycle"])
+def test_env_action_table_equals_the_learned_policies_table(kinematics):
+    torch = pytest.importorskip("torch")
+    from socialnav.policies.learned.actions import discrete_actions as learned_actions
+    from socialnav.sim.actions import discrete_actions
+
+    ours = discrete_actions(kinematics, 1.5)
+    theirs = learned_actions(kinematics, torch.tensor([1.5], dtype=torch.float64))[0].numpy()
+    np.testing.assert_allclose(ours, theirs, atol=1e-12)
+    assert np.any((ours[:, 1] == 0.0) & (ours[:, 0] > 0)) if kinematics == "unicycle" else True

@@ -250,3 +250,16 @@ def test_idle_slots_once_the_stream_is_exhausted():
             break
     assert sorted(t.settings["index"] for t in done) == list(range(6))
     assert (w.status == _core.STATUS_IDLE).all()
+
+
+def test_oracle_preview_equals_the_next_step_and_changes_nothing():
+    w = hand_world(n_humans=5, batch=4, visibility="visible")
+    w.restart(0)
+    for _ in range(3):
+        w.step(np.tile([0.0, 1.0], (4, 1)))
+    before = w.position.copy()
+    obs = w.observe(oracle=True)
+    np.testing.assert_array_equal(w.position, before)  # previewing does not move anyone
+    w.step(np.tile([0.3, 0.5], (4, 1)))
+    np.testing.assert_array_equal(obs.next_humans[..., :2], w.position[:, 1:])
+    np.testing.assert_array_equal(obs.next_humans[..., 2:4], w.velocity[:, 1:])

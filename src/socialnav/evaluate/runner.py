@@ -56,8 +56,9 @@ def run_chunk(policy: Policy, preset: Preset, cell: Cell, start: int, stop: int,
                   tags={"policy": label, "information": getattr(policy, "information", "none")})
     world.reset()
     rows = []
+    oracle = getattr(policy, "information", "none") == "oracle"
     while world.busy:
-        for traj in world.step(policy.act(world.observe())).finished:
+        for traj in world.step(policy.act(world.observe(oracle=oracle))).finished:
             row = {"policy": label, "scenario": cell.scenario, "visibility": cell.visibility,
                    "index": traj.settings["index"], "seed": traj.settings["seed"], "outcome": traj.outcome,
                    "information": traj.settings["information"], **score_episode(traj)}

@@ -23,17 +23,19 @@ def discrete_actions(kinematics: str, v_pref: float, rotation_limit: float = mat
     ``linspace(-limit, limit, 17)`` without its last point, which keeps 0 and 16 rotations.
 
     Returns:
-        (1 + speed_samples·rotation_samples, 2) array.
+        (1 + speed_samples·rotation_samples, 2) array, equal to
+        ``socialnav.policies.learned.actions.discrete_actions`` (tested).
     """
     if kinematics not in ("holonomic", "unicycle"):
         raise ValueError(f"kinematics must be 'holonomic' or 'unicycle', got {kinematics!r}")
     speeds = action_speeds(v_pref, speed_samples)
+    # CrowdNav's order: heading-major, index = 1 + speed_samples * heading + speed.
     if kinematics == "holonomic":
         headings = np.arange(rotation_samples) * 2 * math.pi / rotation_samples
-        s, h = np.meshgrid(speeds, headings, indexing="ij")
+        h, s = np.meshgrid(headings, speeds, indexing="ij")
         rows = np.stack([s * np.cos(h), s * np.sin(h)], axis=-1).reshape(-1, 2)
     else:
         rotations = np.linspace(-rotation_limit, rotation_limit, rotation_samples + 1)[:-1]
-        s, r = np.meshgrid(speeds, rotations, indexing="ij")
+        r, s = np.meshgrid(rotations, speeds, indexing="ij")
         rows = np.stack([s, r], axis=-1).reshape(-1, 2)
     return np.concatenate([np.zeros((1, 2)), rows], axis=0)

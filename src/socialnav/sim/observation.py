@@ -24,6 +24,8 @@ class Observation:
         time: (B,) episode time [s].
         dt: step length [s].
         kinematics: "holonomic" or "unicycle".
+        next_humans: (B, N, 5) the simulator's exact next human states, present only when the
+            observation was requested with the "oracle" information setting.
     """
 
     robot: np.ndarray
@@ -33,6 +35,7 @@ class Observation:
     time: np.ndarray
     dt: float
     kinematics: str
+    next_humans: np.ndarray | None = None
 
     @property
     def batch_size(self) -> int:
@@ -40,8 +43,9 @@ class Observation:
 
     def take(self, index: np.ndarray | slice) -> Observation:
         """Sub-batch of episodes (copies)."""
+        nxt = None if self.next_humans is None else self.next_humans[index].copy()
         return Observation(self.robot[index].copy(), self.humans[index].copy(), self.human_mask[index].copy(),
-                           self.active[index].copy(), self.time[index].copy(), self.dt, self.kinematics)
+                           self.active[index].copy(), self.time[index].copy(), self.dt, self.kinematics, nxt)
 
 
 def build_observation(position: np.ndarray, velocity: np.ndarray, goal: np.ndarray, radius: np.ndarray,

@@ -9,6 +9,7 @@ interact, an episode's trajectory is the same whatever the batch size or slot it
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -228,10 +229,17 @@ class World:
         """True while any slot holds an unfinished episode (running or continuing)."""
         return bool(np.any((self.status == _core.STATUS_RUNNING) | (self.status == _core.STATUS_CONTINUING)))
 
-    def observe(self) -> Observation:
-        return build_observation(self.position, self.velocity, self.goal, self.radius, self.v_pref, self.mask,
-                                 self.theta, self.active, self.steps * self.settings.dt, self.settings.dt,
-                                 self.settings.kinematics)
+    def observe(self, oracle: bool = False) -> Observation:
+        """The batch's observation; ``oracle`` adds the humans' exact next states (computed once
+        per step for all candidate actions, since human motion does not depend on the robot's action)."""
+        obs = build_observation(self.position, self.velocity, self.goal, self.radius, self.v_pref, self.mask,
+                                self.theta, self.active, self.steps * self.settings.dt, self.settings.dt,
+                                self.settings.kinematics)
+        if oracle:
+            nxt = np.zeros((self.batch_size, self.n_agents - 1, 5))
+            self._core.preview_humans(nxt)
+            obs = dataclasses.replace(obs, next_humans=nxt)
+        return obs
 
     def step(self, actions: np.ndarray, *, final_observation: bool = False) -> StepResult:
         """Advances all slots by dt; finished episodes are recorded and their slots refilled.

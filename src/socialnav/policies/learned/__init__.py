@@ -1,0 +1,42 @@
+"""Learned value-based navigation policies (PyTorch): CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL.
+
+Importing this package registers the networks in :data:`LEARNED_POLICIES`. See docs/policies_learned.md.
+"""
+
+from socialnav.policies.learned.actions import discrete_actions
+from socialnav.policies.learned.cadrl import CADRL
+from socialnav.policies.learned.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from socialnav.policies.learned.lstm_rl import LSTMRL
+from socialnav.policies.learned.networks import ValueNetwork
+from socialnav.policies.learned.registry import LEARNED_POLICIES, build
+from socialnav.policies.learned.sarl import SARL, om_sarl
+from socialnav.policies.learned.state import (
+    RewardParams,
+    occupancy_map,
+    propagate_humans_constant_velocity,
+    propagate_robot,
+    reward,
+    rotate,
+)
+from socialnav.policies.learned.value_policy import ValuePolicy
+
+__all__ = [
+    "CADRL",
+    "LSTMRL",
+    "SARL",
+    "om_sarl",
+    "ValueNetwork",
+    "ValuePolicy",
+    "RewardParams",
+    "LEARNED_POLICIES",
+    "build",
+    "Checkpoint",
+    "save_checkpoint",
+    "load_checkpoint",
+    "discrete_actions",
+    "propagate_robot",
+    "propagate_humans_constant_velocity",
+    "rotate",
+    "reward",
+    "occupancy_map",
+]

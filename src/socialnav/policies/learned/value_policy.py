@@ -1,0 +1,247 @@
+"""Value-based policy with one-step lookahead, batched over episodes and candidate actions.
+
+For every episode b and candidate action a of CrowdSim's discrete set (81 actions):
+    value(b, a) = r̂(s_b, a) + γ^(dt · v_pref_b) · V(s'_b(a))
+where s'(a) is the propagated robot state with the predicted human states, r̂ CrowdSim's reward on
+it, and V the value network. The argmax is taken (ε-greedy with an explicit generator while training).
+This is the action selection of CADRL (Chen et al., ICRA 2017), LSTM-RL / GA3C-CADRL-style (Everett et
+al., IROS 2018) and SARL / OM-SARL (Chen et al., ICRA 2019).
+
+Information settings (how the humans' next states are predicted):
+- ``constant_velocity`` (default): humans keep their current velocity.
+- ``oracle``: the caller passes the simulator's exact next human states (computed once per step for
+  all actions; the robot's candidate action cannot change them).
+Both are shared by all candidate actions, so the humans' next states, the occupancy maps (OM-SARL) and
+the human part of the geometry are computed once per episode, and every candidate action of every
+episode goes through the network in ONE forward pass of B·81 joint states.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, Literal
+
+import numpy as np
+import torch
+
+from socialnav.policies.learned.actions import Kinematics, discrete_actions, num_actions
+from socialnav.policies.learned.networks import ValueNetwork
+from socialnav.policies.learned.state import (
+    RewardParams,
+    occupancy_map,
+    propagate_humans_constant_velocity,
+    propagate_robot,
+    reward,
+    rotate,
+)
+
+__all__ = ["ValuePolicy", "Information"]
+
+Information = Literal["constant_velocity", "oracle"]
+
+
+def _field(obs: Any, name: str) -> Any:
+    if isinstance(obs, Mapping):
+        return obs[name]
+    return getattr(obs, name)
+
+
+class ValuePolicy:
+    """One-step-lookahead value policy around a value network.
+
+    Args:
+        network: a :class:`ValueNetwork` (CADRL, LSTMRL, SARL, OM-SARL).
+        kinematics: "holonomic" or "unicycle".
+        gamma: discount per second of travel at v_pref (the lookahead uses γ^(dt·v_pref)).
+        reward_params: reward constants for r̂.
+        information: "constant_velocity" or "oracle".
+        dt: time step [s], used when the observation carries none.
+        rotation_limit, speed_samples, rotation_samples: the discrete action set.
+        device: where the computation runs (default: the network's device).
+        states_per_pass: the B·K joint states, built in one batched pass, go through the network in
+            blocks of this many states so that activations stay in the CPU cache (results are
+            identical; each block holds every action of many episodes). None: a single call.
+    """
+
+    def __init__(
+        self,
+        network: ValueNetwork,
+        kinematics: Kinematics = "holonomic",
+        gamma: float = 0.9,
+        reward_params: RewardParams | None = None,
+        information: Information = "constant_velocity",
+        dt: float = 0.25,
+        rotation_limit: float = math.pi / 4,
+        speed_samples: int = 5,
+        rotation_samples: int = 16,
+        device: torch.device | str | None = None,
+        states_per_pass: int | None = 1024,
+    ) -> None:
+        if kinematics not in ("holonomic", "unicycle"):
+            raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic' or 'unicycle'")
+        if information not in ("constant_velocity", "oracle"):
+            raise ValueError(
+                f"unknown information setting {information!r}; expected 'constant_velocity' or 'oracle'"
+            )
+        self.network = network
+        self.kinematics: Kinematics = kinematics
+        self.gamma = float(gamma)
+        self.reward_params = reward_params if reward_params is not None else RewardParams()
+        self.information: Information = information
+        self.dt = float(dt)
+        self.rotation_limit = float(rotation_limit)
+        self.speed_samples = int(speed_samples)
+        self.rotation_samples = int(rotation_samples)
+        self.states_per_pass = None if states_per_pass is None else max(1, int(states_per_pass))
+        if device is None:
+            p = next(network.parameters(), None)
+            device = p.device if p is not None else torch.device("cpu")
+        self.device = torch.device(device)
+        self.network.to(self.device)
+
+    @property
+    def num_actions(self) -> int:
+        return num_actions(self.speed_samples, self.rotation_samples)
+
+    @property
+    def model_dtype(self) -> torch.dtype:
+        p = next(self.network.parameters(), None)
+        return p.dtype if p is not None else torch.float32
+
+    # ------------------------------------------------------------------ helpers
+    def _tensor(self, x: Any, dtype: torch.dtype = torch.float64) -> torch.Tensor:
+        return torch.as_tensor(np.asarray(x) if not torch.is_tensor(x) else x, device=self.device).to(dtype)
+
+    def _inputs(
+        self, obs: Any, next_humans: Any
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor | None, float, bool]:
+        robot_in = _field(obs, "robot")
+        as_numpy = not torch.is_tensor(robot_in)
+        geo = torch.float64
+        if not as_numpy and robot_in.is_floating_point():
+            geo = robot_in.dtype
+        robot = self._tensor(robot_in, geo)
+        humans = self._tensor(_field(obs, "humans"), geo)
+        mask = self._tensor(_field(obs, "human_mask"), torch.bool)
+        dt = obs.get("dt", None) if isinstance(obs, Mapping) else getattr(obs, "dt", None)
+        dt = self.dt if dt is None else float(dt)
+        nh = None if next_humans is None else self._tensor(next_humans, geo)
+        if humans.shape[1] == 0:  # no human slot at all: one padded slot keeps shapes non-empty
+            humans = torch.zeros(humans.shape[0], 1, 5, dtype=geo, device=self.device)
+            mask = torch.zeros(humans.shape[0], 1, dtype=torch.bool, device=self.device)
+            nh = None if nh is None else humans.clone()
+        return robot, humans, mask, nh, dt, as_numpy
+
+    def predict_humans(
+        self, humans: torch.Tensor, dt: float, next_humans: torch.Tensor | None
+    ) -> torch.Tensor:
+        """Humans' predicted next states (B, N, 5) under the information setting."""
+        if self.information == "oracle":
+            if next_humans is None:
+                raise ValueError("information='oracle' needs next_humans (B, N, 5) from the simulator")
+            return next_humans
+        return propagate_humans_constant_velocity(humans, dt)
+
+    def transform(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        """Network input for states: (…, 9) robot, (B, N, 5) humans → (…, N, D).
+
+        ``robot`` may carry extra leading dims after B (e.g. (B, K, 9) for K candidate actions); the
+        human part (and the occupancy map for OM-SARL) is computed once per episode and broadcast.
+        """
+        extra = robot.dim() - 2
+        h = humans.view(humans.shape[0], *([1] * extra), *humans.shape[1:])
+        joint = rotate(robot, h, self.kinematics)
+        if self.network.with_om:
+            om = occupancy_map(humans, mask)
+            om = om.view(om.shape[0], *([1] * extra), *om.shape[1:]).expand(*joint.shape[:-1], om.shape[-1])
+            joint = torch.cat([joint, om], dim=-1)
+        return joint.to(self.model_dtype)
+
+    # ------------------------------------------------------------------ public API
+    @torch.inference_mode()
+    def _values(
+        self,
+        robot: torch.Tensor,
+        humans: torch.Tensor,
+        mask: torch.Tensor,
+        nh: torch.Tensor | None,
+        dt: float,
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        b, n = humans.shape[:2]
+        k = self.num_actions
+        actions = discrete_actions(
+            self.kinematics, robot[:, 7], self.rotation_limit, self.speed_samples, self.rotation_samples
+        )  # (B, K, 2)
+        robot_next = propagate_robot(robot, actions, self.kinematics, dt)  # (B, K, 9)
+        humans_next = self.predict_humans(humans, dt, nh)  # (B, N, 5)
+        r = reward(robot_next, humans_next.unsqueeze(1), mask.unsqueeze(1), self.reward_params)  # (B, K)
+        joint = self.transform(robot_next, humans_next, mask)  # (B, K, N, D)
+        m = mask.unsqueeze(1).expand(b, k, n).reshape(b * k, n)
+        v = self._network_values(joint.reshape(b * k, n, -1), m).view(b, k).to(r.dtype)
+        disc = torch.pow(torch.as_tensor(self.gamma, dtype=r.dtype, device=r.device), dt * robot[:, 7])
+        return r + disc.unsqueeze(1) * v, actions
+
+    def _network_values(self, joint: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        total, c = joint.shape[0], self.states_per_pass
+        if c is None or total <= c or self.device.type != "cpu":
+            return self.network.value(joint, mask)
+        return torch.cat([self.network.value(joint[s : s + c], mask[s : s + c]) for s in range(0, total, c)])
+
+    def values(self, obs: Any, next_humans: Any = None) -> np.ndarray | torch.Tensor:
+        """Lookahead values of every discrete action.
+
+        Args:
+            obs: Observation-like (attributes or keys ``robot`` (B, 9), ``humans`` (B, N, 5),
+                ``human_mask`` (B, N), optional ``dt``), NumPy or torch.
+            next_humans: (B, N, 5) exact next human states (``oracle`` only).
+
+        Returns:
+            (B, K) values, NumPy if the observation was NumPy.
+        """
+        robot, humans, mask, nh, dt, as_numpy = self._inputs(obs, next_humans)
+        q, _ = self._values(robot, humans, mask, nh, dt)
+        return q.cpu().numpy() if as_numpy else q
+
+    def act(
+        self,
+        obs: Any,
+        epsilon: float = 0.0,
+        generator: torch.Generator | None = None,
+        next_humans: Any = None,
+    ) -> tuple[np.ndarray | torch.Tensor, np.ndarray | torch.Tensor]:
+        """Choose one action per episode: argmax of the lookahead values, ε-greedy if ε > 0.
+
+        Args:
+            obs: see :meth:`values`.
+            epsilon: probability of a uniformly random action, per episode.
+            generator: torch.Generator on CPU drawing the exploration (required when ε > 0).
+            next_humans: (B, N, 5) exact next human states, computed once per step (``oracle``).
+
+        Returns:
+            action_index (B,) int64 and action (B, 2) (holonomic (vx, vy) or unicycle (v, dθ)),
+            NumPy if the observation was NumPy.
+        """
+        robot, humans, mask, nh, dt, as_numpy = self._inputs(obs, next_humans)
+        b = robot.shape[0]
+        if epsilon >= 1.0:  # no need to score anything
+            actions = discrete_actions(
+                self.kinematics, robot[:, 7], self.rotation_limit, self.speed_samples, self.rotation_samples
+            )
+            q = None
+        else:
+            q, actions = self._values(robot, humans, mask, nh, dt)
+        if epsilon > 0.0:
+            if generator is None:
+                raise ValueError("epsilon > 0 needs an explicit torch.Generator (no hidden global RNG)")
+            explore = torch.rand(b, generator=generator, device=generator.device) < epsilon
+            rand_idx = torch.randint(0, self.num_actions, (b,), generator=generator, device=generator.device)
+            explore, rand_idx = explore.to(self.device), rand_idx.to(self.device)
+            idx = rand_idx if q is None else torch.where(explore, rand_idx, q.argmax(dim=1))
+        else:
+            assert q is not None
+            idx = q.argmax(dim=1)
+        act = actions[torch.arange(b, device=self.device), idx]
+        if as_numpy:
+            return idx.cpu().numpy(), act.cpu().numpy()
+        return idx, act

@@ -1,0 +1,1 @@
+"""Tests of socialnav.policies.learned (need PyTorch)."""

@@ -1,0 +1,98 @@
+"""Checkpoints: round trip, refusal messages naming both policies, weights_only loading, atomicity."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+import torch
+
+from socialnav.policies.learned import LEARNED_POLICIES, RewardParams, ValuePolicy, build
+from socialnav.policies.learned.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
+
+from .helpers import NETWORKS, obs_dict, random_scene
+
+
+def test_registry_names():
+    assert {"cadrl", "lstm_rl", "ga3c_cadrl", "sarl", "om_sarl"} <= set(LEARNED_POLICIES)
+    with pytest.raises(KeyError, match="known"):
+        build("nope")
+
+
+@pytest.mark.parametrize("name", NETWORKS)
+def test_round_trip(tmp_path, name):
+    torch.manual_seed(0)
+    net = build(name)
+    cfg = {"gamma": 0.9, "reward": RewardParams(), "dims": (1, 2), "path": tmp_path}
+    path = save_checkpoint(
+        tmp_path / f"{name}.pt", name, net, cfg, {"episode": 7, "val_success": np.float64(0.5)}
+    )
+    ck = load_checkpoint(path, name)
+    assert ck.policy == name and ck.input_dim == net.input_dim
+    assert ck.config["reward"]["collision_penalty"] == -0.25 and ck.config["dims"] == [1, 2]
+    assert ck.extra == {"episode": 7, "val_success": 0.5}
+    robot, humans, mask = random_scene(np.random.default_rng(0), 3, 4)
+    ob = obs_dict(robot, humans, mask)
+    np.testing.assert_array_equal(ValuePolicy(net).values(ob), ValuePolicy(ck.model).values(ob))
+    assert not ck.model.training
+    # the file is readable by plain torch.load with weights_only=True
+    payload = torch.load(path, weights_only=True)
+    assert payload["policy"] == name and "state_dict" in payload
+    assert [p for p in os.listdir(tmp_path) if p.endswith(".tmp")] == []
+
+
+def test_alias_ga3c_cadrl(tmp_path):
+    path = save_checkpoint(tmp_path / "g.pt", "ga3c_cadrl", build("ga3c_cadrl"), {}, {})
+    assert load_checkpoint(path, "lstm_rl").policy == "lstm_rl"
+    assert load_checkpoint(path, "ga3c_cadrl").policy == "lstm_rl"
+
+
+def test_refuses_other_policy_naming_both(tmp_path):
+    path = save_checkpoint(tmp_path / "x.pt", "cadrl", build("cadrl"), {}, {})
+    with pytest.raises(CheckpointError) as err:
+        load_checkpoint(path, "sarl")
+    assert str(err.value) == "checkpoint x.pt holds policy 'cadrl' (input 13), expected 'sarl' (input 13)"
+    path = save_checkpoint(tmp_path / "om.pt", "om_sarl", build("om_sarl"), {}, {})
+    with pytest.raises(
+        CheckpointError, match=r"holds policy 'om_sarl' \(input 61\), expected 'sarl' \(input 13\)"
+    ):
+        load_checkpoint(path, "sarl")
+
+
+def test_refuses_other_input_size_naming_both(tmp_path):
+    path = save_checkpoint(tmp_path / "s.pt", "sarl", build("sarl", input_dim=14), {}, {})
+    with pytest.raises(
+        CheckpointError, match=r"holds policy 'sarl' \(input 14\), expected 'sarl' \(input 13\)"
+    ):
+        load_checkpoint(path, "sarl")
+    assert load_checkpoint(path, "sarl", expected_input_dim=14).input_dim == 14
+
+
+@dataclass
+class _Evil:
+    x: int = 1
+
+    def __reduce__(self):  # would run code under a full unpickler
+        return (os.getcwd, ())
+
+
+def test_weights_only_refuses_arbitrary_objects(tmp_path):
+    path = tmp_path / "evil.pt"
+    torch.save({"format": "socialnav.learned/1", "policy": "sarl", "input_dim": 13, "obj": _Evil()}, path)
+    with pytest.raises(Exception, match="(?i)weights_only|unpickl"):
+        load_checkpoint(path, "sarl")
+
+
+def test_refuses_non_plain_config(tmp_path):
+    with pytest.raises(TypeError, match="config.bad"):
+        save_checkpoint(tmp_path / "c.pt", "sarl", build("sarl"), {"bad": object()}, {})
+    assert not (tmp_path / "c.pt").exists()
+
+
+def test_not_a_checkpoint(tmp_path):
+    path = tmp_path / "other.pt"
+    torch.save({"hello": torch.zeros(1)}, path)
+    with pytest.raises(CheckpointError, match="not a socialnav"):
+        load_checkpoint(path, "sarl")
