@@ -27,8 +27,14 @@ TARGET_SECONDS = 5.0
 def simulate_only(preset, policy) -> float:
     start = time.perf_counter()
     for cell in plan_cells(preset):
-        world = World(cell_world_settings(preset, cell), cell_scenario(preset, cell), min(256, cell.episodes),
-                      split="test", count=cell.episodes, record=True)
+        world = World(
+            cell_world_settings(preset, cell),
+            cell_scenario(preset, cell),
+            min(256, cell.episodes),
+            split="test",
+            count=cell.episodes,
+            record=True,
+        )
         world.reset()
         while world.busy:
             world.step(policy.act(world.observe()))
@@ -51,11 +57,23 @@ def main() -> None:
     seconds = min(times)
     sim = simulate_only(preset, policy)
     episodes = len(result.rows)
-    print(f"wang2022 protocol, ORCA robot: {episodes} episodes in {seconds:.2f} s "
-          f"(simulation alone {sim:.2f} s); target <= {TARGET_SECONDS} s")
-    print(json.dumps({"seconds": round(seconds, 3), "episodes": episodes, "episodes_per_s": round(episodes / seconds, 1),
-                      "simulation_only_seconds": round(sim, 3), "ratio_to_simulation": round(seconds / sim, 2),
-                      "target_seconds": TARGET_SECONDS, "meets_target": seconds <= TARGET_SECONDS}))
+    print(
+        f"wang2022 protocol, ORCA robot: {episodes} episodes in {seconds:.2f} s "
+        f"(simulation alone {sim:.2f} s); target <= {TARGET_SECONDS} s"
+    )
+    print(
+        json.dumps(
+            {
+                "seconds": round(seconds, 3),
+                "episodes": episodes,
+                "episodes_per_s": round(episodes / seconds, 1),
+                "simulation_only_seconds": round(sim, 3),
+                "ratio_to_simulation": round(seconds / sim, 2),
+                "target_seconds": TARGET_SECONDS,
+                "meets_target": seconds <= TARGET_SECONDS,
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -42,9 +42,23 @@ def measure_socialnav(batch: int, seconds: float, threads: int) -> dict:
         calls += 1
     elapsed = time.perf_counter() - start
     rss_after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    state_arrays = [world.position, world.velocity, world.goal, world.radius, world.v_pref, world.mask,
-                    world.theta, world.steps, world.status, world.reward, world.dmin, world.done,
-                    world.overlaps, world.arrival, world.end_step]
+    state_arrays = [
+        world.position,
+        world.velocity,
+        world.goal,
+        world.radius,
+        world.v_pref,
+        world.mask,
+        world.theta,
+        world.steps,
+        world.status,
+        world.reward,
+        world.dmin,
+        world.done,
+        world.overlaps,
+        world.arrival,
+        world.end_step,
+    ]
     return {
         "env_steps_per_s": env_steps / elapsed,
         "agent_steps_per_s": 6 * env_steps / elapsed,
@@ -63,8 +77,10 @@ def main() -> None:
     args = parser.parse_args()
 
     ours = measure_socialnav(args.batch, args.seconds, args.threads)
-    print(f"socialnav: {ours['env_steps_per_s']:,.0f} env-steps/s (B={args.batch}, {ours['threads']} threads, "
-          f"{os.cpu_count()} cores)")
+    print(
+        f"socialnav: {ours['env_steps_per_s']:,.0f} env-steps/s (B={args.batch}, {ours['threads']} threads, "
+        f"{os.cpu_count()} cores)"
+    )
     result = {"batch": args.batch, "cpu_count": os.cpu_count(), **ours}
     try:
         sys.path.insert(0, os.path.dirname(__file__))
@@ -73,16 +89,20 @@ def main() -> None:
         ng = navground_env_steps_per_s(seconds=args.seconds)
         result["navground_env_steps_per_s"] = ng["env_steps_per_s"]
         result["ratio_vs_navground"] = ours["env_steps_per_s"] / ng["env_steps_per_s"]
-        print(f"navground: {ng['env_steps_per_s']:,.0f} env-steps/s (6 ORCA agents) -> ratio "
-              f"{result['ratio_vs_navground']:.1f}x")
+        print(
+            f"navground: {ng['env_steps_per_s']:,.0f} env-steps/s (6 ORCA agents) -> ratio "
+            f"{result['ratio_vs_navground']:.1f}x"
+        )
     except ImportError as err:
         print(f"navground not measured: {err}")
         result["navground_env_steps_per_s"] = None
         result["ratio_vs_navground"] = None
     result["ratio_vs_crowdnav"] = ours["env_steps_per_s"] / CROWDNAV_ENV_STEPS_PER_S
     result["target_env_steps_per_s"] = 100 * CROWDNAV_ENV_STEPS_PER_S
-    result["meets_target"] = bool(ours["env_steps_per_s"] >= 100 * CROWDNAV_ENV_STEPS_PER_S and
-                                  (result["ratio_vs_navground"] or 0) >= 2.0)
+    result["meets_target"] = bool(
+        ours["env_steps_per_s"] >= 100 * CROWDNAV_ENV_STEPS_PER_S
+        and (result["ratio_vs_navground"] or 0) >= 2.0
+    )
     print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in result.items()}))
 
 

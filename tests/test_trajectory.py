@@ -92,7 +92,7 @@ def test_round_trip_is_exact(tmp_path: Path, suffix: str) -> None:
     write_trajectories(path, trajs)
     back = read_trajectories(path)
     assert len(back) == len(trajs)
-    for i, (a, b) in enumerate(zip(trajs, back)):
+    for i, (a, b) in enumerate(zip(trajs, back, strict=True)):
         assert b.dt == a.dt
         for name in ("positions", "velocities", "radii", "v_pref", "goals"):
             np.testing.assert_array_equal(getattr(b, name), getattr(a, name), err_msg=name)
@@ -137,7 +137,8 @@ def test_hand_written_minimal_log(tmp_path: Path) -> None:
 def test_agent_ids_sorted_robot_first(tmp_path: Path) -> None:
     lines = [HEADER + ",role"]
     for t in (0.0, 0.1):
-        lines += [f"e,{t},42,1,1,0.3,0,0,1,human", f"e,{t},0,0,0,0.3,1,1,1,robot", f"e,{t},7,2,2,0.2,0,0,1,human"]
+        lines += [f"e,{t},42,1,1,0.3,0,0,1,human", f"e,{t},0,0,0,0.3,1,1,1,robot",
+                  f"e,{t},7,2,2,0.2,0,0,1,human"]
     (traj,) = read_trajectories(_csv(tmp_path, lines))
     np.testing.assert_array_equal(traj.positions[0, :, 0], [0, 2, 1])
     assert traj.settings["agent_ids"] == [0, 7, 42] and traj.settings["episode"] == "e"
@@ -229,3 +230,17 @@ def test_continuation_after_main_samples(tmp_path: Path) -> None:
     for t, cont in ((0.0, "false"), (0.1, "true"), (0.2, "false")):
         lines += [f"0,{t},0,{t},0,0.3,5,0,1,{cont}", f"0,{t},1,2,1,0.3,2,1,1,{cont}"]
     _expect(_csv(tmp_path, lines), "continuation", 5, "after a continuation")
+
+
+def test_integer_episode_keys_stay_integers(tmp_path: Path) -> None:
+    rng = np.random.default_rng(9)
+    trajs = [_random_traj(rng, 2, 2, settings={"episode": e}) for e in (5, 9)]
+    for suffix in (".csv", ".parquet"):
+        write_trajectories(tmp_path / f"i{suffix}", trajs)
+        assert [t.settings["episode"] for t in read_trajectories(tmp_path / f"i{suffix}")] == [5, 9]
+
+
+def test_dt_argument_must_match_regular_samples(tmp_path: Path) -> None:
+    path = _csv(tmp_path, _two_agent_lines([0.0, 0.25, 0.5]))
+    _expect(path, "t", 3, "sampled every 0.25 s but dt=0.1", dt=0.1)
+    assert read_trajectories(path, dt=0.1, resample=True)[0].n_steps == 5

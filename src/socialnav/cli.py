@@ -1,8 +1,8 @@
 """The ``socialnav`` command line: evaluate, metrics, list, train.
 
-    socialnav evaluate --policy orca --preset wang2022
-    socialnav metrics my_robot_log.parquet --json
-    socialnav list
+socialnav evaluate --policy orca --preset wang2022
+socialnav metrics my_robot_log.parquet --json
+socialnav list
 """
 
 from __future__ import annotations
@@ -34,20 +34,29 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="socialnav", description="Crowd navigation: simulate, evaluate, train.")
+    parser = argparse.ArgumentParser(
+        prog="socialnav", description="Crowd navigation: simulate, evaluate, train."
+    )
     sub = parser.add_subparsers(dest="command")
 
     ev = sub.add_parser("evaluate", help="run a protocol preset for one policy and print the paper's tables")
-    ev.add_argument("--policy", default="orca", help="registered policy name (see `socialnav list`); default orca")
+    ev.add_argument(
+        "--policy", default="orca", help="registered policy name (see `socialnav list`); default orca"
+    )
     ev.add_argument("--checkpoint", help="checkpoint of a learned policy (from `socialnav train`)")
     ev.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
-    ev.add_argument("--information", choices=["constant_velocity", "oracle"],
-                    help="learned policies: how the humans' next states are predicted in the lookahead "
-                         "(default: the checkpoint's)")
+    ev.add_argument(
+        "--information",
+        choices=["constant_velocity", "oracle"],
+        help="learned policies: how the humans' next states are predicted in the lookahead "
+        "(default: the checkpoint's)",
+    )
     ev.add_argument("--scenario", nargs="+", help="only these scenarios (default: the preset's)")
     ev.add_argument("--episodes", type=int, help="episodes per scenario (default: the preset's)")
     ev.add_argument("--visibility", choices=["invisible", "visible", "both"], help="default: the preset's")
-    ev.add_argument("--out", help="result directory (default runs/evaluate/<preset>-<policy>); resumed if it exists")
+    ev.add_argument(
+        "--out", help="result directory (default runs/evaluate/<preset>-<policy>); resumed if it exists"
+    )
     ev.add_argument("--label", help="policy name in the results (default: the policy's name)")
     ev.add_argument("--batch-size", type=int, default=256, help="episodes simulated in lockstep")
     ev.add_argument("--json", action="store_true", help="print one JSON summary object instead of tables")
@@ -58,8 +67,11 @@ def build_parser() -> argparse.ArgumentParser:
     me.add_argument("file", help="trajectory file (.parquet or .csv; schema in docs/trajectory_format.md)")
     me.add_argument("--resample", action="store_true", help="resample irregular timestamps to a fixed dt")
     me.add_argument("--dt", type=float, help="dt for --resample [s] (default: the median step)")
-    me.add_argument("--all-episodes", action="store_true",
-                    help="score social metrics on every episode, not only successful ones (logs)")
+    me.add_argument(
+        "--all-episodes",
+        action="store_true",
+        help="score social metrics on every episode, not only successful ones (logs)",
+    )
     me.add_argument("--json", action="store_true", help="print one JSON object")
     me.set_defaults(run=cmd_metrics)
 
@@ -86,10 +98,18 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = run_protocol(policy, preset, out, label=label, scenarios=args.scenario, episodes=args.episodes,
-                              visibility=args.visibility, progress=not args.no_progress,
-                              batch_size=args.batch_size,
-                              extra_manifest={"checkpoint": str(args.checkpoint) if args.checkpoint else None})
+        result = run_protocol(
+            policy,
+            preset,
+            out,
+            label=label,
+            scenarios=args.scenario,
+            episodes=args.episodes,
+            visibility=args.visibility,
+            progress=not args.no_progress,
+            batch_size=args.batch_size,
+            extra_manifest={"checkpoint": str(args.checkpoint) if args.checkpoint else None},
+        )
     for note in sorted({str(w.message) for w in caught}):  # once per run, not once per episode
         print(f"warning: {note}", file=sys.stderr)
     if args.json:
@@ -97,8 +117,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     else:
         print(table2(result.summary, "md"))
         print(table3(result.summary, "md"))
-        print(f"{result.computed_episodes} episodes simulated, results in {out}/ "
-              f"(summary.json, summary.csv, table2/3 .md and .tex, episodes/*.parquet)")
+        print(
+            f"{result.computed_episodes} episodes simulated, results in {out}/ "
+            f"(summary.json, summary.csv, table2/3 .md and .tex, episodes/*.parquet)"
+        )
     return 0
 
 
@@ -113,15 +135,25 @@ def cmd_metrics(args: argparse.Namespace) -> int:
         warnings.simplefilter("always")
         for i, traj in enumerate(trajs):
             episode = traj.settings.get("episode", i)
-            rows.append({"policy": str(traj.settings.get("policy", "log")),
-                         "scenario": str(traj.settings.get("scenario", "log")),
-                         "visibility": str(traj.settings.get("visibility", "unknown")), "index": i,
-                         "episode": str(episode), "outcome": traj.outcome,
-                         **score_episode(traj, require_success=not args.all_episodes)})
+            rows.append(
+                {
+                    "policy": str(traj.settings.get("policy", "log")),
+                    "scenario": str(traj.settings.get("scenario", "log")),
+                    "visibility": str(traj.settings.get("visibility", "unknown")),
+                    "index": i,
+                    "episode": str(episode),
+                    "outcome": traj.outcome,
+                    **score_episode(traj, require_success=not args.all_episodes),
+                }
+            )
     summary = summarize_episodes([{k: v for k, v in r.items() if k != "episode"} for r in rows])
     notes = sorted({str(w.message) for w in caught})
     if args.json:
-        print(json.dumps({"file": args.file, "episodes": _clean(rows), "summary": _clean(summary), "warnings": notes}))
+        print(
+            json.dumps(
+                {"file": args.file, "episodes": _clean(rows), "summary": _clean(summary), "warnings": notes}
+            )
+        )
         return 0
     for note in notes:
         print(f"warning: {note}", file=sys.stderr)
@@ -141,13 +173,26 @@ def cmd_list(args: argparse.Namespace) -> int:
     from socialnav.sim.settings import HUMAN_MODELS
 
     data = {
-        "scenarios": {name: [{"name": p.name, "default": p.default, "doc": p.doc} for p in params]
-                      for name, params in list_scenarios().items()},
-        "policies": [{"name": p.name, "description": p.description, "learned": p.learned,
-                      "parameters": p.parameters} for p in list_policies()],
+        "scenarios": {
+            name: [{"name": p.name, "default": p.default, "doc": p.doc} for p in params]
+            for name, params in list_scenarios().items()
+        },
+        "policies": [
+            {"name": p.name, "description": p.description, "learned": p.learned, "parameters": p.parameters}
+            for p in list_policies()
+        ],
         "human_models": list(HUMAN_MODELS),
-        "metrics": [{"name": m.name, "unit": m.unit, "direction": m.direction, "parameters": dict(m.parameters), "variants": [dict(v) for v in m.variants],
-                     "outputs": dict(m.outputs)} for m in list_metrics()],
+        "metrics": [
+            {
+                "name": m.name,
+                "unit": m.unit,
+                "direction": m.direction,
+                "parameters": dict(m.parameters),
+                "variants": [dict(v) for v in m.variants],
+                "outputs": dict(m.outputs),
+            }
+            for m in list_metrics()
+        ],
         "presets": shipped_presets(),
     }
     if args.json:
@@ -159,7 +204,10 @@ def cmd_list(args: argparse.Namespace) -> int:
     print("Policies:")
     for p in data["policies"]:
         extra = ", ".join(f"{k}={v}" for k, v in p["parameters"].items())
-        print(f"  {p['name']}{' (learned)' if p['learned'] else ''}: {p['description']}" + (f" [{extra}]" if extra else ""))
+        print(
+            f"  {p['name']}{' (learned)' if p['learned'] else ''}: {p['description']}"
+            + (f" [{extra}]" if extra else "")
+        )
     print("Human models: " + ", ".join(data["human_models"]))
     print("Metrics:")
     for m in data["metrics"]:

@@ -50,8 +50,12 @@ class EvaluationSettings:
         check(self.episodes >= 1, "evaluation.episodes", self.episodes, "must be >= 1")
         check(self.repeats >= 1, "evaluation.repeats", self.repeats, "must be >= 1")
         check(self.chunk_size >= 1, "evaluation.chunk_size", self.chunk_size, "must be >= 1")
-        check(self.visibility in VISIBILITY_CHOICES, "evaluation.visibility", self.visibility,
-              f"must be one of {', '.join(VISIBILITY_CHOICES)}")
+        check(
+            self.visibility in VISIBILITY_CHOICES,
+            "evaluation.visibility",
+            self.visibility,
+            f"must be one of {', '.join(VISIBILITY_CHOICES)}",
+        )
 
 
 @dataclass(frozen=True)
@@ -79,7 +83,9 @@ class Preset:
 
 
 def shipped_presets() -> list[str]:
-    return sorted(p.name[:-5] for p in resources.files("socialnav.configs").iterdir() if p.name.endswith(".yaml"))
+    return sorted(
+        p.name[:-5] for p in resources.files("socialnav.configs").iterdir() if p.name.endswith(".yaml")
+    )
 
 
 def load_preset(name_or_path: str | Path) -> Preset:

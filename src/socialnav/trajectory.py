@@ -50,7 +50,10 @@ def _frozen_array(value: Any, name: str, shape: tuple[int | None, ...]) -> np.nd
         arr = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"Trajectory.{name}: cannot convert to a float array ({exc})") from exc
-    if arr.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, arr.shape)):
+    mismatch = arr.ndim != len(shape) or any(
+        s is not None and s != n for s, n in zip(shape, arr.shape, strict=True)
+    )
+    if mismatch:
         want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
         raise ValueError(f"Trajectory.{name}: expected shape {want}, got {arr.shape}")
     arr.setflags(write=False)

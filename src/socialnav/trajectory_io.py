@@ -70,11 +70,13 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
         raise TrajectoryFormatError(f"{path}: duplicated episode keys {keys}")
     cols: dict[str, list[np.ndarray]] = {c: [] for c in _WRITE_ORDER}
     settings_json: dict[str, str] = {}
-    for key, tr in zip(keys, trajs):
+    for key, tr in zip(keys, trajs, strict=True):
         try:
             settings_json[str(key)] = json.dumps(tr.settings, sort_keys=True)
         except TypeError as exc:
-            raise TrajectoryFormatError(f"{path}: episode {key!r}: settings not JSON-serialisable: {exc}")
+            raise TrajectoryFormatError(
+                f"{path}: episode {key!r}: settings not JSON-serialisable: {exc}"
+            ) from exc
         n_main, n_agents = tr.positions.shape[:2]
         cont = tr.continuation if tr.continuation is not None else np.zeros((0, n_agents, 2))
         n_rows = (n_main + cont.shape[0]) * n_agents
@@ -413,7 +415,9 @@ def _check_grid(
     return regular, dt
 
 
-def _regular_error(tab: _Table, per_agent: list[dict[str, Any]], dt: float, key: Any) -> TrajectoryFormatError:
+def _regular_error(
+    tab: _Table, per_agent: list[dict[str, Any]], dt: float, key: Any
+) -> TrajectoryFormatError:
     """Describe the first sample that breaks a shared regular grid."""
     robot = per_agent[0]
     robot_t = robot["t"][~robot["cont"]]

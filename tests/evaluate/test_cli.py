@@ -15,8 +15,17 @@ def run(capsys, *argv):
 
 
 def test_evaluate_full_wang2022_protocol_fills_every_table_column(tmp_path, capsys):
-    code, out, err = run(capsys, "evaluate", "--policy", "orca", "--preset", "wang2022", "--out",
-                         str(tmp_path), "--no-progress")
+    code, out, err = run(
+        capsys,
+        "evaluate",
+        "--policy",
+        "orca",
+        "--preset",
+        "wang2022",
+        "--out",
+        str(tmp_path),
+        "--no-progress",
+    )
     assert code == 0, err
     table2 = out.split("### Table II: pooled")[1].split("###")[0]
     policy_row = [line for line in table2.splitlines() if line.startswith("| orca")][0]
@@ -32,25 +41,47 @@ def test_evaluate_full_wang2022_protocol_fills_every_table_column(tmp_path, caps
 
 
 def test_evaluate_json_prints_one_object_with_rows(tmp_path, capsys):
-    code, out, _ = run(capsys, "evaluate", "--preset", "crowdnav", "--episodes", "30", "--out", str(tmp_path),
-                       "--json", "--no-progress")
+    code, out, _ = run(
+        capsys,
+        "evaluate",
+        "--preset",
+        "crowdnav",
+        "--episodes",
+        "30",
+        "--out",
+        str(tmp_path),
+        "--json",
+        "--no-progress",
+    )
     assert code == 0
     data = json.loads(out)
     row = data["rows"][0]
-    for key in ("policy", "scenario", "visibility", "episodes", "success_rate", "collision_rate", "timeout_rate",
-                "nav_time_s", "m1_personal_space.duration_s@eps=0.2,distance=clearance.mean",
-                "m4_jerk.mean_sq.std"):
+    for key in (
+        "policy",
+        "scenario",
+        "visibility",
+        "episodes",
+        "success_rate",
+        "collision_rate",
+        "timeout_rate",
+        "nav_time_s",
+        "m1_personal_space.duration_s@eps=0.2,distance=clearance.mean",
+        "m4_jerk.mean_sq.std",
+    ):
         assert key in row, key
     assert row["episodes"] == 30 and row["policy"] == "orca"
 
 
-@pytest.mark.parametrize(("argv", "message"), [
-    (["evaluate", "--scenario", "plaza"], "unknown scenario 'plaza'; valid scenarios: circle_crossing"),
-    (["evaluate", "--policy", "teleport"], "unknown policy 'teleport'; valid: cadrl"),
-    (["evaluate", "--preset", "nowhere"], "unknown preset 'nowhere'; shipped: crowdnav, wang2022"),
-    (["evaluate", "--policy", "sarl"], "pass --checkpoint"),
-    (["evaluate", "--episodes", "0"], "episodes must be >= 1"),
-])
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["evaluate", "--scenario", "plaza"], "unknown scenario 'plaza'; valid scenarios: circle_crossing"),
+        (["evaluate", "--policy", "teleport"], "unknown policy 'teleport'; valid: cadrl"),
+        (["evaluate", "--preset", "nowhere"], "unknown preset 'nowhere'; shipped: crowdnav, wang2022"),
+        (["evaluate", "--policy", "sarl"], "pass --checkpoint"),
+        (["evaluate", "--episodes", "0"], "episodes must be >= 1"),
+    ],
+)
 def test_evaluate_bad_input_is_one_clear_line(tmp_path, capsys, argv, message):
     code, _, err = run(capsys, *argv, "--out", str(tmp_path / "x"), "--no-progress")
     assert code == 2

@@ -25,16 +25,30 @@ def orca():
 
 
 def test_run_writes_every_result_file_and_consistent_rates(tmp_path, orca):
-    result = run_protocol(orca, small_preset(), tmp_path, scenarios=["circle_crossing", "random", "passing"],
-                          progress=False)
-    for name in ("manifest.json", "summary.json", "summary.csv", "table2.md", "table2.tex", "table3.md",
-                 "table3.tex"):
+    result = run_protocol(
+        orca, small_preset(), tmp_path, scenarios=["circle_crossing", "random", "passing"], progress=False
+    )
+    for name in (
+        "manifest.json",
+        "summary.json",
+        "summary.csv",
+        "table2.md",
+        "table2.tex",
+        "table3.md",
+        "table3.tex",
+    ):
         assert (tmp_path / name).stat().st_size > 0, name
     # 12 episodes in chunks of 5 = 3 files per pass (two passes per multi-human scenario); passing 20 / 5
     assert len(list((tmp_path / "episodes").rglob("*.parquet"))) == 2 * 3 + 2 * 3 + 4
     by_key = {(r["scenario"], r["visibility"]): r for r in result.summary}
-    for key in [("circle_crossing", "invisible"), ("circle_crossing", "visible"), ("random", "invisible"),
-                ("pooled", "invisible"), ("pooled", "visible"), ("passing", "invisible")]:
+    for key in [
+        ("circle_crossing", "invisible"),
+        ("circle_crossing", "visible"),
+        ("random", "invisible"),
+        ("pooled", "invisible"),
+        ("pooled", "visible"),
+        ("passing", "invisible"),
+    ]:
         row = by_key[key]
         assert row["success_rate"] + row["collision_rate"] + row["timeout_rate"] == pytest.approx(1.0)
     assert by_key[("pooled", "invisible")]["episodes"] == 24
@@ -43,7 +57,9 @@ def test_run_writes_every_result_file_and_consistent_rates(tmp_path, orca):
     assert passing["m6_n_labelled"] + passing["m6_n_unlabelled"] + passing["m6_n_failed"] == 20
     # M_III comes from the visible pass (continuation) and counts steps = 4 x seconds at dt 0.25.
     vis = by_key[("circle_crossing", "visible")]
-    assert vis["m3_aggregated_time.steps@cap_s=100.mean"] == pytest.approx(4 * vis["m3_aggregated_time.time_s@cap_s=100.mean"])
+    assert vis["m3_aggregated_time.steps@cap_s=100.mean"] == pytest.approx(
+        4 * vis["m3_aggregated_time.time_s@cap_s=100.mean"]
+    )
     # Bootstrap intervals bracket the mean.
     inv = by_key[("pooled", "invisible")]
     assert inv["success_rate_ci_low"] <= inv["success_rate"] <= inv["success_rate_ci_high"]
@@ -51,7 +67,7 @@ def test_run_writes_every_result_file_and_consistent_rates(tmp_path, orca):
 
 def test_interrupted_run_resumes_without_recomputing(tmp_path, orca, monkeypatch):
     preset = small_preset()
-    real = runner_module.run_chunk
+    real = runner_module.simulate_chunk
     calls = {"n": 0}
 
     def flaky(*args, **kwargs):
@@ -60,31 +76,52 @@ def test_interrupted_run_resumes_without_recomputing(tmp_path, orca, monkeypatch
             raise KeyboardInterrupt  # killed in the middle of the third chunk
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(runner_module, "run_chunk", flaky)
+    monkeypatch.setattr(runner_module, "simulate_chunk", flaky)
     with pytest.raises(KeyboardInterrupt):
-        run_protocol(orca, preset, tmp_path, scenarios=["circle_crossing"], visibility="invisible", progress=False)
+        run_protocol(
+            orca, preset, tmp_path, scenarios=["circle_crossing"], visibility="invisible", progress=False
+        )
     files = sorted((tmp_path / "episodes").rglob("*.parquet"))
     assert len(files) == 2 and not list(tmp_path.rglob("*.tmp"))  # finished chunks kept, no partial file
     stamps = {f: os.stat(f).st_mtime_ns for f in files}
-    monkeypatch.setattr(runner_module, "run_chunk", real)
-    result = run_protocol(orca, preset, tmp_path, scenarios=["circle_crossing"], visibility="invisible",
-                          progress=False)
+    monkeypatch.setattr(runner_module, "simulate_chunk", real)
+    result = run_protocol(
+        orca, preset, tmp_path, scenarios=["circle_crossing"], visibility="invisible", progress=False
+    )
     assert result.computed_episodes == 2  # only the missing chunk (episodes 10-11)
     assert all(os.stat(f).st_mtime_ns == stamps[f] for f in files)
     assert sorted(r["index"] for r in result.rows) == list(range(12))
-    fresh = run_protocol(orca, preset, tmp_path / "fresh", scenarios=["circle_crossing"], visibility="invisible",
-                         progress=False)
+    fresh = run_protocol(
+        orca,
+        preset,
+        tmp_path / "fresh",
+        scenarios=["circle_crossing"],
+        visibility="invisible",
+        progress=False,
+    )
     assert [r["outcome"] for r in fresh.rows] == [r["outcome"] for r in result.rows]
 
 
 def test_directory_of_another_run_is_refused(tmp_path, orca):
     run_protocol(orca, small_preset(), tmp_path, scenarios=["random"], visibility="invisible", progress=False)
     with pytest.raises(ResumeMismatchError, match="differs in: cells"):
-        run_protocol(orca, small_preset(episodes=7), tmp_path, scenarios=["random"], visibility="invisible",
-                     progress=False)
+        run_protocol(
+            orca,
+            small_preset(episodes=7),
+            tmp_path,
+            scenarios=["random"],
+            visibility="invisible",
+            progress=False,
+        )
     with pytest.raises(ResumeMismatchError, match="policy"):
-        run_protocol(make_policy("orca", safety_space=0.1), small_preset(), tmp_path, scenarios=["random"],
-                     visibility="invisible", progress=False)
+        run_protocol(
+            make_policy("orca", safety_space=0.1),
+            small_preset(),
+            tmp_path,
+            scenarios=["random"],
+            visibility="invisible",
+            progress=False,
+        )
 
 
 def test_unknown_scenario_lists_valid_names(tmp_path, orca):
@@ -93,8 +130,9 @@ def test_unknown_scenario_lists_valid_names(tmp_path, orca):
 
 
 def test_summary_json_rows_hold_every_metric_mean_and_std(tmp_path, orca):
-    run_protocol(orca, small_preset(), tmp_path, scenarios=["circle_crossing"], visibility="invisible",
-                 progress=False)
+    run_protocol(
+        orca, small_preset(), tmp_path, scenarios=["circle_crossing"], visibility="invisible", progress=False
+    )
     data = json.loads((tmp_path / "summary.json").read_text())
     from socialnav.metrics import score_keys
 

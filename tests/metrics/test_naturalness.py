@@ -49,7 +49,7 @@ def test_jerk_nan_for_short_paths() -> None:
 
 # ----------------------------------------------------------------------------------------- M_V
 def _speeds_path(speeds: list[float], headings: list[float], dt: float) -> np.ndarray:
-    steps = [[s * dt * math.cos(h), s * dt * math.sin(h)] for s, h in zip(speeds, headings)]
+    steps = [[s * dt * math.cos(h), s * dt * math.sin(h)] for s, h in zip(speeds, headings, strict=True)]
     return np.concatenate([[[0.0, 0.0]], np.cumsum(steps, axis=0)])
 
 

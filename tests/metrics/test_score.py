@@ -57,7 +57,8 @@ def test_parameter_overrides() -> None:
         "m1_personal_space.duration_s@eps=0.8,distance=centre",
     ]
     assert row["m1_personal_space.count@eps=0.8,distance=centre"] == 3.0
-    assert {k.split("@")[1] for k in row if k.startswith("m2")} == {"tau=1,anchor=front", "tau=2,anchor=front"}
+    m2_settings = {k.split("@")[1] for k in row if k.startswith("m2")}
+    assert m2_settings == {"tau=1,anchor=front", "tau=2,anchor=front"}
     assert list(row) == score_keys(params)
     with pytest.raises(KeyError, match="m9"):
         score_episode(_episode("success"), {"m9": {}})

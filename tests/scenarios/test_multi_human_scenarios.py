@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from socialnav.scenarios import EpisodeBatch, EpisodeRandom, Scenario, make_scenario
+from socialnav.scenarios import EpisodeBatch, EpisodeRandom, Scenario, ScenarioGenerationError, make_scenario
 
 MULTI = [
     "circle_crossing",
@@ -176,7 +176,13 @@ def test_rejection_invariant_property(
         **params,
     )
     idx = np.arange(16)
-    bt = sc.generate(idx, first + idx)
+    try:
+        bt = sc.generate(idx, first + idx)
+    except ScenarioGenerationError as err:
+        # Dense draws (8 humans of up to 0.5 m with a 0.5 m margin on a 4 m circle) can be
+        # infeasible; the generator must then say so, naming the scenario and the seeds.
+        assert name in str(err) and "seeds" in str(err)
+        assume(False)
     check_rejection_invariant(bt, discomfort, circle=name == "circle_crossing")
 
 

@@ -1,4 +1,3 @@
-import numpy as np
 
 from socialnav.scenarios import make_scenario
 from socialnav.sim.settings import WorldSettings

@@ -11,12 +11,21 @@ import math
 
 import numpy as np
 import pytest
-
-from socialnav import _core
 from tests.reference.navground_orca import navground_available, random_config, reference_orca_details
 from tests.reference.python_orca import python_orca_velocity
 
-KINDS = ("crowded", "head_on", "speed_limited", "slow_pref", "at_goal", "overlap", "capped_neighbors", "random")
+from socialnav import _core
+
+KINDS = (
+    "crowded",
+    "head_on",
+    "speed_limited",
+    "slow_pref",
+    "at_goal",
+    "overlap",
+    "capped_neighbors",
+    "random",
+)
 PER_KIND = 150  # 1200 configurations in all
 
 
@@ -26,12 +35,22 @@ def _configs(seed: int = 2026):
 
 
 def core_velocity(cfg: dict) -> np.ndarray:
-    return np.array(_core.orca_velocity(
-        np.asarray(cfg["position"], float), np.asarray(cfg["velocity"], float), cfg["radius"], cfg["max_speed"],
-        np.asarray(cfg["pref_velocity"], float), np.ascontiguousarray(cfg["neighbor_positions"], float).reshape(-1, 2),
-        np.ascontiguousarray(cfg["neighbor_velocities"], float).reshape(-1, 2),
-        np.ascontiguousarray(cfg["neighbor_radii"], float), cfg["time_horizon"], cfg["time_step"],
-        cfg["neighbor_dist"], cfg["max_neighbors"]))
+    return np.array(
+        _core.orca_velocity(
+            np.asarray(cfg["position"], float),
+            np.asarray(cfg["velocity"], float),
+            cfg["radius"],
+            cfg["max_speed"],
+            np.asarray(cfg["pref_velocity"], float),
+            np.ascontiguousarray(cfg["neighbor_positions"], float).reshape(-1, 2),
+            np.ascontiguousarray(cfg["neighbor_velocities"], float).reshape(-1, 2),
+            np.ascontiguousarray(cfg["neighbor_radii"], float),
+            cfg["time_horizon"],
+            cfg["time_step"],
+            cfg["neighbor_dist"],
+            cfg["max_neighbors"],
+        )
+    )
 
 
 def test_core_matches_double_precision_transcription_everywhere():
@@ -67,9 +86,13 @@ def test_core_matches_navground_rvo2():
 
 def test_orca_without_neighbours_returns_preferred_velocity_clipped():
     empty = np.zeros((0, 2))
-    v = _core.orca_velocity(np.zeros(2), np.zeros(2), 0.3, 1.0, np.array([0.3, 0.4]), empty, empty, np.zeros(0))
+    v = _core.orca_velocity(
+        np.zeros(2), np.zeros(2), 0.3, 1.0, np.array([0.3, 0.4]), empty, empty, np.zeros(0)
+    )
     assert v == pytest.approx((0.3, 0.4))
-    v = _core.orca_velocity(np.zeros(2), np.zeros(2), 0.3, 1.0, np.array([3.0, 4.0]), empty, empty, np.zeros(0))
+    v = _core.orca_velocity(
+        np.zeros(2), np.zeros(2), 0.3, 1.0, np.array([3.0, 4.0]), empty, empty, np.zeros(0)
+    )
     assert v == pytest.approx((0.6, 0.8))
 
 
@@ -80,8 +103,24 @@ def test_orca_respects_speed_limit_and_reciprocity():
         v = core_velocity(cfg)
         assert math.hypot(*v) <= cfg["max_speed"] * (1 + 1e-12)
     # Two agents heading straight at each other choose mirror-symmetric avoidance.
-    a = _core.orca_velocity(np.array([0.0, 0.0]), np.array([0.0, 1.0]), 0.31, 1.0, np.array([0.0, 1.0]),
-                            np.array([[0.05, 3.0]]), np.array([[0.0, -1.0]]), np.array([0.31]))
-    b = _core.orca_velocity(np.array([0.05, 3.0]), np.array([0.0, -1.0]), 0.31, 1.0, np.array([0.0, -1.0]),
-                            np.array([[0.0, 0.0]]), np.array([[0.0, 1.0]]), np.array([0.31]))
+    a = _core.orca_velocity(
+        np.array([0.0, 0.0]),
+        np.array([0.0, 1.0]),
+        0.31,
+        1.0,
+        np.array([0.0, 1.0]),
+        np.array([[0.05, 3.0]]),
+        np.array([[0.0, -1.0]]),
+        np.array([0.31]),
+    )
+    b = _core.orca_velocity(
+        np.array([0.05, 3.0]),
+        np.array([0.0, -1.0]),
+        0.31,
+        1.0,
+        np.array([0.0, -1.0]),
+        np.array([[0.0, 0.0]]),
+        np.array([[0.0, 1.0]]),
+        np.array([0.31]),
+    )
     assert a[0] == pytest.approx(-b[0]) and a[1] == pytest.approx(-b[1])

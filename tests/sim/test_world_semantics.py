@@ -4,12 +4,11 @@ import math
 
 import numpy as np
 import pytest
+from _worldkit import hand_world, place
 
 from socialnav import _core
 from socialnav.config import ConfigError
 from socialnav.sim.settings import WorldSettings
-
-from _worldkit import hand_world, place
 
 
 def test_linear_human_walks_at_v_pref_and_stops_at_goal():

@@ -31,10 +31,21 @@ TABLE2_COLUMNS = [
 SIDE_SCENARIOS = ("passing", "overtaking", "crossing")
 
 
-def write_reports(out: Path, summary: list[dict[str, Any]], rows: list[dict[str, Any]], preset: Preset) -> None:
+def write_reports(
+    out: Path, summary: list[dict[str, Any]], rows: list[dict[str, Any]], preset: Preset
+) -> None:
     """Writes summary.json/csv and the Table II/III layouts into ``out`` (all atomic)."""
-    metrics = [{"name": m.name, "unit": m.unit, "direction": m.direction, "social": m.social,
-                "outputs": dict(m.outputs), "description": m.description} for m in list_metrics()]
+    metrics = [
+        {
+            "name": m.name,
+            "unit": m.unit,
+            "direction": m.direction,
+            "social": m.social,
+            "outputs": dict(m.outputs),
+            "description": m.description,
+        }
+        for m in list_metrics()
+    ]
     atomic_write_json(out / "summary.json", {"preset": preset.name, "rows": summary, "metrics": metrics})
     atomic_write_text(out / "summary.csv", to_csv(summary))
     atomic_write_text(out / "table2.md", table2(summary, "md"))
@@ -67,7 +78,11 @@ def _find(row: dict[str, Any] | None, prefix: str, stat: str) -> float:
 def _pm(mean: float, std: float, digits: int) -> str:
     if mean is None or not math.isfinite(mean):
         return "–"
-    return f"{mean:.{digits}f} ± {std:.{digits}f}" if std is not None and math.isfinite(std) else f"{mean:.{digits}f}"
+    return (
+        f"{mean:.{digits}f} ± {std:.{digits}f}"
+        if std is not None and math.isfinite(std)
+        else f"{mean:.{digits}f}"
+    )
 
 
 def _pct(x: float) -> str:
@@ -91,8 +106,13 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
         base = inv or vis
         if base is None:
             continue
-        cells = [p, _pct(base.get("success_rate")), _pct(base.get("collision_rate")),
-                 _pct(base.get("timeout_rate")), _pm(base.get("nav_time_s"), base.get("nav_time_s_std"), 2)]
+        cells = [
+            p,
+            _pct(base.get("success_rate")),
+            _pct(base.get("collision_rate")),
+            _pct(base.get("timeout_rate")),
+            _pm(base.get("nav_time_s"), base.get("nav_time_s_std"), 2),
+        ]
         for _, prefix, visibility, digits in TABLE2_COLUMNS:
             row = inv if visibility == "invisible" else vis
             cells.append(_pm(_find(row, prefix, "mean"), _find(row, prefix, "std"), digits))
@@ -101,11 +121,27 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
 
 
 def table2(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
-    header = ["Policy", "Success %", "Collision %", "Timeout %", "Nav. time (s)", *[c[0] for c in TABLE2_COLUMNS]]
-    parts = [_render("Table II: pooled over the multi-human scenarios (invisible robot; M_III visible)", header,
-                     table2_rows(summary), fmt)]
-    scenarios = [s for s in dict.fromkeys(r["scenario"] for r in summary) if s != "pooled" and not
-                 any("m6_left_pct" in r for r in summary if r["scenario"] == s)]
+    header = [
+        "Policy",
+        "Success %",
+        "Collision %",
+        "Timeout %",
+        "Nav. time (s)",
+        *[c[0] for c in TABLE2_COLUMNS],
+    ]
+    parts = [
+        _render(
+            "Table II: pooled over the multi-human scenarios (invisible robot; M_III visible)",
+            header,
+            table2_rows(summary),
+            fmt,
+        )
+    ]
+    scenarios = [
+        s
+        for s in dict.fromkeys(r["scenario"] for r in summary)
+        if s != "pooled" and not any("m6_left_pct" in r for r in summary if r["scenario"] == s)
+    ]
     for s in scenarios:
         parts.append(_render(f"Table II, {s}", header, table2_rows(summary, s), fmt))
     return "\n".join(parts)
@@ -132,10 +168,18 @@ def _num(x: Any) -> str:
 
 
 def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
-    header = ["Policy", "Passing L %", "Passing R %", "Overtaking L %", "Overtaking R %", "Crossing L % (behind)",
-              "Crossing R % (front)"]
-    return _render("Table III: M_VI side preference (successful single-human cases)", header, table3_rows(summary),
-                   fmt)
+    header = [
+        "Policy",
+        "Passing L %",
+        "Passing R %",
+        "Overtaking L %",
+        "Overtaking R %",
+        "Crossing L % (behind)",
+        "Crossing R % (front)",
+    ]
+    return _render(
+        "Table III: M_VI side preference (successful single-human cases)", header, table3_rows(summary), fmt
+    )
 
 
 def _render(title: str, header: list[str], rows: list[list[str]], fmt: str) -> str:
@@ -144,12 +188,26 @@ def _render(title: str, header: list[str], rows: list[list[str]], fmt: str) -> s
         lines += ["| " + " | ".join(r) + " |" for r in rows]
         return "\n".join(lines) + "\n"
     if fmt == "tex":
+
         def esc(s: str) -> str:
-            return (s.replace("\\", "\\textbackslash{}").replace("%", "\\%").replace("_", "\\_")
-                    .replace("±", "$\\pm$").replace("³", "$^3$").replace("²", "$^2$").replace("≥", "$\\geq$")
-                    .replace("–", "--"))
-        lines = [f"% {title}", "\\begin{tabular}{l" + "r" * (len(header) - 1) + "}", "\\hline",
-                 " & ".join(esc(h) for h in header) + " \\\\", "\\hline"]
+            return (
+                s.replace("\\", "\\textbackslash{}")
+                .replace("%", "\\%")
+                .replace("_", "\\_")
+                .replace("±", "$\\pm$")
+                .replace("³", "$^3$")
+                .replace("²", "$^2$")
+                .replace("≥", "$\\geq$")
+                .replace("–", "--")
+            )
+
+        lines = [
+            f"% {title}",
+            "\\begin{tabular}{l" + "r" * (len(header) - 1) + "}",
+            "\\hline",
+            " & ".join(esc(h) for h in header) + " \\\\",
+            "\\hline",
+        ]
         lines += [" & ".join(esc(c) for c in r) + " \\\\" for r in rows]
         lines += ["\\hline", "\\end{tabular}"]
         return "\n".join(lines) + "\n"

@@ -14,7 +14,10 @@ skipping the chunk files that exist: nothing finished is recomputed or lost.
 
 from __future__ import annotations
 
+import os
 import sys
+import warnings
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,6 +33,7 @@ from socialnav.metrics import score_episode
 from socialnav.policies.base import Policy
 from socialnav.presets import Preset
 from socialnav.sim.world import World
+from socialnav.trajectory import Trajectory
 
 SIDE_LABEL = {1.0: "left", -1.0: "right", 0.0: "unlabelled"}
 SIDE_KEY = "m6_side_preference.sign@frame=world"
@@ -47,32 +51,84 @@ class ProtocolResult:
     computed_episodes: int  # episodes simulated by this call (0 when everything was resumed)
 
 
-def run_chunk(policy: Policy, preset: Preset, cell: Cell, start: int, stop: int, label: str,
-              batch_size: int = 256) -> list[dict[str, Any]]:
-    """Simulates and scores episodes [start, stop) of a cell; one row per episode, in index order."""
+def simulate_chunk(
+    policy: Policy, preset: Preset, cell: Cell, start: int, stop: int, label: str, batch_size: int = 256
+) -> list[Trajectory]:
+    """Simulates episodes [start, stop) of a cell; trajectories in index order."""
     settings = cell_world_settings(preset, cell)
-    world = World(settings, cell_scenario(preset, cell), min(batch_size, stop - start),
-                  split=preset.evaluation.split, start=start, count=stop - start,
-                  tags={"policy": label, "information": getattr(policy, "information", "none")})
+    world = World(
+        settings,
+        cell_scenario(preset, cell),
+        min(batch_size, stop - start),
+        split=preset.evaluation.split,
+        start=start,
+        count=stop - start,
+        tags={"policy": label, "information": getattr(policy, "information", "none")},
+    )
     world.reset()
-    rows = []
+    trajs: list[Trajectory] = []
     oracle = getattr(policy, "information", "none") == "oracle"
     while world.busy:
-        for traj in world.step(policy.act(world.observe(oracle=oracle))).finished:
-            row = {"policy": label, "scenario": cell.scenario, "visibility": cell.visibility,
-                   "index": traj.settings["index"], "seed": traj.settings["seed"], "outcome": traj.outcome,
-                   "information": traj.settings["information"], **score_episode(traj)}
+        trajs.extend(world.step(policy.act(world.observe(oracle=oracle))).finished)
+    return sorted(trajs, key=lambda t: t.settings["index"])
+
+
+def score_trajectories(trajs: list[Trajectory], cell: Cell, label: str) -> list[dict[str, Any]]:
+    """One result row per episode: identifiers, outcome and every metric (runs in worker processes)."""
+    rows = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for traj in trajs:
+            row = {
+                "policy": label,
+                "scenario": cell.scenario,
+                "visibility": cell.visibility,
+                "index": traj.settings["index"],
+                "seed": traj.settings["seed"],
+                "outcome": traj.outcome,
+                "information": traj.settings["information"],
+                **score_episode(traj),
+            }
             if cell.single_human:
                 sign = row.get(SIDE_KEY, np.nan)
                 row["side"] = "failed" if traj.outcome != "success" else SIDE_LABEL.get(sign, "unlabelled")
             rows.append(row)
-    return sorted(rows, key=lambda r: r["index"])
+    return rows, sorted({(w.category.__name__, str(w.message)) for w in caught})
 
 
-def run_protocol(policy: Policy, preset: Preset, out_dir: str | Path, *, label: str | None = None,
-                 scenarios: Sequence[str] | None = None, episodes: int | None = None,
-                 visibility: str | None = None, progress: bool = True, extra_manifest: dict | None = None,
-                 batch_size: int = 256) -> ProtocolResult:
+def run_chunk(
+    policy: Policy, preset: Preset, cell: Cell, start: int, stop: int, label: str, batch_size: int = 256
+) -> list[dict[str, Any]]:
+    """Simulates and scores episodes [start, stop) of a cell in this process; one row per episode."""
+    rows, notes = score_trajectories(
+        simulate_chunk(policy, preset, cell, start, stop, label, batch_size), cell, label
+    )
+    _reissue(notes)
+    return rows
+
+
+def _reissue(notes: list[tuple[str, str]]) -> None:
+    # Warnings raised while scoring in a worker are re-raised here, where the caller can see them.
+    import socialnav.metrics as metrics
+
+    for category, message in notes:
+        warnings.warn(message, getattr(metrics, category, UserWarning), stacklevel=3)
+
+
+def run_protocol(
+    policy: Policy,
+    preset: Preset,
+    out_dir: str | Path,
+    *,
+    label: str | None = None,
+    scenarios: Sequence[str] | None = None,
+    episodes: int | None = None,
+    visibility: str | None = None,
+    progress: bool = True,
+    extra_manifest: dict | None = None,
+    batch_size: int = 256,
+    workers: int | None = None,
+) -> ProtocolResult:
     """Runs (or resumes) the protocol of ``preset`` for ``policy`` and writes every result file.
 
     Args:
@@ -84,6 +140,8 @@ def run_protocol(policy: Policy, preset: Preset, out_dir: str | Path, *, label: 
         progress: Show a progress bar on stderr.
         extra_manifest: Extra fields recorded in the manifest (e.g. the checkpoint path).
         batch_size: Episodes simulated in lockstep.
+        workers: Processes that score finished chunks while the next chunk is simulated (default:
+            one per core, at most 4; 0 scores in this process).
 
     Raises:
         ResumeMismatchError: ``out_dir`` holds a different run's results.
@@ -95,24 +153,64 @@ def run_protocol(policy: Policy, preset: Preset, out_dir: str | Path, *, label: 
     manifest = {
         "preset": preset.to_dict(),
         "policy": {"label": label, **policy.describe()},
-        "cells": [{"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells],
+        "cells": [
+            {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells
+        ],
         "chunk_size": chunk,
         **(extra_manifest or {}),
     }
     _check_or_write_manifest(out, manifest)
 
-    todo = [(cell, a, b) for cell in cells for a, b in cell.chunks(chunk) if not _chunk_path(out, cell, a, b).exists()]
+    todo = [
+        (cell, a, b)
+        for cell in cells
+        for a, b in cell.chunks(chunk)
+        if not _chunk_path(out, cell, a, b).exists()
+    ]
     total = sum(c.episodes for c in cells)
     done = total - sum(b - a for _, a, b in todo)
     bar = _progress(total, done, progress)
     computed = 0
-    for cell, a, b in todo:
-        bar.set_description(f"{label} {cell.scenario} {cell.visibility}")
-        rows = run_chunk(policy, preset, cell, a, b, label, batch_size)
-        atomic_write_rows_parquet(_chunk_path(out, cell, a, b), rows)
+    workers = min(os.cpu_count() or 1, 4) if workers is None else workers
+    pool = _scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
+    pending: deque = deque()
+
+    def finish_oldest() -> None:
+        nonlocal computed
+        cell, a, b, future = pending.popleft()
+        rows, notes = future.result() if pool else future
+        _reissue(notes)
+        atomic_write_rows_parquet(_chunk_path(out, cell, a, b), rows)  # a chunk lands whole or not at all
         computed += b - a
         bar.update(b - a)
-    bar.close()
+
+    try:
+        for cell, a, b in todo:
+            bar.set_description(f"{label} {cell.scenario} {cell.visibility}")
+            trajs = simulate_chunk(policy, preset, cell, a, b, label, batch_size)
+            job = (
+                pool.submit(score_trajectories, trajs, cell, label)
+                if pool
+                else score_trajectories(trajs, cell, label)
+            )
+            pending.append((cell, a, b, job))
+            while len(pending) > (workers if pool else 0):
+                finish_oldest()
+        while pending:
+            finish_oldest()
+    except BaseException:
+        # Interrupted while simulating: chunks already handed to scoring still land, so that a
+        # resumed run recomputes nothing that was finished.
+        while pending:
+            try:
+                finish_oldest()
+            except Exception:
+                break
+        raise
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+        bar.close()
 
     rows = read_episode_rows(out, cells, chunk)
     summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
@@ -142,16 +240,34 @@ def _check_or_write_manifest(out: Path, manifest: dict) -> None:
     if path.exists():
         previous = json.loads(path.read_text())
         if previous != normalised:
-            changed = sorted(k for k in set(previous) | set(normalised) if previous.get(k) != normalised.get(k))
+            changed = sorted(
+                k for k in set(previous) | set(normalised) if previous.get(k) != normalised.get(k)
+            )
             raise ResumeMismatchError(
                 f"{out} holds results of a different run (differs in: {', '.join(changed)}); "
-                "use another --out directory or delete it")
+                "use another --out directory or delete it"
+            )
         return
     atomic_write_json(path, normalised)
+
+
+def _scoring_pool(workers: int):
+    # forkserver: workers start from a clean process, so native threads or torch in this one are safe.
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("forkserver"))
 
 
 def _progress(total: int, initial: int, enabled: bool):
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, initial=initial, unit="ep", disable=not enabled, file=sys.stderr, leave=False,
-                dynamic_ncols=True)
+    return tqdm(
+        total=total,
+        initial=initial,
+        unit="ep",
+        disable=not enabled,
+        file=sys.stderr,
+        leave=False,
+        dynamic_ncols=True,
+    )

@@ -27,7 +27,9 @@ N_BOOT = 1000
 CONFIDENCE = 0.95
 
 
-def summarize_episodes(rows: Sequence[dict[str, Any]], multi_human: Sequence[str] = ()) -> list[dict[str, Any]]:
+def summarize_episodes(
+    rows: Sequence[dict[str, Any]], multi_human: Sequence[str] = ()
+) -> list[dict[str, Any]]:
     """One summary row per (policy, scenario, visibility) and per pooled multi-human group."""
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     for row in rows:
@@ -44,29 +46,36 @@ def summarize_episodes(rows: Sequence[dict[str, Any]], multi_human: Sequence[str
     return out
 
 
-def summarize_group(key: tuple[str, str, str], rows: Sequence[dict[str, Any]],
-                    pooled_over: list[str] | None = None) -> dict[str, Any]:
+def summarize_group(
+    key: tuple[str, str, str], rows: Sequence[dict[str, Any]], pooled_over: list[str] | None = None
+) -> dict[str, Any]:
     policy, scenario, visibility = key
+    # A canonical order makes the bootstrap independent of the order rows were read in.
+    rows = sorted(rows, key=lambda r: (str(r.get("scenario", "")), int(r.get("index", 0))))
     n = len(rows)
-    rng = np.random.default_rng(zlib.crc32("|".join(key).encode()))
-    weights = rng.multinomial(n, np.full(n, 1.0 / n), size=N_BOOT).astype(float)
-    out: dict[str, Any] = {"policy": policy, "scenario": scenario, "visibility": visibility,
-                           "information": rows[0].get("information", ""), "episodes": n}
+    out: dict[str, Any] = {
+        "policy": policy,
+        "scenario": scenario,
+        "visibility": visibility,
+        "information": rows[0].get("information", ""),
+        "episodes": n,
+    }
     if pooled_over:
         out["pooled_over"] = ",".join(pooled_over)
     metric_keys = [k for k in rows[0] if k not in ID_COLUMNS]
-    for k in metric_keys:
-        values = np.array([_as_float(r.get(k)) for r in rows])
-        stats = _stats(values, weights)
+    values = np.array([[_as_float(r.get(k)) for k in metric_keys] for r in rows]).reshape(n, len(metric_keys))
+    stats = column_stats(values, np.random.default_rng(zlib.crc32("|".join(key).encode())))
+    for j, k in enumerate(metric_keys):
+        col = {name: stat[j] for name, stat in stats.items()}
         if k in RATE_KEYS:
             name = RATE_KEYS[k]
-            out[name] = stats["mean"]
-            out[f"{name}_ci_low"], out[f"{name}_ci_high"] = stats["ci_low"], stats["ci_high"]
+            out[name] = col["mean"]
+            out[f"{name}_ci_low"], out[f"{name}_ci_high"] = col["ci_low"], col["ci_high"]
             continue
         if k == NAV_TIME_KEY:
-            out["nav_time_s"], out["nav_time_s_std"] = stats["mean"], stats["std"]
-        for stat, value in stats.items():
-            out[f"{k}.{stat}"] = value
+            out["nav_time_s"], out["nav_time_s_std"] = col["mean"], col["std"]
+        for stat, value in col.items():
+            out[f"{k}.{stat}"] = int(value) if stat == "n" else float(value)
     if any("side" in r for r in rows):
         side = summarize_side_preference([r.get("side", "unlabelled") for r in rows], scenario)
         out.update({f"m6_{k}": v for k, v in side.items()})
@@ -77,15 +86,37 @@ def _as_float(value: Any) -> float:
     return float("nan") if value is None else float(value)
 
 
-def _stats(values: np.ndarray, weights: np.ndarray) -> dict[str, float]:
+def column_stats(
+    values: np.ndarray, rng: np.random.Generator, n_boot: int = N_BOOT, confidence: float = CONFIDENCE
+) -> dict[str, np.ndarray]:
+    """Mean, std (ddof 1), percentile-bootstrap CI of the mean and count per column, NaNs ignored.
+
+    Args:
+        values: (n, K) per-episode values of K columns.
+        rng: Draws the (n_boot, n) multinomial resampling weights, shared by all columns.
+
+    Returns:
+        ``mean``, ``std``, ``ci_low``, ``ci_high``, ``n``, each of shape (K,).
+    """
+    n, k = values.shape
     valid = np.isfinite(values)
-    k = int(valid.sum())
-    if k == 0:
-        return {"mean": np.nan, "std": np.nan, "ci_low": np.nan, "ci_high": np.nan, "n": 0}
-    v = values[valid]
+    count = valid.sum(axis=0)
     filled = np.where(valid, values, 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
-        means = (weights @ filled) / (weights @ valid.astype(float))
-    lo, hi = np.nanpercentile(means, [50 * (1 - CONFIDENCE), 50 * (1 + CONFIDENCE)]) if k > 1 else (v[0], v[0])
-    return {"mean": float(v.mean()), "std": float(v.std(ddof=1)) if k > 1 else np.nan,
-            "ci_low": float(lo), "ci_high": float(hi), "n": k}
+        mean = filled.sum(axis=0) / count
+        var = (np.where(valid, values - mean, 0.0) ** 2).sum(axis=0) / (count - 1)
+        weights = (
+            rng.multinomial(n, np.full(n, 1.0 / n), size=n_boot).astype(float) if n else np.zeros((n_boot, 0))
+        )
+        boot = (weights @ filled) / (weights @ valid.astype(float))  # (n_boot, K): resampled means
+    lo = np.full(k, np.nan)
+    hi = np.full(k, np.nan)
+    some = count > 1
+    if some.any():
+        with np.errstate(invalid="ignore"):
+            q = np.nanpercentile(boot[:, some], [50 * (1 - confidence), 50 * (1 + confidence)], axis=0)
+        lo[some], hi[some] = q[0], q[1]
+    single = count == 1
+    lo[single] = hi[single] = mean[single]
+    std = np.where(count > 1, np.sqrt(np.maximum(var, 0.0)), np.nan)
+    return {"mean": mean, "std": std, "ci_low": lo, "ci_high": hi, "n": count}

@@ -7,7 +7,14 @@ episode with :func:`score_episode`; aggregate with :func:`summarize`. See ``docs
 from socialnav.metrics import basic, comfort, naturalness, sociability  # noqa: F401  (registration)
 from socialnav.metrics.aggregate import summarize, summarize_rows
 from socialnav.metrics.naturalness import WalkingSpeedWarning
-from socialnav.metrics.registry import Metric, get_metric, list_metrics, metric_key, parse_key, register_metric
+from socialnav.metrics.registry import (
+    Metric,
+    get_metric,
+    list_metrics,
+    metric_key,
+    parse_key,
+    register_metric,
+)
 from socialnav.metrics.score import score_episode, score_keys
 from socialnav.metrics.sociability import side_preference, summarize_side_preference
 

@@ -2,8 +2,9 @@
 
 Wang et al., "Metrics for Evaluating Social Conformity of Crowd Navigation Algorithms", ARSO 2022
 (arXiv 2202.01045): the definitions of M_I–M_III in its metrics section, values in its Table II.
-M_II's velocity rectangle follows the speed-dependent social zone of Jin et al., ICRA 2020. Indicator metrics flag samples k = 1..K and report count, fraction = count/K and
-duration_s = count·dt (see ``docs/metrics.md``).
+M_II's velocity rectangle follows the speed-dependent social zone of Jin et al., ICRA 2020.
+Indicator metrics flag samples k = 1..K and report count, fraction = count/K and duration_s = count·dt
+(see ``docs/metrics.md``).
 """
 
 from __future__ import annotations
@@ -130,6 +131,53 @@ def rectangles_intersect(a: np.ndarray, b: np.ndarray, tol: float = TOUCH_TOL) -
     return ~separated.any(-1)
 
 
+def rectangle_overlap_flags(pos_a: np.ndarray, vel_a: np.ndarray, r_a: np.ndarray, pos_b: np.ndarray,
+                            vel_b: np.ndarray, r_b: np.ndarray, tau: float, anchor: str = "rear",
+                            tol: float = TOUCH_TOL) -> np.ndarray:
+    """Closed overlap of velocity rectangles, by the separating-axis theorem in closed form.
+
+    Same answer as building the corners with :func:`velocity_rectangles` and testing them with
+    :func:`rectangles_intersect` (a test checks this), but for rectangles the projection of B onto an
+    axis e is its centre's projection ± ((L_b/2)|u_b·e| + r_b|n_b·e|), so the four axes cost a few
+    products instead of corner arrays. Stopped agents (|v| ≤ 1e-6 m/s) have no rectangle: False.
+
+    Args:
+        pos_a, vel_a: (..., 2) positions [m] and velocities [m/s] of the first agents.
+        r_a: (...) radii [m] (broadcastable).
+        pos_b, vel_b, r_b: the same for the second agents, broadcastable with the first.
+        tau: Time horizon τ [s]; the rectangle's length is τ·|v|.
+        anchor: "rear" (rear edge on the centre) or "front" (rear edge at p + r·v/|v|).
+        tol: Touching slack [m]: a gap ≤ tol counts as intersecting.
+
+    Returns:
+        (...) bool.
+    """
+    if anchor not in ("rear", "front"):
+        raise ValueError(f"anchor must be 'rear' or 'front', got {anchor!r}")
+
+    def frame(p, v, r):
+        speed = np.sqrt(v[..., 0] ** 2 + v[..., 1] ** 2)
+        valid = speed > STOPPED_SPEED
+        safe = np.where(valid, speed, 1.0)
+        ux, uy = v[..., 0] / safe, v[..., 1] / safe
+        half = 0.5 * tau * speed
+        offset = half + (r if anchor == "front" else 0.0)  # rear edge -> centre along u
+        return p[..., 0] + offset * ux, p[..., 1] + offset * uy, ux, uy, half, valid
+
+    ax, ay, aux, auy, ah, a_ok = frame(pos_a, vel_a, np.asarray(r_a, dtype=float))
+    bx, by, bux, buy, bh, b_ok = frame(pos_b, vel_b, np.asarray(r_b, dtype=float))
+    ra, rb = np.asarray(r_a, dtype=float), np.asarray(r_b, dtype=float)
+    dx, dy = bx - ax, by - ay
+    c = np.abs(aux * bux + auy * buy)  # |u_a·u_b| = |n_a·n_b|
+    s = np.abs(aux * buy - auy * bux)  # |u_a·n_b| = |n_a·u_b|
+    # Axis u_a, n_a, u_b, n_b (n = u rotated by +90°).
+    sep = np.abs(dx * aux + dy * auy) > ah + bh * c + rb * s + tol
+    sep |= np.abs(-dx * auy + dy * aux) > ra + bh * s + rb * c + tol
+    sep |= np.abs(dx * bux + dy * buy) > bh + ah * c + ra * s + tol
+    sep |= np.abs(-dx * buy + dy * bux) > rb + ah * s + ra * c + tol
+    return ~sep & a_ok & b_ok
+
+
 def projected_path_flags(traj: Trajectory, tau: float = 1.0, anchor: str = "rear") -> np.ndarray:
     """Samples k = 1..K where the robot's velocity rectangle intersects any human's.
 
@@ -139,13 +187,13 @@ def projected_path_flags(traj: Trajectory, tau: float = 1.0, anchor: str = "rear
     Returns:
         Flags, shape (K,) bool.
     """
-    pos = traj.positions[1:]
-    vel = traj.executed_velocities()
-    rects, valid = velocity_rectangles(pos, vel, traj.radii, tau, anchor)  # (K, A, 4, 2), (K, A)
     if traj.n_humans == 0:
         return np.zeros(traj.n_steps, dtype=bool)
-    hit = rectangles_intersect(rects[:, :1], rects[:, 1:]) & valid[:, 1:]
-    return valid[:, 0] & hit.any(axis=1)
+    pos = traj.positions[1:]
+    vel = traj.executed_velocities()
+    hit = rectangle_overlap_flags(pos[:, :1], vel[:, :1], traj.radii[0], pos[:, 1:], vel[:, 1:],
+                                  traj.radii[1:], tau, anchor)  # (K, H)
+    return hit.any(axis=1)
 
 
 @register_metric(

@@ -98,8 +98,8 @@ def walking_speed(traj: Trajectory, v_th: float = 1.5) -> dict[str, float]:
     """
     if traj.v_pref[0] <= v_th:
         warnings.warn(
-            f"robot v_pref {traj.v_pref[0]:g} m/s <= v_th {v_th:g} m/s: M_V is 0 for a robot that respects v_pref; "
-            "compare m5_walking_speed.*_ge (M_V≥) instead",
+            f"robot v_pref {traj.v_pref[0]:g} m/s <= v_th {v_th:g} m/s: M_V is 0 for a robot that "
+            "respects v_pref; compare m5_walking_speed.*_ge (M_V≥) instead",
             WalkingSpeedWarning,
             stacklevel=2,
         )

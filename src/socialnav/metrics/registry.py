@@ -86,7 +86,16 @@ class Metric:
     def keys(self, params: Mapping[str, Any] | None = None) -> list[str]:
         """Flat keys of this metric's outputs for one parameter setting (see module docstring)."""
         resolved = self.resolve(params)
-        return [metric_key(self.name, out, resolved) for out in self.outputs]
+        # Scoring asks for the same few keys once per episode: format each setting only once.
+        cache_key = tuple((k, repr(v)) for k, v in resolved.items())
+        cached = _KEY_CACHE.get((self.name, cache_key))
+        if cached is None:
+            cached = [metric_key(self.name, out, resolved) for out in self.outputs]
+            _KEY_CACHE[(self.name, cache_key)] = cached
+        return list(cached)
+
+
+_KEY_CACHE: dict[tuple[str, tuple], list[str]] = {}
 
 
 def _format_value(value: Any) -> str:

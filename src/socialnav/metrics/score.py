@@ -11,14 +11,14 @@ basic metrics are computed on every episode.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any, Union
+from typing import Any
 
 from socialnav.metrics.registry import Metric, list_metrics
 from socialnav.trajectory import Trajectory
 
 __all__ = ["ParamsSpec", "score_episode", "score_keys"]
 
-ParamsSpec = Mapping[str, Union[Mapping[str, Any], Sequence[Mapping[str, Any]]]]
+ParamsSpec = Mapping[str, Mapping[str, Any] | Sequence[Mapping[str, Any]]]
 """Per metric name: one parameter override (dict) or several (list of dicts, one key group each)."""
 
 
@@ -71,5 +71,5 @@ def score_episode(
                 row.update({k: float("nan") for k in keys})
                 continue
             values = metric.fn(traj, **variant)
-            row.update({k: float(values[out]) for k, out in zip(keys, metric.outputs)})
+            row.update({k: float(values[out]) for k, out in zip(keys, metric.outputs, strict=True)})
     return row

@@ -41,20 +41,27 @@ class LearnedPolicy:
 
     def act(self, observation: Observation) -> np.ndarray:
         if self.information == "oracle" and observation.next_humans is None:
-            raise ValueError(f"policy {self.name!r} uses oracle information: observe the world with oracle=True")
-        _, actions = self.value_policy.act(observation, next_humans=observation.next_humans
-                                           if self.information == "oracle" else None)
+            raise ValueError(
+                f"policy {self.name!r} uses oracle information: observe the world with oracle=True"
+            )
+        _, actions = self.value_policy.act(
+            observation, next_humans=observation.next_humans if self.information == "oracle" else None
+        )
         actions = np.asarray(actions, dtype=np.float64)
         actions[~observation.active] = 0.0
         return actions
 
     def describe(self) -> dict[str, Any]:
-        return {"policy": self.name, "information": self.information,
-                "checkpoint": None if self.checkpoint is None else str(self.checkpoint)}
+        return {
+            "policy": self.name,
+            "information": self.information,
+            "checkpoint": None if self.checkpoint is None else str(self.checkpoint),
+        }
 
 
-def load_learned_policy(name: str, checkpoint: str | Path, information: str | None = None,
-                        device: str = "cpu") -> LearnedPolicy:
+def load_learned_policy(
+    name: str, checkpoint: str | Path, information: str | None = None, device: str = "cpu"
+) -> LearnedPolicy:
     """Loads ``checkpoint`` (refusing one of another policy or input size) into a LearnedPolicy."""
     from socialnav.policies.learned import ValuePolicy, load_checkpoint
     from socialnav.policies.learned.state import RewardParams
@@ -70,13 +77,18 @@ def load_learned_policy(name: str, checkpoint: str | Path, information: str | No
 
 
 def _factory(name: str):
-    def make(checkpoint: Path, preset: Any = None, information: str | None = None, device: str = "cpu",
-             **_: Any) -> LearnedPolicy:
+    def make(
+        checkpoint: Path, preset: Any = None, information: str | None = None, device: str = "cpu", **_: Any
+    ) -> LearnedPolicy:
         return load_learned_policy(name, checkpoint, information, device)
 
     return make
 
 
 for _name, _description in _DESCRIPTIONS.items():
-    register_policy(_name, description=_description, learned=True,
-                    parameters={"information": "constant_velocity", "device": "cpu"})(_factory(_name))
+    register_policy(
+        _name,
+        description=_description,
+        learned=True,
+        parameters={"information": "constant_velocity", "device": "cpu"},
+    )(_factory(_name))

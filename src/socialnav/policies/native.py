@@ -35,15 +35,22 @@ class NativePolicy:
 
     information = "none"
 
-    def __init__(self, kind: str, safety_space: float = 0.0, orca: OrcaSettings | None = None,
-                 social_force: SocialForceSettings | None = None, threads: int = 0):
+    def __init__(
+        self,
+        kind: str,
+        safety_space: float = 0.0,
+        orca: OrcaSettings | None = None,
+        social_force: SocialForceSettings | None = None,
+        threads: int = 0,
+    ):
         if safety_space < 0:
             raise ValueError(f"safety_space must be >= 0, got {safety_space}")
         self.name = kind
         self.kind = kind
         self.safety_space = float(safety_space)
-        settings = WorldSettings(orca=orca or OrcaSettings(), social_force=social_force or SocialForceSettings(),
-                                 threads=threads)
+        settings = WorldSettings(
+            orca=orca or OrcaSettings(), social_force=social_force or SocialForceSettings(), threads=threads
+        )
         self._orca_settings = settings.orca
         self._orca = orca_params(settings)
         self._social_force = social_force_params(settings)
@@ -56,11 +63,22 @@ class NativePolicy:
         if self._out is None or self._out.shape[0] != B:
             self._out = np.zeros((B, 2))
         kinematics = _core.HOLONOMIC if observation.kinematics == "holonomic" else _core.UNICYCLE
-        _core.robot_actions(self.kind, np.ascontiguousarray(observation.robot),
-                            np.ascontiguousarray(observation.humans), np.ascontiguousarray(observation.human_mask),
-                            np.ascontiguousarray(observation.active), kinematics, _ROTATION_LIMIT, observation.dt,
-                            self._orca, self._orca_settings.radius_margin, self.safety_space, self._social_force,
-                            self._pool, self._out)
+        _core.robot_actions(
+            self.kind,
+            np.ascontiguousarray(observation.robot),
+            np.ascontiguousarray(observation.humans),
+            np.ascontiguousarray(observation.human_mask),
+            np.ascontiguousarray(observation.active),
+            kinematics,
+            _ROTATION_LIMIT,
+            observation.dt,
+            self._orca,
+            self._orca_settings.radius_margin,
+            self.safety_space,
+            self._social_force,
+            self._pool,
+            self._out,
+        )
         return self._out.copy()
 
     def describe(self) -> dict[str, Any]:
@@ -70,19 +88,26 @@ class NativePolicy:
 _ROTATION_LIMIT = np.pi / 4
 
 
-@register_policy("linear", description="straight to the goal at v_pref, ignoring humans",
-                 parameters={"threads": 0})
+@register_policy(
+    "linear", description="straight to the goal at v_pref, ignoring humans", parameters={"threads": 0}
+)
 def linear(threads: int = 0) -> NativePolicy:
     return NativePolicy("linear", threads=threads)
 
 
-@register_policy("orca", description="ORCA (van den Berg et al. 2011) towards the goal, CrowdNav's ORCA policy",
-                 parameters={"safety_space": 0.2, "threads": 0})
+@register_policy(
+    "orca",
+    description="ORCA (van den Berg et al. 2011) towards the goal, CrowdNav's ORCA policy",
+    parameters={"safety_space": 0.2, "threads": 0},
+)
 def orca(safety_space: float = 0.2, threads: int = 0) -> NativePolicy:
     return NativePolicy("orca", safety_space=safety_space, threads=threads)
 
 
-@register_policy("social_force", description="social force model (Helbing & Molnár 1995) towards the goal",
-                 parameters={"threads": 0})
+@register_policy(
+    "social_force",
+    description="social force model (Helbing & Molnár 1995) towards the goal",
+    parameters={"threads": 0},
+)
 def social_force(threads: int = 0) -> NativePolicy:
     return NativePolicy("social_force", threads=threads)

@@ -29,18 +29,23 @@ OUTCOME_CODES = {"running": 0, "success": 1, "collision": 2, "timeout": 3}
 
 def _spaces(n_humans: int, settings: WorldSettings, v_pref: float, action_set: str):
     big = np.float64(1e6)
-    observation_space = spaces.Dict({
-        "robot": spaces.Box(-big, big, shape=(9,), dtype=np.float64),
-        "humans": spaces.Box(-big, big, shape=(n_humans, 5), dtype=np.float64),
-        "human_mask": spaces.MultiBinary(n_humans),
-    })
+    observation_space = spaces.Dict(
+        {
+            "robot": spaces.Box(-big, big, shape=(9,), dtype=np.float64),
+            "humans": spaces.Box(-big, big, shape=(n_humans, 5), dtype=np.float64),
+            "human_mask": spaces.MultiBinary(n_humans),
+        }
+    )
     if action_set == "discrete":
         action_space: spaces.Space = spaces.Discrete(81)
     elif settings.kinematics == "holonomic":
         action_space = spaces.Box(-v_pref, v_pref, shape=(2,), dtype=np.float64)
     else:
-        action_space = spaces.Box(np.array([-v_pref, -settings.rotation_limit]),
-                                  np.array([v_pref, settings.rotation_limit]), dtype=np.float64)
+        action_space = spaces.Box(
+            np.array([-v_pref, -settings.rotation_limit]),
+            np.array([v_pref, settings.rotation_limit]),
+            dtype=np.float64,
+        )
     return observation_space, action_space
 
 
@@ -51,11 +56,19 @@ def _obs_rows(obs: Observation) -> dict[str, np.ndarray]:
 class _EnvConfig:
     """Shared construction of the world's settings and scenario from keyword arguments."""
 
-    def __init__(self, scenario: str, scenario_params: dict | None, world: dict | WorldSettings | None,
-                 split: str, action_set: str):
+    def __init__(
+        self,
+        scenario: str,
+        scenario_params: dict | None,
+        world: dict | WorldSettings | None,
+        split: str,
+        action_set: str,
+    ):
         if action_set not in ("continuous", "discrete"):
             raise ValueError(f"action_set must be 'continuous' or 'discrete', got {action_set!r}")
-        self.settings = world if isinstance(world, WorldSettings) else from_dict(WorldSettings, world, "world")
+        self.settings = (
+            world if isinstance(world, WorldSettings) else from_dict(WorldSettings, world, "world")
+        )
         self.scenario = make_scenario(scenario, **(scenario_params or {}))
         self.split = split
         self.action_set = action_set
@@ -84,13 +97,20 @@ class SocialNavEnv(gym.Env):
 
     metadata = {"render_modes": []}
 
-    def __init__(self, scenario: str = "circle_crossing", scenario_params: dict | None = None,
-                 world: dict | WorldSettings | None = None, split: str = "train", action_set: str = "continuous"):
+    def __init__(
+        self,
+        scenario: str = "circle_crossing",
+        scenario_params: dict | None = None,
+        world: dict | WorldSettings | None = None,
+        split: str = "train",
+        action_set: str = "continuous",
+    ):
         self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set)
         self._world = World(self._cfg.settings, self._cfg.scenario, 1, split=split, record=False)
         self._next_index = 0
-        self.observation_space, self.action_space = _spaces(self._cfg.scenario.n_humans, self._cfg.settings,
-                                                            self._cfg.v_pref, action_set)
+        self.observation_space, self.action_space = _spaces(
+            self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set
+        )
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
@@ -118,8 +138,12 @@ class SocialNavEnv(gym.Env):
 
     def _info(self, outcome: str) -> dict[str, Any]:
         w = self._world
-        return {"outcome": outcome, "dmin": float(w.dmin[0]), "time": float(w.steps[0] * w.settings.dt),
-                "episode_index": self._next_index - 1}
+        return {
+            "outcome": outcome,
+            "dmin": float(w.dmin[0]),
+            "time": float(w.steps[0] * w.settings.dt),
+            "episode_index": self._next_index - 1,
+        }
 
 
 class SocialNavVectorEnv(VectorEnv):
@@ -132,13 +156,21 @@ class SocialNavVectorEnv(VectorEnv):
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
 
-    def __init__(self, num_envs: int = 16, scenario: str = "circle_crossing", scenario_params: dict | None = None,
-                 world: dict | WorldSettings | None = None, split: str = "train", action_set: str = "continuous"):
+    def __init__(
+        self,
+        num_envs: int = 16,
+        scenario: str = "circle_crossing",
+        scenario_params: dict | None = None,
+        world: dict | WorldSettings | None = None,
+        split: str = "train",
+        action_set: str = "continuous",
+    ):
         self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set)
         self.num_envs = int(num_envs)
         self._world = World(self._cfg.settings, self._cfg.scenario, self.num_envs, split=split, record=False)
         self.single_observation_space, self.single_action_space = _spaces(
-            self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set)
+            self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set
+        )
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
 
@@ -153,7 +185,10 @@ class SocialNavVectorEnv(VectorEnv):
         result = self._world.step(self._cfg.to_actions(actions), final_observation=True)
         obs = _obs_rows(self._world.observe())
         done = result.terminated | result.truncated
-        info: dict[str, Any] = {"dmin": self._world.dmin.copy(), "episode_index": self._world.episode_index.copy()}
+        info: dict[str, Any] = {
+            "dmin": self._world.dmin.copy(),
+            "episode_index": self._world.episode_index.copy(),
+        }
         if done.any():
             final = np.empty(self.num_envs, dtype=object)
             rows = _obs_rows(result.final_observation)

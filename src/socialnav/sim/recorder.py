@@ -16,7 +16,11 @@ from socialnav.trajectory import Trajectory
 if TYPE_CHECKING:
     from socialnav.sim.world import World
 
-_OUTCOME = {_core.STATUS_SUCCESS: "success", _core.STATUS_COLLISION: "collision", _core.STATUS_TIMEOUT: "timeout"}
+_OUTCOME = {
+    _core.STATUS_SUCCESS: "success",
+    _core.STATUS_COLLISION: "collision",
+    _core.STATUS_TIMEOUT: "timeout",
+}
 
 
 class Recorder:
@@ -29,8 +33,14 @@ class Recorder:
         tags: Settings stored in every trajectory besides the world's own.
     """
 
-    def __init__(self, world: World, hist_position: np.ndarray, hist_velocity: np.ndarray,
-                 hist_dmin: np.ndarray, tags: dict):
+    def __init__(
+        self,
+        world: World,
+        hist_position: np.ndarray,
+        hist_velocity: np.ndarray,
+        hist_dmin: np.ndarray,
+        tags: dict,
+    ):
         self.world = world
         self.hist_position = hist_position
         self.hist_velocity = hist_velocity
@@ -63,19 +73,25 @@ class Recorder:
             if total > end:
                 continuation = self.hist_position[b, end + 1 : total + 1][:, agents].copy()
             roles = np.array(["robot"] + ["human"] * (len(agents) - 1))
-            settings = {**self.base_settings, "index": int(w.episode_index[b]), "seed": int(w.episode_seed[b])}
-            out.append(Trajectory(
-                dt=w.settings.dt,
-                positions=positions,
-                velocities=velocities,
-                radii=w.radius[b, agents].copy(),
-                goals=w.goal[b, agents].copy(),
-                v_pref=w.v_pref[b, agents].copy(),
-                roles=roles,
-                outcome=_OUTCOME[int(w.status[b])],
-                min_clearance=self.hist_dmin[b, 1 : end + 1].copy(),
-                continuation=continuation,
-                human_overlaps=None if w.settings.crowdsim_compat else int(w.overlaps[b]),
-                settings=settings,
-            ))
+            settings = {
+                **self.base_settings,
+                "index": int(w.episode_index[b]),
+                "seed": int(w.episode_seed[b]),
+            }
+            out.append(
+                Trajectory(
+                    dt=w.settings.dt,
+                    positions=positions,
+                    velocities=velocities,
+                    radii=w.radius[b, agents].copy(),
+                    goals=w.goal[b, agents].copy(),
+                    v_pref=w.v_pref[b, agents].copy(),
+                    roles=roles,
+                    outcome=_OUTCOME[int(w.status[b])],
+                    min_clearance=self.hist_dmin[b, 1 : end + 1].copy(),
+                    continuation=continuation,
+                    human_overlaps=None if w.settings.crowdsim_compat else int(w.overlaps[b]),
+                    settings=settings,
+                )
+            )
         return out

@@ -54,8 +54,12 @@ class SocialForceSettings:
             value = getattr(self, name)
             check(value > 0, f"social_force.{name}", value, "must be > 0")
         check(self.v0 >= 0, "social_force.v0", self.v0, "must be >= 0")
-        check(0 <= self.outside_fov_weight <= 1, "social_force.outside_fov_weight",
-              self.outside_fov_weight, "must be in [0, 1]")
+        check(
+            0 <= self.outside_fov_weight <= 1,
+            "social_force.outside_fov_weight",
+            self.outside_fov_weight,
+            "must be in [0, 1]",
+        )
 
 
 @dataclass(frozen=True)
@@ -92,15 +96,36 @@ class WorldSettings:
 
     def __post_init__(self) -> None:
         check(math.isfinite(self.dt) and self.dt > 0, "dt", self.dt, "must be a finite number > 0")
-        check(math.isfinite(self.time_limit) and self.time_limit > 0, "time_limit", self.time_limit,
-              "must be a finite number > 0")
-        check(self.human_model in HUMAN_MODELS, "human_model", self.human_model,
-              f"must be one of {', '.join(HUMAN_MODELS)}")
-        check(self.orca_mode in ORCA_MODES, "orca_mode", self.orca_mode, f"must be one of {', '.join(ORCA_MODES)}")
-        check(self.visibility in VISIBILITIES, "visibility", self.visibility,
-              f"must be one of {', '.join(VISIBILITIES)}")
-        check(self.kinematics in KINEMATICS, "kinematics", self.kinematics,
-              f"must be one of {', '.join(KINEMATICS)}")
+        check(
+            math.isfinite(self.time_limit) and self.time_limit > 0,
+            "time_limit",
+            self.time_limit,
+            "must be a finite number > 0",
+        )
+        check(
+            self.human_model in HUMAN_MODELS,
+            "human_model",
+            self.human_model,
+            f"must be one of {', '.join(HUMAN_MODELS)}",
+        )
+        check(
+            self.orca_mode in ORCA_MODES,
+            "orca_mode",
+            self.orca_mode,
+            f"must be one of {', '.join(ORCA_MODES)}",
+        )
+        check(
+            self.visibility in VISIBILITIES,
+            "visibility",
+            self.visibility,
+            f"must be one of {', '.join(VISIBILITIES)}",
+        )
+        check(
+            self.kinematics in KINEMATICS,
+            "kinematics",
+            self.kinematics,
+            f"must be one of {', '.join(KINEMATICS)}",
+        )
         check(0 < self.rotation_limit <= math.pi, "rotation_limit", self.rotation_limit, "must be in (0, pi]")
         check(self.continuation_cap > 0, "continuation_cap", self.continuation_cap, "must be > 0")
         check(self.threads >= 0, "threads", self.threads, "must be >= 0")

@@ -20,9 +20,16 @@ from socialnav.sim.observation import Observation, build_observation
 from socialnav.sim.recorder import Recorder
 from socialnav.sim.settings import WorldSettings
 
-OUTCOMES = {_core.STATUS_SUCCESS: "success", _core.STATUS_COLLISION: "collision", _core.STATUS_TIMEOUT: "timeout"}
-_HUMAN_MODEL_IDS = {"orca": _core.HUMAN_ORCA, "social_force": _core.HUMAN_SOCIAL_FORCE,
-                    "linear": _core.HUMAN_LINEAR}
+OUTCOMES = {
+    _core.STATUS_SUCCESS: "success",
+    _core.STATUS_COLLISION: "collision",
+    _core.STATUS_TIMEOUT: "timeout",
+}
+_HUMAN_MODEL_IDS = {
+    "orca": _core.HUMAN_ORCA,
+    "social_force": _core.HUMAN_SOCIAL_FORCE,
+    "linear": _core.HUMAN_LINEAR,
+}
 
 
 class EpisodeStream:
@@ -110,8 +117,18 @@ class World:
         tags: Extra settings stored in every trajectory (policy name, information setting, …).
     """
 
-    def __init__(self, settings: WorldSettings, scenario: Scenario, batch_size: int, *, split: str = "test",
-                 start: int = 0, count: int | None = None, record: bool = True, tags: dict | None = None):
+    def __init__(
+        self,
+        settings: WorldSettings,
+        scenario: Scenario,
+        batch_size: int,
+        *,
+        split: str = "test",
+        start: int = 0,
+        count: int | None = None,
+        record: bool = True,
+        tags: dict | None = None,
+    ):
         if not isinstance(batch_size, int | np.integer) or batch_size < 1:
             raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
         self.settings = settings
@@ -139,9 +156,25 @@ class World:
         T = settings.history_length() if record else 0
         hist = (np.zeros((B, T, A, 2)), np.zeros((B, T, A, 2)), np.zeros((B, T))) if record else (None,) * 3
         self._recorder = Recorder(self, *hist, tags or {}) if record else None
-        self._core = _core.World(self._core_config(B, A, T), self.position, self.velocity, self.goal, self.radius,
-                                 self.v_pref, self.mask, self.theta, self.steps, self.status, self.reward,
-                                 self.dmin, self.done, self.overlaps, self.arrival, self.end_step, *hist)
+        self._core = _core.World(
+            self._core_config(B, A, T),
+            self.position,
+            self.velocity,
+            self.goal,
+            self.radius,
+            self.v_pref,
+            self.mask,
+            self.theta,
+            self.steps,
+            self.status,
+            self.reward,
+            self.dmin,
+            self.done,
+            self.overlaps,
+            self.arrival,
+            self.end_step,
+            *hist,
+        )
         self._actions = np.zeros((B, 2))
 
     def _core_config(self, B: int, A: int, T: int) -> _core.WorldConfig:
@@ -175,8 +208,12 @@ class World:
 
     def restart(self, start: int) -> Observation:
         """Restarts the episode stream at index ``start`` and refills every slot from it."""
-        self.stream = EpisodeStream(self.scenario, self.stream.split, start,
-                                    None if self.stream.stop is None else max(self.stream.stop - start, 0))
+        self.stream = EpisodeStream(
+            self.scenario,
+            self.stream.split,
+            start,
+            None if self.stream.stop is None else max(self.stream.stop - start, 0),
+        )
         return self.reset()
 
     def _fill(self, slots: np.ndarray) -> None:
@@ -188,13 +225,24 @@ class World:
         self.episode_index[slots[n:]] = -1
 
     def _load(self, slots: np.ndarray, ep: EpisodeBatch) -> None:
-        for name in ("robot_start", "robot_goal", "robot_theta", "robot_radius", "robot_v_pref", "human_start",
-                     "human_goal", "human_radius", "human_v_pref"):
+        for name in (
+            "robot_start",
+            "robot_goal",
+            "robot_theta",
+            "robot_radius",
+            "robot_v_pref",
+            "human_start",
+            "human_goal",
+            "human_radius",
+            "human_v_pref",
+        ):
             value = getattr(ep, name)
             if not np.all(np.isfinite(value)):
                 bad = np.argwhere(~np.isfinite(value))[0]
-                raise ValueError(f"scenario {type(self.scenario).__name__} produced a non-finite {name} "
-                                 f"for episode index {int(ep.indices[bad[0]])}")
+                raise ValueError(
+                    f"scenario {type(self.scenario).__name__} produced a non-finite {name} "
+                    f"for episode index {int(ep.indices[bad[0]])}"
+                )
         self.position[slots, 0] = ep.robot_start
         self.position[slots, 1:] = ep.human_start
         self.velocity[slots] = 0.0
@@ -232,9 +280,19 @@ class World:
     def observe(self, oracle: bool = False) -> Observation:
         """The batch's observation; ``oracle`` adds the humans' exact next states (computed once
         per step for all candidate actions, since human motion does not depend on the robot's action)."""
-        obs = build_observation(self.position, self.velocity, self.goal, self.radius, self.v_pref, self.mask,
-                                self.theta, self.active, self.steps * self.settings.dt, self.settings.dt,
-                                self.settings.kinematics)
+        obs = build_observation(
+            self.position,
+            self.velocity,
+            self.goal,
+            self.radius,
+            self.v_pref,
+            self.mask,
+            self.theta,
+            self.active,
+            self.steps * self.settings.dt,
+            self.settings.dt,
+            self.settings.kinematics,
+        )
         if oracle:
             nxt = np.zeros((self.batch_size, self.n_agents - 1, 5))
             self._core.preview_humans(nxt)

@@ -9,7 +9,9 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr = sub.add_parser("train", help="train a learned policy (imitation from ORCA, then value-based RL)")
     tr.add_argument("--policy", required=True, help="cadrl, lstm_rl, sarl or om_sarl")
     tr.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
-    tr.add_argument("--out", help="run directory (default runs/train/<preset>-<policy>-s<seed>); resumed if it exists")
+    tr.add_argument(
+        "--out", help="run directory (default runs/train/<preset>-<policy>-s<seed>); resumed if it exists"
+    )
     tr.add_argument("--seed", type=int, default=0)
     tr.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
     tr.add_argument("--config", help="YAML file overriding training settings")

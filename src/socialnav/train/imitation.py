@@ -1,0 +1,134 @@
+"""Imitation learning: ORCA demonstrations, discounted Monte-Carlo value targets, MSE regression.
+
+As CrowdNav: the teacher is ORCA driving the (invisible) robot with a safety space of 0.15 m; each
+visited state s_i of an episode that ended in success or collision gets the target
+
+    V(s_i) = Σ_{t ≥ i} γ^((t − i)·dt·v_pref) · r_t
+
+where r_t is the reward of the step taken from s_t. Timed-out episodes are dropped (their return
+is truncated), as CrowdNav does.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from socialnav.policies.native import NativePolicy
+from socialnav.train.envs import MultiWorld
+
+
+def mc_returns(rewards: np.ndarray | list[float], gamma: float, dt: float, v_pref: float) -> np.ndarray:
+    """Discounted returns of one episode: out[i] = Σ_{t≥i} γ^((t−i)·dt·v_pref) · r_t."""
+    r = np.asarray(rewards, dtype=np.float64)
+    disc = gamma ** (dt * v_pref)
+    out = np.zeros_like(r)
+    acc = 0.0
+    for t in range(len(r) - 1, -1, -1):
+        acc = r[t] + disc * acc
+        out[t] = acc
+    return out
+
+
+@dataclass
+class Demonstrations:
+    """Visited states with their value targets (NumPy)."""
+
+    robot: np.ndarray  # (M, 9)
+    humans: np.ndarray  # (M, N, 5)
+    mask: np.ndarray  # (M, N)
+    value: np.ndarray  # (M,)
+    episodes: int  # episodes collected (all outcomes)
+    outcomes: dict[str, int]
+
+    def __len__(self) -> int:
+        return len(self.value)
+
+
+def collect_demonstrations(world: MultiWorld, teacher: NativePolicy, episodes: int, gamma: float,
+                           success_reward: float, progress: Callable[[int], None] | None = None) -> Demonstrations:
+    """Runs the teacher until ``episodes`` episodes have finished; keeps successes and collisions."""
+    obs = world.observe()
+    B = world.batch_size
+    traj: list[list[tuple[np.ndarray, np.ndarray, np.ndarray, float]]] = [[] for _ in range(B)]
+    robots, humans, masks, values = [], [], [], []
+    outcomes = {"success": 0, "collision": 0, "timeout": 0}
+    done_count = 0
+    while done_count < episodes:
+        actions = teacher.act(obs)
+        res = world.step(actions)
+        for b in range(B):
+            traj[b].append((obs.robot[b], obs.humans[b], obs.human_mask[b], float(res.reward[b])))
+        finished = np.flatnonzero(res.terminated | res.truncated)
+        for b in finished:
+            steps = traj[b]
+            traj[b] = []
+            if done_count >= episodes:
+                continue
+            done_count += 1
+            if res.truncated[b]:
+                outcomes["timeout"] += 1
+                continue
+            outcomes["success" if math.isclose(res.reward[b], success_reward) else "collision"] += 1
+            v_pref = float(steps[0][0][7])
+            ret = mc_returns([s[3] for s in steps], gamma, world.dt, v_pref)
+            robots.append(np.stack([s[0] for s in steps]))
+            humans.append(np.stack([s[1] for s in steps]))
+            masks.append(np.stack([s[2] for s in steps]))
+            values.append(ret)
+            if progress is not None:
+                progress(1)
+        if progress is not None:
+            progress(0)
+        obs = world.observe()
+    n = world.worlds[0].n_agents - 1
+    if not values:
+        return Demonstrations(np.zeros((0, 9)), np.zeros((0, n, 5)), np.zeros((0, n), bool), np.zeros(0), done_count,
+                              outcomes)
+    return Demonstrations(np.concatenate(robots), np.concatenate(humans), np.concatenate(masks),
+                          np.concatenate(values), done_count, outcomes)
+
+
+def fit_values(policy, demos: Demonstrations, epochs: int, batch_size: int, lr: float, generator: torch.Generator,
+               make_optimizer: Callable, on_epoch: Callable[[int, float], None] | None = None) -> list[float]:
+    """Supervised regression (MSE) of the policy's network onto the demonstrations' values.
+
+    Returns:
+        Mean loss per epoch.
+    """
+    net = policy.network
+    dev = policy.device
+    if len(demos) == 0 or epochs == 0:
+        return []
+    robot = torch.as_tensor(demos.robot, dtype=torch.float32, device=dev)
+    humans = torch.as_tensor(demos.humans, dtype=torch.float32, device=dev)
+    mask = torch.as_tensor(demos.mask, dtype=torch.bool, device=dev)
+    value = torch.as_tensor(demos.value, dtype=torch.float32, device=dev)
+    with torch.no_grad():
+        joint = policy.transform(robot, humans, mask)  # the transform does not depend on the weights
+    opt = make_optimizer(net.parameters(), lr)
+    net.train()
+    losses = []
+    m = len(value)
+    for epoch in range(epochs):
+        perm = torch.randperm(m, generator=generator).to(dev)
+        total, count = 0.0, 0
+        for s in range(0, m, batch_size):
+            idx = perm[s:s + batch_size]
+            loss = torch.nn.functional.mse_loss(net.value(joint[idx], mask[idx]), value[idx])
+            if not torch.isfinite(loss):
+                raise FloatingPointError(f"imitation loss became {loss.item()} in epoch {epoch}")
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            total += float(loss.detach()) * len(idx)
+            count += len(idx)
+        losses.append(total / count)
+        if on_epoch is not None:
+            on_epoch(epoch, losses[-1])
+    net.eval()
+    return losses

@@ -1,0 +1,110 @@
+"""Value-based RL (CrowdNav/RGL style) with the bookkeeping defects fixed.
+
+- Episodes are collected from the batched world in lockstep with the ε-greedy lookahead policy
+  (explicit ``torch.Generator``); every transition (s, r, s', done) is stored, the terminal one
+  included.
+- TD targets are computed at training time, under ``torch.no_grad()``, from a target network:
+  y = r + γ^(dt·v_pref) · V_target(s') · (1 − done); ``done`` is 1 only for success/collision, a
+  timeout bootstraps (truncation).
+- The ratio of gradient steps to collected episodes is ``rl.gradient_steps_per_episode``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from socialnav.train.config import RLSettings
+from socialnav.train.envs import MultiWorld
+from socialnav.train.memory import ReplayMemory, Transitions
+
+
+class TrainingDiverged(RuntimeError):
+    """The loss became NaN or infinite; training stopped and the last good checkpoint was kept."""
+
+
+def epsilon_at(episode: int, rl: RLSettings) -> float:
+    """Linear decay from epsilon_start to epsilon_end over the first epsilon_decay_episodes."""
+    if rl.epsilon_decay_episodes <= 0 or episode >= rl.epsilon_decay_episodes:
+        return float(rl.epsilon_end)
+    frac = episode / rl.epsilon_decay_episodes
+    return float(rl.epsilon_start + (rl.epsilon_end - rl.epsilon_start) * frac)
+
+
+def td_targets(reward: torch.Tensor, done: torch.Tensor, next_value: torch.Tensor, gamma: float, dt: float,
+               v_pref: torch.Tensor) -> torch.Tensor:
+    """y = r + γ^(dt·v_pref) · V(s') · (1 − done)  (done: terminal only; truncations bootstrap)."""
+    disc = torch.pow(torch.as_tensor(gamma, dtype=reward.dtype, device=reward.device), dt * v_pref.to(reward.dtype))
+    return reward + disc * next_value.to(reward.dtype) * (~done).to(reward.dtype)
+
+
+def state_values(policy, network: torch.nn.Module, robot: torch.Tensor, humans: torch.Tensor,
+                 mask: torch.Tensor) -> torch.Tensor:
+    """V(s) of raw observed states through the policy's agent-centric transform."""
+    return network.value(policy.transform(robot, humans, mask), mask)
+
+
+def td_loss(policy, target_net: torch.nn.Module, batch: Transitions, gamma: float, dt: float) -> torch.Tensor:
+    """MSE between V(s) and the TD target computed now with the target network."""
+    with torch.no_grad():
+        next_v = state_values(policy, target_net, batch.next_robot, batch.next_humans, batch.next_mask)
+        y = td_targets(batch.reward, batch.done, next_v, gamma, dt, batch.robot[:, 7])
+    v = state_values(policy, policy.network, batch.robot, batch.humans, batch.mask)
+    return torch.nn.functional.mse_loss(v, y.to(v.dtype))
+
+
+@dataclass
+class EpisodeStats:
+    """Outcomes of finished episodes (success, collision, timeout) and success times."""
+
+    success: int = 0
+    collision: int = 0
+    timeout: int = 0
+    success_time: float = 0.0
+
+    @property
+    def total(self) -> int:
+        return self.success + self.collision + self.timeout
+
+    def rates(self) -> dict[str, float]:
+        n = max(self.total, 1)
+        return {"success": self.success / n, "collision": self.collision / n, "timeout": self.timeout / n,
+                "nav_time": self.success_time / self.success if self.success else math.nan}
+
+    def add(self, terminated: np.ndarray, truncated: np.ndarray, reward: np.ndarray, time: np.ndarray,
+            success_reward: float) -> None:
+        succ = terminated & np.isclose(reward, success_reward)
+        self.success += int(succ.sum())
+        self.collision += int((terminated & ~succ).sum())
+        self.timeout += int(truncated.sum())
+        self.success_time += float(time[succ].sum())
+
+
+def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> dict[str, float]:
+    """Greedy rollouts of every episode of ``world`` (a finite val stream): success, collision and
+    timeout rates and the mean navigation time of successes."""
+    world.reset()
+    stats = EpisodeStats()
+    while world.busy:
+        obs = world.observe(oracle=oracle)
+        _, actions = policy.act(obs, next_humans=obs.next_humans if oracle else None)
+        actions = np.asarray(actions, dtype=np.float64)
+        actions[~obs.active] = 0.0
+        res = world.step(actions)
+        active = obs.active
+        stats.add(res.terminated & active, res.truncated & active, res.reward, res.final_time, success_reward)
+    out = stats.rates()
+    out["episodes"] = stats.total
+    return out
+
+
+def push_step(memory: ReplayMemory, obs, res) -> None:
+    """Stores the transitions of one lockstep step (every active slot)."""
+    a = np.flatnonzero(obs.active)
+    if a.size == 0:
+        return
+    memory.push(obs.robot[a], obs.humans[a], obs.human_mask[a], res.reward[a], res.final_robot[a],
+                res.final_humans[a], res.final_mask[a], res.terminated[a])
