@@ -33,7 +33,7 @@ T* checked(Array<T>& a, const char* name, size_t expected) {
 template <typename T>
 T* optional_checked(nb::object obj, const char* name, size_t expected) {
   if (obj.is_none()) return nullptr;
-  Array<T> a = nb::cast<Array<T>>(obj);
+  Array<T> a = nb::cast<Array<T>>(obj, /* convert = */ false);  // written in place: no copies
   return checked(a, name, expected);
 }
 
@@ -147,8 +147,11 @@ NB_MODULE(_core, m) {
             self->keep_alive.append(hist_velocity);
             self->keep_alive.append(hist_dmin);
           },
-          "config"_a, "position"_a, "velocity"_a, "goal"_a, "radius"_a, "v_pref"_a, "mask"_a, "theta"_a,
-          "steps"_a, "status"_a, "reward"_a, "dmin"_a, "done"_a, "overlaps"_a, "arrival"_a, "end_step"_a,
+          // State buffers are shared with Python: a converted copy would silently decouple them.
+          "config"_a, "position"_a.noconvert(), "velocity"_a.noconvert(), "goal"_a.noconvert(),
+          "radius"_a.noconvert(), "v_pref"_a.noconvert(), "mask"_a.noconvert(), "theta"_a.noconvert(),
+          "steps"_a.noconvert(), "status"_a.noconvert(), "reward"_a.noconvert(), "dmin"_a.noconvert(),
+          "done"_a.noconvert(), "overlaps"_a.noconvert(), "arrival"_a.noconvert(), "end_step"_a.noconvert(),
           "hist_position"_a.none(), "hist_velocity"_a.none(), "hist_dmin"_a.none())
       .def(
           "step",
@@ -167,7 +170,7 @@ NB_MODULE(_core, m) {
             nb::gil_scoped_release release;
             self.world->preview_humans(o);
           },
-          "out"_a, "The humans' exact next states (B, N, 5) without stepping.");
+          "out"_a.noconvert(), "The humans' exact next states (B, N, 5) without stepping.");
 
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
       .def(nb::init<int>(), "threads"_a)
@@ -205,7 +208,7 @@ NB_MODULE(_core, m) {
         }
       },
       "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a,
-      "orca"_a, "radius_margin"_a, "safety_space"_a, "social_force"_a, "pool"_a, "out"_a,
+      "orca"_a, "radius_margin"_a, "safety_space"_a, "social_force"_a, "pool"_a, "out"_a.noconvert(),
       "Batched actions of a native robot policy, written into out (B, 2).");
 
   m.def(

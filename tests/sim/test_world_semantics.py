@@ -262,3 +262,19 @@ def test_oracle_preview_equals_the_next_step_and_changes_nothing():
     w.step(np.tile([0.3, 0.5], (4, 1)))
     np.testing.assert_array_equal(obs.next_humans[..., :2], w.position[:, 1:])
     np.testing.assert_array_equal(obs.next_humans[..., 2:4], w.velocity[:, 1:])
+
+
+def test_core_refuses_state_buffers_it_would_have_to_copy():
+    w = hand_world()
+    arrays = [w.position, w.velocity, w.goal, w.radius, w.v_pref, w.mask, w.theta, w.steps, w.status, w.reward,
+              w.dmin, w.done, w.overlaps, w.arrival, w.end_step]
+    config = w._core_config(1, w.n_agents, 0)
+    _core.World(config, *arrays, None, None, None)  # the right dtypes are accepted
+    bad = list(arrays)
+    bad[0] = w.position.astype(np.float32)
+    with pytest.raises(TypeError):
+        _core.World(config, *bad, None, None, None)
+    with pytest.raises(ValueError, match="position: expected 4 elements"):
+        _core.World(config, np.zeros((1, 3, 2)), *arrays[1:], None, None, None)
+    with pytest.raises(TypeError):
+        w._core.preview_humans(np.zeros((1, 1, 5), dtype=np.float32))
