@@ -157,11 +157,17 @@ def cmd_metrics(args: argparse.Namespace) -> int:
         return 0
     for note in notes:
         print(f"warning: {note}", file=sys.stderr)
-    keys = [k for k in rows[0] if k not in ("policy", "scenario", "visibility", "index")]
+    keys = [k for k in rows[0] if k not in ("policy", "scenario", "visibility", "index", "episode", "outcome")]
     for row in rows:
         print(f"episode {row['episode']} ({row['outcome']}):")
-        for k in keys[2:]:
-            print(f"  {k:55s} {row[k]:.4g}" if isinstance(row[k], float) else f"  {k:55s} {row[k]}")
+        for k in keys:
+            print(f"  {k:60s} {row[k]:.4g}")
+    for group in summary:
+        print(f"summary over {group['episodes']} episode(s) [{group['scenario']}, {group['visibility']}]:")
+        for k in keys:
+            mean, std = group.get(f"{k}.mean"), group.get(f"{k}.std")
+            if mean is not None:
+                print(f"  {k:60s} {mean:.4g} ± {std:.3g} (n={group.get(f'{k}.n')})")
     return 0
 
 
