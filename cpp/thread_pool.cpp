@@ -22,15 +22,16 @@ inline void chunk(int n, int parts, int part, int& begin, int& end) {
 }
 }  // namespace
 
-void ThreadPool::parallel_for(int n, const std::function<void(int, int, int)>& fn) {
+void ThreadPool::run(int n, void* ctx, Trampoline call) {
   const int parts = size();
   if (parts == 1 || n < 2 * parts) {
-    fn(0, n, 0);
+    call(ctx, 0, n, 0);
     return;
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    job_ = &fn;
+    job_ctx_ = ctx;
+    job_call_ = call;
     job_n_ = n;
     pending_ = parts - 1;
     ++generation_;
@@ -38,28 +39,31 @@ void ThreadPool::parallel_for(int n, const std::function<void(int, int, int)>& f
   start_cv_.notify_all();
   int begin, end;
   chunk(n, parts, 0, begin, end);
-  fn(begin, end, 0);
+  call(ctx, begin, end, 0);
   std::unique_lock<std::mutex> lock(mutex_);
   done_cv_.wait(lock, [this] { return pending_ == 0; });
-  job_ = nullptr;
+  job_ctx_ = nullptr;
+  job_call_ = nullptr;
 }
 
 void ThreadPool::worker_loop(int worker) {
   long seen = 0;
   for (;;) {
-    const std::function<void(int, int, int)>* job;
+    void* ctx;
+    Trampoline call;
     int n;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       start_cv_.wait(lock, [&] { return stop_ || generation_ != seen; });
       if (stop_) return;
       seen = generation_;
-      job = job_;
+      ctx = job_ctx_;
+      call = job_call_;
       n = job_n_;
     }
     int begin, end;
     chunk(n, size(), worker, begin, end);
-    (*job)(begin, end, worker);
+    call(ctx, begin, end, worker);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (--pending_ == 0) done_cv_.notify_one();

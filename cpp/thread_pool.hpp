@@ -3,8 +3,8 @@
 #pragma once
 
 #include <condition_variable>
-#include <functional>
 #include <mutex>
+#include <type_traits>
 #include <thread>
 #include <vector>
 
@@ -20,17 +20,26 @@ class ThreadPool {
   int size() const { return static_cast<int>(workers_.size()) + 1; }
 
   // Calls fn(begin, end, worker) over [0, n) split into size() contiguous chunks; the calling
-  // thread runs chunk 0. `worker` indexes per-thread scratch space.
-  void parallel_for(int n, const std::function<void(int, int, int)>& fn);
+  // thread runs chunk 0. `worker` indexes per-thread scratch space. The callable is passed by
+  // reference through a plain function pointer, so a call allocates nothing.
+  template <typename F>
+  void parallel_for(int n, F&& fn) {
+    using Fn = std::remove_reference_t<F>;
+    run(n, const_cast<void*>(static_cast<const void*>(&fn)),
+        [](void* ctx, int begin, int end, int worker) { (*static_cast<Fn*>(ctx))(begin, end, worker); });
+  }
 
  private:
+  using Trampoline = void (*)(void*, int, int, int);
+  void run(int n, void* ctx, Trampoline call);
   void worker_loop(int worker);
 
   std::vector<std::thread> workers_;
   std::mutex mutex_;
   std::condition_variable start_cv_;
   std::condition_variable done_cv_;
-  const std::function<void(int, int, int)>* job_ = nullptr;
+  void* job_ctx_ = nullptr;
+  Trampoline job_call_ = nullptr;
   int job_n_ = 0;
   long generation_ = 0;
   int pending_ = 0;
