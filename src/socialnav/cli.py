@@ -157,7 +157,8 @@ def cmd_metrics(args: argparse.Namespace) -> int:
         return 0
     for note in notes:
         print(f"warning: {note}", file=sys.stderr)
-    keys = [k for k in rows[0] if k not in ("policy", "scenario", "visibility", "index", "episode", "outcome")]
+    ids = ("policy", "scenario", "visibility", "index", "episode", "outcome")
+    keys = [k for k in rows[0] if k not in ids]
     for row in rows:
         print(f"episode {row['episode']} ({row['outcome']}):")
         for k in keys:

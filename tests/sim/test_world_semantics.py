@@ -266,8 +266,8 @@ def test_oracle_preview_equals_the_next_step_and_changes_nothing():
 
 def test_core_refuses_state_buffers_it_would_have_to_copy():
     w = hand_world()
-    arrays = [w.position, w.velocity, w.goal, w.radius, w.v_pref, w.mask, w.theta, w.steps, w.status, w.reward,
-              w.dmin, w.done, w.overlaps, w.arrival, w.end_step]
+    arrays = [w.position, w.velocity, w.goal, w.radius, w.v_pref, w.mask, w.theta, w.steps, w.status,
+              w.reward, w.dmin, w.done, w.overlaps, w.arrival, w.end_step]
     config = w._core_config(1, w.n_agents, 0)
     _core.World(config, *arrays, None, None, None)  # the right dtypes are accepted
     bad = list(arrays)

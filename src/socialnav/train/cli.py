@@ -12,9 +12,26 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr.add_argument(
         "--out", help="run directory (default runs/train/<preset>-<policy>-s<seed>); resumed if it exists"
     )
-    tr.add_argument("--seed", type=int, default=0)
-    tr.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
-    tr.add_argument("--config", help="YAML file overriding training settings")
+    tr.add_argument("--seed", type=int, default=None, help="master seed (default: the config's, 0)")
+    tr.add_argument(
+        "--device",
+        default=None,
+        choices=["cpu", "cuda", "auto"],
+        help="cpu (default), cuda, or auto (cuda when available)",
+    )
+    tr.add_argument("--config", help="YAML file overriding training settings (see docs/training.md)")
+    tr.add_argument(
+        "--information",
+        choices=["constant_velocity", "oracle"],
+        help="lookahead prediction of the humans' next states (default constant_velocity)",
+    )
+    tr.add_argument(
+        "--collection-batch",
+        type=int,
+        dest="collection_batch",
+        help="episodes stepped in lockstep while collecting (default 128)",
+    )
+    tr.add_argument("--rl-episodes", type=int, dest="rl_episodes", help="RL episodes (default 10000)")
     tr.add_argument("--no-progress", action="store_true")
     tr.set_defaults(run=_run)
 

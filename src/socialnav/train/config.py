@@ -42,8 +42,12 @@ class ImitationSettings:
         check(self.epochs >= 0, "imitation.epochs", self.epochs, "must be >= 0")
         check(self.lr > 0, "imitation.lr", self.lr, "must be > 0")
         check(self.batch_size >= 1, "imitation.batch_size", self.batch_size, "must be >= 1")
-        check(self.teacher_safety_space >= 0, "imitation.teacher_safety_space", self.teacher_safety_space,
-              "must be >= 0")
+        check(
+            self.teacher_safety_space >= 0,
+            "imitation.teacher_safety_space",
+            self.teacher_safety_space,
+            "must be >= 0",
+        )
 
 
 @dataclass(frozen=True)
@@ -69,15 +73,25 @@ class RLSettings:
         for name in ("epsilon_start", "epsilon_end"):
             v = getattr(self, name)
             check(0 <= v <= 1, f"rl.{name}", v, "must be in [0, 1]")
-        check(self.epsilon_decay_episodes >= 0, "rl.epsilon_decay_episodes", self.epsilon_decay_episodes,
-              "must be >= 0")
+        check(
+            self.epsilon_decay_episodes >= 0,
+            "rl.epsilon_decay_episodes",
+            self.epsilon_decay_episodes,
+            "must be >= 0",
+        )
         check(self.capacity >= 1, "rl.capacity", self.capacity, "must be >= 1")
         check(self.batch_size >= 1, "rl.batch_size", self.batch_size, "must be >= 1")
-        check(math.isfinite(self.gradient_steps_per_episode) and self.gradient_steps_per_episode >= 0,
-              "rl.gradient_steps_per_episode", self.gradient_steps_per_episode, "must be a finite number >= 0")
+        check(
+            math.isfinite(self.gradient_steps_per_episode) and self.gradient_steps_per_episode >= 0,
+            "rl.gradient_steps_per_episode",
+            self.gradient_steps_per_episode,
+            "must be a finite number >= 0",
+        )
         check(self.warmup_transitions >= 0, "rl.warmup_transitions", self.warmup_transitions, "must be >= 0")
         check(self.lr > 0, "rl.lr", self.lr, "must be > 0")
-        check(self.target_update_every >= 1, "rl.target_update_every", self.target_update_every, "must be >= 1")
+        check(
+            self.target_update_every >= 1, "rl.target_update_every", self.target_update_every, "must be >= 1"
+        )
         check(self.validate_every >= 1, "rl.validate_every", self.validate_every, "must be >= 1")
         check(self.val_episodes >= 1, "rl.val_episodes", self.val_episodes, "must be >= 1")
         check(0 < self.gamma <= 1, "rl.gamma", self.gamma, "must be in (0, 1]")
@@ -115,8 +129,12 @@ class TrainSettings:
     rl: RLSettings = field(default_factory=RLSettings)
 
     def __post_init__(self) -> None:
-        check(self.information in INFORMATION, "information", self.information,
-              f"must be one of {', '.join(INFORMATION)}")
+        check(
+            self.information in INFORMATION,
+            "information",
+            self.information,
+            f"must be one of {', '.join(INFORMATION)}",
+        )
         check(self.collection_batch >= 1, "collection_batch", self.collection_batch, "must be >= 1")
         check(self.seed >= 0, "seed", self.seed, "must be >= 0")
         check(self.device in DEVICES, "device", self.device, f"must be one of {', '.join(DEVICES)}")
@@ -161,9 +179,15 @@ def derive_seeds(seed: int) -> dict[str, int]:
     ``scenario_start`` is the first training-episode index (disjoint ranges of 10 M episodes per
     master seed; validation uses the ``val`` split, indices 0..val_episodes-1, whatever the seed).
     """
-    exploration, init, sampling = (int(x) for x in np.random.SeedSequence([int(seed), 0x50C1A1]).generate_state(3))
-    return {"scenario_start": int(seed) * 10_000_000, "exploration": exploration, "init": init,
-            "sampling": sampling}
+    exploration, init, sampling = (
+        int(x) for x in np.random.SeedSequence([int(seed), 0x50C1A1]).generate_state(3)
+    )
+    return {
+        "scenario_start": int(seed) * 10_000_000,
+        "exploration": exploration,
+        "init": init,
+        "sampling": sampling,
+    }
 
 
 def flat_diff(a: Any, b: Any, prefix: str = "") -> list[str]:

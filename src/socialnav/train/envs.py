@@ -57,38 +57,49 @@ class MultiWorld:
         threads: native worker threads per world (0: the preset's setting).
     """
 
-    def __init__(self, preset: Preset, n_humans: int, batch_size: int, split: str, start: int = 0,
-                 count: int | None = None, threads: int = 0) -> None:
+    def __init__(
+        self,
+        preset: Preset,
+        n_humans: int,
+        batch_size: int,
+        split: str,
+        start: int = 0,
+        count: int | None = None,
+        threads: int = 0,
+    ) -> None:
         names = list(preset.training.scenarios)
         if not names:
             raise ValueError("the preset's training scenario mix is empty")
-        settings = dataclasses.replace(preset.world, visibility=preset.training.visibility,
-                                       continue_after_success=False)
+        settings = dataclasses.replace(
+            preset.world, visibility=preset.training.visibility, continue_after_success=False
+        )
         if threads:
             settings = dataclasses.replace(settings, threads=threads)
         self.names = names
         self.settings = settings
+        self.start = int(start)
         counts = split_counts(count, len(names)) if count is not None else [None] * len(names)
         sizes = [max(1, b) for b in split_counts(batch_size, len(names))]
         self.worlds: list[World] = []
         for name, size, cnt in zip(names, sizes, counts, strict=True):
             if cnt == 0:
                 continue
-            scenario = make_scenario(name, n_humans=n_humans, robot_v_pref=preset.robot.v_pref,
-                                     robot_radius=preset.robot.radius)
+            scenario = make_scenario(
+                name, n_humans=n_humans, robot_v_pref=preset.robot.v_pref, robot_radius=preset.robot.radius
+            )
             b = size if cnt is None else max(1, min(size, cnt))
-            self.worlds.append(World(settings, scenario, b, split=split, start=start, count=cnt, record=False))
+            self.worlds.append(
+                World(settings, scenario, b, split=split, start=start, count=cnt, record=False)
+            )
         self.sizes = [w.batch_size for w in self.worlds]
         self.offsets = np.cumsum([0, *self.sizes])
         self.batch_size = int(self.offsets[-1])
         self.dt = settings.dt
 
     def reset(self, starts: list[int] | None = None) -> None:
+        """Restarts every stream at ``start`` (or at ``starts[i]``) and fills every slot."""
         for i, w in enumerate(self.worlds):
-            if starts is None:
-                w.reset()
-            else:
-                w.restart(int(starts[i]))
+            w.restart(self.start if starts is None else int(starts[i]))
 
     def stream_positions(self) -> list[int]:
         """Next episode index each world's stream will hand out (for resumption)."""
@@ -103,9 +114,16 @@ class MultiWorld:
         if len(obs) == 1:
             return obs[0]
         nxt = None if not oracle else np.concatenate([o.next_humans for o in obs])
-        return Observation(np.concatenate([o.robot for o in obs]), np.concatenate([o.humans for o in obs]),
-                           np.concatenate([o.human_mask for o in obs]), np.concatenate([o.active for o in obs]),
-                           np.concatenate([o.time for o in obs]), obs[0].dt, obs[0].kinematics, nxt)
+        return Observation(
+            np.concatenate([o.robot for o in obs]),
+            np.concatenate([o.humans for o in obs]),
+            np.concatenate([o.human_mask for o in obs]),
+            np.concatenate([o.active for o in obs]),
+            np.concatenate([o.time for o in obs]),
+            obs[0].dt,
+            obs[0].kinematics,
+            nxt,
+        )
 
     def step(self, actions: np.ndarray) -> MultiStep:
         """Steps every world; the ``final_*`` arrays hold each slot's state right after the step
@@ -118,7 +136,12 @@ class MultiWorld:
             done = np.flatnonzero(res.terminated | res.truncated)
             if done.size:
                 fo = res.final_observation
-                robot[done], humans[done], mask[done], time[done] = fo.robot, fo.humans, fo.human_mask, fo.time
+                robot[done], humans[done], mask[done], time[done] = (
+                    fo.robot,
+                    fo.humans,
+                    fo.human_mask,
+                    fo.time,
+                )
             parts.append((res.reward, res.terminated, res.truncated, robot, humans, mask, time))
         cat = [np.concatenate([p[i] for p in parts]) for i in range(7)]
         return MultiStep(*cat)

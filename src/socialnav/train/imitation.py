@@ -49,8 +49,14 @@ class Demonstrations:
         return len(self.value)
 
 
-def collect_demonstrations(world: MultiWorld, teacher: NativePolicy, episodes: int, gamma: float,
-                           success_reward: float, progress: Callable[[int], None] | None = None) -> Demonstrations:
+def collect_demonstrations(
+    world: MultiWorld,
+    teacher: NativePolicy,
+    episodes: int,
+    gamma: float,
+    success_reward: float,
+    progress: Callable[[int], None] | None = None,
+) -> Demonstrations:
     """Runs the teacher until ``episodes`` episodes have finished; keeps successes and collisions."""
     obs = world.observe()
     B = world.batch_size
@@ -87,14 +93,29 @@ def collect_demonstrations(world: MultiWorld, teacher: NativePolicy, episodes: i
         obs = world.observe()
     n = world.worlds[0].n_agents - 1
     if not values:
-        return Demonstrations(np.zeros((0, 9)), np.zeros((0, n, 5)), np.zeros((0, n), bool), np.zeros(0), done_count,
-                              outcomes)
-    return Demonstrations(np.concatenate(robots), np.concatenate(humans), np.concatenate(masks),
-                          np.concatenate(values), done_count, outcomes)
+        return Demonstrations(
+            np.zeros((0, 9)), np.zeros((0, n, 5)), np.zeros((0, n), bool), np.zeros(0), done_count, outcomes
+        )
+    return Demonstrations(
+        np.concatenate(robots),
+        np.concatenate(humans),
+        np.concatenate(masks),
+        np.concatenate(values),
+        done_count,
+        outcomes,
+    )
 
 
-def fit_values(policy, demos: Demonstrations, epochs: int, batch_size: int, lr: float, generator: torch.Generator,
-               make_optimizer: Callable, on_epoch: Callable[[int, float], None] | None = None) -> list[float]:
+def fit_values(
+    policy,
+    demos: Demonstrations,
+    epochs: int,
+    batch_size: int,
+    lr: float,
+    generator: torch.Generator,
+    make_optimizer: Callable,
+    on_epoch: Callable[[int, float], None] | None = None,
+) -> list[float]:
     """Supervised regression (MSE) of the policy's network onto the demonstrations' values.
 
     Returns:
@@ -118,7 +139,7 @@ def fit_values(policy, demos: Demonstrations, epochs: int, batch_size: int, lr: 
         perm = torch.randperm(m, generator=generator).to(dev)
         total, count = 0.0, 0
         for s in range(0, m, batch_size):
-            idx = perm[s:s + batch_size]
+            idx = perm[s : s + batch_size]
             loss = torch.nn.functional.mse_loss(net.value(joint[idx], mask[idx]), value[idx])
             if not torch.isfinite(loss):
                 raise FloatingPointError(f"imitation loss became {loss.item()} in epoch {epoch}")

@@ -42,8 +42,13 @@ class ReplayMemory:
         dtype: float dtype of the stored states and rewards.
     """
 
-    def __init__(self, capacity: int, n_humans: int, device: str | torch.device = "cpu",
-                 dtype: torch.dtype = torch.float32) -> None:
+    def __init__(
+        self,
+        capacity: int,
+        n_humans: int,
+        device: str | torch.device = "cpu",
+        dtype: torch.dtype = torch.float32,
+    ) -> None:
         if capacity < 1:
             raise ValueError(f"capacity must be >= 1, got {capacity}")
         self.capacity = int(capacity)
@@ -68,24 +73,42 @@ class ReplayMemory:
 
     def push(self, robot, humans, mask, reward, next_robot, next_humans, next_mask, done) -> None:
         """Appends k transitions (arrays with a leading dimension k; NumPy or torch)."""
-        arrays = [torch.as_tensor(np.asarray(x) if not torch.is_tensor(x) else x)
-                  for x in (robot, humans, mask, reward, next_robot, next_humans, next_mask, done)]
+        arrays = [
+            torch.as_tensor(np.asarray(x) if not torch.is_tensor(x) else x)
+            for x in (robot, humans, mask, reward, next_robot, next_humans, next_mask, done)
+        ]
         k = int(arrays[0].shape[0])
         if any(int(a.shape[0]) != k for a in arrays):
-            raise ValueError(f"all transition arrays need the same leading size, got {[tuple(a.shape) for a in arrays]}")
+            raise ValueError(
+                f"all transition arrays need the same leading size, got {[tuple(a.shape) for a in arrays]}"
+            )
         if k == 0:
             return
         if arrays[1].shape[1:] != (self.n_humans, HUMAN_DIM):
-            raise ValueError(f"humans must have shape (k, {self.n_humans}, {HUMAN_DIM}), got {tuple(arrays[1].shape)}")
+            raise ValueError(
+                f"humans must have shape (k, {self.n_humans}, {HUMAN_DIM}), got {tuple(arrays[1].shape)}"
+            )
         self.pushed += k
         if k > self.capacity:  # only the newest `capacity` survive
-            arrays = [a[k - self.capacity:] for a in arrays]
+            arrays = [a[k - self.capacity :] for a in arrays]
             self.position = (self.position + k - self.capacity) % self.capacity
             k = self.capacity
         idx = (self.position + torch.arange(k)) % self.capacity
         idx = idx.to(self.device)
-        for dst, src in zip((self.robot, self.humans, self.mask, self.reward, self.next_robot, self.next_humans,
-                             self.next_mask, self.done), arrays, strict=True):
+        for dst, src in zip(
+            (
+                self.robot,
+                self.humans,
+                self.mask,
+                self.reward,
+                self.next_robot,
+                self.next_humans,
+                self.next_mask,
+                self.done,
+            ),
+            arrays,
+            strict=True,
+        ):
             dst[idx] = src.to(device=self.device, dtype=dst.dtype)
         self.position = (self.position + k) % self.capacity
         self.size = min(self.size + k, self.capacity)
@@ -100,5 +123,13 @@ class ReplayMemory:
         return self.take(idx)
 
     def take(self, idx: torch.Tensor) -> Transitions:
-        return Transitions(self.robot[idx], self.humans[idx], self.mask[idx], self.reward[idx],
-                           self.next_robot[idx], self.next_humans[idx], self.next_mask[idx], self.done[idx])
+        return Transitions(
+            self.robot[idx],
+            self.humans[idx],
+            self.mask[idx],
+            self.reward[idx],
+            self.next_robot[idx],
+            self.next_humans[idx],
+            self.next_mask[idx],
+            self.done[idx],
+        )

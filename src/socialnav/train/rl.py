@@ -34,15 +34,24 @@ def epsilon_at(episode: int, rl: RLSettings) -> float:
     return float(rl.epsilon_start + (rl.epsilon_end - rl.epsilon_start) * frac)
 
 
-def td_targets(reward: torch.Tensor, done: torch.Tensor, next_value: torch.Tensor, gamma: float, dt: float,
-               v_pref: torch.Tensor) -> torch.Tensor:
+def td_targets(
+    reward: torch.Tensor,
+    done: torch.Tensor,
+    next_value: torch.Tensor,
+    gamma: float,
+    dt: float,
+    v_pref: torch.Tensor,
+) -> torch.Tensor:
     """y = r + γ^(dt·v_pref) · V(s') · (1 − done)  (done: terminal only; truncations bootstrap)."""
-    disc = torch.pow(torch.as_tensor(gamma, dtype=reward.dtype, device=reward.device), dt * v_pref.to(reward.dtype))
+    disc = torch.pow(
+        torch.as_tensor(gamma, dtype=reward.dtype, device=reward.device), dt * v_pref.to(reward.dtype)
+    )
     return reward + disc * next_value.to(reward.dtype) * (~done).to(reward.dtype)
 
 
-def state_values(policy, network: torch.nn.Module, robot: torch.Tensor, humans: torch.Tensor,
-                 mask: torch.Tensor) -> torch.Tensor:
+def state_values(
+    policy, network: torch.nn.Module, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor
+) -> torch.Tensor:
     """V(s) of raw observed states through the policy's agent-centric transform."""
     return network.value(policy.transform(robot, humans, mask), mask)
 
@@ -71,11 +80,21 @@ class EpisodeStats:
 
     def rates(self) -> dict[str, float]:
         n = max(self.total, 1)
-        return {"success": self.success / n, "collision": self.collision / n, "timeout": self.timeout / n,
-                "nav_time": self.success_time / self.success if self.success else math.nan}
+        return {
+            "success": self.success / n,
+            "collision": self.collision / n,
+            "timeout": self.timeout / n,
+            "nav_time": self.success_time / self.success if self.success else math.nan,
+        }
 
-    def add(self, terminated: np.ndarray, truncated: np.ndarray, reward: np.ndarray, time: np.ndarray,
-            success_reward: float) -> None:
+    def add(
+        self,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+        reward: np.ndarray,
+        time: np.ndarray,
+        success_reward: float,
+    ) -> None:
         succ = terminated & np.isclose(reward, success_reward)
         self.success += int(succ.sum())
         self.collision += int((terminated & ~succ).sum())
@@ -106,5 +125,13 @@ def push_step(memory: ReplayMemory, obs, res) -> None:
     a = np.flatnonzero(obs.active)
     if a.size == 0:
         return
-    memory.push(obs.robot[a], obs.humans[a], obs.human_mask[a], res.reward[a], res.final_robot[a],
-                res.final_humans[a], res.final_mask[a], res.terminated[a])
+    memory.push(
+        obs.robot[a],
+        obs.humans[a],
+        obs.human_mask[a],
+        res.reward[a],
+        res.final_robot[a],
+        res.final_humans[a],
+        res.final_mask[a],
+        res.terminated[a],
+    )

@@ -1,0 +1,179 @@
+"""Training speed: RL episodes per second and wall time to the quality bar.
+
+Trains SARL under a preset (default ``wang2022``) with the default training settings (or a
+``--config`` YAML and the overrides below) until the validation success reaches ``--target``
+(default 0.93) or ``--max-minutes`` run out, and times one gradient step of the replay ratio in
+isolation. The last output line is one JSON object with (among others):
+
+    episodes_per_s          RL episodes collected per second of RL wall time (gradient steps and
+                            validations included)
+    seconds_to_quality      wall time from the start (imitation included) to the first validation
+                            at or above the target; null when not reached within the budget
+    seconds_per_gradient_step  one Adam step of batch ``rl.batch_size`` (isolated micro-benchmark)
+
+    PYTHONPATH=src python benchmarks/bench_train.py --max-minutes 30
+    PYTHONPATH=src python benchmarks/bench_train.py --gradient-steps-per-episode 2 \
+        --rl-episodes 2000 --max-minutes 10
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import json
+import math
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import torch
+
+from socialnav.policies.learned import ValuePolicy, build
+from socialnav.train.config import load_train_settings
+from socialnav.train.memory import ReplayMemory
+from socialnav.train.rl import td_loss
+from socialnav.train.trainer import train
+
+
+def time_gradient_step(policy_name: str, batch_size: int, n_humans: int = 5, steps: int = 200) -> float:
+    """Seconds per TD gradient step (sample, transform, target forward, forward, backward, Adam)."""
+    net, target = build(policy_name), build(policy_name)
+    policy = ValuePolicy(net)
+    opt = torch.optim.Adam(net.parameters(), lr=1e-3, fused=True)
+    mem = ReplayMemory(10_000, n_humans)
+    g = torch.Generator().manual_seed(0)
+    k = 10_000
+    robot = torch.rand(k, 9, generator=g) * 8 - 4
+    robot[:, 4], robot[:, 7] = 0.3, 1.0
+    humans = torch.rand(k, n_humans, 5, generator=g) * 8 - 4
+    humans[..., 4] = 0.3
+    mask = torch.ones(k, n_humans, dtype=torch.bool)
+    mem.push(robot, humans, mask, torch.zeros(k), robot, humans, mask, torch.zeros(k, dtype=torch.bool))
+
+    def step() -> None:
+        loss = td_loss(policy, target, mem.sample(batch_size, g), 0.9, 0.25)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+
+    for _ in range(20):
+        step()
+    t = time.perf_counter()
+    for _ in range(steps):
+        step()
+    return (time.perf_counter() - t) / steps
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--policy", default="sarl")
+    ap.add_argument("--preset", default="wang2022")
+    ap.add_argument("--config", help="training settings YAML (default: the shipped defaults)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--target", type=float, default=0.93, help="validation success that counts as the bar")
+    ap.add_argument("--max-minutes", type=float, default=30.0)
+    ap.add_argument("--gradient-steps-per-episode", type=float)
+    ap.add_argument("--batch-size", type=int, help="RL minibatch")
+    ap.add_argument("--collection-batch", type=int)
+    ap.add_argument("--rl-episodes", type=int)
+    ap.add_argument("--validate-every", type=int)
+    ap.add_argument("--il-episodes", type=int)
+    ap.add_argument("--il-epochs", type=int)
+    ap.add_argument("--threads", type=int)
+    ap.add_argument("--out", help="run directory (default: a temporary one, removed afterwards)")
+    ap.add_argument("--progress", action="store_true")
+    args = ap.parse_args()
+
+    s = load_train_settings(
+        args.config, seed=args.seed, threads=args.threads, collection_batch=args.collection_batch
+    )
+    rl_over = {
+        k: v
+        for k, v in {
+            "gradient_steps_per_episode": args.gradient_steps_per_episode,
+            "batch_size": args.batch_size,
+            "episodes": args.rl_episodes,
+            "validate_every": args.validate_every,
+        }.items()
+        if v is not None
+    }
+    il_over = {
+        k: v for k, v in {"episodes": args.il_episodes, "epochs": args.il_epochs}.items() if v is not None
+    }
+    s = dataclasses.replace(
+        s, rl=dataclasses.replace(s.rl, **rl_over), imitation=dataclasses.replace(s.imitation, **il_over)
+    )
+    out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_train_"))
+    budget = args.max_minutes * 60.0
+    reached: dict = {}
+    history: list = []
+
+    def on_validation(episode: int, val: dict, wall: float) -> bool:
+        history.append(
+            {
+                "episode": episode,
+                "success": val["success"],
+                "collision": val["collision"],
+                "wall_time": round(wall, 1),
+            }
+        )
+        if val["success"] >= args.target and not reached:
+            reached.update(episode=episode, wall_time=wall, success=val["success"])
+        return bool(reached) or wall >= budget
+
+    t0 = time.perf_counter()
+    result = train(
+        args.policy,
+        args.preset,
+        out,
+        s,
+        progress=args.progress,
+        on_validation=on_validation,
+        log=lambda line: print(line, flush=True),
+    )
+    total = time.perf_counter() - t0
+    with open(out / "curves.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    il_wall = float(rows[0]["wall_time"]) if rows and rows[0]["phase"] == "il" else 0.0
+    rl_rows = [r for r in rows if r["phase"] == "rl"]
+    rl_eps = int(rl_rows[-1]["episode"]) if rl_rows else 0
+    rl_wall = (float(rl_rows[-1]["wall_time"]) - il_wall) if rl_rows else 0.0
+    sec_step = time_gradient_step(args.policy, s.rl.batch_size)
+    report = {
+        "benchmark": "train",
+        "policy": args.policy,
+        "preset": args.preset,
+        "seed": args.seed,
+        "threads": torch.get_num_threads(),
+        "cpu_count": os.cpu_count(),
+        "gradient_steps_per_episode": s.rl.gradient_steps_per_episode,
+        "batch_size": s.rl.batch_size,
+        "collection_batch": s.collection_batch,
+        "il_episodes": s.imitation.episodes,
+        "il_epochs": s.imitation.epochs,
+        "imitation_seconds": round(il_wall, 1),
+        "rl_episodes": rl_eps,
+        "rl_seconds": round(rl_wall, 1),
+        "gradient_steps": result.gradient_steps,
+        "episodes_per_s": round(rl_eps / rl_wall, 3) if rl_wall > 0 else None,
+        "seconds_per_gradient_step": round(sec_step, 5),
+        "seconds_to_quality": round(reached["wall_time"], 1) if reached else None,
+        "episode_at_quality": reached.get("episode"),
+        "target": args.target,
+        "best_val": {
+            k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in result.best_val.items()
+        },
+        "validations": history,
+        "wall_seconds": round(total, 1),
+        "out": str(out) if args.out else None,
+    }
+    if not args.out:
+        shutil.rmtree(out, ignore_errors=True)
+    print(json.dumps(report))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,647 @@
+"""`socialnav train`: imitation from ORCA, then value-based RL, with checkpoints, curves and resumption.
+
+Run directory layout::
+
+    config.yaml / config.json   resolved settings (policy, preset, training settings, derived seeds)
+    il.pt                       the network after imitation learning
+    best.pt                     best validation success so far (ties: fewer collisions, then faster)
+    last.pt                     latest state: model + target network + optimizer + counters + RNG
+                                states + best validation (no replay memory); re-running the same
+                                command on the same directory resumes from it
+    curves.csv                  one row per ``log_every`` RL episodes (and one per validation)
+    tb/                         TensorBoard scalars, when ``torch.utils.tensorboard`` imports
+
+Every checkpoint is a regular learned-policy checkpoint (``socialnav evaluate --checkpoint`` loads
+any of them); its config holds ``value_policy`` so the evaluator scores actions as the trainer did.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from socialnav.config import ConfigError
+from socialnav.evaluate.files import atomic_write_json, atomic_write_text
+from socialnav.presets import Preset, load_preset
+from socialnav.train.config import (
+    RESUMABLE_CHANGES,
+    TrainSettings,
+    derive_seeds,
+    flat_diff,
+    load_train_settings,
+)
+from socialnav.train.envs import MultiWorld, training_n_humans
+from socialnav.train.memory import ReplayMemory
+from socialnav.train.rl import EpisodeStats, TrainingDiverged, epsilon_at, push_step, td_loss, validate
+
+CURVE_COLUMNS = (
+    "phase",
+    "episode",
+    "epsilon",
+    "train_episodes",
+    "train_success",
+    "train_collision",
+    "train_timeout",
+    "loss",
+    "val_success",
+    "val_collision",
+    "val_timeout",
+    "val_nav_time",
+    "gradient_steps",
+    "transitions",
+    "wall_time",
+)
+#: Offset of the RL episode stream after the imitation episodes (same scenario_start).
+RL_STREAM_OFFSET = 5_000_000
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What a training call produced."""
+
+    out_dir: Path
+    best_checkpoint: Path
+    last_checkpoint: Path
+    curves: Path
+    episodes: int  # RL episodes done in all (across resumptions)
+    gradient_steps: int
+    best_val: dict[str, Any]
+    last_val: dict[str, Any] | None
+    wall_time: float  # [s] across resumptions
+    resumed: bool
+    finished: bool  # False when stopped early by ``stop_after``
+
+
+def resolve_device(name: str) -> torch.device:
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name == "cuda" and not torch.cuda.is_available():
+        raise RuntimeError(
+            "device 'cuda' requested but torch.cuda.is_available() is False (use --device cpu)"
+        )
+    return torch.device(name)
+
+
+def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, Any]:
+    """The keyword arguments the evaluator passes to ValuePolicy (learned_entries.py)."""
+    w = preset.world
+    return {
+        "kinematics": w.kinematics,
+        "gamma": settings.rl.gamma,
+        "information": settings.information,
+        "rotation_limit": w.rotation_limit,
+        "dt": w.dt,
+        "reward": {
+            "success_reward": w.reward.success_reward,
+            "collision_penalty": w.reward.collision_penalty,
+            "discomfort_dist": w.reward.discomfort_dist,
+            "discomfort_penalty_factor": w.reward.discomfort_penalty_factor,
+            "time_step": w.dt,
+        },
+    }
+
+
+def _plain(x: Any) -> Any:
+    return json.loads(json.dumps(x, default=lambda v: list(v) if isinstance(v, tuple) else str(v)))
+
+
+def _make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optimizer:
+    params = list(params)
+    try:  # fused Adam: one kernel for all parameters (2-3x faster steps for these small networks)
+        return torch.optim.Adam(params, lr=lr, fused=True)
+    except (RuntimeError, TypeError, ValueError):
+        return torch.optim.Adam(params, lr=lr, foreach=True)
+
+
+def _optimizer_state(opt: torch.optim.Optimizer) -> dict[str, Any]:
+    sd = opt.state_dict()
+    return {"state": {str(k): v for k, v in sd["state"].items()}, "param_groups": sd["param_groups"]}
+
+
+def _load_optimizer_state(opt: torch.optim.Optimizer, data: dict[str, Any]) -> None:
+    groups = []
+    for g in data["param_groups"]:
+        g = dict(g)
+        if isinstance(g.get("betas"), list):
+            g["betas"] = tuple(g["betas"])
+        groups.append(g)
+    opt.load_state_dict({"state": {int(k): v for k, v in data["state"].items()}, "param_groups": groups})
+
+
+class _Curves:
+    """curves.csv (appended) and optional TensorBoard scalars."""
+
+    def __init__(self, path: Path, resume_episode: int | None) -> None:
+        self.path = path
+        if resume_episode is not None and path.exists():  # drop rows written after the resumed checkpoint
+            with open(path, newline="") as f:
+                rows = [
+                    r for r in csv.DictReader(f) if r["phase"] != "rl" or int(r["episode"]) <= resume_episode
+                ]
+            lines = [",".join(CURVE_COLUMNS)] + [",".join(r.get(c, "") for c in CURVE_COLUMNS) for r in rows]
+            atomic_write_text(path, "\n".join(lines) + "\n")
+        elif not path.exists() or resume_episode is None:
+            atomic_write_text(path, ",".join(CURVE_COLUMNS) + "\n")
+        self.tb = None
+        try:
+            from torch.utils.tensorboard import SummaryWriter
+
+            self.tb = SummaryWriter(str(path.parent / "tb"))
+        except Exception:  # tensorboard is optional
+            self.tb = None
+
+    def write(self, row: dict[str, Any]) -> None:
+        def fmt(v: Any) -> str:
+            if v is None or (isinstance(v, float) and math.isnan(v)):
+                return ""
+            return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+        with open(self.path, "a", newline="") as f:
+            f.write(",".join(fmt(row.get(c)) for c in CURVE_COLUMNS) + "\n")
+        if self.tb is not None:
+            step = int(row.get("episode", 0))
+            for k, v in row.items():
+                if (
+                    k not in ("phase", "episode")
+                    and isinstance(v, (int, float))
+                    and not (isinstance(v, float) and math.isnan(v))
+                ):
+                    self.tb.add_scalar(k, v, step)
+            self.tb.flush()
+
+    def close(self) -> None:
+        if self.tb is not None:
+            self.tb.close()
+
+
+def _progress(total: int, initial: int, desc: str, enabled: bool):
+    from tqdm.auto import tqdm
+
+    return tqdm(
+        total=total,
+        initial=initial,
+        desc=desc,
+        file=sys.stderr,
+        disable=not enabled,
+        dynamic_ncols=True,
+        leave=True,
+    )
+
+
+def _better(a: dict[str, Any], b: dict[str, Any] | None) -> bool:
+    """Validation a better than b: higher success, then fewer collisions, then faster."""
+    if b is None:
+        return True
+
+    def key(m: dict[str, Any]) -> tuple:
+        nt = m.get("nav_time")
+        return (m["success"], -m["collision"], -(nt if nt is not None and not math.isnan(nt) else 1e9))
+
+    return key(a) > key(b)
+
+
+def train(
+    policy_name: str,
+    preset: Preset | str,
+    out_dir: str | Path,
+    settings: TrainSettings | None = None,
+    *,
+    progress: bool = True,
+    stop_after: int | None = None,
+    log=None,
+    on_validation=None,
+) -> TrainResult:
+    """Imitation learning from ORCA, then value-based RL; resumes from ``out_dir/last.pt`` if present.
+
+    Args:
+        policy_name: cadrl, lstm_rl (ga3c_cadrl), sarl or om_sarl.
+        preset: a Preset or a preset name/path (world semantics, robot, training scenario mix).
+        out_dir: run directory (created; resumed when it holds last.pt).
+        settings: training settings (default: TrainSettings()); ``settings.policy`` is replaced by
+            ``policy_name``.
+        progress: tqdm progress bars on stderr.
+        stop_after: stop after this many RL episodes in THIS call without a final checkpoint (as if
+            the process were killed; for tests of resumption).
+        log: callable taking a line of text (default: print to stderr).
+        on_validation: callable ``(episode, val_metrics, wall_time) -> bool`` called after every
+            validation (episode 0 is the one after imitation); True stops training there (last.pt is
+            written first, so the run can be resumed).
+
+    Raises:
+        TrainingDiverged: the loss became NaN/inf (last.pt and best.pt keep the last good state).
+        ConfigError: resuming with settings that differ from the run's (the keys are named).
+    """
+    from socialnav.policies.learned import (
+        LEARNED_POLICIES,
+        ValuePolicy,
+        build,
+        load_checkpoint,
+        save_checkpoint,
+    )
+    from socialnav.policies.learned.registry import canonical_name
+    from socialnav.policies.learned.state import RewardParams
+    from socialnav.policies.native import NativePolicy
+
+    t_call = time.perf_counter()
+    say = log or (lambda s: print(s, file=sys.stderr, flush=True))
+    preset = load_preset(preset) if not isinstance(preset, Preset) else preset
+    if canonical_name(policy_name) not in LEARNED_POLICIES:
+        raise KeyError(
+            f"unknown learned policy {policy_name!r}; known: {', '.join(sorted(LEARNED_POLICIES))}"
+        )
+    settings = dataclasses.replace(settings or TrainSettings(), policy=policy_name)
+    rl = settings.rl
+    device = resolve_device(settings.device)
+    threads = settings.threads or max(1, min(os.cpu_count() or 1, 8))
+    torch.set_num_threads(threads)
+    seeds = derive_seeds(settings.seed)
+    n_humans = training_n_humans(preset, canonical_name(policy_name), settings.cadrl_one_human)
+    vp_config = value_policy_config(preset, settings)
+    config = _plain(
+        {
+            "value_policy": vp_config,
+            "policy": policy_name,
+            "preset": preset.to_dict(),
+            "train": settings.to_dict(),
+            "seeds": seeds,
+            "n_humans": n_humans,
+            "rl_stream_offset": RL_STREAM_OFFSET,
+            "kinematics": preset.world.kinematics,
+        }
+    )
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    last_path, best_path, il_path, curves_path = (
+        out / "last.pt",
+        out / "best.pt",
+        out / "il.pt",
+        out / "curves.csv",
+    )
+
+    # -- network, policy, optimizer, generators ------------------------------------------------
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seeds["init"])
+        net = build(canonical_name(policy_name))
+    net.to(device)
+    reward_params = RewardParams(**vp_config["reward"])
+    policy = ValuePolicy(
+        net,
+        kinematics=vp_config["kinematics"],
+        gamma=rl.gamma,
+        reward_params=reward_params,
+        information=settings.information,
+        dt=preset.world.dt,
+        rotation_limit=preset.world.rotation_limit,
+        device=device,
+    )
+    target = build(canonical_name(policy_name)).to(device)
+    explore_gen = torch.Generator().manual_seed(seeds["exploration"])
+    sample_gen = torch.Generator().manual_seed(seeds["sampling"])
+    oracle = settings.information == "oracle"
+    success_reward = preset.world.reward.success_reward
+
+    resume: dict[str, Any] | None = None
+    if last_path.exists():
+        ck = load_checkpoint(last_path, canonical_name(policy_name), map_location=device)
+        diff = [
+            k
+            for k in flat_diff({**ck.config, "train": {**ck.config.get("train", {})}}, config)
+            if not any(k == f"train.{r}" or k.startswith(f"train.{r}.") for r in RESUMABLE_CHANGES)
+        ]
+        if diff:
+            raise ConfigError(
+                f"{out} holds a run with other settings ({', '.join(diff)}); "
+                f"use another --out or the run's own settings (config.yaml)"
+            )
+        resume = ck.extra["resume"]
+        net.load_state_dict(ck.model.state_dict())
+        say(f"resuming {out} at RL episode {resume['episode']} ({resume['gradient_steps']} gradient steps)")
+
+    atomic_write_json(out / "config.json", config)
+    import yaml
+
+    atomic_write_text(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
+    curves = _Curves(curves_path, None if resume is None else int(resume["episode"]))
+
+    val_world = MultiWorld(
+        preset, n_humans, min(settings.collection_batch, rl.val_episodes), "val", 0, rl.val_episodes
+    )
+    elapsed0 = 0.0 if resume is None else float(resume["wall_time"])
+
+    def wall() -> float:
+        return elapsed0 + time.perf_counter() - t_call
+
+    # -- imitation learning --------------------------------------------------------------------
+    if resume is None:
+        il = settings.imitation
+        if il.episodes > 0 and il.epochs > 0:
+            teacher = NativePolicy(
+                "orca",
+                safety_space=il.teacher_safety_space,
+                orca=preset.world.orca,
+                threads=preset.world.threads,
+            )
+            world = MultiWorld(preset, n_humans, settings.collection_batch, "train", seeds["scenario_start"])
+            world.reset()
+            from socialnav.train.imitation import collect_demonstrations, fit_values
+
+            bar = _progress(il.episodes, 0, f"{policy_name} imitation: ORCA demos", progress)
+            demos = collect_demonstrations(
+                world,
+                teacher,
+                il.episodes,
+                rl.gamma,
+                success_reward,
+                progress=lambda k: bar.update(k) if k else None,
+            )
+            bar.close()
+            say(f"imitation: {demos.episodes} teacher episodes {demos.outcomes}, {len(demos)} states")
+            bar = _progress(il.epochs, 0, f"{policy_name} imitation: fit", progress)
+
+            def on_epoch(e: int, loss: float) -> None:
+                bar.update(1)
+                bar.set_postfix(loss=f"{loss:.4g}")
+
+            try:
+                losses = fit_values(
+                    policy,
+                    demos,
+                    il.epochs,
+                    il.batch_size,
+                    il.lr,
+                    torch.Generator().manual_seed(seeds["sampling"] ^ 0x1A1A),
+                    lambda p, lr: _make_optimizer(p, lr, device),
+                    on_epoch,
+                )
+            except FloatingPointError as err:
+                raise TrainingDiverged(f"{err}; no checkpoint was written") from None
+            finally:
+                bar.close()
+            il_loss = losses[-1] if losses else math.nan
+            save_checkpoint(
+                il_path, policy_name, net, config=config, extra={"phase": "imitation", "il_losses": losses}
+            )
+        else:
+            il_loss = math.nan
+        val = validate(policy, val_world, oracle, success_reward)
+        say(
+            f"after imitation: validation success {val['success']:.3f} collision {val['collision']:.3f} "
+            f"timeout {val['timeout']:.3f} nav_time {val['nav_time']:.2f}"
+        )
+        curves.write(
+            {
+                "phase": "il",
+                "episode": 0,
+                "loss": il_loss,
+                "val_success": val["success"],
+                "val_collision": val["collision"],
+                "val_timeout": val["timeout"],
+                "val_nav_time": val["nav_time"],
+                "gradient_steps": 0,
+                "transitions": 0,
+                "wall_time": wall(),
+            }
+        )
+        best_val = {**val, "episode": 0}
+        stop_now = bool(on_validation and on_validation(0, best_val, wall()))
+        save_checkpoint(best_path, policy_name, net, config=config, extra={"episode": 0, "val": best_val})
+        target.load_state_dict(net.state_dict())
+        optimizer = _make_optimizer(net.parameters(), rl.lr, device)
+        state = {
+            "episode": 0,
+            "gradient_steps": 0,
+            "transitions": 0,
+            "credit": 0.0,
+            "next_target": rl.target_update_every,
+            "next_val": rl.validate_every,
+            "next_ckpt": settings.checkpoint_every,
+            "next_log": settings.log_every,
+            "stream_positions": None,
+            "best_val": best_val,
+            "last_val": best_val,
+        }
+    else:
+        target.load_state_dict(resume["target_state_dict"])
+        optimizer = _make_optimizer(net.parameters(), rl.lr, device)
+        _load_optimizer_state(optimizer, resume["optimizer"])
+        explore_gen.set_state(resume["explore_rng"])
+        sample_gen.set_state(resume["sample_rng"])
+        state = {
+            k: resume[k]
+            for k in (
+                "episode",
+                "gradient_steps",
+                "transitions",
+                "credit",
+                "next_target",
+                "next_val",
+                "next_ckpt",
+                "next_log",
+                "stream_positions",
+                "best_val",
+                "last_val",
+            )
+        }
+        stop_now = False
+    target.eval()
+    for p in target.parameters():
+        p.requires_grad_(False)
+
+    def save_last() -> None:
+        extra = {
+            "phase": "rl",
+            "resume": {
+                **state,
+                "target_state_dict": {k: v.detach().cpu().clone() for k, v in target.state_dict().items()},
+                "optimizer": _optimizer_state(optimizer),
+                "explore_rng": explore_gen.get_state(),
+                "sample_rng": sample_gen.get_state(),
+                "stream_positions": world.stream_positions(),
+                "wall_time": wall(),
+            },
+        }
+        save_checkpoint(last_path, policy_name, net, config=config, extra=extra)
+
+    # -- RL ------------------------------------------------------------------------------------
+    world = MultiWorld(
+        preset, n_humans, settings.collection_batch, "train", seeds["scenario_start"] + RL_STREAM_OFFSET
+    )
+    world.reset(state["stream_positions"])
+    memory = ReplayMemory(rl.capacity, n_humans, device=device)
+    if resume is None:
+        save_last()
+    window = EpisodeStats()
+    window_loss, window_steps = 0.0, 0
+    bar = _progress(rl.episodes, int(state["episode"]), f"{policy_name} RL", progress)
+    episodes_this_call = 0
+    stopped_early = stop_now
+    obs = world.observe(oracle=oracle)
+    dt = preset.world.dt
+    net.eval()
+    try:
+        while state["episode"] < rl.episodes and not stopped_early:
+            eps = epsilon_at(int(state["episode"]), rl)
+            _, actions = policy.act(
+                obs, epsilon=eps, generator=explore_gen, next_humans=obs.next_humans if oracle else None
+            )
+            res = world.step(np.asarray(actions, dtype=np.float64))
+            push_step(memory, obs, res)
+            state["transitions"] += int(obs.active.sum())
+            finished = int((res.terminated | res.truncated).sum())
+            window.add(res.terminated, res.truncated, res.reward, res.final_time, success_reward)
+            state["episode"] += finished
+            episodes_this_call += finished
+            bar.update(min(finished, rl.episodes - bar.n) if bar.n < rl.episodes else 0)
+            # gradient steps at the replay ratio
+            if len(memory) >= max(rl.batch_size, rl.warmup_transitions):
+                state["credit"] += rl.gradient_steps_per_episode * finished
+                n_steps = int(state["credit"])
+                if n_steps:
+                    state["credit"] -= n_steps
+                    net.train()
+                    for _ in range(n_steps):
+                        batch = memory.sample(rl.batch_size, sample_gen)
+                        loss = td_loss(policy, target, batch, rl.gamma, dt)
+                        lv = float(loss.detach())
+                        if not math.isfinite(lv):
+                            raise TrainingDiverged(
+                                f"RL loss became {lv} at episode {state['episode']} (gradient step "
+                                f"{state['gradient_steps']}); training stopped; {last_path} and {best_path} "
+                                f"keep the last good state"
+                            )
+                        optimizer.zero_grad(set_to_none=True)
+                        loss.backward()
+                        optimizer.step()
+                        state["gradient_steps"] += 1
+                        window_loss += lv
+                        window_steps += 1
+                    net.eval()
+            ep = int(state["episode"])
+            if ep >= state["next_target"]:
+                target.load_state_dict(net.state_dict())
+                while state["next_target"] <= ep:
+                    state["next_target"] += rl.target_update_every
+            val = None
+            if ep >= state["next_val"] or ep >= rl.episodes:
+                val = validate(policy, val_world, oracle, success_reward)
+                val["episode"] = ep
+                state["last_val"] = val
+                while state["next_val"] <= ep:
+                    state["next_val"] += rl.validate_every
+                if _better(val, state["best_val"]):
+                    state["best_val"] = val
+                    save_checkpoint(
+                        best_path, policy_name, net, config=config, extra={"episode": ep, "val": val}
+                    )
+                say(
+                    f"episode {ep}: validation success {val['success']:.3f} collision {val['collision']:.3f} "
+                    f"timeout {val['timeout']:.3f} nav_time {val['nav_time']:.2f} "
+                    f"(best {state['best_val']['success']:.3f} at {state['best_val']['episode']})"
+                )
+            if ep >= state["next_log"] or val is not None or ep >= rl.episodes:
+                rates = window.rates()
+                row = {
+                    "phase": "rl",
+                    "episode": ep,
+                    "epsilon": eps,
+                    "train_episodes": window.total,
+                    "train_success": rates["success"],
+                    "train_collision": rates["collision"],
+                    "train_timeout": rates["timeout"],
+                    "loss": window_loss / window_steps if window_steps else math.nan,
+                    "gradient_steps": state["gradient_steps"],
+                    "transitions": state["transitions"],
+                    "wall_time": wall(),
+                }
+                if val is not None:
+                    row.update(
+                        val_success=val["success"],
+                        val_collision=val["collision"],
+                        val_timeout=val["timeout"],
+                        val_nav_time=val["nav_time"],
+                    )
+                curves.write(row)
+                bar.set_postfix(eps=f"{eps:.2f}", succ=f"{rates['success']:.2f}", loss=f"{row['loss']:.3g}")
+                window, window_loss, window_steps = EpisodeStats(), 0.0, 0
+                while state["next_log"] <= ep:
+                    state["next_log"] += settings.log_every
+            if ep >= state["next_ckpt"] or ep >= rl.episodes:
+                save_last()
+                while state["next_ckpt"] <= ep:
+                    state["next_ckpt"] += settings.checkpoint_every
+            if (
+                val is not None
+                and on_validation is not None
+                and ep < rl.episodes
+                and on_validation(ep, val, wall())
+            ):
+                save_last()
+                stopped_early = True
+                break
+            if stop_after is not None and episodes_this_call >= stop_after and ep < rl.episodes:
+                stopped_early = True
+                break
+            obs = world.observe(oracle=oracle)
+        if not stopped_early and state["episode"] >= rl.episodes and not last_path.exists():
+            save_last()
+    finally:
+        bar.close()
+        curves.close()
+    return TrainResult(
+        out,
+        best_path,
+        last_path,
+        curves_path,
+        int(state["episode"]),
+        int(state["gradient_steps"]),
+        dict(state["best_val"]),
+        state["last_val"],
+        wall(),
+        resume is not None,
+        not stopped_early,
+    )
+
+
+def train_from_args(args) -> int:
+    """Entry point of ``socialnav train`` (see train/cli.py)."""
+    settings = load_train_settings(
+        getattr(args, "config", None), seed=getattr(args, "seed", None), device=getattr(args, "device", None)
+    )
+    for key in ("collection_batch", "information"):
+        value = getattr(args, key, None)
+        if value is not None:
+            settings = dataclasses.replace(settings, **{key: value})
+    rl_episodes = getattr(args, "rl_episodes", None)
+    if rl_episodes is not None:
+        settings = dataclasses.replace(settings, rl=dataclasses.replace(settings.rl, episodes=rl_episodes))
+    preset = load_preset(args.preset)
+    out = Path(args.out or f"runs/train/{preset.name}-{args.policy}-s{settings.seed}")
+    result = train(args.policy, preset, out, settings, progress=not getattr(args, "no_progress", False))
+    best = result.best_val
+    print(
+        json.dumps(
+            {
+                "out": str(result.out_dir),
+                "best_checkpoint": str(result.best_checkpoint),
+                "episodes": result.episodes,
+                "gradient_steps": result.gradient_steps,
+                "best_val": {
+                    k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in best.items()
+                },
+                "wall_time_s": round(result.wall_time, 1),
+                "resumed": result.resumed,
+            }
+        )
+    )
+    return 0

@@ -1,0 +1,77 @@
+"""Training settings: YAML with strict keys, derived seeds."""
+
+import pytest
+
+from socialnav.config import ConfigError
+from socialnav.train.config import TrainSettings, derive_seeds, load_train_settings
+
+
+def test_defaults_follow_the_spec():
+    s = TrainSettings()
+    assert (s.imitation.episodes, s.imitation.epochs, s.imitation.lr, s.imitation.batch_size) == (
+        2000,
+        50,
+        1e-3,
+        100,
+    )
+    assert s.imitation.teacher_safety_space == 0.15
+    rl = s.rl
+    assert (rl.episodes, rl.epsilon_start, rl.epsilon_end, rl.epsilon_decay_episodes) == (
+        10000,
+        0.5,
+        0.1,
+        4000,
+    )
+    assert (
+        rl.capacity,
+        rl.batch_size,
+        rl.lr,
+        rl.target_update_every,
+        rl.validate_every,
+        rl.val_episodes,
+        rl.gamma,
+    ) == (100000, 100, 1e-3, 1000, 1000, 100, 0.9)
+    assert s.information == "constant_velocity"
+
+
+def test_yaml_loads_nested_and_overrides(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text(
+        "seed: 3\ncollection_batch: 32\nrl:\n  episodes: 50\n  gradient_steps_per_episode: 2\n"
+        "imitation: {epochs: 1}\n"
+    )
+    s = load_train_settings(p, seed=7, device=None)
+    assert s.seed == 7 and s.collection_batch == 32 and s.device == "cpu"
+    assert s.rl.episodes == 50 and s.rl.gradient_steps_per_episode == 2.0 and s.imitation.epochs == 1
+    assert s.rl.batch_size == 100  # untouched defaults survive
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("colection_batch: 3\n", "unknown setting.*colection_batch.*valid"),
+        ("rl: {episdes: 3}\n", "rl.episdes"),
+        ("rl: {episodes: many}\n", "rl.episodes"),
+        ("information: psychic\n", "information"),
+        ("imitation: {lr: -1}\n", "imitation.lr"),
+        ("- a\n- b\n", "mapping"),
+    ],
+)
+def test_yaml_strict_keys_and_values(tmp_path, text, match):
+    p = tmp_path / "bad.yaml"
+    p.write_text(text)
+    with pytest.raises(ConfigError, match=match):
+        load_train_settings(p)
+
+
+def test_missing_file():
+    with pytest.raises(ConfigError, match="does not exist"):
+        load_train_settings("/nonexistent/x.yaml")
+
+
+def test_seeds_are_separate_and_derived():
+    a, b = derive_seeds(0), derive_seeds(1)
+    assert a == derive_seeds(0)
+    assert len({a["exploration"], a["init"], a["sampling"]}) == 3
+    assert a["exploration"] != b["exploration"] and a["init"] != b["init"]
+    assert a["scenario_start"] != b["scenario_start"]

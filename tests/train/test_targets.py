@@ -1,0 +1,94 @@
+"""Value targets: Monte-Carlo returns (imitation) and TD targets (RL), hand-computed."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from socialnav.train.config import RLSettings
+from socialnav.train.imitation import mc_returns
+from socialnav.train.rl import epsilon_at, td_loss, td_targets
+
+
+def test_mc_returns_hand_computed():
+    gamma, dt, v_pref = 0.9, 0.25, 1.0
+    g = 0.9**0.25
+    r = [0.0, -0.05, 0.0, 1.0]
+    out = mc_returns(r, gamma, dt, v_pref)
+    assert out[3] == pytest.approx(1.0)
+    assert out[2] == pytest.approx(g * 1.0)
+    assert out[1] == pytest.approx(-0.05 + g**2)
+    assert out[0] == pytest.approx(g * -0.05 + g**3)
+    # v_pref enters the exponent: γ^((t−i)·dt·v_pref)
+    out2 = mc_returns([0.0, 0.0, 1.0], 0.9, 0.25, 2.0)
+    assert out2[0] == pytest.approx(0.9 ** (2 * 0.25 * 2.0))
+    assert mc_returns([], 0.9, 0.25, 1.0).shape == (0,)
+
+
+def test_td_targets_done_mask_and_truncation():
+    reward = torch.tensor([1.0, -0.25, 0.0, -0.02])
+    done = torch.tensor([True, True, False, False])  # success, collision, timeout (truncated), running
+    next_v = torch.tensor([5.0, 5.0, 0.5, 0.8])
+    v_pref = torch.tensor([1.0, 1.0, 1.0, 1.5])
+    y = td_targets(reward, done, next_v, 0.9, 0.25, v_pref)
+    expected = [1.0, -0.25, 0.9**0.25 * 0.5, -0.02 + 0.9 ** (0.25 * 1.5) * 0.8]
+    assert y.tolist() == pytest.approx(expected)
+
+
+class _ConstNet(torch.nn.Module):
+    """V(s) = w · robot px (the first joint-state value is dg; use a fixed linear map of it)."""
+
+    def __init__(self, w):
+        super().__init__()
+        self.w = torch.nn.Parameter(torch.tensor(float(w)))
+
+    def value(self, joint, mask):
+        return self.w * joint[:, 0, 0]  # dg of the robot
+
+
+class _Policy:
+    def __init__(self, net):
+        self.network = net
+
+    def transform(self, robot, humans, mask):
+        from socialnav.policies.learned.state import rotate
+
+        return rotate(robot, humans)
+
+
+def test_td_loss_uses_target_network_and_masks_terminals():
+    from socialnav.train.memory import Transitions
+
+    def state(dg):
+        r = torch.zeros(1, 9)
+        r[0, 5] = dg  # goal at (dg, 0)
+        r[0, 7] = 1.0  # v_pref
+        r[0, 4] = 0.3
+        return r
+
+    robot = torch.cat([state(2.0), state(2.0)])
+    nxt = torch.cat([state(1.0), state(1.0)])
+    humans = torch.zeros(2, 1, 5)
+    mask = torch.ones(2, 1, dtype=torch.bool)
+    batch = Transitions(
+        robot, humans, mask, torch.tensor([0.0, 1.0]), nxt, humans, mask, torch.tensor([False, True])
+    )
+    online, target = _ConstNet(0.5), _ConstNet(3.0)
+    loss = td_loss(_Policy(online), target, batch, 0.9, 0.25)
+    v = torch.tensor([1.0, 1.0])  # 0.5 · dg(2)
+    y = torch.tensor([0.9**0.25 * 3.0 * 1.0, 1.0])  # bootstrapped from the TARGET net / terminal
+    assert loss.item() == pytest.approx(((v - y) ** 2).mean().item())
+    loss.backward()
+    assert target.w.grad is None  # targets carry no gradient
+    assert online.w.grad is not None
+
+
+def test_epsilon_schedule():
+    rl = RLSettings()
+    assert epsilon_at(0, rl) == pytest.approx(0.5)
+    assert epsilon_at(2000, rl) == pytest.approx(0.3)
+    assert epsilon_at(4000, rl) == pytest.approx(0.1)
+    assert epsilon_at(9000, rl) == pytest.approx(0.1)
+    assert math.isclose(epsilon_at(5, RLSettings(epsilon_decay_episodes=0)), 0.1)
+    assert np.isfinite(epsilon_at(1, rl))

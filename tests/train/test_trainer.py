@@ -1,0 +1,193 @@
+"""End to end: the `socialnav train` CLI on tiny settings, evaluation of its checkpoint, resumption,
+and divergence handling."""
+
+import csv
+import json
+
+import pytest
+import torch
+import yaml
+
+import socialnav.train.trainer as trainer_mod
+from socialnav.cli import main
+from socialnav.policies.learned import load_checkpoint
+from socialnav.train.config import load_train_settings
+from socialnav.train.rl import TrainingDiverged
+from socialnav.train.trainer import train
+
+TINY = """\
+collection_batch: 8
+threads: 1
+checkpoint_every: 8
+log_every: 4
+imitation: {episodes: 8, epochs: 1}
+rl: {episodes: 24, validate_every: 12, val_episodes: 4, target_update_every: 8, warmup_transitions: 50,
+     gradient_steps_per_episode: 1, epsilon_decay_episodes: 20}
+"""
+
+
+@pytest.fixture()
+def tiny(tmp_path):
+    p = tmp_path / "tiny.yaml"
+    p.write_text(TINY)
+    return p
+
+
+@pytest.fixture()
+def quick_preset(tmp_path):
+    """crowdnav with a 6 s time limit and 3 humans: untrained policies time out quickly."""
+    from importlib import resources
+
+    data = yaml.safe_load((resources.files("socialnav.configs") / "crowdnav.yaml").read_text())
+    data["name"] = "crowdnav_quick"
+    data["world"]["time_limit"] = 6.0
+    data["training"]["n_humans"] = 3
+    p = tmp_path / "crowdnav_quick.yaml"
+    p.write_text(yaml.safe_dump(data))
+    return str(p)
+
+
+def _rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_cli_train_then_evaluate(tmp_path, tiny, quick_preset, capsys):
+    out = tmp_path / "run"
+    rc = main(
+        [
+            "train",
+            "--policy",
+            "sarl",
+            "--preset",
+            quick_preset,
+            "--out",
+            str(out),
+            "--seed",
+            "0",
+            "--config",
+            str(tiny),
+            "--no-progress",
+        ]
+    )
+    assert rc == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["episodes"] >= 24 and summary["resumed"] is False
+    for name in ("best.pt", "last.pt", "il.pt", "curves.csv", "config.yaml", "config.json"):
+        assert (out / name).exists(), name
+    config = json.loads((out / "config.json").read_text())
+    assert config["train"]["seed"] == 0 and config["preset"]["name"] == "crowdnav_quick"
+    assert set(config["seeds"]) == {"scenario_start", "exploration", "init", "sampling"}
+    ck = load_checkpoint(out / "best.pt", "sarl")
+    vp = ck.config["value_policy"]
+    assert set(vp) == {"kinematics", "gamma", "information", "rotation_limit", "dt", "reward"}
+    assert set(vp["reward"]) == {
+        "success_reward",
+        "collision_penalty",
+        "discomfort_dist",
+        "discomfort_penalty_factor",
+        "time_step",
+    }
+    rows = _rows(out / "curves.csv")
+    assert rows[0]["phase"] == "il" and rows[0]["val_success"] != ""
+    rl_rows = [r for r in rows if r["phase"] == "rl"]
+    assert rl_rows and int(rl_rows[-1]["episode"]) >= 24
+    assert any(r["val_success"] != "" for r in rl_rows)
+    assert float(rl_rows[0]["epsilon"]) == pytest.approx(0.5, abs=0.05)
+    # the evaluator loads the trained checkpoint
+    ev = tmp_path / "eval"
+    rc = main(
+        [
+            "evaluate",
+            "--policy",
+            "sarl",
+            "--checkpoint",
+            str(out / "best.pt"),
+            "--preset",
+            "crowdnav",
+            "--episodes",
+            "20",
+            "--out",
+            str(ev),
+            "--no-progress",
+            "--json",
+        ]
+    )
+    assert rc == 0
+    result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert result["rows"]
+    assert (ev / "summary.json").exists()
+
+
+def test_resume_continues_counters(tmp_path, tiny, quick_preset):
+    out = tmp_path / "run"
+    settings = load_train_settings(tiny)
+    first = train("sarl", quick_preset, out, settings, progress=False, stop_after=12)  # "killed" after 12
+    assert not first.finished and first.episodes < 24
+    ck = torch.load(out / "last.pt", weights_only=True)
+    saved = ck["extra"]["resume"]
+    assert 8 <= saved["episode"] <= first.episodes
+    assert saved["gradient_steps"] > 0
+    second = train("sarl", quick_preset, out, settings, progress=False)
+    assert second.resumed and second.finished
+    assert second.episodes >= 24
+    assert second.gradient_steps > saved["gradient_steps"]
+    final = torch.load(out / "last.pt", weights_only=True)["extra"]["resume"]
+    assert final["episode"] == second.episodes
+    rows = [r for r in _rows(out / "curves.csv") if r["phase"] == "rl"]
+    episodes = [int(r["episode"]) for r in rows]
+    assert episodes == sorted(episodes)  # rows after the resumed checkpoint were replaced, not duplicated
+    assert len([r for r in _rows(out / "curves.csv") if r["phase"] == "il"]) == 1
+    # resuming with different settings is refused, naming the key
+    other = load_train_settings(tiny, seed=5)
+    with pytest.raises(ValueError, match="train.seed"):
+        train("sarl", quick_preset, out, other, progress=False)
+
+
+def test_nan_loss_stops_and_keeps_last_good_checkpoint(tmp_path, tiny, quick_preset, monkeypatch):
+    out = tmp_path / "run"
+    settings = load_train_settings(tiny)
+    real = trainer_mod.td_loss
+    calls = {"n": 0}
+
+    def flaky(*args, **kwargs):
+        calls["n"] += 1
+        loss = real(*args, **kwargs)
+        return loss * float("nan") if calls["n"] > 10 else loss
+
+    monkeypatch.setattr(trainer_mod, "td_loss", flaky)
+    with pytest.raises(TrainingDiverged, match="nan"):
+        train("sarl", quick_preset, out, settings, progress=False)
+    ck = load_checkpoint(out / "last.pt", "sarl")
+    assert all(torch.isfinite(v).all() for v in ck.model.state_dict().values())
+    assert ck.extra["resume"]["gradient_steps"] <= 10
+    assert load_checkpoint(out / "best.pt", "sarl")
+    # through the CLI: one clear error line, exit status 2
+    monkeypatch.setattr(trainer_mod, "td_loss", lambda *a, **k: real(*a, **k) * float("nan"))
+    rc = main(
+        [
+            "train",
+            "--policy",
+            "sarl",
+            "--preset",
+            quick_preset,
+            "--out",
+            str(tmp_path / "run2"),
+            "--config",
+            str(tiny),
+            "--no-progress",
+        ]
+    )
+    assert rc == 2
+
+
+def test_cadrl_trains_with_one_human(tmp_path, tiny):
+    settings = load_train_settings(tiny)
+    import dataclasses
+
+    settings = dataclasses.replace(
+        settings, rl=dataclasses.replace(settings.rl, episodes=4, validate_every=4)
+    )
+    res = train("cadrl", "wang2022", tmp_path / "c", settings, progress=False)
+    config = json.loads((tmp_path / "c" / "config.json").read_text())
+    assert config["n_humans"] == 1 and res.finished
