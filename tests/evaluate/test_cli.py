@@ -78,7 +78,7 @@ def test_evaluate_json_prints_one_object_with_rows(tmp_path, capsys):
         (["evaluate", "--scenario", "plaza"], "unknown scenario 'plaza'; valid scenarios: circle_crossing"),
         (["evaluate", "--policy", "teleport"], "unknown policy 'teleport'; valid: cadrl"),
         (["evaluate", "--preset", "nowhere"], "unknown preset 'nowhere'; shipped: crowdnav, wang2022"),
-        (["evaluate", "--policy", "sarl"], "pass --checkpoint"),
+        (["evaluate", "--policy", "om_sarl"], "pass --checkpoint"),
         (["evaluate", "--episodes", "0"], "episodes must be >= 1"),
     ],
 )

@@ -44,11 +44,17 @@ class LearnedPolicy:
             raise ValueError(
                 f"policy {self.name!r} uses oracle information: observe the world with oracle=True"
             )
-        _, actions = self.value_policy.act(
-            observation, next_humans=observation.next_humans if self.information == "oracle" else None
+        actions = np.zeros((observation.batch_size, 2))
+        rows = np.flatnonzero(observation.active)
+        if rows.size == 0:
+            return actions
+        # Only episodes whose robot still acts are scored: parked robots (M_III continuation) and
+        # idle slots would otherwise cost a full lookahead each.
+        obs = observation if rows.size == observation.batch_size else observation.take(rows)
+        _, chosen = self.value_policy.act(
+            obs, next_humans=obs.next_humans if self.information == "oracle" else None
         )
-        actions = np.asarray(actions, dtype=np.float64)
-        actions[~observation.active] = 0.0
+        actions[rows] = np.asarray(chosen, dtype=np.float64)
         return actions
 
     def describe(self) -> dict[str, Any]:

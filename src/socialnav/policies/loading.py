@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from importlib import resources
 from pathlib import Path
 
 from socialnav.policies.base import Policy, get_policy_entry, make_policy
@@ -22,5 +23,24 @@ def build_policy(name: str, preset: Preset, checkpoint: str | Path | None = None
             raise ValueError(f"policy {name!r} is not learned and takes no --checkpoint")
         return make_policy(name, **params)
     if checkpoint is None:
-        raise ValueError(f"policy {name!r} is learned: pass --checkpoint PATH (see `socialnav train`)")
+        checkpoint = shipped_checkpoint(name, preset.name)
+        if checkpoint is None:
+            raise ValueError(
+                f"policy {name!r} is learned and no checkpoint of it ships for preset "
+                f"{preset.name!r} (shipped: {', '.join(list_shipped_checkpoints()) or 'none'}): "
+                "pass --checkpoint PATH (see `socialnav train`)"
+            )
     return entry.factory(checkpoint=Path(checkpoint), preset=preset, **params)
+
+
+def list_shipped_checkpoints() -> list[str]:
+    """Names ``<policy>_<preset>`` of the checkpoints shipped in ``socialnav/checkpoints``."""
+    return sorted(
+        p.name[:-3] for p in resources.files("socialnav.checkpoints").iterdir() if p.name.endswith(".pt")
+    )
+
+
+def shipped_checkpoint(policy: str, preset: str) -> Path | None:
+    """The shipped checkpoint trained by `socialnav train` for (policy, preset), if any."""
+    path = resources.files("socialnav.checkpoints") / f"{policy}_{preset}.pt"
+    return Path(str(path)) if path.is_file() else None
