@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from socialnav.evaluate.summary import column_stats, summarize_episodes
+from socialnav.evaluate.summary import summarize_episodes
+from socialnav.metrics.aggregate import column_stats
 
 
 def test_column_stats_match_numpy_and_ignore_nans():

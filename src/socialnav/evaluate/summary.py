@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from socialnav.metrics import summarize_side_preference
+from socialnav.metrics.aggregate import column_stats
 
 ID_COLUMNS = ("policy", "scenario", "visibility", "index", "seed", "outcome", "information", "side")
 RATE_KEYS = {"success": "success_rate", "collision": "collision_rate", "timeout": "timeout_rate"}
@@ -64,7 +65,9 @@ def summarize_group(
         out["pooled_over"] = ",".join(pooled_over)
     metric_keys = [k for k in rows[0] if k not in ID_COLUMNS]
     values = np.array([[_as_float(r.get(k)) for k in metric_keys] for r in rows]).reshape(n, len(metric_keys))
-    stats = column_stats(values, np.random.default_rng(zlib.crc32("|".join(key).encode())))
+    stats = column_stats(
+        values, np.random.default_rng(zlib.crc32("|".join(key).encode())), N_BOOT, CONFIDENCE
+    )
     for j, k in enumerate(metric_keys):
         col = {name: stat[j] for name, stat in stats.items()}
         if k in RATE_KEYS:
@@ -84,39 +87,3 @@ def summarize_group(
 
 def _as_float(value: Any) -> float:
     return float("nan") if value is None else float(value)
-
-
-def column_stats(
-    values: np.ndarray, rng: np.random.Generator, n_boot: int = N_BOOT, confidence: float = CONFIDENCE
-) -> dict[str, np.ndarray]:
-    """Mean, std (ddof 1), percentile-bootstrap CI of the mean and count per column, NaNs ignored.
-
-    Args:
-        values: (n, K) per-episode values of K columns.
-        rng: Draws the (n_boot, n) multinomial resampling weights, shared by all columns.
-
-    Returns:
-        ``mean``, ``std``, ``ci_low``, ``ci_high``, ``n``, each of shape (K,).
-    """
-    n, k = values.shape
-    valid = np.isfinite(values)
-    count = valid.sum(axis=0)
-    filled = np.where(valid, values, 0.0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = filled.sum(axis=0) / count
-        var = (np.where(valid, values - mean, 0.0) ** 2).sum(axis=0) / (count - 1)
-        weights = (
-            rng.multinomial(n, np.full(n, 1.0 / n), size=n_boot).astype(float) if n else np.zeros((n_boot, 0))
-        )
-        boot = (weights @ filled) / (weights @ valid.astype(float))  # (n_boot, K): resampled means
-    lo = np.full(k, np.nan)
-    hi = np.full(k, np.nan)
-    some = count > 1
-    if some.any():
-        with np.errstate(invalid="ignore"):
-            q = np.nanpercentile(boot[:, some], [50 * (1 - confidence), 50 * (1 + confidence)], axis=0)
-        lo[some], hi[some] = q[0], q[1]
-    single = count == 1
-    lo[single] = hi[single] = mean[single]
-    std = np.where(count > 1, np.sqrt(np.maximum(var, 0.0)), np.nan)
-    return {"mean": mean, "std": std, "ci_low": lo, "ci_high": hi, "n": count}
