@@ -43,11 +43,7 @@ void linear_robot_actions(const ObservationView& obs, const ActionFormat& format
     out[2 * b] = out[2 * b + 1] = 0.0;
     if (!obs.active[b]) continue;
     const RobotRow r = robot_row(obs, b);
-    const Vec2 to_goal = r.g - r.p;
-    const double d = norm(to_goal);
-    // Full speed towards the goal, but never past it.
-    const Vec2 v = d > 1e-12 ? (std::min(r.v_pref, d / dt) / d) * to_goal : Vec2{};
-    write_action(format, r.theta, v, out + 2 * b);
+    write_action(format, r.theta, straight_to_goal_velocity(r.p, r.g, r.v_pref, dt), out + 2 * b);
   }
 }
 
@@ -96,11 +92,8 @@ void social_force_robot_actions(const ObservationView& obs, const ActionFormat& 
       int n = 0;
       for (int j = 0; j < N; ++j)
         if (m[j]) others[n++] = SocialForceOther{{h[5 * j], h[5 * j + 1]}, {h[5 * j + 2], h[5 * j + 3]}};
-      const Vec2 to_goal = r.g - r.p;
-      const double d = norm(to_goal);
-      const Vec2 desired = d > 1e-9 ? (r.v_pref * std::min(1.0, d) / d) * to_goal : Vec2{};
       // The robot never exceeds its own v_pref, unlike a pedestrian's 1.3x margin.
-      const SocialForceAgent self{r.p, r.v, desired, r.v_pref};
+      const SocialForceAgent self{r.p, r.v, social_force_desired_velocity(r.p, r.g, r.v_pref), r.v_pref};
       write_action(format, r.theta, social_force_new_velocity(self, others.data(), n, params, dt), out + 2 * b);
     }
   });

@@ -34,6 +34,14 @@ struct SocialForceOther {
   Vec2 velocity;
 };
 
+// Desired velocity towards a goal: speed v_pref, easing off inside the last metre so that the
+// agent stops at its goal (used for pedestrians and for the social-force robot).
+inline Vec2 social_force_desired_velocity(Vec2 position, Vec2 goal, double v_pref) {
+  const Vec2 to_goal = goal - position;
+  const double d = norm(to_goal);
+  return d > 1e-9 ? (v_pref * (d < 1.0 ? d : 1.0) / d) * to_goal : Vec2{};
+}
+
 // Velocity after one explicit Euler step of length dt.
 Vec2 social_force_new_velocity(const SocialForceAgent& self, const SocialForceOther* others, int n,
                                const SocialForceParams& params, double dt);

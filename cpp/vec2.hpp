@@ -23,4 +23,13 @@ inline double abs_sq(Vec2 a) { return dot(a, a); }
 inline double norm(Vec2 a) { return std::sqrt(abs_sq(a)); }
 inline Vec2 normalize(Vec2 a) { return a / norm(a); }
 
+// Straight to the goal at `speed`, shortening the last step so as never to pass the goal
+// (linear pedestrians and the linear robot policy).
+inline Vec2 straight_to_goal_velocity(Vec2 position, Vec2 goal, double speed, double dt) {
+  const Vec2 to_goal = goal - position;
+  const double d = norm(to_goal);
+  const double s = d / dt < speed ? d / dt : speed;
+  return d > 1e-12 ? (s / d) * to_goal : Vec2{};
+}
+
 }  // namespace socialnav

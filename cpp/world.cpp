@@ -95,18 +95,11 @@ void World::human_velocities(int b, int worker) {
         if (j == i || !mask[j]) continue;
         others[n++] = SocialForceOther{load(pos + 2 * j), load(vel + 2 * j)};
       }
-      const Vec2 to_goal = g - p;
-      const double d = norm(to_goal);
-      // Desired speed v_pref, easing off inside the last metre so that pedestrians stop at the goal.
-      const Vec2 desired = d > 1e-9 ? (v_pref[i] * std::min(1.0, d) / d) * to_goal : Vec2{};
-      const SocialForceAgent self{p, load(vel + 2 * i), desired,
+      const SocialForceAgent self{p, load(vel + 2 * i), social_force_desired_velocity(p, g, v_pref[i]),
                                   config_.social_force.max_speed_factor * v_pref[i]};
       v_new = social_force_new_velocity(self, others.data(), n, config_.social_force, config_.dt);
     } else {
-      const Vec2 to_goal = g - p;
-      const double d = norm(to_goal);
-      // Straight to the goal at v_pref without overshooting it.
-      v_new = d > 1e-12 ? (std::min(v_pref[i], d / config_.dt) / d) * to_goal : Vec2{};
+      v_new = straight_to_goal_velocity(p, g, v_pref[i], config_.dt);
     }
     store(out + 2 * i, v_new);
   }
