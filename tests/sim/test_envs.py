@@ -75,3 +75,15 @@ def test_env_action_table_equals_the_learned_policies_table(kinematics):
     theirs = learned_actions(kinematics, torch.tensor([1.5], dtype=torch.float64))[0].numpy()
     np.testing.assert_allclose(ours, theirs, atol=1e-12)
     assert np.any((ours[:, 1] == 0.0) & (ours[:, 0] > 0)) if kinematics == "unicycle" else True
+
+
+def test_single_env_outcome_comes_from_the_world_not_the_reward():
+    # With a zero success reward the outcome must still read "success" (not inferred from the reward).
+    env = SocialNavEnv(scenario="passing", scenario_params={"n_humans": 1},
+                       world={"human_model": "linear", "reward": {"success_reward": 0.0}})
+    env.reset(seed=19)  # the human walks at the far offset: a straight robot passes clear
+    for _ in range(200):
+        _, reward, terminated, truncated, info = env.step(np.array([0.0, 1.0]))
+        if terminated or truncated:
+            break
+    assert info["outcome"] == "success" and reward == 0.0

@@ -53,6 +53,7 @@ def test_success_when_within_radius_of_goal():
     r = w.step(np.array([[0.0, 1.0]]))  # ends 0.25 m from the goal < radius 0.3
     assert r.terminated[0]
     assert r.reward[0] == 1.0
+    assert r.outcome[0] == "success"
     traj = r.finished[0]
     assert traj.outcome == "success"
     assert traj.positions.shape == (2, 2, 2)
@@ -278,3 +279,13 @@ def test_core_refuses_state_buffers_it_would_have_to_copy():
         _core.World(config, np.zeros((1, 3, 2)), *arrays[1:], None, None, None)
     with pytest.raises(TypeError):
         w._core.preview_humans(np.zeros((1, 1, 5), dtype=np.float32))
+
+
+def test_stream_over_a_finite_scenario_ends_with_it():
+    from socialnav.scenarios import make_scenario
+    from socialnav.sim.world import EpisodeStream
+
+    stream = EpisodeStream(make_scenario("passing", n_humans=1), split="train", start=15)
+    batch = stream.take(100)
+    assert batch.indices.tolist() == [15, 16, 17, 18, 19]
+    assert stream.take(1) is None

@@ -96,17 +96,6 @@ def score_trajectories(trajs: list[Trajectory], cell: Cell, label: str) -> list[
     return rows, sorted({(w.category.__name__, str(w.message)) for w in caught})
 
 
-def run_chunk(
-    policy: Policy, preset: Preset, cell: Cell, start: int, stop: int, label: str, batch_size: int = 256
-) -> list[dict[str, Any]]:
-    """Simulates and scores episodes [start, stop) of a cell in this process; one row per episode."""
-    rows, notes = score_trajectories(
-        simulate_chunk(policy, preset, cell, start, stop, label, batch_size), cell, label
-    )
-    _reissue(notes)
-    return rows
-
-
 def _reissue(notes: list[tuple[str, str]]) -> None:
     # Warnings raised while scoring in a worker are re-raised here, where the caller can see them.
     import socialnav.metrics as metrics

@@ -127,7 +127,7 @@ class SocialNavEnv(gym.Env):
         terminated, truncated = bool(result.terminated[0]), bool(result.truncated[0])
         if terminated or truncated:
             obs = result.final_observation
-            outcome = "timeout" if truncated else ("success" if result.reward[0] > 0 else "collision")
+            outcome = result.outcome[0]
         else:
             obs = self._world.observe()
             outcome = "running"

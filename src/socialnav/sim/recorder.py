@@ -16,7 +16,7 @@ from socialnav.trajectory import Trajectory
 if TYPE_CHECKING:
     from socialnav.sim.world import World
 
-_OUTCOME = {
+OUTCOME_NAMES = {
     _core.STATUS_SUCCESS: "success",
     _core.STATUS_COLLISION: "collision",
     _core.STATUS_TIMEOUT: "timeout",
@@ -87,7 +87,7 @@ class Recorder:
                     goals=w.goal[b, agents].copy(),
                     v_pref=w.v_pref[b, agents].copy(),
                     roles=roles,
-                    outcome=_OUTCOME[int(w.status[b])],
+                    outcome=OUTCOME_NAMES[int(w.status[b])],
                     min_clearance=self.hist_dmin[b, 1 : end + 1].copy(),
                     continuation=continuation,
                     human_overlaps=None if w.settings.crowdsim_compat else int(w.overlaps[b]),

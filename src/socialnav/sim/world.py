@@ -17,14 +17,9 @@ import numpy as np
 from socialnav import _core
 from socialnav.scenarios import EpisodeBatch, Scenario, episode_seeds
 from socialnav.sim.observation import Observation, build_observation
-from socialnav.sim.recorder import Recorder
+from socialnav.sim.recorder import OUTCOME_NAMES, Recorder
 from socialnav.sim.settings import WorldSettings
 
-OUTCOMES = {
-    _core.STATUS_SUCCESS: "success",
-    _core.STATUS_COLLISION: "collision",
-    _core.STATUS_TIMEOUT: "timeout",
-}
 _HUMAN_MODEL_IDS = {
     "orca": _core.HUMAN_ORCA,
     "social_force": _core.HUMAN_SOCIAL_FORCE,
@@ -56,6 +51,9 @@ class EpisodeStream:
         self.next_index = start  # next index handed out
         self._generated = start  # next index to generate
         self.stop = None if count is None else start + count
+        if scenario.n_episodes is not None:
+            # A finite scenario (the single-human sweeps) ends the stream at its last episode.
+            self.stop = scenario.n_episodes if self.stop is None else min(self.stop, scenario.n_episodes)
         self._buffer: EpisodeBatch | None = None
         self._buffer_pos = 0
 
@@ -96,6 +94,7 @@ class StepResult:
         truncated: (B,) episode ended by the time limit in this step.
         finished: trajectories of the episodes that ended in this step (empty when not recording).
         final_observation: observation of the finished slots before their reset (rows where done).
+        outcome: (B,) "success", "collision" or "timeout" where an episode ended in this step, "" elsewhere.
     """
 
     reward: np.ndarray
@@ -103,6 +102,7 @@ class StepResult:
     truncated: np.ndarray
     finished: list
     final_observation: Observation | None
+    outcome: np.ndarray
 
 
 class World:
@@ -316,6 +316,7 @@ class World:
         done_slots = np.flatnonzero(self.done)
         terminated = np.zeros(self.batch_size, dtype=bool)
         truncated = np.zeros(self.batch_size, dtype=bool)
+        outcome = np.full(self.batch_size, "", dtype=object)
         finished: list = []
         final_obs = None
         if done_slots.size:
@@ -323,12 +324,13 @@ class World:
             outcome_status = self.status[done_slots]
             truncated[done_slots] = outcome_status == _core.STATUS_TIMEOUT
             terminated[done_slots] = outcome_status != _core.STATUS_TIMEOUT
+            outcome[done_slots] = [OUTCOME_NAMES[int(code)] for code in outcome_status]
             if final_observation:
                 final_obs = self.observe().take(done_slots)
             if self._recorder is not None:
                 finished = self._recorder.collect(done_slots)
             self._fill(done_slots)
-        return StepResult(reward, terminated, truncated, finished, final_obs)
+        return StepResult(reward, terminated, truncated, finished, final_obs, outcome)
 
 
 def orca_params(settings: WorldSettings) -> _core.OrcaParams:
