@@ -47,9 +47,21 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
     ev.add_argument(
         "--information",
-        choices=["constant_velocity", "oracle"],
+        choices=["constant_velocity", "oracle", "learned"],
         help="learned policies: how the humans' next states are predicted in the lookahead "
-        "(default: the checkpoint's)",
+        "(default: the checkpoint's; learned needs a checkpoint with a state predictor)",
+    )
+    ev.add_argument(
+        "--planning-depth",
+        type=int,
+        dest="planning_depth",
+        help="learned policies: planning depth d (1: one-step lookahead; default: the checkpoint's)",
+    )
+    ev.add_argument(
+        "--planning-width",
+        type=int,
+        dest="planning_width",
+        help="learned policies: planning width w (default: the checkpoint's)",
     )
     ev.add_argument("--scenario", nargs="+", help="only these scenarios (default: the preset's)")
     ev.add_argument("--episodes", type=int, help="episodes per scenario (default: the preset's)")
@@ -92,7 +104,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from socialnav.presets import load_preset
 
     preset = load_preset(args.preset)
-    overrides = {"information": args.information} if args.information else {}
+    overrides = {
+        k: getattr(args, k)
+        for k in ("information", "planning_depth", "planning_width")
+        if getattr(args, k) is not None
+    }
     policy = build_policy(args.policy, preset, args.checkpoint, **overrides)
     label = args.label or args.policy
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-NETWORKS = ["cadrl", "lstm_rl", "sarl", "om_sarl"]
+NETWORKS = ["cadrl", "lstm_rl", "sarl", "om_sarl", "rgl", "mp_rgl"]
 
 
 def random_scene(rng: np.random.Generator, b: int, n: int, p_real: float = 0.7, garbage: float = 0.0):

@@ -21,6 +21,8 @@ _DESCRIPTIONS = {
     "ga3c_cadrl": "alias of lstm_rl: an LSTM value network, not the A3C policy-gradient original",
     "sarl": "SARL: attention over humans (Chen et al., ICRA 2019), one-step lookahead",
     "om_sarl": "OM-SARL: SARL with local occupancy maps (Chen et al., ICRA 2019)",
+    "rgl": "RGL: relational graph value network (Chen et al., IROS 2020), one-step lookahead",
+    "mp_rgl": "model-predictive RGL: learned state predictor, d-step w-wide planning (Chen et al., IROS 2020)",
 }
 
 
@@ -58,35 +60,64 @@ class LearnedPolicy:
         return actions
 
     def describe(self) -> dict[str, Any]:
+        vp = self.value_policy
         return {
             "policy": self.name,
             "information": self.information,
             "checkpoint": None if self.checkpoint is None else str(self.checkpoint),
+            "planning_depth": vp.planning_depth,
+            "planning_width": vp.planning_width,
+            "reward_rule": vp.reward_rule,
         }
 
 
 def load_learned_policy(
-    name: str, checkpoint: str | Path, information: str | None = None, device: str = "cpu"
+    name: str,
+    checkpoint: str | Path,
+    information: str | None = None,
+    device: str = "cpu",
+    planning_depth: int | None = None,
+    planning_width: int | None = None,
 ) -> LearnedPolicy:
-    """Loads ``checkpoint`` (refusing one of another policy or input size) into a LearnedPolicy."""
+    """Loads ``checkpoint`` (refusing one of another policy or input size) into a LearnedPolicy.
+
+    ``information``, ``planning_depth`` and ``planning_width`` override the checkpoint's settings
+    (None keeps them); ``learned`` needs a checkpoint that stores a state predictor.
+    """
     from socialnav.policies.learned import ValuePolicy, load_checkpoint
     from socialnav.policies.learned.state import RewardParams
 
     ckpt = load_checkpoint(checkpoint, name, map_location=device)
     settings = dict(ckpt.config.get("value_policy", {}))
     reward = RewardParams(**settings.pop("reward", {}))
-    if information is not None:
-        settings["information"] = information
+    for key, value in (
+        ("information", information),
+        ("planning_depth", planning_depth),
+        ("planning_width", planning_width),
+    ):
+        if value is not None:
+            settings[key] = value
+    if settings.get("information") == "learned" and ckpt.predictor is None:
+        raise ValueError(
+            f"checkpoint {checkpoint} stores no state predictor, so information 'learned' is not available "
+            "(train with --information learned, or --policy mp_rgl)"
+        )
     ckpt.model.eval()
-    policy = ValuePolicy(ckpt.model, reward_params=reward, device=device, **settings)
+    policy = ValuePolicy(ckpt.model, reward_params=reward, device=device, predictor=ckpt.predictor, **settings)
     return LearnedPolicy(name, policy, Path(checkpoint))
 
 
 def _factory(name: str):
     def make(
-        checkpoint: Path, preset: Any = None, information: str | None = None, device: str = "cpu", **_: Any
+        checkpoint: Path,
+        preset: Any = None,
+        information: str | None = None,
+        device: str = "cpu",
+        planning_depth: int | None = None,
+        planning_width: int | None = None,
+        **_: Any,
     ) -> LearnedPolicy:
-        return load_learned_policy(name, checkpoint, information, device)
+        return load_learned_policy(name, checkpoint, information, device, planning_depth, planning_width)
 
     return make
 
@@ -96,5 +127,10 @@ for _name, _description in _DESCRIPTIONS.items():
         _name,
         description=_description,
         learned=True,
-        parameters={"information": "constant_velocity", "device": "cpu"},
+        parameters={
+            "information": "learned" if _name == "mp_rgl" else "constant_velocity",
+            "device": "cpu",
+            "planning_depth": 2 if _name == "mp_rgl" else 1,
+            "planning_width": 2 if _name == "mp_rgl" else 1,
+        },
     )(_factory(_name))

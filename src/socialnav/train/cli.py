@@ -7,7 +7,9 @@ import argparse
 
 def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr = sub.add_parser("train", help="train a learned policy (imitation from ORCA, then value-based RL)")
-    tr.add_argument("--policy", required=True, help="cadrl, lstm_rl, sarl or om_sarl")
+    tr.add_argument(
+        "--policy", required=True, help="cadrl, lstm_rl (ga3c_cadrl), sarl, om_sarl, rgl or mp_rgl"
+    )
     tr.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
     tr.add_argument(
         "--out", help="run directory (default runs/train/<preset>-<policy>-s<seed>); resumed if it exists"
@@ -22,8 +24,9 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr.add_argument("--config", help="YAML file overriding training settings (see docs/training.md)")
     tr.add_argument(
         "--information",
-        choices=["constant_velocity", "oracle"],
-        help="lookahead prediction of the humans' next states (default constant_velocity)",
+        choices=["constant_velocity", "oracle", "learned"],
+        help="lookahead prediction of the humans' next states (default constant_velocity; mp_rgl: "
+        "learned, a state predictor trained in the same run)",
     )
     tr.add_argument(
         "--collection-batch",

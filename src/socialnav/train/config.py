@@ -20,7 +20,31 @@ import yaml
 
 from socialnav.config import ConfigError, check, from_dict
 
-INFORMATION = ("constant_velocity", "oracle")
+INFORMATION = ("constant_velocity", "oracle", "learned")
+REWARD_RULES = ("end", "swept")
+#: Policies that plan with the learned state predictor and their defaults (information, depth, width,
+#: reward rule); every other policy defaults to a constant-velocity one-step lookahead with CrowdNav's
+#: end-of-step reward estimate.
+POLICY_DEFAULTS: dict[str, dict[str, Any]] = {
+    "mp_rgl": {"information": "learned", "planning_depth": 2, "planning_width": 2, "reward_rule": "swept"},
+}
+GENERIC_DEFAULTS: dict[str, Any] = {
+    "information": "constant_velocity",
+    "planning_depth": 1,
+    "planning_width": 1,
+    "reward_rule": "end",
+}
+#: Settings added after runs were started: a resumed run whose saved config lacks one of these keys is
+#: taken to have had this value (so older run directories stay resumable).
+ADDED_SETTINGS: dict[str, Any] = {
+    "train.planning_depth": 1,
+    "train.planning_width": 1,
+    "train.reward_rule": "end",
+    "train.predictor_lr": 1e-3,
+    "value_policy.planning_depth": 1,
+    "value_policy.planning_width": 1,
+    "value_policy.reward_rule": "end",
+}
 DEVICES = ("cpu", "cuda", "auto")
 
 #: Train-setting keys that may change between a run and its resumption (everything else must match).
@@ -102,9 +126,15 @@ class TrainSettings:
     """Everything that defines a training run besides the preset.
 
     Attributes:
-        policy: learned policy name (cadrl, lstm_rl / ga3c_cadrl, sarl, om_sarl).
+        policy: learned policy name (cadrl, lstm_rl / ga3c_cadrl, sarl, om_sarl, rgl, mp_rgl).
         information: how the lookahead predicts the humans' next states ("constant_velocity", the
-            fair default, or "oracle", what CrowdNav's paper used).
+            fair default, "oracle", what CrowdNav's paper used, or "learned", a state predictor
+            trained in the same run); "" takes the policy's default (mp_rgl: learned).
+        planning_depth, planning_width: model-predictive planning (d, w); 0 takes the policy's
+            default (mp_rgl: 2, 2; the others: 1, 1, the one-step lookahead).
+        reward_rule: the lookahead's reward estimate, "end" (clearances at the end of the step, as
+            CrowdNav/RGL) or "swept" (the world's rule); "" takes the policy's default (mp_rgl: swept).
+        predictor_lr: Adam learning rate of the state predictor (``learned`` only).
         collection_batch: episodes stepped in lockstep while collecting (split over the scenarios of
             the training mix).
         seed: master seed; the scenario stream offset, exploration, network initialisation and
@@ -117,7 +147,7 @@ class TrainSettings:
     """
 
     policy: str = "sarl"
-    information: str = "constant_velocity"
+    information: str = ""
     collection_batch: int = 128
     seed: int = 0
     device: str = "cpu"
@@ -125,16 +155,29 @@ class TrainSettings:
     checkpoint_every: int = 500
     log_every: int = 100
     cadrl_one_human: bool = True
+    planning_depth: int = 0
+    planning_width: int = 0
+    reward_rule: str = ""
+    predictor_lr: float = 1e-3
     imitation: ImitationSettings = field(default_factory=ImitationSettings)
     rl: RLSettings = field(default_factory=RLSettings)
 
     def __post_init__(self) -> None:
         check(
-            self.information in INFORMATION,
+            self.information in ("", *INFORMATION),
             "information",
             self.information,
             f"must be one of {', '.join(INFORMATION)}",
         )
+        check(self.planning_depth >= 0, "planning_depth", self.planning_depth, "must be >= 1 (0: default)")
+        check(self.planning_width >= 0, "planning_width", self.planning_width, "must be >= 1 (0: default)")
+        check(
+            self.reward_rule in ("", *REWARD_RULES),
+            "reward_rule",
+            self.reward_rule,
+            f"must be one of {', '.join(REWARD_RULES)}",
+        )
+        check(self.predictor_lr > 0, "predictor_lr", self.predictor_lr, "must be > 0")
         check(self.collection_batch >= 1, "collection_batch", self.collection_batch, "must be >= 1")
         check(self.seed >= 0, "seed", self.seed, "must be >= 0")
         check(self.device in DEVICES, "device", self.device, f"must be one of {', '.join(DEVICES)}")
@@ -144,6 +187,34 @@ class TrainSettings:
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
+
+    def resolved(self, policy: str) -> TrainSettings:
+        """These settings with the policy's defaults filled in (information, planning, reward rule).
+
+        Raises:
+            ConfigError: a combination the policy cannot train with (mp_rgl without its predictor,
+                planning beyond one step with the one-step oracle).
+        """
+        defaults = {**GENERIC_DEFAULTS, **POLICY_DEFAULTS.get(policy, {})}
+        out = dataclasses.replace(
+            self,
+            policy=policy,
+            information=self.information or defaults["information"],
+            planning_depth=self.planning_depth or defaults["planning_depth"],
+            planning_width=self.planning_width or defaults["planning_width"],
+            reward_rule=self.reward_rule or defaults["reward_rule"],
+        )
+        if policy == "mp_rgl" and out.information != "learned":
+            raise ConfigError(
+                f"information: mp_rgl plans with the state predictor it trains, so it needs 'learned', "
+                f"got {out.information!r}"
+            )
+        if out.planning_depth > 1 and out.information == "oracle":
+            raise ConfigError(
+                f"planning_depth: {out.planning_depth} needs predictions beyond one step; the oracle "
+                "gives one (use information 'learned' or 'constant_velocity')"
+            )
+        return out
 
 
 def load_train_settings(path: str | Path | None = None, **overrides: Any) -> TrainSettings:
@@ -188,6 +259,32 @@ def derive_seeds(seed: int) -> dict[str, int]:
         "init": init,
         "sampling": sampling,
     }
+
+
+def resume_diff(saved: dict[str, Any], current: dict[str, Any]) -> list[str]:
+    """Dotted keys where a saved run config and the current one differ, ignoring the settings a
+    resumed run may change (:data:`RESUMABLE_CHANGES`) and settings added since the run was saved
+    when the current value is the one such runs had (:data:`ADDED_SETTINGS`)."""
+    out = []
+    for key in flat_diff(saved, current):
+        if any(key == f"train.{r}" or key.startswith(f"train.{r}.") for r in RESUMABLE_CHANGES):
+            continue
+        if key in ADDED_SETTINGS and _lookup(saved, key) is _MISSING:
+            if _lookup(current, key) == ADDED_SETTINGS[key]:
+                continue
+        out.append(key)
+    return out
+
+
+_MISSING = object()
+
+
+def _lookup(data: Any, dotted: str) -> Any:
+    for part in dotted.split("."):
+        if not isinstance(data, dict) or part not in data:
+            return _MISSING
+        data = data[part]
+    return data
 
 
 def flat_diff(a: Any, b: Any, prefix: str = "") -> list[str]:

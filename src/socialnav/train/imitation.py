@@ -44,6 +44,8 @@ class Demonstrations:
     value: np.ndarray  # (M,)
     episodes: int  # episodes collected (all outcomes)
     outcomes: dict[str, int]
+    next_humans: np.ndarray | None = None  # (M, N, 5) the humans after each step (state predictor)
+    next_mask: np.ndarray | None = None  # (M, N)
 
     def __len__(self) -> int:
         return len(self.value)
@@ -60,15 +62,24 @@ def collect_demonstrations(
     """Runs the teacher until ``episodes`` episodes have finished; keeps successes and collisions."""
     obs = world.observe()
     B = world.batch_size
-    traj: list[list[tuple[np.ndarray, np.ndarray, np.ndarray, float]]] = [[] for _ in range(B)]
-    robots, humans, masks, values = [], [], [], []
+    traj: list[list[tuple[np.ndarray, ...]]] = [[] for _ in range(B)]
+    robots, humans, masks, values, next_humans, next_masks = [], [], [], [], [], []
     outcomes = {"success": 0, "collision": 0, "timeout": 0}
     done_count = 0
     while done_count < episodes:
         actions = teacher.act(obs)
         res = world.step(actions)
         for b in range(B):
-            traj[b].append((obs.robot[b], obs.humans[b], obs.human_mask[b], float(res.reward[b])))
+            traj[b].append(
+                (
+                    obs.robot[b],
+                    obs.humans[b],
+                    obs.human_mask[b],
+                    float(res.reward[b]),
+                    res.final_humans[b],
+                    res.final_mask[b],
+                )
+            )
         finished = np.flatnonzero(res.terminated | res.truncated)
         for b in finished:
             steps = traj[b]
@@ -85,6 +96,8 @@ def collect_demonstrations(
             robots.append(np.stack([s[0] for s in steps]))
             humans.append(np.stack([s[1] for s in steps]))
             masks.append(np.stack([s[2] for s in steps]))
+            next_humans.append(np.stack([s[4] for s in steps]))
+            next_masks.append(np.stack([s[5] for s in steps]))
             values.append(ret)
             if progress is not None:
                 progress(1)
@@ -103,6 +116,8 @@ def collect_demonstrations(
         np.concatenate(values),
         done_count,
         outcomes,
+        np.concatenate(next_humans),
+        np.concatenate(next_masks),
     )
 
 
@@ -152,4 +167,49 @@ def fit_values(
         if on_epoch is not None:
             on_epoch(epoch, losses[-1])
     net.eval()
+    return losses
+
+
+def fit_predictor(
+    predictor: torch.nn.Module,
+    optimizer: torch.optim.Optimizer,
+    demos: Demonstrations,
+    epochs: int,
+    batch_size: int,
+    dt: float,
+    generator: torch.Generator,
+    device: torch.device | str = "cpu",
+) -> list[float]:
+    """Supervised training (position MSE) of the state predictor on the demonstrations' human
+    transitions (s → s'), as RGL trains its state predictor during imitation learning.
+
+    Returns:
+        Mean loss per epoch [m²].
+    """
+    if len(demos) == 0 or epochs == 0 or demos.next_humans is None or demos.next_mask is None:
+        return []
+    dev = torch.device(device)
+    robot = torch.as_tensor(demos.robot, dtype=torch.float32, device=dev)
+    humans = torch.as_tensor(demos.humans, dtype=torch.float32, device=dev)
+    mask = torch.as_tensor(demos.mask, dtype=torch.bool, device=dev)
+    nxt = torch.as_tensor(demos.next_humans, dtype=torch.float32, device=dev)
+    nmask = torch.as_tensor(demos.next_mask, dtype=torch.bool, device=dev)
+    predictor.train()
+    losses = []
+    m = len(robot)
+    for epoch in range(epochs):
+        perm = torch.randperm(m, generator=generator).to(dev)
+        total, count = 0.0, 0
+        for s in range(0, m, batch_size):
+            idx = perm[s : s + batch_size]
+            loss = predictor.loss(robot[idx], humans[idx], mask[idx], nxt[idx], nmask[idx], dt)
+            if not torch.isfinite(loss):
+                raise FloatingPointError(f"state-predictor loss became {loss.item()} in epoch {epoch}")
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            optimizer.step()
+            total += float(loss.detach()) * len(idx)
+            count += len(idx)
+        losses.append(total / count)
+    predictor.eval()
     return losses

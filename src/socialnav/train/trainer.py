@@ -35,11 +35,10 @@ from socialnav.config import ConfigError
 from socialnav.evaluate.files import atomic_write_json, atomic_write_text
 from socialnav.presets import Preset, load_preset
 from socialnav.train.config import (
-    RESUMABLE_CHANGES,
     TrainSettings,
     derive_seeds,
-    flat_diff,
     load_train_settings,
+    resume_diff,
 )
 from socialnav.train.envs import MultiWorld, training_n_humans
 from socialnav.train.memory import ReplayMemory
@@ -58,6 +57,7 @@ CURVE_COLUMNS = (
     "val_collision",
     "val_timeout",
     "val_nav_time",
+    "predictor_loss",
     "gradient_steps",
     "transitions",
     "wall_time",
@@ -100,6 +100,9 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
         "kinematics": w.kinematics,
         "gamma": settings.rl.gamma,
         "information": settings.information,
+        "planning_depth": settings.planning_depth,
+        "planning_width": settings.planning_width,
+        "reward_rule": settings.reward_rule,
         "rotation_limit": w.rotation_limit,
         "dt": w.dt,
         "reward": {
@@ -260,7 +263,8 @@ def train(
         raise KeyError(
             f"unknown learned policy {policy_name!r}; known: {', '.join(sorted(LEARNED_POLICIES))}"
         )
-    settings = dataclasses.replace(settings or TrainSettings(), policy=policy_name)
+    settings = (settings or TrainSettings()).resolved(canonical_name(policy_name))
+    settings = dataclasses.replace(settings, policy=policy_name)
     rl = settings.rl
     device = resolve_device(settings.device)
     threads = settings.threads or max(1, min(os.cpu_count() or 1, 8))
@@ -294,6 +298,14 @@ def train(
         torch.manual_seed(seeds["init"])
         net = build(canonical_name(policy_name))
     net.to(device)
+    predictor = None
+    if settings.information == "learned":
+        from socialnav.policies.learned.predictor import StatePredictor
+
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seeds["init"] ^ 0x5EED)
+            predictor = StatePredictor()
+        predictor.to(device).eval()
     reward_params = RewardParams(**vp_config["reward"])
     policy = ValuePolicy(
         net,
@@ -304,6 +316,10 @@ def train(
         dt=preset.world.dt,
         rotation_limit=preset.world.rotation_limit,
         device=device,
+        planning_depth=settings.planning_depth,
+        planning_width=settings.planning_width,
+        reward_rule=settings.reward_rule,
+        predictor=predictor,
     )
     target = build(canonical_name(policy_name)).to(device)
     explore_gen = torch.Generator().manual_seed(seeds["exploration"])
@@ -314,11 +330,7 @@ def train(
     resume: dict[str, Any] | None = None
     if last_path.exists():
         ck = load_checkpoint(last_path, canonical_name(policy_name), map_location=device)
-        diff = [
-            k
-            for k in flat_diff({**ck.config, "train": {**ck.config.get("train", {})}}, config)
-            if not any(k == f"train.{r}" or k.startswith(f"train.{r}.") for r in RESUMABLE_CHANGES)
-        ]
+        diff = resume_diff(ck.config, config)
         if diff:
             raise ConfigError(
                 f"{out} holds a run with other settings ({', '.join(diff)}); "
@@ -326,6 +338,8 @@ def train(
             )
         resume = ck.extra["resume"]
         net.load_state_dict(ck.model.state_dict())
+        if predictor is not None and ck.predictor is not None:
+            predictor.load_state_dict(ck.predictor.state_dict())
         say(f"resuming {out} at RL episode {resume['episode']} ({resume['gradient_steps']} gradient steps)")
 
     atomic_write_json(out / "config.json", config)
@@ -341,6 +355,12 @@ def train(
 
     def wall() -> float:
         return elapsed0 + time.perf_counter() - t_call
+
+    if predictor is not None:
+        predictor_opt = _make_optimizer(predictor.parameters(), settings.predictor_lr, device)
+
+    def save(path: Path, extra: dict[str, Any]) -> None:
+        save_checkpoint(path, policy_name, net, config=config, extra=extra, predictor=predictor)
 
     # -- imitation learning --------------------------------------------------------------------
     if resume is None:
@@ -389,11 +409,25 @@ def train(
             finally:
                 bar.close()
             il_loss = losses[-1] if losses else math.nan
-            save_checkpoint(
-                il_path, policy_name, net, config=config, extra={"phase": "imitation", "il_losses": losses}
-            )
+            predictor_losses: list[float] = []
+            if predictor is not None:
+                from socialnav.train.imitation import fit_predictor
+
+                predictor_losses = fit_predictor(
+                    predictor,
+                    predictor_opt,
+                    demos,
+                    il.epochs,
+                    il.batch_size,
+                    preset.world.dt,
+                    torch.Generator().manual_seed(seeds["sampling"] ^ 0x9E3D),
+                    device,
+                )
+                say(f"imitation: state predictor position MSE {predictor_losses[-1]:.4g} m² after {il.epochs} epochs")
+            save(il_path, {"phase": "imitation", "il_losses": losses, "predictor_losses": predictor_losses})
         else:
             il_loss = math.nan
+            predictor_losses = []
         val = validate(policy, val_world, oracle, success_reward)
         say(
             f"after imitation: validation success {val['success']:.3f} collision {val['collision']:.3f} "
@@ -408,6 +442,7 @@ def train(
                 "val_collision": val["collision"],
                 "val_timeout": val["timeout"],
                 "val_nav_time": val["nav_time"],
+                "predictor_loss": predictor_losses[-1] if predictor_losses else math.nan,
                 "gradient_steps": 0,
                 "transitions": 0,
                 "wall_time": wall(),
@@ -415,7 +450,7 @@ def train(
         )
         best_val = {**val, "episode": 0}
         stop_now = bool(on_validation and on_validation(0, best_val, wall()))
-        save_checkpoint(best_path, policy_name, net, config=config, extra={"episode": 0, "val": best_val})
+        save(best_path, {"episode": 0, "val": best_val})
         target.load_state_dict(net.state_dict())
         optimizer = _make_optimizer(net.parameters(), rl.lr, device)
         state = {
@@ -435,6 +470,8 @@ def train(
         target.load_state_dict(resume["target_state_dict"])
         optimizer = _make_optimizer(net.parameters(), rl.lr, device)
         _load_optimizer_state(optimizer, resume["optimizer"])
+        if predictor is not None:
+            _load_optimizer_state(predictor_opt, resume["predictor_optimizer"])
         explore_gen.set_state(resume["explore_rng"])
         sample_gen.set_state(resume["sample_rng"])
         state = {
@@ -471,7 +508,9 @@ def train(
                 "wall_time": wall(),
             },
         }
-        save_checkpoint(last_path, policy_name, net, config=config, extra=extra)
+        if predictor is not None:
+            extra["resume"]["predictor_optimizer"] = _optimizer_state(predictor_opt)
+        save(last_path, extra)
 
     # -- RL ------------------------------------------------------------------------------------
     world = MultiWorld(
@@ -482,7 +521,7 @@ def train(
     if resume is None:
         save_last()
     window = EpisodeStats()
-    window_loss, window_steps = 0.0, 0
+    window_loss, window_steps, window_pred = 0.0, 0, 0.0
     bar = _progress(rl.episodes, int(state["episode"]), f"{policy_name} RL", progress)
     episodes_this_call = 0
     stopped_early = stop_now
@@ -523,6 +562,16 @@ def train(
                         optimizer.zero_grad(set_to_none=True)
                         loss.backward()
                         optimizer.step()
+                        if predictor is not None:
+                            predictor.train()
+                            pl = predictor.loss(
+                                batch.robot, batch.humans, batch.mask, batch.next_humans, batch.next_mask, dt
+                            )
+                            predictor_opt.zero_grad(set_to_none=True)
+                            pl.backward()
+                            predictor_opt.step()
+                            predictor.eval()
+                            window_pred += float(pl.detach())
                         state["gradient_steps"] += 1
                         window_loss += lv
                         window_steps += 1
@@ -541,9 +590,7 @@ def train(
                     state["next_val"] += rl.validate_every
                 if _better(val, state["best_val"]):
                     state["best_val"] = val
-                    save_checkpoint(
-                        best_path, policy_name, net, config=config, extra={"episode": ep, "val": val}
-                    )
+                    save(best_path, {"episode": ep, "val": val})
                 say(
                     f"episode {ep}: validation success {val['success']:.3f} collision {val['collision']:.3f} "
                     f"timeout {val['timeout']:.3f} nav_time {val['nav_time']:.2f} "
@@ -560,6 +607,9 @@ def train(
                     "train_collision": rates["collision"],
                     "train_timeout": rates["timeout"],
                     "loss": window_loss / window_steps if window_steps else math.nan,
+                    "predictor_loss": window_pred / window_steps
+                    if window_steps and predictor is not None
+                    else math.nan,
                     "gradient_steps": state["gradient_steps"],
                     "transitions": state["transitions"],
                     "wall_time": wall(),
@@ -573,7 +623,7 @@ def train(
                     )
                 curves.write(row)
                 bar.set_postfix(eps=f"{eps:.2f}", succ=f"{rates['success']:.2f}", loss=f"{row['loss']:.3g}")
-                window, window_loss, window_steps = EpisodeStats(), 0.0, 0
+                window, window_loss, window_steps, window_pred = EpisodeStats(), 0.0, 0, 0.0
                 while state["next_log"] <= ep:
                     state["next_log"] += settings.log_every
             if ep >= state["next_ckpt"] or ep >= rl.episodes:

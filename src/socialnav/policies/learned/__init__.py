@@ -1,4 +1,5 @@
-"""Learned value-based navigation policies (PyTorch): CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL.
+"""Learned value-based navigation policies (PyTorch): CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL,
+RGL and model-predictive RGL (with the learned state predictor).
 
 Importing this package registers the networks in :data:`LEARNED_POLICIES`. See docs/policies_learned.md.
 """
@@ -8,7 +9,9 @@ from socialnav.policies.learned.cadrl import CADRL
 from socialnav.policies.learned.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from socialnav.policies.learned.lstm_rl import LSTMRL
 from socialnav.policies.learned.networks import ValueNetwork
+from socialnav.policies.learned.predictor import StatePredictor
 from socialnav.policies.learned.registry import LEARNED_POLICIES, build
+from socialnav.policies.learned.rgl import RGL, mp_rgl
 from socialnav.policies.learned.sarl import SARL, om_sarl
 from socialnav.policies.learned.state import (
     RewardParams,
@@ -17,6 +20,7 @@ from socialnav.policies.learned.state import (
     propagate_robot,
     reward,
     rotate,
+    swept_reward,
 )
 from socialnav.policies.learned.value_policy import ValuePolicy
 
@@ -25,6 +29,9 @@ __all__ = [
     "LSTMRL",
     "SARL",
     "om_sarl",
+    "RGL",
+    "mp_rgl",
+    "StatePredictor",
     "ValueNetwork",
     "ValuePolicy",
     "RewardParams",
@@ -38,5 +45,6 @@ __all__ = [
     "propagate_humans_constant_velocity",
     "rotate",
     "reward",
+    "swept_reward",
     "occupancy_map",
 ]

@@ -5,7 +5,11 @@ A checkpoint is a plain dict (tensors, numbers, strings, lists, dicts only, so t
 
     {"format": "socialnav.learned/1", "policy": "sarl", "input_dim": 13,
      "model_kwargs": {...constructor arguments...}, "state_dict": {...},
-     "config": {...resolved settings...}, "extra": {...epoch, metrics...}, "torch_version": "2.x"}
+     "config": {...resolved settings...}, "extra": {...epoch, metrics...}, "torch_version": "2.x",
+     "predictor": None or {"model_kwargs": {...}, "state_dict": {...}}}
+
+``predictor`` holds the learned state predictor (RGL's), saved with every network trained with the
+``learned`` information setting (and always with ``mp_rgl``).
 """
 
 from __future__ import annotations
@@ -49,6 +53,7 @@ class Checkpoint:
     model: nn.Module
     config: dict[str, Any]
     extra: dict[str, Any]
+    predictor: nn.Module | None = None  # the learned state predictor, when the run trained one
 
 
 def _plain(x: Any, where: str) -> Any:
@@ -81,6 +86,7 @@ def save_checkpoint(
     model: nn.Module,
     config: dict[str, Any] | None = None,
     extra: dict[str, Any] | None = None,
+    predictor: nn.Module | None = None,
 ) -> Path:
     """Save a network atomically (temporary file in the same folder, then ``os.replace``).
 
@@ -90,6 +96,7 @@ def save_checkpoint(
         model: the value network (must provide ``model_kwargs()`` and ``input_dim``).
         config: resolved settings (plain data; dataclasses are converted).
         extra: anything else worth keeping (epoch, validation metrics…), plain data.
+        predictor: the learned state predictor to store beside the network, if any.
 
     Returns:
         The path written.
@@ -106,6 +113,12 @@ def save_checkpoint(
         "config": _plain(config or {}, "config"),
         "extra": _plain(extra or {}, "extra"),
         "torch_version": str(torch.__version__),
+        "predictor": None
+        if predictor is None
+        else {
+            "model_kwargs": _plain(predictor.model_kwargs(), "predictor.model_kwargs"),  # type: ignore[operator]
+            "state_dict": {k: v.detach().cpu().clone() for k, v in predictor.state_dict().items()},
+        },
     }
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -159,6 +172,18 @@ def load_checkpoint(
     model = build(got, **payload["model_kwargs"])
     model.load_state_dict(payload["state_dict"], strict=True)
     model.to(map_location).eval()
+    predictor = None
+    if payload.get("predictor") is not None:
+        from socialnav.policies.learned.predictor import StatePredictor
+
+        predictor = StatePredictor(**payload["predictor"]["model_kwargs"])
+        predictor.load_state_dict(payload["predictor"]["state_dict"], strict=True)
+        predictor.to(map_location).eval()
     return Checkpoint(
-        policy=got, input_dim=got_dim, model=model, config=payload["config"], extra=payload["extra"]
+        policy=got,
+        input_dim=got_dim,
+        model=model,
+        config=payload["config"],
+        extra=payload["extra"],
+        predictor=predictor,
     )

@@ -31,6 +31,7 @@ __all__ = [
     "propagate_humans_constant_velocity",
     "rotate",
     "reward",
+    "swept_reward",
     "occupancy_map",
 ]
 
@@ -189,6 +190,63 @@ def reward(
     out = torch.where(goal_d < robot_next[..., 4], zero + params.success_reward, out)
     out = torch.where(dmin < 0, zero + params.collision_penalty, out)
     return out
+
+
+def swept_reward(
+    robot: torch.Tensor,
+    robot_next: torch.Tensor,
+    humans: torch.Tensor,
+    humans_next: torch.Tensor,
+    mask: torch.Tensor,
+    params: RewardParams | None = None,
+) -> torch.Tensor:
+    """The world's reward on a predicted step: swept collision and discomfort, goal at the end.
+
+    Robot and humans move linearly over the step from their current to their next positions, as in
+    the world (cpp/world.cpp): the clearance is the minimum distance between centres over the step
+    minus the radii; collision when it is negative, else success when the robot ends within its
+    radius of its goal, else the discomfort penalty when it is below ``discomfort_dist``.
+
+    Args:
+        robot: (B, 9) current robot states.
+        robot_next: (B, K, 9) next robot states, one per candidate action.
+        humans: (B, N, 5) current human states.
+        humans_next: (B, N, 5) predicted next human states (shared by the K actions).
+        mask: (B, N) bool, real humans.
+        params: reward constants; ``params.time_step`` is the step length.
+
+    Returns:
+        (B, K) rewards.
+    """
+    params = params if params is not None else RewardParams()
+    dt = params.time_step
+    d0x = (humans[..., 0] - robot[..., 0:1]).unsqueeze(1)  # (B, 1, N)
+    d0y = (humans[..., 1] - robot[..., 1:2]).unsqueeze(1)
+    # Displacements over the step (positions, not velocities: a predictor's next velocity need not
+    # be its displacement over dt, and the world sweeps what actually moves).
+    rdx = (robot_next[..., 0] - robot[..., 0:1]).unsqueeze(-1)  # (B, K, 1)
+    rdy = (robot_next[..., 1] - robot[..., 1:2]).unsqueeze(-1)
+    hdx = (humans_next[..., 0] - humans[..., 0]).unsqueeze(1)  # (B, 1, N)
+    hdy = (humans_next[..., 1] - humans[..., 1]).unsqueeze(1)
+    ddx, ddy = hdx - rdx, hdy - rdy  # (B, K, N) relative displacement
+    dd2 = ddx * ddx + ddy * ddy
+    s = -(d0x * ddx + d0y * ddy) / torch.where(dd2 > 0, dd2, torch.ones_like(dd2))
+    s = torch.where(dd2 > 0, s.clamp(0.0, 1.0), torch.zeros_like(s))
+    cx, cy = d0x + s * ddx, d0y + s * ddy
+    clearance = torch.sqrt(cx * cx + cy * cy) - robot[..., 4:5].unsqueeze(-1) - humans[..., 4].unsqueeze(1)
+    clearance = torch.where(mask.unsqueeze(1), clearance, torch.full_like(clearance, float("inf")))
+    if clearance.shape[-1] > 0:
+        dmin = clearance.amin(dim=-1)
+    else:
+        dmin = torch.full_like(robot_next[..., 0], float("inf"))
+    gx = robot_next[..., 0] - robot_next[..., 5]
+    gy = robot_next[..., 1] - robot_next[..., 6]
+    goal_d = torch.sqrt(gx * gx + gy * gy)
+    zero = torch.zeros_like(dmin)
+    disc = (dmin - params.discomfort_dist) * params.discomfort_penalty_factor * dt
+    out = torch.where(dmin < params.discomfort_dist, disc, zero)
+    out = torch.where(goal_d < robot_next[..., 4], zero + params.success_reward, out)
+    return torch.where(dmin < 0, zero + params.collision_penalty, out)
 
 
 def occupancy_map(

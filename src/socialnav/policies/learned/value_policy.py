@@ -11,9 +11,24 @@ Information settings (how the humans' next states are predicted):
 - ``constant_velocity`` (default): humans keep their current velocity.
 - ``oracle``: the caller passes the simulator's exact next human states (computed once per step for
   all actions; the robot's candidate action cannot change them).
-Both are shared by all candidate actions, so the humans' next states, the occupancy maps (OM-SARL) and
+- ``learned``: a trained :class:`~socialnav.policies.learned.predictor.StatePredictor` (RGL's state
+  predictor) predicts them from the current robot and human states.
+All are shared by all candidate actions, so the humans' next states, the occupancy maps (OM-SARL) and
 the human part of the geometry are computed once per episode, and every candidate action of every
 episode goes through the network in ONE forward pass of B·81 joint states.
+
+Reward rule of the lookahead: ``end`` (CrowdNav's and RGL's one-step estimate: clearances at the end
+positions only) or ``swept`` (the world's rule: swept collision and discomfort over the step).
+
+Model-predictive planning (MP-RGL, Chen et al., "Relational Graph Learning for Crowd Navigation",
+IROS 2020) with depth d and width w: the d-step value of a state is
+
+    V_d(s) = V(s)/d + (d−1)/d · max_{b ∈ top_w(s)} [ r̂(s, b) + γ^(dt·v_pref) · V_{d−1}(s'(b)) ],  V_1 = V,
+
+where top_w(s) are the w actions with the best one-step values at s and s'(b) uses the predicted
+human states. At the root every action gets its one-step value; for d ≥ 2 the top w actions are
+re-scored with r̂ + γ·V_d(s') and the others are excluded (value −inf). d = 1 is exactly the one-step
+lookahead. Every level is batched over episodes and actions (B·w^level·K states per pass).
 """
 
 from __future__ import annotations
@@ -34,11 +49,14 @@ from socialnav.policies.learned.state import (
     propagate_robot,
     reward,
     rotate,
+    swept_reward,
 )
 
 __all__ = ["ValuePolicy", "Information"]
 
-Information = Literal["constant_velocity", "oracle"]
+Information = Literal["constant_velocity", "oracle", "learned"]
+INFORMATION: tuple[str, ...] = ("constant_velocity", "oracle", "learned")
+REWARD_RULES: tuple[str, ...] = ("end", "swept")
 
 
 def _field(obs: Any, name: str) -> Any:
@@ -55,13 +73,16 @@ class ValuePolicy:
         kinematics: "holonomic" or "unicycle".
         gamma: discount per second of travel at v_pref (the lookahead uses γ^(dt·v_pref)).
         reward_params: reward constants for r̂.
-        information: "constant_velocity" or "oracle".
+        information: "constant_velocity", "oracle" or "learned" (needs ``predictor``).
         dt: time step [s], used when the observation carries none.
         rotation_limit, speed_samples, rotation_samples: the discrete action set.
         device: where the computation runs (default: the network's device).
         states_per_pass: the B·K joint states, built in one batched pass, go through the network in
             blocks of this many states so that activations stay in the CPU cache (results are
             identical; each block holds every action of many episodes). None: a single call.
+        predictor: the trained state predictor (``information="learned"``).
+        planning_depth, planning_width: d and w of model-predictive planning (1, 1: one-step).
+        reward_rule: "end" (clearances at the end of the step) or "swept" (the world's rule).
     """
 
     def __init__(
@@ -77,14 +98,32 @@ class ValuePolicy:
         rotation_samples: int = 16,
         device: torch.device | str | None = None,
         states_per_pass: int | None = 1024,
+        predictor: torch.nn.Module | None = None,
+        planning_depth: int = 1,
+        planning_width: int = 1,
+        reward_rule: str = "end",
     ) -> None:
         if kinematics not in ("holonomic", "unicycle"):
             raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic' or 'unicycle'")
-        if information not in ("constant_velocity", "oracle"):
+        if information not in INFORMATION:
             raise ValueError(
-                f"unknown information setting {information!r}; expected 'constant_velocity' or 'oracle'"
+                f"unknown information setting {information!r}; expected one of {', '.join(INFORMATION)}"
             )
+        if information == "learned" and predictor is None:
+            raise ValueError("information='learned' needs a trained state predictor (none was given)")
+        if reward_rule not in REWARD_RULES:
+            raise ValueError(f"unknown reward_rule {reward_rule!r}; expected one of {', '.join(REWARD_RULES)}")
+        if int(planning_depth) < 1 or int(planning_width) < 1:
+            raise ValueError(
+                f"planning_depth and planning_width must be >= 1, got {planning_depth} and {planning_width}"
+            )
+        if int(planning_depth) > 1 and information == "oracle":
+            raise ValueError("planning_depth > 1 needs a predictor of later steps: the oracle knows one step")
         self.network = network
+        self.predictor = predictor
+        self.planning_depth = int(planning_depth)
+        self.planning_width = int(planning_width)
+        self.reward_rule = reward_rule
         self.kinematics: Kinematics = kinematics
         self.gamma = float(gamma)
         self.reward_params = reward_params if reward_params is not None else RewardParams()
@@ -99,6 +138,8 @@ class ValuePolicy:
             device = p.device if p is not None else torch.device("cpu")
         self.device = torch.device(device)
         self.network.to(self.device)
+        if self.predictor is not None:
+            self.predictor.to(self.device)
 
     @property
     def num_actions(self) -> int:
@@ -134,13 +175,22 @@ class ValuePolicy:
         return robot, humans, mask, nh, dt, as_numpy
 
     def predict_humans(
-        self, humans: torch.Tensor, dt: float, next_humans: torch.Tensor | None
+        self,
+        robot: torch.Tensor,
+        humans: torch.Tensor,
+        mask: torch.Tensor,
+        dt: float,
+        next_humans: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """Humans' predicted next states (B, N, 5) under the information setting."""
         if self.information == "oracle":
             if next_humans is None:
                 raise ValueError("information='oracle' needs next_humans (B, N, 5) from the simulator")
             return next_humans
+        if self.information == "learned":
+            assert self.predictor is not None
+            with torch.no_grad():
+                return self.predictor(robot, humans, mask, dt)
         return propagate_humans_constant_velocity(humans, dt)
 
     def transform(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
@@ -159,6 +209,62 @@ class ValuePolicy:
         return joint.to(self.model_dtype)
 
     # ------------------------------------------------------------------ public API
+    def _step_values(
+        self,
+        robot: torch.Tensor,
+        humans: torch.Tensor,
+        mask: torch.Tensor,
+        dt: float,
+        nh: torch.Tensor | None,
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """One-step lookahead from B states: q (B, K), actions (B, K, 2), r (B, K), discount (B, 1),
+        next robot states (B, K, 9) and predicted next human states (B, N, 5)."""
+        b, n = humans.shape[:2]
+        k = self.num_actions
+        actions = discrete_actions(
+            self.kinematics, robot[:, 7], self.rotation_limit, self.speed_samples, self.rotation_samples
+        )  # (B, K, 2)
+        robot_next = propagate_robot(robot, actions, self.kinematics, dt)  # (B, K, 9)
+        humans_next = self.predict_humans(robot, humans, mask, dt, nh)  # (B, N, 5)
+        if self.reward_rule == "swept":
+            r = swept_reward(robot, robot_next, humans, humans_next, mask, self.reward_params)
+        else:
+            r = reward(robot_next, humans_next.unsqueeze(1), mask.unsqueeze(1), self.reward_params)  # (B, K)
+        joint = self.transform(robot_next, humans_next, mask)  # (B, K, N, D)
+        m = mask.unsqueeze(1).expand(b, k, n).reshape(b * k, n)
+        v = self._network_values(joint.reshape(b * k, n, -1), m).view(b, k).to(r.dtype)
+        disc = torch.pow(torch.as_tensor(self.gamma, dtype=r.dtype, device=r.device), dt * robot[:, 7:8])
+        return r + disc * v, actions, r, disc, robot_next, humans_next
+
+    def _state_value(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        """V(s) of M states, (M,)."""
+        joint = self.transform(robot, humans, mask)
+        return self._network_values(joint, mask).to(robot.dtype)
+
+    def _planned_value(
+        self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor, depth: int, dt: float
+    ) -> torch.Tensor:
+        """V_depth of M states (see the module docstring), (M,)."""
+        v = self._state_value(robot, humans, mask)
+        if depth == 1:
+            return v
+        q, _, r, disc, robot_next, humans_next = self._step_values(robot, humans, mask, dt, None)
+        if depth == 2:  # V_1 = V: the best of the top w one-step values is the best one-step value
+            best = q.amax(dim=1)
+        else:
+            m, w = q.shape[0], min(self.planning_width, q.shape[1])
+            top = q.topk(w, dim=1).indices  # (M, w)
+            rn = robot_next.gather(1, top.unsqueeze(-1).expand(m, w, robot_next.shape[-1]))
+            deeper = self._planned_value(
+                rn.reshape(m * w, -1),
+                humans_next.repeat_interleave(w, dim=0),
+                mask.repeat_interleave(w, dim=0),
+                depth - 1,
+                dt,
+            ).view(m, w)
+            best = (r.gather(1, top) + disc * deeper).amax(dim=1)
+        return v / depth + (depth - 1) / depth * best
+
     @torch.inference_mode()
     def _values(
         self,
@@ -168,19 +274,24 @@ class ValuePolicy:
         nh: torch.Tensor | None,
         dt: float,
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        b, n = humans.shape[:2]
-        k = self.num_actions
-        actions = discrete_actions(
-            self.kinematics, robot[:, 7], self.rotation_limit, self.speed_samples, self.rotation_samples
-        )  # (B, K, 2)
-        robot_next = propagate_robot(robot, actions, self.kinematics, dt)  # (B, K, 9)
-        humans_next = self.predict_humans(humans, dt, nh)  # (B, N, 5)
-        r = reward(robot_next, humans_next.unsqueeze(1), mask.unsqueeze(1), self.reward_params)  # (B, K)
-        joint = self.transform(robot_next, humans_next, mask)  # (B, K, N, D)
-        m = mask.unsqueeze(1).expand(b, k, n).reshape(b * k, n)
-        v = self._network_values(joint.reshape(b * k, n, -1), m).view(b, k).to(r.dtype)
-        disc = torch.pow(torch.as_tensor(self.gamma, dtype=r.dtype, device=r.device), dt * robot[:, 7])
-        return r + disc.unsqueeze(1) * v, actions
+        q, actions, r, disc, robot_next, humans_next = self._step_values(robot, humans, mask, dt, nh)
+        d = self.planning_depth
+        if d == 1:
+            return q, actions
+        b, k = q.shape
+        w = min(self.planning_width, k)
+        top = q.topk(w, dim=1).indices  # (B, w)
+        rn = robot_next.gather(1, top.unsqueeze(-1).expand(b, w, robot_next.shape[-1]))
+        vd = self._planned_value(
+            rn.reshape(b * w, -1),
+            humans_next.repeat_interleave(w, dim=0),
+            mask.repeat_interleave(w, dim=0),
+            d,
+            dt,
+        ).view(b, w)
+        planned = torch.full_like(q, float("-inf"))
+        planned.scatter_(1, top, r.gather(1, top) + disc * vd)
+        return planned, actions
 
     def _network_values(self, joint: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         total, c = joint.shape[0], self.states_per_pass
