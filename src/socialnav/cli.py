@@ -119,6 +119,12 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--checkpoint", help="checkpoint of a learned policy (from `socialnav train`)")
     ev.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
     ev.add_argument(
+        "--allow-preset-mismatch",
+        action="store_true",
+        help="evaluate a checkpoint under a preset whose world (dt, kinematics, reward, v_pref...) differs "
+        "from the one it was trained for; the differences are recorded in manifest.json",
+    )
+    ev.add_argument(
         "--information",
         choices=["constant_velocity", "oracle"],
         help="learned policies: how the humans' next states are predicted in the lookahead "
@@ -164,9 +170,15 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from socialnav.policies.loading import build_policy
     from socialnav.presets import load_preset
 
+    if args.batch_size < 1:
+        raise ValueError(f"--batch-size must be >= 1, got {args.batch_size}")
     preset = load_preset(args.preset)
     overrides = {"information": args.information} if args.information else {}
-    policy = build_policy(args.policy, preset, args.checkpoint, **overrides)
+    policy = build_policy(
+        args.policy, preset, args.checkpoint, allow_preset_mismatch=args.allow_preset_mismatch, **overrides
+    )
+    for difference in getattr(policy, "preset_mismatch", []):
+        print(f"warning: preset mismatch allowed: {difference}", file=sys.stderr)
     label = args.label or args.policy
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")
     with warnings.catch_warnings(record=True) as caught:
@@ -202,7 +214,11 @@ def cmd_metrics(args: argparse.Namespace) -> int:
     from socialnav.metrics import score_episode
     from socialnav.trajectory import read_trajectories
 
+    if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
+        raise ValueError(f"--dt must be a finite number > 0, got {args.dt}")
     trajs = read_trajectories(args.file, resample=args.resample, dt=args.dt)
+    if not trajs:
+        raise ValueError(f"{args.file}: no episodes (the file has a header but no rows)")
     rows = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
