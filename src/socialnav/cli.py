@@ -64,8 +64,8 @@ def main(argv: list[str] | None = None) -> int:
 def error_line(err: BaseException) -> str:
     """One line naming the problem: the message (a KeyError's unquoted), else the error's type."""
     message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
-    if isinstance(err, OSError) and err.filename is not None and str(err.filename) not in message:
-        message = f"{err.filename}: {message}"
+    if isinstance(err, OSError) and err.strerror:
+        message = f"{err.filename}: {err.strerror}" if err.filename is not None else err.strerror
     if isinstance(err, MemoryError) or not message.strip():
         message = f"{type(err).__name__}{': ' + message if message.strip() else ''}"
         if isinstance(err, MemoryError):

@@ -80,6 +80,12 @@ def _coerce(value: Any, hint: Any, path: str) -> Any:
         if abs(value) > 1e300:
             raise ConfigError(f"{path} must be a finite number, got {value!r}")
         return float(value)
+    if hint is float and isinstance(value, str):
+        # PyYAML reads 1.0e9 (no sign in the exponent) as a string: accept what is plainly a number.
+        try:
+            value = float(value)
+        except ValueError:
+            raise ConfigError(f"{path} must be of type float, got {value!r}") from None
     if hint is float and isinstance(value, float) and not math.isfinite(value):
         raise ConfigError(f"{path} must be a finite number, got {value!r}")
     if hint in (float, int, str, bool) and not isinstance(value, hint):

@@ -184,7 +184,11 @@ class _Table:
             import pyarrow.csv as pcsv
 
             strings = {c: pa.string() for c in ("role", "outcome", "settings")}
-            table = pcsv.read_csv(path, convert_options=pcsv.ConvertOptions(column_types=strings))
+            try:
+                table = pcsv.read_csv(path, convert_options=pcsv.ConvertOptions(column_types=strings))
+            except pa.ArrowInvalid as err:
+                text = " ".join(str(err).split())
+                raise TrajectoryFormatError(f"{path}: not a readable CSV file ({text[:200]})") from None
         self.meta_settings = meta_settings
         self.n_rows = table.num_rows
         missing = [c for c in REQUIRED_COLUMNS if c not in table.column_names]

@@ -196,6 +196,12 @@ class _Curves:
             self.tb.close()
 
 
+def _dotted(data: Any, key: str) -> Any:
+    for part in key.split("."):
+        data = data.get(part) if isinstance(data, dict) else None
+    return data
+
+
 def _row_episode(row: dict[str, Any]) -> int | None:
     """The episode of a curves.csv row, or None when the row is damaged."""
     if row.get("phase") not in ("il", "rl") or None in row or None in row.values():
@@ -373,19 +379,22 @@ def _train(
     resume: dict[str, Any] | None = None
     if last_path.exists():
         ck = load_checkpoint(last_path, canonical_name(policy_name), map_location=device)
+        resume = ck.extra.get("resume")
+        if not isinstance(resume, dict):
+            raise ConfigError(
+                f"{last_path} is not a training state (no 'resume' record); move it away to restart"
+            )
         diff = [
             k
             for k in flat_diff({**ck.config, "train": {**ck.config.get("train", {})}}, config)
             if not any(k == f"train.{r}" or k.startswith(f"train.{r}.") for r in RESUMABLE_CHANGES)
         ]
         if diff:
+            changes = "; ".join(f"{k}: {_dotted(ck.config, k)!r} -> {_dotted(config, k)!r}" for k in diff[:6])
             raise ConfigError(
-                f"{out} holds a run with other settings ({', '.join(diff)}); "
+                f"{out} holds a run with other settings ({changes}{'; ...' if len(diff) > 6 else ''}); "
                 f"use another --out or the run's own settings (config.yaml)"
             )
-        resume = ck.extra.get("resume")
-        if not isinstance(resume, dict):
-            raise ConfigError(f"{last_path} is not a training state (no 'resume' record); move it away to restart")
         net.load_state_dict(ck.model.state_dict())
         say(f"resuming {out} at RL episode {resume['episode']} ({resume['gradient_steps']} gradient steps)")
 
