@@ -97,7 +97,8 @@ class Preset:
         for policy, params in self.policies.items():
             if not isinstance(params, dict):
                 raise ConfigError(
-                    f"policies.{policy} must be a mapping of parameters, got {type(params).__name__} {params!r}"
+                    f"policies.{policy} must be a mapping of parameters, "
+                    f"got {type(params).__name__} {params!r}"
                 )
 
     def to_dict(self) -> dict[str, Any]:

@@ -62,7 +62,14 @@ def test_corpus_covers_the_three_commands_and_every_class():
     commands = {c.argv[0] for c in CASES}
     assert commands == {"metrics", "evaluate", "train"}
     assert {c.kind for c in CASES} >= {
-        "file", "setting", "bounds", "out", "checkpoint", "mismatch", "resume", "type",
+        "file",
+        "setting",
+        "bounds",
+        "out",
+        "checkpoint",
+        "mismatch",
+        "resume",
+        "type",
     }
     assert len({c.id for c in CASES}) == len(CASES)
 

@@ -32,8 +32,20 @@ def _env() -> dict[str, str]:
 def evaluate(tmp_path: Path, out: Path, episodes: int, *extra: str, **kw) -> subprocess.Popen:
     preset = tmp_path / "fault.yaml"
     preset.write_text(PRESET)
-    argv = [sys.executable, "-m", "socialnav.cli", "evaluate", "--preset", str(preset), "--episodes",
-            str(episodes), "--out", str(out), "--no-progress", *extra]
+    argv = [
+        sys.executable,
+        "-m",
+        "socialnav.cli",
+        "evaluate",
+        "--preset",
+        str(preset),
+        "--episodes",
+        str(episodes),
+        "--out",
+        str(out),
+        "--no-progress",
+        *extra,
+    ]
     return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(), **kw)
 
 
@@ -105,8 +117,10 @@ def test_killed_evaluate_leaves_no_process_of_its_tree(tmp_path, sig):
     if sig == signal.SIGTERM:
         assert proc.returncode == 143
         lines = stderr.strip().splitlines()
-        assert lines == ["socialnav evaluate: terminated (SIGTERM); finished results are kept; "
-                         "re-run the same command to resume"], stderr
+        assert lines == [
+            "socialnav evaluate: terminated (SIGTERM); finished results are kept; "
+            "re-run the same command to resume"
+        ], stderr
     else:
         assert proc.returncode == -signal.SIGKILL
     assert not list(out.rglob(".*.tmp")) or sig == signal.SIGKILL  # SIGKILL may cut a write short...
@@ -127,7 +141,9 @@ def test_ctrl_c_prints_one_line_and_the_run_resumes(tmp_path):
     assert stderr.strip().splitlines() == [
         "socialnav evaluate: interrupted; finished results are kept; re-run the same command to resume"
     ], stderr
-    kept = sum(int(p.stem.split("-")[1]) - int(p.stem.split("-")[0]) for p in out.glob("episodes/*/*.parquet"))
+    kept = sum(
+        int(p.stem.split("-")[1]) - int(p.stem.split("-")[0]) for p in out.glob("episodes/*/*.parquet")
+    )
     assert 0 < kept < episodes
     (out / "episodes" / "circle_crossing__invisible" / ".00000-00025.parquet.x1.tmp").write_text("partial")
     again = evaluate(tmp_path, out, episodes, "--json")

@@ -57,7 +57,9 @@ def test_result_files_are_written_with_page_checksums(tmp_path):
 def test_locked_directory_is_refused_and_lock_dies_with_holder(tmp_path):
     preset = load_preset("crowdnav")
     with DirectoryLock(tmp_path, "evaluation"):
-        with pytest.raises(DirectoryLockedError, match=f"in use by another evaluation \\(pid {os.getpid()}\\)"):
+        with pytest.raises(
+            DirectoryLockedError, match=f"in use by another evaluation \\(pid {os.getpid()}\\)"
+        ):
             run_protocol(make_policy("orca"), preset, tmp_path, **KW)
     assert not (tmp_path / "manifest.json").exists()
     run_protocol(make_policy("orca"), preset, tmp_path, **KW)  # released: runs
@@ -76,7 +78,9 @@ def test_chunk_of_another_configuration_is_refused(tmp_path):
 def test_invalid_settings_write_nothing_and_an_empty_manifest_blocks_nothing(tmp_path):
     preset = load_preset("crowdnav")
     with pytest.raises(ValueError, match="GiB"):
-        run_protocol(make_policy("orca"), preset, tmp_path / "o", batch_size=10**8, **{**KW, "episodes": 10**6})
+        run_protocol(
+            make_policy("orca"), preset, tmp_path / "o", batch_size=10**8, **{**KW, "episodes": 10**6}
+        )
     assert not (tmp_path / "o").exists()
     # A directory with a manifest and no result (a run refused or killed at once) takes the new run.
     (tmp_path / "p").mkdir()
@@ -87,8 +91,13 @@ def test_invalid_settings_write_nothing_and_an_empty_manifest_blocks_nothing(tmp
 
 def test_manifest_differences_name_the_cell_and_the_values():
     old = {"cells": [{"scenario": "random", "visibility": "visible", "episodes": 10}], "chunk_size": 5}
-    new = {"cells": [{"scenario": "random", "visibility": "visible", "episodes": 20},
-                     {"scenario": "random", "visibility": "invisible", "episodes": 20}], "chunk_size": 5}
+    new = {
+        "cells": [
+            {"scenario": "random", "visibility": "visible", "episodes": 20},
+            {"scenario": "random", "visibility": "invisible", "episodes": 20},
+        ],
+        "chunk_size": 5,
+    }
     assert describe_differences(old, new) == (
         "cells[random/visible].episodes: 10 -> 20; cells: random/invisible only in this run"
     )
@@ -132,8 +141,22 @@ def test_checkpoint_under_mismatching_preset_is_refused_naming_both_values(tmp_p
     from socialnav.policies.loading import shipped_checkpoint
 
     ckpt = str(shipped_checkpoint("sarl", "wang2022"))
-    argv = ["evaluate", "--policy", "sarl", "--checkpoint", ckpt, "--preset", str(preset),
-            "--scenario", "circle_crossing", "--episodes", "2", "--out", str(tmp_path / "o"), "--no-progress"]
+    argv = [
+        "evaluate",
+        "--policy",
+        "sarl",
+        "--checkpoint",
+        ckpt,
+        "--preset",
+        str(preset),
+        "--scenario",
+        "circle_crossing",
+        "--episodes",
+        "2",
+        "--out",
+        str(tmp_path / "o"),
+        "--no-progress",
+    ]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "dt 0.25 in the checkpoint, 0.1 in preset 'fast'" in err and "--allow-preset-mismatch" in err
@@ -142,4 +165,6 @@ def test_checkpoint_under_mismatching_preset_is_refused_naming_both_values(tmp_p
     err = capsys.readouterr().err
     assert "warning: preset mismatch allowed: dt 0.25 in the checkpoint, 0.1 in preset 'fast'" in err
     manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
-    assert manifest["policy"]["preset_mismatch_allowed"] == ["dt 0.25 in the checkpoint, 0.1 in preset 'fast'"]
+    assert manifest["policy"]["preset_mismatch_allowed"] == [
+        "dt 0.25 in the checkpoint, 0.1 in preset 'fast'"
+    ]

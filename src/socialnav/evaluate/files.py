@@ -45,7 +45,9 @@ def atomic_write_json(path: Path, data: Any) -> None:
     atomic_write_text(path, json.dumps(data, indent=2, sort_keys=False, default=_json_default) + "\n")
 
 
-def atomic_write_rows_parquet(path: Path, rows: list[dict[str, Any]], metadata: dict[str, str] | None = None) -> None:
+def atomic_write_rows_parquet(
+    path: Path, rows: list[dict[str, Any]], metadata: dict[str, str] | None = None
+) -> None:
     """Writes ``rows`` as Parquet with page checksums; ``metadata`` goes in the file's key-value metadata."""
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -119,7 +121,7 @@ class DirectoryLock:
 
 
 def remove_orphan_temporaries(directory: Path) -> list[Path]:
-    """Deletes ``.*.tmp`` files left under ``directory`` by a writer killed mid-write (call under the lock)."""
+    """Deletes ``.*.tmp`` files left under ``directory`` by a killed writer (call under the lock)."""
     removed = []
     for tmp in Path(directory).rglob(".*.tmp"):
         if tmp.is_file():

@@ -10,7 +10,6 @@ from socialnav.presets import Preset
 from socialnav.scenarios import Scenario, get_scenario, make_scenario
 from socialnav.sim.settings import WorldSettings
 
-
 #: Episodes per cell at most (a run of this size takes days; larger is a typo).
 MAX_EPISODES = 10_000_000
 

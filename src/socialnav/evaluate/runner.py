@@ -171,7 +171,9 @@ def run_protocol(
     with DirectoryLock(out, "evaluation"):
         remove_orphan_temporaries(out)
         _check_or_write_manifest(out, manifest)
-        expected = {_chunk_path(out, cell, a, b): (cell, a, b) for cell in cells for a, b in cell.chunks(chunk)}
+        expected = {
+            _chunk_path(out, cell, a, b): (cell, a, b) for cell in cells for a, b in cell.chunks(chunk)
+        }
         _refuse_foreign_chunks(out, expected)
         todo = []
         for path, (cell, a, b) in expected.items():
@@ -180,7 +182,8 @@ def run_protocol(
             else:
                 todo.append((cell, a, b))
         computed = _simulate_and_score(
-            policy, preset, out, todo, label, stamp, sum(c.episodes for c in cells), progress, batch_size, workers
+            policy, preset, out, todo, label, stamp, sum(c.episodes for c in cells), progress, batch_size,
+            workers,
         )
         rows = read_episode_rows(out, cells, chunk, label, stamp)
         summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
@@ -345,7 +348,8 @@ def _check_or_write_manifest(out: Path, manifest: dict) -> None:
         has_results = (out / "episodes").is_dir() and any((out / "episodes").rglob("*.parquet"))
         if has_results:
             raise ResumeMismatchError(
-                f"{out} holds results of a different run (differs in: {describe_differences(previous, manifest)}); "
+                f"{out} holds results of a different run "
+                f"(differs in: {describe_differences(previous, manifest)}); "
                 "use another --out directory or delete it"
             )
         # A manifest without any result (e.g. a run refused right after starting) blocks nothing.

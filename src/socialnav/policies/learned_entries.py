@@ -35,7 +35,11 @@ class LearnedPolicy:
     """
 
     def __init__(
-        self, name: str, value_policy: Any, checkpoint: Path | None = None, preset_mismatch: list[str] | None = None
+        self,
+        name: str,
+        value_policy: Any,
+        checkpoint: Path | None = None,
+        preset_mismatch: list[str] | None = None,
     ):
         self.name = name
         self.value_policy = value_policy
@@ -72,7 +76,9 @@ class LearnedPolicy:
 
 #: What the checkpoint's ``value_policy`` may hold (the ValuePolicy arguments the trainer records).
 _VALUE_POLICY_KEYS = ("kinematics", "gamma", "information", "rotation_limit", "dt", "reward")
-_REWARD_KEYS = ("success_reward", "collision_penalty", "discomfort_dist", "discomfort_penalty_factor", "time_step")
+_REWARD_KEYS = (
+    "success_reward", "collision_penalty", "discomfort_dist", "discomfort_penalty_factor", "time_step"
+)
 
 
 class PresetMismatchError(ValueError):
@@ -144,12 +150,14 @@ def load_learned_policy(
     if unknown:
         raise CheckpointError(f"{where} has unknown key(s) {', '.join(unknown)}")
     if not isinstance(reward, dict) or set(reward) - set(_REWARD_KEYS):
-        raise CheckpointError(f"{where}.reward must be a mapping of {', '.join(_REWARD_KEYS)}, got {reward!r}")
+        raise CheckpointError(
+            f"{where}.reward must be a mapping of {', '.join(_REWARD_KEYS)}, got {reward!r}"
+        )
     mismatch = preset_mismatches(ckpt.config, preset) if preset is not None else []
     if mismatch and not allow_preset_mismatch:
         raise PresetMismatchError(
-            f"checkpoint {checkpoint} was trained for another world: {'; '.join(mismatch)}; evaluate it under "
-            "a matching preset, or pass --allow-preset-mismatch (recorded in the results)"
+            f"checkpoint {checkpoint} was trained for another world: {'; '.join(mismatch)}; "
+            "evaluate it under a matching preset, or pass --allow-preset-mismatch (recorded in the results)"
         )
     settings = dict(settings)
     settings.pop("reward", None)

@@ -143,7 +143,8 @@ class WorldSettings:
         steps = self.history_length() - 2
         if steps > MAX_STEPS:
             by_cap = self.continue_after_success and self.continuation_cap > self.time_limit
-            name, value = ("continuation_cap", self.continuation_cap) if by_cap else ("time_limit", self.time_limit)
+            name = "continuation_cap" if by_cap else "time_limit"
+            value = getattr(self, name)
             raise ConfigError(
                 f"{name} {value!r} with dt {self.dt!r} makes {steps} steps per episode, "
                 f"more than the {MAX_STEPS} allowed (raise dt or lower {name})"

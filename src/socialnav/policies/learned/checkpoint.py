@@ -167,7 +167,9 @@ def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any
 
 
 def _describe(value: Any) -> str:
-    return "nothing (missing)" if value is None else f"{type(value).__name__} {_one_line(Exception(repr(value)), 60)}"
+    if value is None:
+        return "nothing (missing)"
+    return f"{type(value).__name__} {_one_line(Exception(repr(value)), 60)}"
 
 
 def load_checkpoint(
@@ -206,7 +208,9 @@ def load_checkpoint(
         model = build(got, **payload["model_kwargs"])
         model.load_state_dict(payload["state_dict"], strict=True)
     except (TypeError, ValueError, KeyError, RuntimeError) as err:
-        raise CheckpointError(f"checkpoint {path}: its network cannot be rebuilt ({_one_line(err)})") from None
+        raise CheckpointError(
+            f"checkpoint {path}: its network cannot be rebuilt ({_one_line(err)})"
+        ) from None
     model.to(map_location).eval()
     return Checkpoint(
         policy=got, input_dim=got_dim, model=model, config=payload["config"], extra=payload["extra"]
