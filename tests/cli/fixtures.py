@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import fractions
+import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -344,8 +345,13 @@ CASES: list[Case] = [
     C("train-out-locked", "resume", TR + " --out {base}/t_locked", "in use by another training"),
     C("train-last-garbage", "checkpoint", TR + " --out {base}/t_garbage", "last.pt", "damaged"),
     C("train-last-not-state", "resume", TR + " --out {base}/t_notstate", "not a training state"),
-    C("train-cuda", "setting", TR + " --device cuda --out {base}/t_cuda", "cuda", untouched=("t_cuda",)),
 ]
+
+
+if not os.path.exists("/dev/nvidia0"):  # where CUDA exists, --device cuda is no mistake
+    CASES.append(
+        C("train-cuda", "setting", TR + " --device cuda --out {base}/t_cuda", "cuda", untouched=("t_cuda",))
+    )
 
 
 def _yaml(base: Path, name: str, text: str) -> None:
