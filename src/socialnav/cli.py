@@ -10,12 +10,30 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 import warnings
 from pathlib import Path
 from typing import Any
 
-USER_ERRORS: tuple[type[BaseException], ...] = (ValueError, KeyError, FileNotFoundError, RuntimeError)
+USER_ERRORS: tuple[type[BaseException], ...] = (
+    ValueError,  # ConfigError, CheckpointError, TrajectoryFormatError, ResumeMismatchError's base too
+    KeyError,
+    LookupError,
+    RuntimeError,
+    OSError,  # missing, unreadable, unwritable file or directory; disk full
+    TypeError,
+    AttributeError,
+    OverflowError,
+    MemoryError,
+    EOFError,
+)
+#: Set this environment variable to see the traceback behind a one-line error.
+TRACEBACK_ENV = "SOCIALNAV_TRACEBACK"
+
+
+class Terminated(BaseException):
+    """SIGTERM (a scheduler, ``timeout`` or a CI cancel): unwinds like Ctrl-C so finished work is kept."""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -24,13 +42,68 @@ def main(argv: list[str] | None = None) -> int:
     if not hasattr(args, "run"):
         parser.print_help()
         return 2
+    previous = _on_sigterm()
     try:
         return args.run(args) or 0
-    except USER_ERRORS as err:
+    except KeyboardInterrupt:
+        print(f"socialnav {args.command}: interrupted; {_resume_hint(args)}", file=sys.stderr)
+        return 130
+    except Terminated:
+        print(f"socialnav {args.command}: terminated (SIGTERM); {_resume_hint(args)}", file=sys.stderr)
+        return 143
+    except (*USER_ERRORS, _pickle_error()) as err:
         # Bad input is the user's to fix: one clear line, no traceback.
-        message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
-        print(f"socialnav {args.command}: error: {message}", file=sys.stderr)
+        if os.environ.get(TRACEBACK_ENV):
+            raise
+        print(f"socialnav {args.command}: error: {error_line(err)}", file=sys.stderr)
         return 2
+    finally:
+        _restore_sigterm(previous)
+
+
+def error_line(err: BaseException) -> str:
+    """One line naming the problem: the message (a KeyError's unquoted), else the error's type."""
+    message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
+    if isinstance(err, OSError) and err.strerror:
+        message = f"{err.filename}: {err.strerror}" if err.filename is not None else err.strerror
+    if isinstance(err, MemoryError) or not message.strip():
+        message = f"{type(err).__name__}{': ' + message if message.strip() else ''}"
+        if isinstance(err, MemoryError):
+            message += " (out of memory: reduce --batch-size, episodes or the world's horizon)"
+    lines = [line.strip() for line in str(message).splitlines() if line.strip()]
+    return " ".join(lines)
+
+
+def _resume_hint(args: argparse.Namespace) -> str:
+    if args.command in ("evaluate", "train"):
+        return "finished results are kept; re-run the same command to resume"
+    return "nothing was written"
+
+
+def _pickle_error() -> type[BaseException]:
+    import pickle
+
+    return pickle.UnpicklingError
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated()
+
+
+def _on_sigterm():
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, _raise_terminated)
+
+
+def _restore_sigterm(previous) -> None:
+    import signal
+
+    if previous is not None:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -45,6 +118,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ev.add_argument("--checkpoint", help="checkpoint of a learned policy (from `socialnav train`)")
     ev.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
+    ev.add_argument(
+        "--allow-preset-mismatch",
+        action="store_true",
+        help="evaluate a checkpoint under a preset whose world (dt, kinematics, reward, v_pref...) differs "
+        "from the one it was trained for; the differences are recorded in manifest.json",
+    )
     ev.add_argument(
         "--information",
         choices=["constant_velocity", "oracle", "learned"],
@@ -103,13 +182,19 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from socialnav.policies.loading import build_policy
     from socialnav.presets import load_preset
 
+    if args.batch_size < 1:
+        raise ValueError(f"--batch-size must be >= 1, got {args.batch_size}")
     preset = load_preset(args.preset)
     overrides = {
         k: getattr(args, k)
         for k in ("information", "planning_depth", "planning_width")
         if getattr(args, k) is not None
     }
-    policy = build_policy(args.policy, preset, args.checkpoint, **overrides)
+    policy = build_policy(
+        args.policy, preset, args.checkpoint, allow_preset_mismatch=args.allow_preset_mismatch, **overrides
+    )
+    for difference in getattr(policy, "preset_mismatch", []):
+        print(f"warning: preset mismatch allowed: {difference}", file=sys.stderr)
     label = args.label or args.policy
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")
     with warnings.catch_warnings(record=True) as caught:
@@ -145,7 +230,11 @@ def cmd_metrics(args: argparse.Namespace) -> int:
     from socialnav.metrics import score_episode
     from socialnav.trajectory import read_trajectories
 
+    if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
+        raise ValueError(f"--dt must be a finite number > 0, got {args.dt}")
     trajs = read_trajectories(args.file, resample=args.resample, dt=args.dt)
+    if not trajs:
+        raise ValueError(f"{args.file}: no episodes (the file has a header but no rows)")
     rows = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -7,6 +7,7 @@ so a typo in a YAML preset is reported instead of silently ignored.
 from __future__ import annotations
 
 import dataclasses
+import math
 import types
 import typing
 from collections.abc import Mapping
@@ -30,6 +31,9 @@ def from_dict(cls: type[T], data: Mapping[str, Any] | None, path: str = "") -> T
     Raises:
         ConfigError: On unknown keys (the valid ones are listed) or invalid values.
     """
+    if data is not None and not isinstance(data, Mapping):
+        what = f"section {path}" if path else "the settings"
+        raise ConfigError(f"{what} must be a mapping of settings, got {_kind(data)}")
     data = dict(data or {})
     fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     unknown = sorted(set(data) - set(fields))
@@ -43,8 +47,8 @@ def from_dict(cls: type[T], data: Mapping[str, Any] | None, path: str = "") -> T
     for name, value in data.items():
         hint = hints.get(name)
         sub = f"{path}.{name}" if path else name
-        if dataclasses.is_dataclass(hint) and isinstance(value, Mapping):
-            kwargs[name] = from_dict(hint, value, sub)  # type: ignore[arg-type]
+        if dataclasses.is_dataclass(hint):
+            kwargs[name] = from_dict(hint, value, sub)  # type: ignore[arg-type]  (None: the defaults)
         else:
             kwargs[name] = _coerce(value, hint, sub)
     try:
@@ -63,11 +67,27 @@ def to_dict(obj: Any) -> dict[str, Any]:
 def _coerce(value: Any, hint: Any, path: str) -> Any:
     """Accepts ints for float fields (YAML writes ``25`` for ``25.0``); rejects other mismatches."""
     origin = typing.get_origin(hint)
-    if origin is tuple and isinstance(value, list | tuple):
+    if origin is tuple:
+        if not isinstance(value, list | tuple):
+            raise ConfigError(f"{path} must be a list, got {_kind(value)}")
         item = typing.get_args(hint)[0] if typing.get_args(hint) else Any
         return tuple(_coerce(v, item, f"{path}[{i}]") for i, v in enumerate(value))
+    if origin is dict or hint is dict:
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"{path} must be a mapping, got {_kind(value)}")
+        return dict(value)
     if hint is float and isinstance(value, int) and not isinstance(value, bool):
+        if abs(value) > 1e300:
+            raise ConfigError(f"{path} must be a finite number, got {value!r}")
         return float(value)
+    if hint is float and isinstance(value, str):
+        # PyYAML reads 1.0e9 (no sign in the exponent) as a string: accept what is plainly a number.
+        try:
+            value = float(value)
+        except ValueError:
+            raise ConfigError(f"{path} must be of type float, got {value!r}") from None
+    if hint is float and isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"{path} must be a finite number, got {value!r}")
     if hint in (float, int, str, bool) and not isinstance(value, hint):
         raise ConfigError(f"{path} must be of type {hint.__name__}, got {value!r}")
     if hint is int and isinstance(value, bool):
@@ -82,6 +102,11 @@ def _coerce(value: Any, hint: Any, path: str) -> Any:
                 continue
         raise ConfigError(f"{path} has an invalid value {value!r}")
     return value
+
+
+def _kind(value: Any) -> str:
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
 
 
 def check(condition: bool, field: str, value: Any, requirement: str) -> None:

@@ -8,6 +8,7 @@ a shipped one; a path to a YAML file loads a user's own.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -31,6 +32,8 @@ class RobotSettings:
     def __post_init__(self) -> None:
         check(self.v_pref > 0, "robot.v_pref", self.v_pref, "must be > 0")
         check(self.radius > 0, "robot.radius", self.radius, "must be > 0")
+        check(self.v_pref <= 100, "robot.v_pref", self.v_pref, "must be <= 100 m/s")
+        check(self.radius <= 100, "robot.radius", self.radius, "must be <= 100 m")
 
 
 @dataclass(frozen=True)
@@ -50,6 +53,21 @@ class EvaluationSettings:
         check(self.episodes >= 1, "evaluation.episodes", self.episodes, "must be >= 1")
         check(self.repeats >= 1, "evaluation.repeats", self.repeats, "must be >= 1")
         check(self.chunk_size >= 1, "evaluation.chunk_size", self.chunk_size, "must be >= 1")
+        # Upper bounds: beyond them a run cannot finish (docs/protocol.md, "Bounds").
+        for name, most in (("n_humans", 1000), ("episodes", 10_000_000), ("repeats", 100_000),
+                           ("chunk_size", 1_000_000)):
+            value = getattr(self, name)
+            check(value <= most, f"evaluation.{name}", value, f"must be <= {most}")
+        for group in ("multi_human", "single_human"):
+            names = getattr(self, group)
+            repeated = sorted({n for n in names if names.count(n) > 1})
+            check(not repeated, f"evaluation.{group}", list(names), f"lists {', '.join(repeated)} twice")
+        check(
+            math.isfinite(self.continuation_cap) and self.continuation_cap > 0,
+            "evaluation.continuation_cap",
+            self.continuation_cap,
+            "must be a finite number > 0",
+        )
         check(
             self.visibility in VISIBILITY_CHOICES,
             "evaluation.visibility",
@@ -75,6 +93,14 @@ class Preset:
     evaluation: EvaluationSettings = field(default_factory=EvaluationSettings)
     training: TrainingScenarios = field(default_factory=TrainingScenarios)
 
+    def __post_init__(self) -> None:
+        for policy, params in self.policies.items():
+            if not isinstance(params, dict):
+                raise ConfigError(
+                    f"policies.{policy} must be a mapping of parameters, "
+                    f"got {type(params).__name__} {params!r}"
+                )
+
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
@@ -99,7 +125,12 @@ def load_preset(name_or_path: str | Path) -> Preset:
     if path.suffix in (".yaml", ".yml") or path.exists():
         if not path.exists():
             raise ConfigError(f"preset file {path} does not exist")
-        text, source = path.read_text(), str(path)
+        if path.is_dir():
+            raise ConfigError(f"preset {path} is a directory; give a preset name or a YAML file")
+        try:
+            text, source = path.read_text(), str(path)
+        except UnicodeDecodeError:
+            raise ConfigError(f"preset file {path} is not a text (YAML) file") from None
     else:
         names = shipped_presets()
         if str(name_or_path) not in names:
@@ -109,7 +140,7 @@ def load_preset(name_or_path: str | Path) -> Preset:
     try:
         data = yaml.safe_load(text) or {}
     except yaml.YAMLError as err:
-        raise ConfigError(f"{source}: not valid YAML: {err}") from None
+        raise ConfigError(f"{source}: not valid YAML: {' '.join(str(err).split())}") from None
     try:
         return from_dict(Preset, data)
     except ConfigError as err:

@@ -35,6 +35,8 @@ _FORMAT_VERSION = 1
 # Relative tolerance on sample spacing: CSV text round-trips k·dt exactly, but logs written by other
 # tools carry float noise of order 1e-12 s; real jitter (ms) is far above this.
 _DT_RTOL = 1e-6
+#: Samples of one resampled episode at most (a dt far below the log's own step is a typo).
+MAX_RESAMPLED_STEPS = 1_000_000
 
 
 def _suffix(path: Path) -> str:
@@ -142,7 +144,7 @@ def _atomic_write(path: Path, table: Any, suffix: str) -> None:
         if suffix == ".parquet":
             import pyarrow.parquet as pq
 
-            pq.write_table(table, tmp)
+            pq.write_table(table, tmp, write_page_checksum=True)
         else:
             import pyarrow.csv as pcsv
 
@@ -165,11 +167,16 @@ class _Table:
         suffix = _suffix(path)
         if not path.exists():
             raise FileNotFoundError(f"{path}: no such file")
+        if path.is_dir():
+            raise TrajectoryFormatError(f"{path}: is a directory, not a trajectory file")
         meta_settings: dict[str, str] = {}
         if suffix == ".parquet":
-            import pyarrow.parquet as pq
+            from socialnav.evaluate.files import CorruptFileError, read_parquet_verified
 
-            table = pq.read_table(path)
+            try:
+                table = read_parquet_verified(path)  # page checksums, where the writer stored them
+            except CorruptFileError as err:
+                raise TrajectoryFormatError(str(err)) from None
             raw = (table.schema.metadata or {}).get(_METADATA_KEY)
             if raw is not None:
                 meta_settings = json.loads(raw.decode()).get("settings", {})
@@ -177,7 +184,11 @@ class _Table:
             import pyarrow.csv as pcsv
 
             strings = {c: pa.string() for c in ("role", "outcome", "settings")}
-            table = pcsv.read_csv(path, convert_options=pcsv.ConvertOptions(column_types=strings))
+            try:
+                table = pcsv.read_csv(path, convert_options=pcsv.ConvertOptions(column_types=strings))
+            except pa.ArrowInvalid as err:
+                text = " ".join(str(err).split())
+                raise TrajectoryFormatError(f"{path}: not a readable CSV file ({text[:200]})") from None
         self.meta_settings = meta_settings
         self.n_rows = table.num_rows
         missing = [c for c in REQUIRED_COLUMNS if c not in table.column_names]
@@ -211,9 +222,9 @@ class _Table:
                 iv = int(v)
                 if iv != float(v):
                     raise ValueError
-            except (TypeError, ValueError):
-                raise self.fail(name, i, f"expected an integer, got {v!r}") from None
-            out[i] = iv
+                out[i] = iv
+            except (TypeError, ValueError, OverflowError):
+                raise self.fail(name, i, f"expected an integer in the int64 range, got {v!r}") from None
         return out
 
     def require_finite(self, name: str) -> None:
@@ -498,6 +509,9 @@ def _resample(
     if t1 < t0:
         raise TrajectoryFormatError("agents' time spans do not overlap; cannot resample")
     k = int(np.floor((t1 - t0) / dt + 1e-9))
+    if k >= MAX_RESAMPLED_STEPS:
+        raise TrajectoryFormatError(f"resampling {t1 - t0:.6g} s at dt {dt:.6g} s makes {k + 1} samples per "
+                                    f"agent, more than the {MAX_RESAMPLED_STEPS} allowed: raise --dt")
     grid = t0 + dt * np.arange(k + 1)
     pos = np.stack([np.stack([np.interp(grid, t, x[:, d]) for d in (0, 1)], -1) for t, x in main], 1)
     if per_agent[0]["vel"] is not None:

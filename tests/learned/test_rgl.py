@@ -178,7 +178,12 @@ def _ref_root(pol, pred, r, h, m, depth, width):
 def test_batched_planning_equals_one_episode_at_a_time_reference(depth, width):
     net, pred = _rgl(1, "mp_rgl"), _predictor(2, perturb=0.05)
     pol = ValuePolicy(
-        net, information="learned", predictor=pred, planning_depth=depth, planning_width=width, reward_rule="swept"
+        net,
+        information="learned",
+        predictor=pred,
+        planning_depth=depth,
+        planning_width=width,
+        reward_rule="swept",
     )
     robot, humans, mask = random_scene(np.random.default_rng(7), 3, 4)
     mask[0, 2:] = False
@@ -186,10 +191,14 @@ def test_batched_planning_equals_one_episode_at_a_time_reference(depth, width):
     for b in range(3):
         real = mask[b]
         h = torch.as_tensor(humans[b, real])
-        ref = _ref_root(pol, pred, torch.as_tensor(robot[b]), h, torch.ones(len(h), dtype=torch.bool), depth, width)
+        ref = _ref_root(
+            pol, pred, torch.as_tensor(robot[b]), h, torch.ones(len(h), dtype=torch.bool), depth, width
+        )
         np.testing.assert_allclose(batched[b], ref, rtol=1e-9, atol=1e-10)
         # ...and equal to planning the episode alone through the batched code.
-        alone = pol.values(obs_dict(robot[b : b + 1], humans[b : b + 1, real], np.ones((1, real.sum()), bool)))
+        alone = pol.values(
+            obs_dict(robot[b : b + 1], humans[b : b + 1, real], np.ones((1, real.sum()), bool))
+        )
         np.testing.assert_allclose(batched[b], alone[0], rtol=1e-9, atol=1e-10)
     finite = np.isfinite(batched).sum(axis=1)
     assert np.all(finite == (81 if depth == 1 else width))
@@ -198,7 +207,9 @@ def test_batched_planning_equals_one_episode_at_a_time_reference(depth, width):
 def test_d1_w1_mp_rgl_scores_every_action_as_the_one_step_lookahead_with_the_same_predictor():
     net, pred = _rgl(4, "mp_rgl"), _predictor(5, perturb=0.05)
     robot, humans, mask = random_scene(np.random.default_rng(11), 4, 5)
-    mp = ValuePolicy(net, information="learned", predictor=pred, planning_depth=1, planning_width=1, reward_rule="swept")
+    mp = ValuePolicy(
+        net, information="learned", predictor=pred, planning_depth=1, planning_width=1, reward_rule="swept"
+    )
     q = mp.values(obs_dict(robot, humans, mask))
     for b in range(4):
         real = mask[b]
@@ -206,7 +217,9 @@ def test_d1_w1_mp_rgl_scores_every_action_as_the_one_step_lookahead_with_the_sam
         ref, *_ = _ref_one_step(mp, pred, torch.as_tensor(robot[b]), h, torch.ones(len(h), dtype=torch.bool))
         np.testing.assert_allclose(q[b], ref, rtol=1e-9, atol=1e-10)
     # The deeper plan picks among the one-step top-w and differs from it somewhere.
-    deep = ValuePolicy(net, information="learned", predictor=pred, planning_depth=2, planning_width=2, reward_rule="swept")
+    deep = ValuePolicy(
+        net, information="learned", predictor=pred, planning_depth=2, planning_width=2, reward_rule="swept"
+    )
     q2 = deep.values(obs_dict(robot, humans, mask))
     top2 = np.argsort(-q, axis=1)[:, :2]
     for b in range(4):
@@ -307,7 +320,10 @@ def test_learned_information_needs_a_checkpoint_with_a_predictor(tmp_path):
     from socialnav.policies.learned_entries import load_learned_policy
 
     rgl_path = save_checkpoint(
-        tmp_path / "rgl.pt", "rgl", _rgl().float(), config={"value_policy": {"information": "constant_velocity"}}
+        tmp_path / "rgl.pt",
+        "rgl",
+        _rgl().float(),
+        config={"value_policy": {"information": "constant_velocity"}},
     )
     with pytest.raises(ValueError, match="stores no state predictor"):
         load_learned_policy("rgl", rgl_path, information="learned")

@@ -191,3 +191,19 @@ def test_cadrl_trains_with_one_human(tmp_path, tiny):
     res = train("cadrl", "wang2022", tmp_path / "c", settings, progress=False)
     config = json.loads((tmp_path / "c" / "config.json").read_text())
     assert config["n_humans"] == 1 and res.finished
+
+
+def test_damaged_curve_rows_do_not_block_resume(tmp_path, tiny, quick_preset):
+    out = tmp_path / "run"
+    settings = load_train_settings(tiny)
+    train("sarl", quick_preset, out, settings, progress=False, stop_after=12)
+    with open(out / "curves.csv", "a") as f:  # a row cut short by a kill, and garbage
+        f.write("rl,1\n\x00\x01garbage\nrl,notanumber,0.5,,,,,,,,,,,,\n")
+    (out / ".last.pt.abc123.tmp").write_bytes(b"half a checkpoint")  # left by a writer killed mid-write
+    lines = []
+    second = train("sarl", quick_preset, out, settings, progress=False, log=lines.append)
+    assert second.resumed and second.finished
+    assert any("3 damaged row(s) left out" in line for line in lines), lines
+    rows = _rows(out / "curves.csv")
+    assert all(r["phase"] in ("il", "rl") and r["episode"].isdigit() for r in rows)
+    assert not list(out.glob(".*.tmp"))

@@ -23,9 +23,11 @@ def atomic_write(path: Path, write: Callable[[str], None]) -> None:
     try:
         write(tmp)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as err:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(err, OSError) and err.filename is None:  # e.g. a full disk: say which file
+            raise OSError(err.errno, f"cannot write {path}: {err.strerror or err}") from None
         raise
 
 
@@ -43,12 +45,93 @@ def atomic_write_json(path: Path, data: Any) -> None:
     atomic_write_text(path, json.dumps(data, indent=2, sort_keys=False, default=_json_default) + "\n")
 
 
-def atomic_write_rows_parquet(path: Path, rows: list[dict[str, Any]]) -> None:
+def atomic_write_rows_parquet(
+    path: Path, rows: list[dict[str, Any]], metadata: dict[str, str] | None = None
+) -> None:
+    """Writes ``rows`` as Parquet with page checksums; ``metadata`` goes in the file's key-value metadata."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     table = pa.Table.from_pylist(rows)
-    atomic_write(path, lambda tmp: pq.write_table(table, tmp))
+    if metadata:
+        table = table.replace_schema_metadata({**(table.schema.metadata or {}), **metadata})
+    atomic_write(path, lambda tmp: pq.write_table(table, tmp, write_page_checksum=True))
+
+
+def read_parquet_verified(path: Path):
+    """Reads a Parquet file verifying its page checksums; a damaged file is an error naming it.
+
+    Raises:
+        CorruptFileError: The file is truncated, not Parquet, or a page fails its checksum.
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        return pq.read_table(path, page_checksum_verification=True)
+    except (OSError, pa.ArrowException) as err:
+        if isinstance(err, FileNotFoundError | IsADirectoryError | PermissionError):
+            raise
+        raise CorruptFileError(f"{path}: damaged or not a Parquet file ({_one_line(err)})") from None
+
+
+class CorruptFileError(ValueError):
+    """A result or input file that cannot be trusted (truncated, or failing its checksums)."""
+
+
+class DirectoryLockedError(RuntimeError):
+    """Another process is writing to the same output directory."""
+
+
+class DirectoryLock:
+    """An exclusive advisory lock on a directory (``.lock`` inside it), held while a run writes there.
+
+    The kernel drops the lock when the holder exits, however it dies, so a killed run never leaves a
+    stale lock behind. A second run on the same directory is refused at once instead of interleaving.
+    """
+
+    def __init__(self, directory: Path, what: str = "run") -> None:
+        self.directory = Path(directory)
+        self.what = what
+        self._fd: int | None = None
+
+    def __enter__(self) -> DirectoryLock:
+        import fcntl
+
+        path = self.directory / ".lock"
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+            os.close(fd)
+            raise DirectoryLockedError(
+                f"{self.directory} is in use by another {self.what} (pid {holder}); "
+                "wait for it to finish or use another --out"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        self._fd = fd
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # closing releases the lock; the file stays (removing it would race)
+            self._fd = None
+
+
+def remove_orphan_temporaries(directory: Path) -> list[Path]:
+    """Deletes ``.*.tmp`` files left under ``directory`` by a killed writer (call under the lock)."""
+    removed = []
+    for tmp in Path(directory).rglob(".*.tmp"):
+        if tmp.is_file():
+            tmp.unlink(missing_ok=True)
+            removed.append(tmp)
+    return removed
+
+
+def _one_line(err: BaseException) -> str:
+    return " ".join(str(err).split()) or type(err).__name__
 
 
 def _json_default(value: Any) -> Any:

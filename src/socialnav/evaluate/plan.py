@@ -10,6 +10,9 @@ from socialnav.presets import Preset
 from socialnav.scenarios import Scenario, get_scenario, make_scenario
 from socialnav.sim.settings import WorldSettings
 
+#: Episodes per cell at most (a run of this size takes days; larger is a typo).
+MAX_EPISODES = 10_000_000
+
 
 @dataclass(frozen=True)
 class Cell:
@@ -43,7 +46,12 @@ def plan_cells(preset: Preset, scenarios: list[str] | None = None, episodes: int
         raise ConfigError(f"visibility must be invisible, visible or both, got {visibility!r}")
     if episodes is not None and episodes < 1:
         raise ConfigError(f"episodes must be >= 1, got {episodes}")
+    if episodes is not None and episodes > MAX_EPISODES:
+        raise ConfigError(f"episodes must be <= {MAX_EPISODES}, got {episodes}")
     names = list(scenarios) if scenarios else [*ev.multi_human, *ev.single_human]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ConfigError(f"scenario(s) {', '.join(repeated)} given more than once")
     for name in names:
         get_scenario(name)  # unknown names raise, listing the valid ones
     cells = []

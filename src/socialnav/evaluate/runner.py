@@ -9,11 +9,16 @@ Results live in an output directory:
     table3.md / table3.tex         the paper's Table III layout (M_VI side preference)
 
 A chunk file is written only when all its episodes are scored, so an interrupted run resumes by
-skipping the chunk files that exist: nothing finished is recomputed or lost.
+skipping the chunk files that exist: nothing finished is recomputed or lost. Every chunk file carries
+the fingerprint of the manifest it was computed for and Parquet page checksums; a file of another
+run, or a damaged one, is refused by name instead of being scored. A run holds ``.lock`` in the
+directory while it writes there: a second run on the same directory is refused at once.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import sys
 import warnings
@@ -25,18 +30,26 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.evaluate.files import atomic_write_json, atomic_write_rows_parquet
+from socialnav.evaluate.files import (
+    DirectoryLock,
+    atomic_write_json,
+    atomic_write_rows_parquet,
+    read_parquet_verified,
+    remove_orphan_temporaries,
+)
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, plan_cells
 from socialnav.evaluate.report import write_reports
 from socialnav.evaluate.summary import summarize_episodes
 from socialnav.metrics import score_episode
 from socialnav.policies.base import Policy
 from socialnav.presets import Preset
-from socialnav.sim.world import World
+from socialnav.sim.world import World, check_world_size
 from socialnav.trajectory import Trajectory
 
 SIDE_LABEL = {1.0: "left", -1.0: "right", 0.0: "unlabelled"}
 SIDE_KEY = "m6_side_preference.sign@frame=world"
+#: Parquet metadata key of a chunk file: the fingerprint of the manifest of the run that wrote it.
+CHUNK_STAMP_KEY = "socialnav.manifest"
 
 
 class ResumeMismatchError(RuntimeError):
@@ -65,11 +78,12 @@ def simulate_chunk(
         count=stop - start,
         tags={"policy": label, "information": getattr(policy, "information", "none")},
     )
-    world.reset()
     trajs: list[Trajectory] = []
     oracle = getattr(policy, "information", "none") == "oracle"
-    while world.busy:
-        trajs.extend(world.step(policy.act(world.observe(oracle=oracle))).finished)
+    with world:  # its native threads stop here, not when the cycle collector runs
+        world.reset()
+        while world.busy:
+            trajs.extend(world.step(policy.act(world.observe(oracle=oracle))).finished)
     return sorted(trajs, key=lambda t: t.settings["index"])
 
 
@@ -139,24 +153,58 @@ def run_protocol(
     label = label or policy.name
     cells = plan_cells(preset, list(scenarios) if scenarios else None, episodes, visibility)
     chunk = preset.evaluation.chunk_size
-    manifest = {
-        "preset": preset.to_dict(),
-        "policy": {"label": label, **policy.describe()},
-        "cells": [
-            {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells
-        ],
-        "chunk_size": chunk,
-        **(extra_manifest or {}),
-    }
-    _check_or_write_manifest(out, manifest)
+    # Everything that can be refused is refused before the first file is written.
+    _validate_cells(preset, cells, batch_size)
+    manifest = _normalised(
+        {
+            "preset": preset.to_dict(),
+            "policy": {"label": label, **policy.describe()},
+            "cells": [
+                {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells
+            ],
+            "chunk_size": chunk,
+            **(extra_manifest or {}),
+        }
+    )
+    stamp = manifest_stamp(manifest)
+    _make_out_dir(out)
+    with DirectoryLock(out, "evaluation"):
+        remove_orphan_temporaries(out)
+        _check_or_write_manifest(out, manifest)
+        expected = {
+            _chunk_path(out, cell, a, b): (cell, a, b) for cell in cells for a, b in cell.chunks(chunk)
+        }
+        _refuse_foreign_chunks(out, expected)
+        todo = []
+        for path, (cell, a, b) in expected.items():
+            if path.exists():
+                _read_chunk(path, cell, a, b, label, stamp)  # damaged or foreign files are refused now
+            else:
+                todo.append((cell, a, b))
+        computed = _simulate_and_score(
+            policy, preset, out, todo, label, stamp, sum(c.episodes for c in cells), progress, batch_size,
+            workers,
+        )
+        rows = read_episode_rows(out, cells, chunk, label, stamp)
+        summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
+        write_reports(out, summary, rows, preset)
+    return ProtocolResult(out, rows, summary, computed)
 
-    todo = [
-        (cell, a, b)
-        for cell in cells
-        for a, b in cell.chunks(chunk)
-        if not _chunk_path(out, cell, a, b).exists()
-    ]
-    total = sum(c.episodes for c in cells)
+
+def _simulate_and_score(
+    policy: Policy,
+    preset: Preset,
+    out: Path,
+    todo: list[tuple[Cell, int, int]],
+    label: str,
+    stamp: str,
+    total: int,
+    progress: bool,
+    batch_size: int,
+    workers: int | None,
+) -> int:
+    """Simulates the chunks ``todo`` and writes one scored file per chunk; returns the episodes done."""
+    chunk_meta = {CHUNK_STAMP_KEY: stamp}
     done = total - sum(b - a for _, a, b in todo)
     bar = _progress(total, done, progress)
     computed = 0
@@ -169,7 +217,8 @@ def run_protocol(
         cell, a, b, future = pending.popleft()
         rows, notes = future.result() if pool else future
         _reissue(notes)
-        atomic_write_rows_parquet(_chunk_path(out, cell, a, b), rows)  # a chunk lands whole or not at all
+        # A chunk lands whole or not at all, stamped with the run it belongs to.
+        atomic_write_rows_parquet(_chunk_path(out, cell, a, b), rows, chunk_meta)
         computed += b - a
         bar.update(b - a)
 
@@ -193,59 +242,179 @@ def run_protocol(
         while pending:
             try:
                 finish_oldest()
-            except Exception:
+            except BaseException:
                 break
         raise
     finally:
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
         bar.close()
-
-    rows = read_episode_rows(out, cells, chunk)
-    summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
-    write_reports(out, summary, rows, preset)
-    return ProtocolResult(out, rows, summary, computed)
+    return computed
 
 
-def read_episode_rows(out: Path, cells: list[Cell], chunk: int) -> list[dict[str, Any]]:
-    import pyarrow.parquet as pq
-
+def read_episode_rows(
+    out: Path, cells: list[Cell], chunk: int, label: str | None = None, stamp: str | None = None
+) -> list[dict[str, Any]]:
+    """Every episode row of a run, in cell and index order; damaged or foreign chunk files are refused."""
     rows: list[dict[str, Any]] = []
     for cell in cells:
         for a, b in cell.chunks(chunk):
-            rows.extend(pq.read_table(_chunk_path(out, cell, a, b)).to_pylist())
+            rows.extend(_read_chunk(_chunk_path(out, cell, a, b), cell, a, b, label, stamp))
     return rows
+
+
+def manifest_stamp(manifest: dict) -> str:
+    """Fingerprint of a run's manifest, stored in each of its chunk files."""
+    text = json.dumps(manifest, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def _read_chunk(path: Path, cell: Cell, a: int, b: int, label: str | None, stamp: str | None) -> list[dict]:
+    table = read_parquet_verified(path)
+    fix = "delete it to recompute those episodes"
+    if stamp is not None:
+        got = (table.schema.metadata or {}).get(CHUNK_STAMP_KEY.encode(), b"").decode(errors="replace")
+        if got != stamp:
+            raise ResumeMismatchError(
+                f"{path} does not belong to this run (written for another configuration"
+                f"{'' if got else ' or by an older socialnav'}); {fix}"
+            )
+    rows = table.to_pylist()
+    indices = [r.get("index") for r in rows]
+    bad = next(
+        (
+            (k, r.get(k), v)
+            for r in rows
+            for k, v in (("scenario", cell.scenario), ("visibility", cell.visibility), ("policy", label))
+            if v is not None and r.get(k) != v
+        ),
+        None,
+    )
+    if bad is not None:
+        raise ResumeMismatchError(f"{path} holds {bad[0]} {bad[1]!r}, expected {bad[2]!r}; {fix}")
+    if indices != list(range(a, b)):
+        raise ResumeMismatchError(f"{path} does not hold episodes {a}..{b - 1} in order; {fix}")
+    return rows
+
+
+def _refuse_foreign_chunks(out: Path, expected: dict[Path, Any]) -> None:
+    episodes = out / "episodes"
+    if not episodes.is_dir():
+        return
+    foreign = sorted(p for p in episodes.rglob("*.parquet") if p not in expected)
+    if foreign:
+        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        raise ResumeMismatchError(
+            f"{foreign[0]}{more} in {episodes} is not part of this run; move it away or use another --out"
+        )
 
 
 def _chunk_path(out: Path, cell: Cell, a: int, b: int) -> Path:
     return out / "episodes" / cell.key / f"{a:05d}-{b:05d}.parquet"
 
 
-def _check_or_write_manifest(out: Path, manifest: dict) -> None:
-    import json
+def _validate_cells(preset: Preset, cells: list[Cell], batch_size: int) -> None:
+    """Builds each cell's world settings and scenario and sizes its world, allocating nothing big."""
+    if not isinstance(batch_size, int) or batch_size < 1:
+        raise ValueError(f"batch size must be an integer >= 1, got {batch_size!r}")
+    for cell in cells:
+        settings = cell_world_settings(preset, cell)
+        scenario = cell_scenario(preset, cell)
+        check_world_size(settings, min(batch_size, cell.episodes), 1 + int(scenario.n_humans))
 
+
+def _make_out_dir(out: Path) -> None:
+    for parent in [out, *out.parents]:
+        if parent.exists() and not parent.is_dir():
+            raise NotADirectoryError(f"--out {out}: {parent} exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise PermissionError(f"--out {out}: directory is not writable")
+
+
+def _normalised(manifest: dict) -> dict:
+    return json.loads(json.dumps(manifest, default=list))
+
+
+def _check_or_write_manifest(out: Path, manifest: dict) -> None:
     path = out / "manifest.json"
-    normalised = json.loads(json.dumps(manifest, default=list))
     if path.exists():
-        previous = json.loads(path.read_text())
-        if previous != normalised:
-            changed = sorted(
-                k for k in set(previous) | set(normalised) if previous.get(k) != normalised.get(k)
-            )
+        try:
+            previous = json.loads(path.read_text())
+        except (ValueError, UnicodeDecodeError) as err:
+            raise ResumeMismatchError(f"{path} is damaged ({err}); use another --out or delete it") from None
+        if previous == manifest:
+            return
+        has_results = (out / "episodes").is_dir() and any((out / "episodes").rglob("*.parquet"))
+        if has_results:
             raise ResumeMismatchError(
-                f"{out} holds results of a different run (differs in: {', '.join(changed)}); "
+                f"{out} holds results of a different run "
+                f"(differs in: {describe_differences(previous, manifest)}); "
                 "use another --out directory or delete it"
             )
+        # A manifest without any result (e.g. a run refused right after starting) blocks nothing.
+    atomic_write_json(path, manifest)
+
+
+def describe_differences(old: Any, new: Any, limit: int = 6) -> str:
+    """What differs between two manifests, e.g. ``cells[circle_crossing/visible].episodes: 10 -> 20``."""
+    found: list[str] = []
+    _diff(old, new, "", found)
+    shown = "; ".join(found[:limit])
+    return shown + (f"; and {len(found) - limit} more" if len(found) > limit else "")
+
+
+def _diff(old: Any, new: Any, where: str, found: list[str]) -> None:
+    if isinstance(old, dict) and isinstance(new, dict):
+        if where == "" or not _is_cells(old, new):
+            for key in [*old, *(k for k in new if k not in old)]:
+                sub = f"{where}.{key}" if where else str(key)
+                if key not in new:
+                    found.append(f"{sub} only in the previous run")
+                elif key not in old:
+                    found.append(f"{sub} only in this run")
+                else:
+                    _diff(old[key], new[key], sub, found)
+            return
+    if isinstance(old, list) and isinstance(new, list) and _is_cells(old, new):
+        before = {f"{c['scenario']}/{c['visibility']}": c for c in old}
+        after = {f"{c['scenario']}/{c['visibility']}": c for c in new}
+        for key in [*before, *(k for k in after if k not in before)]:
+            if key not in after:
+                found.append(f"{where}: {key} only in the previous run")
+            elif key not in before:
+                found.append(f"{where}: {key} only in this run")
+            else:
+                _diff(before[key], after[key], f"{where}[{key}]", found)
         return
-    atomic_write_json(path, normalised)
+    if old != new:
+        found.append(f"{where}: {_short(old)} -> {_short(new)}")
+
+
+def _is_cells(old: Any, new: Any) -> bool:
+    items = [*old, *new] if isinstance(old, list) and isinstance(new, list) else []
+    return bool(items) and all(isinstance(c, dict) and {"scenario", "visibility"} <= set(c) for c in items)
+
+
+def _short(value: Any) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _scoring_pool(workers: int):
     # forkserver: workers start from a clean process, so native threads or torch in this one are safe.
+    # The forkserver and the workers die with this process, even on SIGKILL (evaluate/lifeline.py).
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("forkserver"))
+    from socialnav.evaluate import lifeline
+
+    lifeline.start_forkserver()
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("forkserver"),
+        initializer=lifeline.worker_init,
+    )
 
 
 def _progress(total: int, initial: int, enabled: bool):

@@ -7,6 +7,7 @@ so that the evaluator scores candidate actions exactly as the trainer did.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,7 @@ _DESCRIPTIONS = {
     "sarl": "SARL: attention over humans (Chen et al., ICRA 2019), one-step lookahead",
     "om_sarl": "OM-SARL: SARL with local occupancy maps (Chen et al., ICRA 2019)",
     "rgl": "RGL: relational graph value network (Chen et al., IROS 2020), one-step lookahead",
-    "mp_rgl": "model-predictive RGL: learned state predictor, d-step w-wide planning (Chen et al., IROS 2020)",
+    "mp_rgl": "model-predictive RGL: learned state predictor, d-step w-wide planning (Chen et al., 2020)",
 }
 
 
@@ -35,11 +36,18 @@ class LearnedPolicy:
         checkpoint: Where the network came from (recorded with results).
     """
 
-    def __init__(self, name: str, value_policy: Any, checkpoint: Path | None = None):
+    def __init__(
+        self,
+        name: str,
+        value_policy: Any,
+        checkpoint: Path | None = None,
+        preset_mismatch: list[str] | None = None,
+    ):
         self.name = name
         self.value_policy = value_policy
         self.information = value_policy.information
         self.checkpoint = checkpoint
+        self.preset_mismatch = list(preset_mismatch or [])  # allowed differences, recorded with results
 
     def act(self, observation: Observation) -> np.ndarray:
         if self.information == "oracle" and observation.next_humans is None:
@@ -68,7 +76,69 @@ class LearnedPolicy:
             "planning_depth": vp.planning_depth,
             "planning_width": vp.planning_width,
             "reward_rule": vp.reward_rule,
+            **({"preset_mismatch_allowed": self.preset_mismatch} if self.preset_mismatch else {}),
         }
+
+
+#: What the checkpoint's ``value_policy`` may hold (the ValuePolicy arguments the trainer records).
+_VALUE_POLICY_KEYS = (
+    "kinematics",
+    "gamma",
+    "information",
+    "rotation_limit",
+    "dt",
+    "reward",
+    "planning_depth",
+    "planning_width",
+    "reward_rule",
+)
+_REWARD_KEYS = (
+    "success_reward",
+    "collision_penalty",
+    "discomfort_dist",
+    "discomfort_penalty_factor",
+    "time_step",
+)
+
+
+class PresetMismatchError(ValueError):
+    """A checkpoint trained for another world than the preset it is evaluated under."""
+
+
+def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
+    """Where the world a checkpoint was trained for differs from ``preset``'s, one phrase each.
+
+    Compared: dt, kinematics, the unicycle rotation limit, the reward constants (the lookahead scores
+    actions with them) and the robot's v_pref (it scales the action set). A difference makes the
+    policy act on a model of the world that is not the one simulated.
+    """
+    vp = config.get("value_policy", {})
+    reward = vp.get("reward", {})
+    world = preset.world
+    pairs: list[tuple[str, Any, Any]] = [
+        ("dt", vp.get("dt"), world.dt),
+        ("kinematics", vp.get("kinematics"), world.kinematics),
+    ]
+    if "unicycle" in (vp.get("kinematics"), world.kinematics):
+        pairs.append(("rotation_limit", vp.get("rotation_limit"), world.rotation_limit))
+    for key in _REWARD_KEYS[:-1]:
+        pairs.append((f"reward.{key}", reward.get(key), getattr(world.reward, key)))
+    trained = config.get("preset", {})
+    robot = trained.get("robot", {}) if isinstance(trained, dict) else {}
+    if isinstance(robot, dict) and "v_pref" in robot:
+        pairs.append(("robot.v_pref", robot["v_pref"], preset.robot.v_pref))
+    out = []
+    for name, ours, theirs in pairs:
+        if ours is None:
+            continue  # not recorded by this checkpoint: nothing to compare
+        same = (
+            math.isclose(float(ours), float(theirs), rel_tol=1e-9, abs_tol=1e-12)
+            if isinstance(ours, int | float) and isinstance(theirs, int | float)
+            else ours == theirs
+        )
+        if not same:
+            out.append(f"{name} {ours!r} in the checkpoint, {theirs!r} in preset {preset.name!r}")
+    return out
 
 
 def load_learned_policy(
@@ -78,18 +148,44 @@ def load_learned_policy(
     device: str = "cpu",
     planning_depth: int | None = None,
     planning_width: int | None = None,
+    preset: Any = None,
+    allow_preset_mismatch: bool = False,
 ) -> LearnedPolicy:
     """Loads ``checkpoint`` (refusing one of another policy or input size) into a LearnedPolicy.
 
     ``information``, ``planning_depth`` and ``planning_width`` override the checkpoint's settings
     (None keeps them); ``learned`` needs a checkpoint that stores a state predictor.
+
+    Raises:
+        CheckpointError: The checkpoint is unreadable or its recorded settings are malformed.
+        PresetMismatchError: It was trained for another world than ``preset`` (both values are named),
+            unless ``allow_preset_mismatch``; the allowed differences are then recorded in ``describe()``.
     """
     from socialnav.policies.learned import ValuePolicy, load_checkpoint
+    from socialnav.policies.learned.checkpoint import CheckpointError
     from socialnav.policies.learned.state import RewardParams
 
     ckpt = load_checkpoint(checkpoint, name, map_location=device)
-    settings = dict(ckpt.config.get("value_policy", {}))
-    reward = RewardParams(**settings.pop("reward", {}))
+    settings = ckpt.config.get("value_policy", {})
+    where = f"checkpoint {checkpoint}: config.value_policy"
+    if not isinstance(settings, dict):
+        raise CheckpointError(f"{where} must be a mapping, got {type(settings).__name__}")
+    unknown = sorted(set(settings) - set(_VALUE_POLICY_KEYS))
+    reward = settings.get("reward", {})
+    if unknown:
+        raise CheckpointError(f"{where} has unknown key(s) {', '.join(unknown)}")
+    if not isinstance(reward, dict) or set(reward) - set(_REWARD_KEYS):
+        raise CheckpointError(
+            f"{where}.reward must be a mapping of {', '.join(_REWARD_KEYS)}, got {reward!r}"
+        )
+    mismatch = preset_mismatches(ckpt.config, preset) if preset is not None else []
+    if mismatch and not allow_preset_mismatch:
+        raise PresetMismatchError(
+            f"checkpoint {checkpoint} was trained for another world: {'; '.join(mismatch)}; "
+            "evaluate it under a matching preset, or pass --allow-preset-mismatch (recorded in the results)"
+        )
+    settings = dict(settings)
+    settings.pop("reward", None)
     for key, value in (
         ("information", information),
         ("planning_depth", planning_depth),
@@ -102,9 +198,17 @@ def load_learned_policy(
             f"checkpoint {checkpoint} stores no state predictor, so information 'learned' is not available "
             "(train with --information learned, or --policy mp_rgl)"
         )
-    ckpt.model.eval()
-    policy = ValuePolicy(ckpt.model, reward_params=reward, device=device, predictor=ckpt.predictor, **settings)
-    return LearnedPolicy(name, policy, Path(checkpoint))
+    try:
+        policy = ValuePolicy(
+            ckpt.model,
+            reward_params=RewardParams(**reward),
+            device=device,
+            predictor=ckpt.predictor,
+            **settings,
+        )
+    except (TypeError, ValueError) as err:
+        raise CheckpointError(f"{where} is invalid: {err}") from None
+    return LearnedPolicy(name, policy, Path(checkpoint), mismatch)
 
 
 def _factory(name: str):
@@ -115,9 +219,19 @@ def _factory(name: str):
         device: str = "cpu",
         planning_depth: int | None = None,
         planning_width: int | None = None,
+        allow_preset_mismatch: bool = False,
         **_: Any,
     ) -> LearnedPolicy:
-        return load_learned_policy(name, checkpoint, information, device, planning_depth, planning_width)
+        return load_learned_policy(
+            name,
+            checkpoint,
+            information,
+            device,
+            planning_depth,
+            planning_width,
+            preset,
+            allow_preset_mismatch,
+        )
 
     return make
 

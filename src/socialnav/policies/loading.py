@@ -9,12 +9,20 @@ from socialnav.policies.base import Policy, get_policy_entry, make_policy
 from socialnav.presets import Preset
 
 
-def build_policy(name: str, preset: Preset, checkpoint: str | Path | None = None, **overrides) -> Policy:
+def build_policy(
+    name: str,
+    preset: Preset,
+    checkpoint: str | Path | None = None,
+    *,
+    allow_preset_mismatch: bool = False,
+    **overrides,
+) -> Policy:
     """The policy ``name`` with the preset's defaults for it, overridden by ``overrides``.
 
     Raises:
         KeyError: Unknown policy (the valid ones are listed).
-        ValueError: A checkpoint given to a policy that does not learn, or missing for one that does.
+        ValueError: A checkpoint given to a policy that does not learn, or missing for one that does;
+            a checkpoint trained for another world than the preset's (unless ``allow_preset_mismatch``).
     """
     entry = get_policy_entry(name)
     params = {**preset.policy_params(name), **overrides}
@@ -30,7 +38,9 @@ def build_policy(name: str, preset: Preset, checkpoint: str | Path | None = None
                 f"{preset.name!r} (shipped: {', '.join(list_shipped_checkpoints()) or 'none'}): "
                 "pass --checkpoint PATH (see `socialnav train`)"
             )
-    return entry.factory(checkpoint=Path(checkpoint), preset=preset, **params)
+    return entry.factory(
+        checkpoint=Path(checkpoint), preset=preset, allow_preset_mismatch=allow_preset_mismatch, **params
+    )
 
 
 def list_shipped_checkpoints() -> list[str]:

@@ -133,6 +133,11 @@ class SocialNavEnv(gym.Env):
             outcome = "running"
         return self._single(obs), float(result.reward[0]), terminated, truncated, self._info(outcome)
 
+    def close(self) -> None:
+        """Stops the world's native threads now."""
+        if getattr(self, "_world", None) is not None:
+            self._world.close()
+
     def _single(self, obs: Observation) -> dict[str, np.ndarray]:
         return {k: v[0] for k, v in _obs_rows(obs).items()}
 
@@ -180,6 +185,11 @@ class SocialNavVectorEnv(VectorEnv):
         start = int(options["index"]) if options and "index" in options else int(seed or 0)
         obs = self._world.restart(start)
         return _obs_rows(obs), {"episode_index": self._world.episode_index.copy()}
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Stops the world's native threads now (called by ``VectorEnv.close``)."""
+        if getattr(self, "_world", None) is not None:
+            self._world.close()
 
     def step(self, actions):
         result = self._world.step(self._cfg.to_actions(actions), final_observation=True)

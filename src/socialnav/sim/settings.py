@@ -11,12 +11,18 @@ import math
 import os
 from dataclasses import dataclass, field
 
-from socialnav.config import check
+from socialnav.config import ConfigError, check
 
 HUMAN_MODELS = ("orca", "social_force", "linear")
 ORCA_MODES = ("centralized", "decentralized")
 VISIBILITIES = ("invisible", "visible")
 KINEMATICS = ("holonomic", "unicycle")
+
+# Bounds that keep one setting from exhausting the machine (docs/simulator.md, "Bounds"); checked
+# when settings are built, i.e. before anything is allocated.
+MAX_THREADS = 256  # native worker threads of one world
+MAX_STEPS = 100_000  # samples of one episode: max(time_limit, continuation cap) / dt
+MIN_DT = 1e-4  # [s]
 
 
 @dataclass(frozen=True)
@@ -127,8 +133,23 @@ class WorldSettings:
             f"must be one of {', '.join(KINEMATICS)}",
         )
         check(0 < self.rotation_limit <= math.pi, "rotation_limit", self.rotation_limit, "must be in (0, pi]")
-        check(self.continuation_cap > 0, "continuation_cap", self.continuation_cap, "must be > 0")
-        check(self.threads >= 0, "threads", self.threads, "must be >= 0")
+        check(
+            math.isfinite(self.continuation_cap) and self.continuation_cap > 0,
+            "continuation_cap",
+            self.continuation_cap,
+            "must be a finite number > 0",
+        )
+        check(self.dt >= MIN_DT, "dt", self.dt, f"must be >= {MIN_DT} s")
+        steps = self.history_length() - 2
+        if steps > MAX_STEPS:
+            by_cap = self.continue_after_success and self.continuation_cap > self.time_limit
+            name = "continuation_cap" if by_cap else "time_limit"
+            value = getattr(self, name)
+            raise ConfigError(
+                f"{name} {value!r} with dt {self.dt!r} makes {steps} steps per episode, "
+                f"more than the {MAX_STEPS} allowed (raise dt or lower {name})"
+            )
+        check(0 <= self.threads <= MAX_THREADS, "threads", self.threads, f"must be in [0, {MAX_THREADS}]")
 
     @property
     def resolved_threads(self) -> int:

@@ -20,6 +20,27 @@ from socialnav.sim.observation import Observation, build_observation
 from socialnav.sim.recorder import OUTCOME_NAMES, Recorder
 from socialnav.sim.settings import WorldSettings
 
+#: Memory one World may allocate for its state and recorded histories (docs/simulator.md, "Bounds").
+MAX_WORLD_BYTES = 4 * 2**30
+
+
+def world_bytes(settings: WorldSettings, batch_size: int, n_agents: int, record: bool = True) -> int:
+    """Bytes a World of ``batch_size`` slots of ``n_agents`` agents allocates (state + histories)."""
+    T = settings.history_length() if record else 0
+    return int(batch_size) * (int(n_agents) * (8 * 8 + 8 + 1) + 64 + int(T) * (int(n_agents) * 32 + 8))
+
+
+def check_world_size(settings: WorldSettings, batch_size: int, n_agents: int, record: bool = True) -> None:
+    """Raises a ValueError before allocating a World larger than :data:`MAX_WORLD_BYTES`."""
+    need = world_bytes(settings, batch_size, n_agents, record)
+    if need > MAX_WORLD_BYTES:
+        raise ValueError(
+            f"a world of {batch_size} episodes x {n_agents} agents x {settings.history_length()} steps "
+            f"needs {need / 2**30:.1f} GiB, more than the {MAX_WORLD_BYTES / 2**30:.0f} GiB allowed "
+            "(lower the batch size, the number of humans, or time_limit / dt)"
+        )
+
+
 _HUMAN_MODEL_IDS = {
     "orca": _core.HUMAN_ORCA,
     "social_force": _core.HUMAN_SOCIAL_FORCE,
@@ -135,6 +156,7 @@ class World:
         self.scenario = scenario
         self.stream = EpisodeStream(scenario, split, start, count)
         B, A = int(batch_size), 1 + int(scenario.n_humans)
+        check_world_size(settings, B, A, record)
         self.batch_size, self.n_agents = B, A
         self.position = np.zeros((B, A, 2))
         self.velocity = np.zeros((B, A, 2))
@@ -176,6 +198,20 @@ class World:
             *hist,
         )
         self._actions = np.zeros((B, 2))
+
+    def close(self) -> None:
+        """Stops the native worker threads now (not whenever the cycle collector gets to this World).
+
+        The World cannot step afterwards. Also called on leaving a ``with World(...)`` block.
+        """
+        self._core = None  # the only reference: the native world and its thread pool go at once
+        self._recorder = None  # breaks the World <-> Recorder cycle
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     def _core_config(self, B: int, A: int, T: int) -> _core.WorldConfig:
         s = self.settings
@@ -307,6 +343,8 @@ class World:
                 inactive slots are ignored.
             final_observation: Also return the observation of finished slots before their reset.
         """
+        if self._core is None:
+            raise RuntimeError("this World is closed")
         actions = np.asarray(actions, dtype=np.float64)
         if actions.shape != (self.batch_size, 2):
             raise ValueError(f"actions must have shape ({self.batch_size}, 2), got {actions.shape}")

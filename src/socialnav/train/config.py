@@ -231,10 +231,14 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
         path = Path(path)
         if not path.exists():
             raise ConfigError(f"training config {path} does not exist")
+        if path.is_dir():
+            raise ConfigError(f"training config {path} is a directory, not a YAML file")
         try:
             data = yaml.safe_load(path.read_text()) or {}
+        except UnicodeDecodeError:
+            raise ConfigError(f"training config {path} is not a text (YAML) file") from None
         except yaml.YAMLError as err:
-            raise ConfigError(f"{path}: not valid YAML: {err}") from None
+            raise ConfigError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
         if not isinstance(data, dict):
             raise ConfigError(f"{path}: expected a mapping of settings, got {type(data).__name__}")
     data.update({k: v for k, v in overrides.items() if v is not None})

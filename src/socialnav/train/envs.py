@@ -96,6 +96,11 @@ class MultiWorld:
         self.batch_size = int(self.offsets[-1])
         self.dt = settings.dt
 
+    def close(self) -> None:
+        """Stops every world's native threads now (see World.close)."""
+        for w in self.worlds:
+            w.close()
+
     def reset(self, starts: list[int] | None = None) -> None:
         """Restarts every stream at ``start`` (or at ``starts[i]``) and fills every slot."""
         for i, w in enumerate(self.worlds):

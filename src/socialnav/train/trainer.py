@@ -17,6 +17,7 @@ any of them); its config holds ``value_policy`` so the evaluator scores actions 
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import json
@@ -32,7 +33,12 @@ import numpy as np
 import torch
 
 from socialnav.config import ConfigError
-from socialnav.evaluate.files import atomic_write_json, atomic_write_text
+from socialnav.evaluate.files import (
+    DirectoryLock,
+    atomic_write_json,
+    atomic_write_text,
+    remove_orphan_temporaries,
+)
 from socialnav.presets import Preset, load_preset
 from socialnav.train.config import (
     TrainSettings,
@@ -147,11 +153,16 @@ class _Curves:
 
     def __init__(self, path: Path, resume_episode: int | None) -> None:
         self.path = path
+        self.dropped = 0  # damaged rows left out on resumption
         if resume_episode is not None and path.exists():  # drop rows written after the resumed checkpoint
-            with open(path, newline="") as f:
-                rows = [
-                    r for r in csv.DictReader(f) if r["phase"] != "rl" or int(r["episode"]) <= resume_episode
-                ]
+            with open(path, newline="", encoding="utf-8", errors="replace") as f:
+                rows = []
+                for r in csv.DictReader(f):
+                    episode = _row_episode(r)
+                    if episode is None:
+                        self.dropped += 1  # a damaged row (e.g. cut short by a kill) is not fatal
+                    elif r["phase"] != "rl" or episode <= resume_episode:
+                        rows.append(r)
             lines = [",".join(CURVE_COLUMNS)] + [",".join(r.get(c, "") for c in CURVE_COLUMNS) for r in rows]
             atomic_write_text(path, "\n".join(lines) + "\n")
         elif not path.exists() or resume_episode is None:
@@ -186,6 +197,22 @@ class _Curves:
     def close(self) -> None:
         if self.tb is not None:
             self.tb.close()
+
+
+def _dotted(data: Any, key: str) -> Any:
+    for part in key.split("."):
+        data = data.get(part) if isinstance(data, dict) else None
+    return data
+
+
+def _row_episode(row: dict[str, Any]) -> int | None:
+    """The episode of a curves.csv row, or None when the row is damaged."""
+    if row.get("phase") not in ("il", "rl") or None in row or None in row.values():
+        return None
+    try:
+        return int(row["episode"])
+    except (TypeError, ValueError):
+        return None
 
 
 def _progress(total: int, initial: int, desc: str, enabled: bool):
@@ -225,6 +252,32 @@ def train(
     log=None,
     on_validation=None,
 ) -> TrainResult:
+    with contextlib.ExitStack() as stack:  # holds the run directory's lock once it is taken
+        return _train(
+            policy_name,
+            preset,
+            out_dir,
+            settings,
+            stack,
+            progress=progress,
+            stop_after=stop_after,
+            log=log,
+            on_validation=on_validation,
+        )
+
+
+def _train(
+    policy_name: str,
+    preset: Preset | str,
+    out_dir: str | Path,
+    settings: TrainSettings | None,
+    stack: contextlib.ExitStack,
+    *,
+    progress: bool = True,
+    stop_after: int | None = None,
+    log=None,
+    on_validation=None,
+) -> TrainResult:
     """Imitation learning from ORCA, then value-based RL; resumes from ``out_dir/last.pt`` if present.
 
     Args:
@@ -244,6 +297,10 @@ def train(
     Raises:
         TrainingDiverged: the loss became NaN/inf (last.pt and best.pt keep the last good state).
         ConfigError: resuming with settings that differ from the run's (the keys are named).
+        DirectoryLockedError: another training is writing to ``out_dir``.
+
+    Nothing is written to ``out_dir`` before the settings, the worlds and a resumed checkpoint have
+    been checked, so a refused run leaves no half-written directory behind.
     """
     from socialnav.policies.learned import (
         LEARNED_POLICIES,
@@ -285,7 +342,6 @@ def train(
         }
     )
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     last_path, best_path, il_path, curves_path = (
         out / "last.pt",
         out / "best.pt",
@@ -327,16 +383,30 @@ def train(
     oracle = settings.information == "oracle"
     success_reward = preset.world.reward.success_reward
 
+    # Settings the worlds refuse are refused here, before anything is written.
+    val_world = MultiWorld(
+        preset, n_humans, min(settings.collection_batch, rl.val_episodes), "val", 0, rl.val_episodes
+    )
+    stack.callback(val_world.close)
+    _make_run_dir(out)
+    stack.enter_context(DirectoryLock(out, "training"))
+    remove_orphan_temporaries(out)
+
     resume: dict[str, Any] | None = None
     if last_path.exists():
         ck = load_checkpoint(last_path, canonical_name(policy_name), map_location=device)
+        resume = ck.extra.get("resume")
+        if not isinstance(resume, dict):
+            raise ConfigError(
+                f"{last_path} is not a training state (no 'resume' record); move it away to restart"
+            )
         diff = resume_diff(ck.config, config)
         if diff:
+            changes = "; ".join(f"{k}: {_dotted(ck.config, k)!r} -> {_dotted(config, k)!r}" for k in diff[:6])
             raise ConfigError(
-                f"{out} holds a run with other settings ({', '.join(diff)}); "
+                f"{out} holds a run with other settings ({changes}{'; ...' if len(diff) > 6 else ''}); "
                 f"use another --out or the run's own settings (config.yaml)"
             )
-        resume = ck.extra["resume"]
         net.load_state_dict(ck.model.state_dict())
         if predictor is not None and ck.predictor is not None:
             predictor.load_state_dict(ck.predictor.state_dict())
@@ -347,10 +417,9 @@ def train(
 
     atomic_write_text(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
     curves = _Curves(curves_path, None if resume is None else int(resume["episode"]))
+    if curves.dropped:
+        say(f"{curves_path}: {curves.dropped} damaged row(s) left out")
 
-    val_world = MultiWorld(
-        preset, n_humans, min(settings.collection_batch, rl.val_episodes), "val", 0, rl.val_episodes
-    )
     elapsed0 = 0.0 if resume is None else float(resume["wall_time"])
 
     def wall() -> float:
@@ -373,6 +442,7 @@ def train(
                 threads=preset.world.threads,
             )
             world = MultiWorld(preset, n_humans, settings.collection_batch, "train", seeds["scenario_start"])
+            stack.callback(world.close)
             world.reset()
             from socialnav.train.imitation import collect_demonstrations, fit_values
 
@@ -423,7 +493,10 @@ def train(
                     torch.Generator().manual_seed(seeds["sampling"] ^ 0x9E3D),
                     device,
                 )
-                say(f"imitation: state predictor position MSE {predictor_losses[-1]:.4g} m² after {il.epochs} epochs")
+                say(
+                    f"imitation: state predictor position MSE {predictor_losses[-1]:.4g} m² "
+                    f"after {il.epochs} epochs"
+                )
             save(il_path, {"phase": "imitation", "il_losses": losses, "predictor_losses": predictor_losses})
         else:
             il_loss = math.nan
@@ -516,6 +589,7 @@ def train(
     world = MultiWorld(
         preset, n_humans, settings.collection_batch, "train", seeds["scenario_start"] + RL_STREAM_OFFSET
     )
+    stack.callback(world.close)
     world.reset(state["stream_positions"])
     memory = ReplayMemory(rl.capacity, n_humans, device=device)
     if resume is None:
@@ -661,6 +735,15 @@ def train(
         resume is not None,
         not stopped_early,
     )
+
+
+def _make_run_dir(out: Path) -> None:
+    for parent in [out, *out.parents]:
+        if parent.exists() and not parent.is_dir():
+            raise NotADirectoryError(f"--out {out}: {parent} exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise PermissionError(f"--out {out}: directory is not writable")
 
 
 def train_from_args(args) -> int:

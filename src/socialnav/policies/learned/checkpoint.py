@@ -136,6 +136,55 @@ def save_checkpoint(
     return path
 
 
+#: Fields of a checkpoint and the type each must have.
+_FIELDS = {
+    "policy": str,
+    "input_dim": int,
+    "model_kwargs": dict,
+    "state_dict": dict,
+    "config": dict,
+    "extra": dict,
+}
+
+
+def _one_line(err: BaseException, limit: int = 300) -> str:
+    text = " ".join(str(err).split()) or type(err).__name__
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any]:
+    """The checkpoint's dict, its fields checked; every way a file can be unusable is a CheckpointError."""
+    if path.is_dir():
+        raise CheckpointError(f"checkpoint {path} is a directory, not a checkpoint file")
+    if not path.exists():
+        raise CheckpointError(f"checkpoint {path} does not exist")
+    if path.stat().st_size == 0:
+        raise CheckpointError(f"checkpoint {path} is empty")
+    try:
+        payload = torch.load(path, map_location=map_location, weights_only=True)
+    except OSError as err:
+        raise CheckpointError(f"checkpoint {path} cannot be read: {_one_line(err)}") from None
+    except Exception as err:  # unpickling a damaged or foreign file fails in many ways
+        raise CheckpointError(
+            f"checkpoint {path} is damaged or not a torch file ({type(err).__name__}: {_one_line(err)})"
+        ) from None
+    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+        raise CheckpointError(f"{path} is not a socialnav learned-policy checkpoint (format {FORMAT!r})")
+    for key, kind in _FIELDS.items():
+        value = payload.get(key)
+        if not isinstance(value, kind) or isinstance(value, bool):
+            raise CheckpointError(
+                f"checkpoint {path}: field {key!r} must be a {kind.__name__}, got {_describe(value)}"
+            )
+    return payload
+
+
+def _describe(value: Any) -> str:
+    if value is None:
+        return "nothing (missing)"
+    return f"{type(value).__name__} {_one_line(Exception(repr(value)), 60)}"
+
+
 def load_checkpoint(
     path: str | os.PathLike[str],
     expected_policy: str,
@@ -152,25 +201,29 @@ def load_checkpoint(
         map_location: device for the tensors.
 
     Raises:
-        CheckpointError: not a socialnav checkpoint, or it holds another policy or input size; the
+        CheckpointError: missing, empty, damaged or not a socialnav checkpoint (a field of the wrong
+            type is named), or it holds another policy or input size; the
             message names both, e.g. "checkpoint x.pt holds policy 'cadrl' (input 13), expected
             'sarl' (input 13)".
     """
     path = Path(path)
-    payload = torch.load(path, map_location=map_location, weights_only=True)
-    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
-        raise CheckpointError(f"{path} is not a socialnav learned-policy checkpoint (format {FORMAT!r})")
+    payload = _read_payload(path, map_location)
     want = canonical_name(expected_policy)
     if expected_input_dim is None:
         expected_input_dim = int(build(want).input_dim)  # type: ignore[arg-type]
-    got, got_dim = str(payload["policy"]), int(payload["input_dim"])
+    got, got_dim = payload["policy"], payload["input_dim"]
     if got != want or got_dim != expected_input_dim:
         raise CheckpointError(
             f"checkpoint {path.name} holds policy {got!r} (input {got_dim}), "
             f"expected {expected_policy!r} (input {expected_input_dim})"
         )
-    model = build(got, **payload["model_kwargs"])
-    model.load_state_dict(payload["state_dict"], strict=True)
+    try:
+        model = build(got, **payload["model_kwargs"])
+        model.load_state_dict(payload["state_dict"], strict=True)
+    except (TypeError, ValueError, KeyError, RuntimeError) as err:
+        raise CheckpointError(
+            f"checkpoint {path}: its network cannot be rebuilt ({_one_line(err)})"
+        ) from None
     model.to(map_location).eval()
     predictor = None
     if payload.get("predictor") is not None:

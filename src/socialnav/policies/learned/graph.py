@@ -49,7 +49,8 @@ class RelationalGraph(nn.Module):
         super().__init__()
         if robot_dims[-1] != human_dims[-1]:
             raise ValueError(
-                f"robot and human embeddings must have the same width, got {robot_dims[-1]} and {human_dims[-1]}"
+                "robot and human embeddings must have the same width, "
+                f"got {robot_dims[-1]} and {human_dims[-1]}"
             )
         self.x_dim = int(robot_dims[-1])
         self.robot_embed = mlp(robot_dim, robot_dims, last_relu=True)

@@ -71,7 +71,9 @@ class StatePredictor(nn.Module):
             "motion_dims": list(self.motion_dims),
         }
 
-    def forward(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor, dt: float) -> torch.Tensor:
+    def forward(
+        self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor, dt: float
+    ) -> torch.Tensor:
         """Next human states.
 
         Args:

@@ -112,7 +112,9 @@ class ValuePolicy:
         if information == "learned" and predictor is None:
             raise ValueError("information='learned' needs a trained state predictor (none was given)")
         if reward_rule not in REWARD_RULES:
-            raise ValueError(f"unknown reward_rule {reward_rule!r}; expected one of {', '.join(REWARD_RULES)}")
+            raise ValueError(
+                f"unknown reward_rule {reward_rule!r}; expected one of {', '.join(REWARD_RULES)}"
+            )
         if int(planning_depth) < 1 or int(planning_width) < 1:
             raise ValueError(
                 f"planning_depth and planning_width must be >= 1, got {planning_depth} and {planning_width}"

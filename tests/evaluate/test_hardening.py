@@ -1,0 +1,170 @@
+"""The runner refuses what would give silently wrong numbers, and leaves nothing half-written."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from socialnav.cli import main
+from socialnav.config import ConfigError
+from socialnav.evaluate.files import (
+    CorruptFileError,
+    DirectoryLock,
+    DirectoryLockedError,
+    atomic_write_rows_parquet,
+    read_parquet_verified,
+)
+from socialnav.evaluate.runner import ResumeMismatchError, describe_differences, run_protocol
+from socialnav.policies import make_policy
+from socialnav.presets import load_preset
+from socialnav.sim.settings import MAX_STEPS, MAX_THREADS, WorldSettings
+
+KW = dict(scenarios=["circle_crossing"], episodes=3, progress=False, workers=0)
+
+
+def test_corrupted_parquet_page_is_refused_though_it_still_decodes(tmp_path):
+    path = tmp_path / "rows.parquet"
+    table = pa.table({"path_length": np.full(64, 8.29)})
+    pq.write_table(table, path, compression="none", write_page_checksum=True)
+    data = bytearray(path.read_bytes())
+    at = bytes(data).index(np.float64(8.29).tobytes())  # first value of the (uncompressed) data page
+    data[at : at + 8] = np.float64(88.96).tobytes()
+    path.write_bytes(bytes(data))
+    # Without verification the damage goes unnoticed: a wrong number, no error.
+    assert pq.read_table(path).column("path_length")[0].as_py() == 88.96
+    with pytest.raises(CorruptFileError, match="rows.parquet: damaged"):
+        read_parquet_verified(path)
+
+
+def test_result_files_are_written_with_page_checksums(tmp_path):
+    atomic_write_rows_parquet(tmp_path / "a.parquet", [{"x": 1.0}], {"k": "v"})
+    meta = pq.ParquetFile(tmp_path / "a.parquet")
+    assert meta.schema_arrow.metadata[b"k"] == b"v"
+    data = bytearray((tmp_path / "a.parquet").read_bytes())
+    at = bytes(data).index(np.float64(1.0).tobytes())
+    data[at + 7] ^= 0x01
+    (tmp_path / "a.parquet").write_bytes(bytes(data))
+    with pytest.raises(CorruptFileError):
+        read_parquet_verified(tmp_path / "a.parquet")
+
+
+def test_locked_directory_is_refused_and_lock_dies_with_holder(tmp_path):
+    preset = load_preset("crowdnav")
+    with DirectoryLock(tmp_path, "evaluation"):
+        with pytest.raises(
+            DirectoryLockedError, match=f"in use by another evaluation \\(pid {os.getpid()}\\)"
+        ):
+            run_protocol(make_policy("orca"), preset, tmp_path, **KW)
+    assert not (tmp_path / "manifest.json").exists()
+    run_protocol(make_policy("orca"), preset, tmp_path, **KW)  # released: runs
+
+
+def test_chunk_of_another_configuration_is_refused(tmp_path):
+    preset = load_preset("crowdnav")
+    run_protocol(make_policy("orca", safety_space=0.0), preset, tmp_path / "a", **KW)
+    run_protocol(make_policy("orca", safety_space=0.3), preset, tmp_path / "b", **KW)
+    chunk = "episodes/circle_crossing__invisible/00000-00003.parquet"
+    shutil.copy(tmp_path / "b" / chunk, tmp_path / "a" / chunk)
+    with pytest.raises(ResumeMismatchError, match="00000-00003.parquet does not belong to this run"):
+        run_protocol(make_policy("orca", safety_space=0.0), preset, tmp_path / "a", **KW)
+
+
+def test_invalid_settings_write_nothing_and_an_empty_manifest_blocks_nothing(tmp_path):
+    preset = load_preset("crowdnav")
+    with pytest.raises(ValueError, match="GiB"):
+        run_protocol(
+            make_policy("orca"), preset, tmp_path / "o", batch_size=10**8, **{**KW, "episodes": 10**6}
+        )
+    assert not (tmp_path / "o").exists()
+    # A directory with a manifest and no result (a run refused or killed at once) takes the new run.
+    (tmp_path / "p").mkdir()
+    (tmp_path / "p" / "manifest.json").write_text(json.dumps({"preset": "something else"}))
+    result = run_protocol(make_policy("orca"), preset, tmp_path / "p", **KW)
+    assert result.computed_episodes == 3
+
+
+def test_manifest_differences_name_the_cell_and_the_values():
+    old = {"cells": [{"scenario": "random", "visibility": "visible", "episodes": 10}], "chunk_size": 5}
+    new = {
+        "cells": [
+            {"scenario": "random", "visibility": "visible", "episodes": 20},
+            {"scenario": "random", "visibility": "invisible", "episodes": 20},
+        ],
+        "chunk_size": 5,
+    }
+    assert describe_differences(old, new) == (
+        "cells[random/visible].episodes: 10 -> 20; cells: random/invisible only in this run"
+    )
+
+
+def test_world_bounds_are_checked_before_allocation():
+    with pytest.raises(ConfigError, match="threads"):
+        WorldSettings(threads=MAX_THREADS + 1)
+    with pytest.raises(ConfigError, match=f"more than the {MAX_STEPS} allowed"):
+        WorldSettings(dt=0.001, time_limit=1000.0)
+    WorldSettings(dt=0.001, time_limit=MAX_STEPS * 0.001 - 0.01)  # just inside
+    with pytest.raises(ConfigError, match="continuation_cap"):
+        WorldSettings(dt=0.01, continue_after_success=True, continuation_cap=1e4)
+
+
+def test_world_close_stops_native_threads_at_once():
+    import gc
+
+    from socialnav.scenarios import make_scenario
+    from socialnav.sim.world import World
+
+    def threads() -> int:
+        return len(os.listdir("/proc/self/task"))
+
+    gc.disable()  # the point: no reliance on the cycle collector
+    try:
+        before = threads()
+        with World(WorldSettings(threads=16), make_scenario("circle_crossing", n_humans=2), 2, count=2) as w:
+            assert threads() >= before + 15
+        assert threads() == before
+        with pytest.raises(RuntimeError, match="closed"):
+            w.step(np.zeros((2, 2)))
+    finally:
+        gc.enable()
+
+
+def test_checkpoint_under_mismatching_preset_is_refused_naming_both_values(tmp_path, capsys):
+    pytest.importorskip("torch")
+    preset = tmp_path / "fast.yaml"
+    preset.write_text("name: fast\nworld: {dt: 0.1}\nrobot: {v_pref: 1.5}\n")
+    from socialnav.policies.loading import shipped_checkpoint
+
+    ckpt = str(shipped_checkpoint("sarl", "wang2022"))
+    argv = [
+        "evaluate",
+        "--policy",
+        "sarl",
+        "--checkpoint",
+        ckpt,
+        "--preset",
+        str(preset),
+        "--scenario",
+        "circle_crossing",
+        "--episodes",
+        "2",
+        "--out",
+        str(tmp_path / "o"),
+        "--no-progress",
+    ]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "dt 0.25 in the checkpoint, 0.1 in preset 'fast'" in err and "--allow-preset-mismatch" in err
+    assert not (tmp_path / "o").exists()
+    assert main([*argv, "--allow-preset-mismatch"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: preset mismatch allowed: dt 0.25 in the checkpoint, 0.1 in preset 'fast'" in err
+    manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    assert manifest["policy"]["preset_mismatch_allowed"] == [
+        "dt 0.25 in the checkpoint, 0.1 in preset 'fast'"
+    ]
