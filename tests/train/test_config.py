@@ -31,7 +31,54 @@ def test_defaults_follow_the_spec():
         rl.val_episodes,
         rl.gamma,
     ) == (100000, 100, 1e-3, 1000, 1000, 100, 0.9)
-    assert s.information == "constant_velocity"
+    # The lookahead defaults depend on the policy: constant velocity, one step, end-of-step reward for
+    # the CrowdNav family and RGL; MP-RGL plans 2 deep and 2 wide with its learned predictor.
+    assert s.information == ""
+    for policy in ("cadrl", "lstm_rl", "sarl", "om_sarl", "rgl"):
+        r = s.resolved(policy)
+        assert (r.information, r.planning_depth, r.planning_width, r.reward_rule) == (
+            "constant_velocity",
+            1,
+            1,
+            "end",
+        )
+    r = s.resolved("mp_rgl")
+    assert (r.information, r.planning_depth, r.planning_width, r.reward_rule) == ("learned", 2, 2, "swept")
+
+
+def test_mp_rgl_refuses_to_train_without_its_predictor_and_oracle_refuses_planning():
+    import dataclasses
+
+    import pytest
+
+    from socialnav.config import ConfigError
+
+    s = load_train_settings()
+    with pytest.raises(ConfigError, match="mp_rgl plans with the state predictor"):
+        dataclasses.replace(s, information="constant_velocity").resolved("mp_rgl")
+    with pytest.raises(ConfigError, match="oracle gives one"):
+        dataclasses.replace(s, information="oracle", planning_depth=2).resolved("sarl")
+
+
+def test_resume_accepts_runs_saved_before_the_planning_settings_existed():
+    from socialnav.train.config import resume_diff
+
+    current = {
+        "train": {
+            "seed": 0,
+            "planning_depth": 1,
+            "planning_width": 1,
+            "reward_rule": "end",
+            "predictor_lr": 1e-3,
+        },
+        "value_policy": {"gamma": 0.9, "planning_depth": 1, "planning_width": 1, "reward_rule": "end"},
+    }
+    old = {"train": {"seed": 0}, "value_policy": {"gamma": 0.9}}
+    assert resume_diff(old, current) == []
+    # ...but not when the new setting takes another value than such runs had.
+    deeper = {**current, "value_policy": {**current["value_policy"], "planning_depth": 2}}
+    assert resume_diff(old, deeper) == ["value_policy.planning_depth"]
+    assert resume_diff({**old, "train": {"seed": 1}}, current) == ["train.seed"]
 
 
 def test_yaml_loads_nested_and_overrides(tmp_path):

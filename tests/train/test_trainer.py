@@ -80,7 +80,18 @@ def test_cli_train_then_evaluate(tmp_path, tiny, quick_preset, capsys):
     assert set(config["seeds"]) == {"scenario_start", "exploration", "init", "sampling"}
     ck = load_checkpoint(out / "best.pt", "sarl")
     vp = ck.config["value_policy"]
-    assert set(vp) == {"kinematics", "gamma", "information", "rotation_limit", "dt", "reward"}
+    assert set(vp) == {
+        "kinematics",
+        "gamma",
+        "information",
+        "rotation_limit",
+        "dt",
+        "reward",
+        "planning_depth",
+        "planning_width",
+        "reward_rule",
+    }
+    assert (vp["information"], vp["planning_depth"], vp["reward_rule"]) == ("constant_velocity", 1, "end")
     assert set(vp["reward"]) == {
         "success_reward",
         "collision_penalty",
@@ -207,3 +218,66 @@ def test_damaged_curve_rows_do_not_block_resume(tmp_path, tiny, quick_preset):
     rows = _rows(out / "curves.csv")
     assert all(r["phase"] in ("il", "rl") and r["episode"].isdigit() for r in rows)
     assert not list(out.glob(".*.tmp"))
+
+
+def test_mp_rgl_trains_its_predictor_in_the_same_resumable_run(tmp_path, tiny, quick_preset, capsys):
+    from socialnav.policies.learned_entries import load_learned_policy
+
+    out = tmp_path / "mp"
+    settings = load_train_settings(tiny)
+    first = train("mp_rgl", quick_preset, out, settings, progress=False, stop_after=12)
+    assert not first.finished
+    il = load_checkpoint(out / "il.pt", "mp_rgl")
+    assert il.predictor is not None
+    assert il.config["train"]["information"] == "learned"
+    assert (il.config["value_policy"]["planning_depth"], il.config["value_policy"]["planning_width"]) == (
+        2,
+        2,
+    )
+    saved = torch.load(out / "last.pt", weights_only=True)
+    assert saved["predictor"] is not None and "predictor_optimizer" in saved["extra"]["resume"]
+    second = train("mp_rgl", quick_preset, out, settings, progress=False)
+    assert second.resumed and second.finished
+    last = load_checkpoint(out / "last.pt", "mp_rgl")
+    moved = any(
+        not torch.equal(last.predictor.state_dict()[k], v)
+        for k, v in saved["predictor"]["state_dict"].items()
+    )
+    assert moved  # the predictor kept learning during RL, from its saved state
+    rows = _rows(out / "curves.csv")
+    assert any(r["predictor_loss"] for r in rows if r["phase"] == "rl")
+    policy = load_learned_policy("mp_rgl", out / "best.pt")
+    assert policy.describe()["information"] == "learned" and policy.value_policy.planning_depth == 2
+    # the command line evaluates it, and its d = 1 variant
+    ev = tmp_path / "ev"
+    args = ["evaluate", "--policy", "mp_rgl", "--checkpoint", str(out / "best.pt"), "--preset", quick_preset]
+    args += ["--scenario", "circle_crossing", "--episodes", "2", "--no-progress", "--json", "--out", str(ev)]
+    assert main([*args, "--planning-depth", "1"]) == 0
+    manifest = json.loads((ev / "manifest.json").read_text())
+    assert manifest["policy"]["planning_depth"] == 1
+    # a SARL checkpoint has no predictor: 'learned' is refused with a clear message
+    sarl = tmp_path / "sarl"
+    train("sarl", quick_preset, sarl, load_train_settings(tiny), progress=False)
+    capsys.readouterr()
+    code = main(
+        [
+            "evaluate",
+            "--policy",
+            "sarl",
+            "--checkpoint",
+            str(sarl / "best.pt"),
+            "--preset",
+            quick_preset,
+            "--information",
+            "learned",
+            "--episodes",
+            "1",
+            "--scenario",
+            "circle_crossing",
+            "--out",
+            str(tmp_path / "ev2"),
+            "--no-progress",
+        ]
+    )
+    assert code == 2
+    assert "stores no state predictor" in capsys.readouterr().err

@@ -493,10 +493,11 @@ def _train(
                     torch.Generator().manual_seed(seeds["sampling"] ^ 0x9E3D),
                     device,
                 )
-                say(
-                    f"imitation: state predictor position MSE {predictor_losses[-1]:.4g} m² "
-                    f"after {il.epochs} epochs"
-                )
+                if predictor_losses:
+                    say(
+                        f"imitation: state predictor position MSE {predictor_losses[-1]:.4g} m² "
+                        f"after {il.epochs} epochs"
+                    )
             save(il_path, {"phase": "imitation", "il_losses": losses, "predictor_losses": predictor_losses})
         else:
             il_loss = math.nan
