@@ -4,12 +4,16 @@ Results live in an output directory:
 
     manifest.json                  what was run (preset, policy, cells); checked on resume
     episodes/<cell>/<a>-<b>.parquet  one row per episode (ids, outcome, every metric), atomic
+    trajectories/<cell>/<a>-<b>.parquet  every episode's trajectory (docs/trajectory_format.md), unless
+                                   trajectories=False; episode keys "<scenario>/<visibility>/<index>"
     summary.json / summary.csv     per (policy, scenario, visibility) and pooled aggregates
     table2.md / table2.tex         the paper's Table II layout (+ per-scenario tables)
     table3.md / table3.tex         the paper's Table III layout (M_VI side preference)
 
 A chunk file is written only when all its episodes are scored, so an interrupted run resumes by
-skipping the chunk files that exist: nothing finished is recomputed or lost.
+skipping the chunk files that exist: nothing finished is recomputed or lost. With trajectories, the
+trajectory file is written first and a chunk counts as done only when both files exist; a chunk that
+has one without the other is simulated again (episodes are deterministic, so both are rewritten).
 """
 
 from __future__ import annotations
@@ -52,9 +56,19 @@ class ProtocolResult:
 
 
 def simulate_chunk(
-    policy: Policy, preset: Preset, cell: Cell, start: int, stop: int, label: str, batch_size: int = 256
+    policy: Policy,
+    preset: Preset,
+    cell: Cell,
+    start: int,
+    stop: int,
+    label: str,
+    batch_size: int = 256,
+    until: int | None = None,
 ) -> list[Trajectory]:
-    """Simulates episodes [start, stop) of a cell; trajectories in index order."""
+    """Simulates episodes [start, stop) of a cell; trajectories in index order.
+
+    ``until``: stop as soon as the episode of this index has finished (replay of one episode).
+    """
     settings = cell_world_settings(preset, cell)
     world = World(
         settings,
@@ -70,6 +84,8 @@ def simulate_chunk(
     oracle = getattr(policy, "information", "none") == "oracle"
     while world.busy:
         trajs.extend(world.step(policy.act(world.observe(oracle=oracle))).finished)
+        if until is not None and any(t.settings["index"] == until for t in trajs):
+            break
     return sorted(trajs, key=lambda t: t.settings["index"])
 
 
@@ -96,6 +112,24 @@ def score_trajectories(trajs: list[Trajectory], cell: Cell, label: str) -> list[
     return rows, sorted({(w.category.__name__, str(w.message)) for w in caught})
 
 
+def episode_id(scenario: str, visibility: str, index: int) -> str:
+    """The id of an evaluated episode, e.g. ``passing/invisible/3`` (see evaluate/results.py)."""
+    return f"{scenario}/{visibility}/{int(index)}"
+
+
+def store_and_score(
+    trajs: list[Trajectory], cell: Cell, label: str, traj_path: Path | None
+) -> tuple[list[dict[str, Any]], list[tuple[str, str]]]:
+    """Writes the chunk's trajectories (when ``traj_path`` is given), then scores them (in a worker)."""
+    if traj_path is not None:
+        from socialnav.trajectory_io import write_trajectories
+
+        for traj in trajs:
+            traj.settings["episode"] = episode_id(cell.scenario, cell.visibility, traj.settings["index"])
+        write_trajectories(traj_path, trajs)
+    return score_trajectories(trajs, cell, label)
+
+
 def _reissue(notes: list[tuple[str, str]]) -> None:
     # Warnings raised while scoring in a worker are re-raised here, where the caller can see them.
     import socialnav.metrics as metrics
@@ -117,6 +151,7 @@ def run_protocol(
     extra_manifest: dict | None = None,
     batch_size: int = 256,
     workers: int | None = None,
+    trajectories: bool = True,
 ) -> ProtocolResult:
     """Runs (or resumes) the protocol of ``preset`` for ``policy`` and writes every result file.
 
@@ -131,6 +166,8 @@ def run_protocol(
         batch_size: Episodes simulated in lockstep.
         workers: Processes that score finished chunks while the next chunk is simulated (default:
             one per core, at most 4; 0 scores in this process).
+        trajectories: Keep every episode's trajectory under ``trajectories/`` (for ``socialnav
+            replay``, ``render`` and ``report``).
 
     Raises:
         ResumeMismatchError: ``out_dir`` holds a different run's results.
@@ -146,6 +183,10 @@ def run_protocol(
             {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells
         ],
         "chunk_size": chunk,
+        # replay re-simulates a whole chunk in batches of this size, so that a learned policy sees
+        # the same batch composition as during the run
+        "batch_size": batch_size,
+        "trajectories": bool(trajectories),
         **(extra_manifest or {}),
     }
     _check_or_write_manifest(out, manifest)
@@ -154,7 +195,7 @@ def run_protocol(
         (cell, a, b)
         for cell in cells
         for a, b in cell.chunks(chunk)
-        if not _chunk_path(out, cell, a, b).exists()
+        if not _chunk_done(out, cell, a, b, trajectories)
     ]
     total = sum(c.episodes for c in cells)
     done = total - sum(b - a for _, a, b in todo)
@@ -177,10 +218,13 @@ def run_protocol(
         for cell, a, b in todo:
             bar.set_description(f"{label} {cell.scenario} {cell.visibility}")
             trajs = simulate_chunk(policy, preset, cell, a, b, label, batch_size)
+            traj_path = _trajectory_path(out, cell, a, b) if trajectories else None
+            if traj_path is not None:
+                traj_path.parent.mkdir(parents=True, exist_ok=True)
             job = (
-                pool.submit(score_trajectories, trajs, cell, label)
+                pool.submit(store_and_score, trajs, cell, label, traj_path)
                 if pool
-                else score_trajectories(trajs, cell, label)
+                else store_and_score(trajs, cell, label, traj_path)
             )
             pending.append((cell, a, b, job))
             while len(pending) > (workers if pool else 0):
@@ -219,6 +263,16 @@ def read_episode_rows(out: Path, cells: list[Cell], chunk: int) -> list[dict[str
 
 def _chunk_path(out: Path, cell: Cell, a: int, b: int) -> Path:
     return out / "episodes" / cell.key / f"{a:05d}-{b:05d}.parquet"
+
+
+def _trajectory_path(out: Path, cell: Cell, a: int, b: int) -> Path:
+    return out / "trajectories" / cell.key / f"{a:05d}-{b:05d}.parquet"
+
+
+def _chunk_done(out: Path, cell: Cell, a: int, b: int, trajectories: bool) -> bool:
+    return _chunk_path(out, cell, a, b).exists() and (
+        not trajectories or _trajectory_path(out, cell, a, b).exists()
+    )
 
 
 def _check_or_write_manifest(out: Path, manifest: dict) -> None:
