@@ -398,7 +398,8 @@ table.mini{font-size:.8em;margin-top:.5em}table.mini td{padding:0 .6em 0 0}
 figure{display:inline-block;margin:.5em 1em .5em 0;vertical-align:top}
 figure img{max-width:100%;border:1px solid #eee}figcaption{font-size:.8em;color:#555;max-width:60em}
 #viewer{display:flex;gap:1.5em;flex-wrap:wrap}#viewer-canvas{border:1px solid #ccc;background:#fff}
-.controls label{display:block;font-size:.85em;margin:.4em 0 .1em}.controls select{min-width:18em;max-width:28em}
+.controls label{display:block;font-size:.85em;margin:.4em 0 .1em}
+.controls select{min-width:18em;max-width:28em}.controls #sel-speed{min-width:0}
 .controls button{font-size:1em;padding:.3em 1em;margin:.6em .4em .2em 0}
 pre{background:#f7f7f7;padding:.6em;font-size:.8em;overflow-x:auto}
 """
@@ -425,7 +426,8 @@ def _viewer_html(data: dict[str, Any]) -> str:
     <label for="sel-episode">Episode</label><select id="sel-episode"></select>
     <div><button id="btn-play" type="button">▶ Play</button>
       <select id="sel-speed" aria-label="speed"><option value="0.5">0.5×</option>
-      <option value="1" selected>1×</option><option value="2">2×</option><option value="4">4×</option></select></div>
+      <option value="1" selected>1×</option><option value="2">2×</option>
+      <option value="4">4×</option></select></div>
     <input id="scrub" type="range" min="0" max="0" value="0" style="width:100%" aria-label="time">
     <div id="time-label"></div>
     <label><input type="checkbox" id="ov-trails" checked> trails</label>
