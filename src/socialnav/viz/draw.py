@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from socialnav.trajectory import Trajectory
-from socialnav.viz.geometry import EpisodeView, episode_view, scene_bounds, velocity_rectangle
+from socialnav.viz.geometry import EpisodeView, episode_view, parse_overlays, scene_bounds, velocity_rectangle
 
 ROBOT_FACE = "#ffd23f"
 ROBOT_EDGE = "#111111"
@@ -72,6 +72,7 @@ def plot_trajectory(
     """
     from matplotlib.patches import Circle, Polygon
 
+    overlays = parse_overlays(overlays)
     view = episode_view(traj, eps, tau)
     fig = new_figure(size_px)
     ax = fig.add_subplot(1, 1, 1)
@@ -120,7 +121,8 @@ def plot_trajectory(
     if hits.size:
         ax.plot(pos[hits, 0, 0], pos[hits, 0, 1], "x", color=VIOLATION, ms=12, mew=2.5, label="collision")
     if "personal_space" in overlays:
-        for k in stamps:
+        # grey rings at the stamps, red ones at every flagged sample
+        for k in sorted(set(stamps) | set(np.flatnonzero(view.m1).tolist())):
             flagged = bool(view.m1[k])
             ax.add_patch(
                 Circle(
@@ -128,9 +130,9 @@ def plot_trajectory(
                     traj.radii[0] + eps,
                     fill=False,
                     ls="--",
-                    lw=0.9,
+                    lw=1.8 if flagged else 0.9,
                     edgecolor=VIOLATION if flagged else "#555555",
-                    alpha=0.8,
+                    alpha=1.0 if flagged else 0.8,
                 )
             )
         n = int(view.m1.sum())
@@ -222,7 +224,7 @@ class FrameRenderer:
         from matplotlib.patches import Circle, Polygon
 
         self.view = episode_view(traj, eps, tau)
-        self.traj, self.overlays = traj, tuple(overlays)
+        self.traj, self.overlays = traj, parse_overlays(overlays)
         self.fig = new_figure(size_px)
         ax = self.ax = self.fig.add_subplot(1, 1, 1)
         x0, x1, y0, y1 = scene_bounds(traj)

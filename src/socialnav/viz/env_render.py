@@ -80,7 +80,11 @@ class EnvRecorder:
         from socialnav.viz.draw import FrameRenderer
 
         traj = Trajectory.from_positions(
-            np.stack(self.positions), self.dt, radii=self.radii, v_pref=self.v_pref, goals=self.goals,
+            np.stack(self.positions),
+            self.dt,
+            radii=self.radii,
+            v_pref=self.v_pref,
+            goals=self.goals,
             outcome=self.outcome if self.outcome in ("success", "collision", "timeout") else "unknown",
             settings={"episode": f"{self.scenario} #{self.index}"},
         )
