@@ -101,8 +101,10 @@ def load_source(source: str | Path, episode: str | None, resample: bool = False)
 
 
 def _run_render(args: argparse.Namespace) -> int:
+    from socialnav.viz import require_viz
     from socialnav.viz.geometry import parse_overlays
 
+    require_viz()
     overlays = parse_overlays(args.overlay)
     fmt = args.format
     if fmt is None:

@@ -98,7 +98,9 @@ def write_report(
     from tqdm.auto import tqdm
 
     from socialnav.evaluate.files import atomic_write_text
+    from socialnav.viz import require_viz
 
+    require_viz()
     paths = [Path(results)] if isinstance(results, str | Path) else [Path(p) for p in results]
     if not paths:
         raise ValueError("report: give at least one result directory")
