@@ -80,6 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="score social metrics on every episode, not only successful ones (logs)",
     )
     me.add_argument("--json", action="store_true", help="print one JSON object")
+    me.add_argument("--quiet", action="store_true", help="no progress bar")
     me.set_defaults(run=cmd_metrics)
 
     ls = sub.add_parser("list", help="registered scenarios, policies, human models, metrics and presets")
@@ -152,7 +153,10 @@ def cmd_metrics(args: argparse.Namespace) -> int:
     rows = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        for i, traj in enumerate(trajs):
+        from tqdm.auto import tqdm
+
+        shown = not args.quiet and len(trajs) >= 100  # a bar only where scoring takes a while
+        for i, traj in enumerate(tqdm(trajs, desc="scoring", unit="ep", disable=not shown, leave=False)):
             episode = traj.settings.get("episode", i)
             rows.append(
                 {
