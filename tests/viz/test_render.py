@@ -280,3 +280,20 @@ def test_env_human_mode_without_display_is_a_clear_error(monkeypatch):
         SocialNavEnv(render_mode="human")
     with pytest.raises(ValueError, match="render_mode must be one of rgb_array, human"):
         SocialNavEnv(render_mode="video")
+
+
+def test_html_page_of_one_episode(run_dir, tmp_path):
+    import json
+    import re
+
+    out = tmp_path / "ep.html"
+    assert (
+        main(["render", str(run_dir), "--episode", "passing/invisible/2", "--out", str(out), "--quiet"]) == 0
+    )
+    text = out.read_text()
+    data = json.loads(
+        re.search(r'type="application/json">(.*?)</script>', text, re.S).group(1).replace("<\\/", "</")
+    )
+    assert [e["id"] for e in data["episodes"]] == ["passing/invisible/2"]
+    assert data["episodes"][0]["side"][1] in ("left", "right", "unlabelled")
+    assert "<script src" not in text and "viewer-canvas" in text
