@@ -1,6 +1,6 @@
-"""The ``socialnav`` command line: evaluate, metrics, list, train.
+"""The ``socialnav`` command line: evaluate, metrics, list, train, replay, render, report.
 
-socialnav evaluate --policy orca --preset wang2022
+socialnav evaluate --policy orca --preset wang2022 --report
 socialnav metrics my_robot_log.parquet --json
 socialnav list
 """
@@ -152,6 +152,13 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--batch-size", type=int, default=256, help="episodes simulated in lockstep")
     ev.add_argument("--json", action="store_true", help="print one JSON summary object instead of tables")
     ev.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    ev.add_argument("--quiet", action="store_true", help="no progress bar, no tables (errors still print)")
+    ev.add_argument(
+        "--no-trajectories",
+        action="store_true",
+        help="do not keep each episode's trajectory (then replay, render and the viewer are unavailable)",
+    )
+    ev.add_argument("--report", action="store_true", help="also write the HTML report (report.html)")
     ev.set_defaults(run=cmd_evaluate)
 
     me = sub.add_parser("metrics", help="score trajectories from a Parquet/CSV file (e.g. a robot log)")
@@ -164,15 +171,20 @@ def build_parser() -> argparse.ArgumentParser:
         help="score social metrics on every episode, not only successful ones (logs)",
     )
     me.add_argument("--json", action="store_true", help="print one JSON object")
+    me.add_argument("--quiet", action="store_true", help="no progress bar")
     me.set_defaults(run=cmd_metrics)
 
     ls = sub.add_parser("list", help="registered scenarios, policies, human models, metrics and presets")
     ls.add_argument("--json", action="store_true")
     ls.set_defaults(run=cmd_list)
 
+    from socialnav.evaluate.cli import add_replay_parser
     from socialnav.train.cli import add_train_parser  # torch is imported only when training runs
+    from socialnav.viz.cli import add_viz_parsers
 
     add_train_parser(sub)
+    add_replay_parser(sub)
+    add_viz_parsers(sub)
     return parser
 
 
@@ -207,20 +219,28 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             scenarios=args.scenario,
             episodes=args.episodes,
             visibility=args.visibility,
-            progress=not args.no_progress,
+            progress=not (args.no_progress or args.quiet),
             batch_size=args.batch_size,
+            trajectories=not args.no_trajectories,
             extra_manifest={"checkpoint": str(args.checkpoint) if args.checkpoint else None},
         )
     for note in sorted({str(w.message) for w in caught}):  # once per run, not once per episode
         print(f"warning: {note}", file=sys.stderr)
+    if args.report:
+        from socialnav.viz.report import write_report
+
+        write_report(out, out / "report.html", progress=not (args.no_progress or args.quiet))
     if args.json:
         print(json.dumps({"preset": preset.name, "out": str(out), "rows": _clean(result.summary)}))
-    else:
+    elif not args.quiet:
         print(table2(result.summary, "md"))
         print(table3(result.summary, "md"))
         print(
             f"{result.computed_episodes} episodes simulated, results in {out}/ "
-            f"(summary.json, summary.csv, table2/3 .md and .tex, episodes/*.parquet)"
+            f"(summary.json, summary.csv, table2/3 .md and .tex, episodes/*.parquet"
+            + ("" if args.no_trajectories else ", trajectories/*.parquet")
+            + (", report.html" if args.report else "")
+            + ")"
         )
     return 0
 
@@ -238,7 +258,10 @@ def cmd_metrics(args: argparse.Namespace) -> int:
     rows = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        for i, traj in enumerate(trajs):
+        from tqdm.auto import tqdm
+
+        shown = not args.quiet and len(trajs) >= 100  # a bar only where scoring takes a while
+        for i, traj in enumerate(tqdm(trajs, desc="scoring", unit="ep", disable=not shown, leave=False)):
             episode = traj.settings.get("episode", i)
             rows.append(
                 {

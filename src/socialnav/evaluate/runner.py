@@ -4,6 +4,8 @@ Results live in an output directory:
 
     manifest.json                  what was run (preset, policy, cells); checked on resume
     episodes/<cell>/<a>-<b>.parquet  one row per episode (ids, outcome, every metric), atomic
+    trajectories/<cell>/<a>-<b>.parquet  every episode's trajectory (docs/trajectory_format.md), unless
+                                   trajectories=False; episode keys "<scenario>/<visibility>/<index>"
     summary.json / summary.csv     per (policy, scenario, visibility) and pooled aggregates
     table2.md / table2.tex         the paper's Table II layout (+ per-scenario tables)
     table3.md / table3.tex         the paper's Table III layout (M_VI side preference)
@@ -12,7 +14,10 @@ A chunk file is written only when all its episodes are scored, so an interrupted
 skipping the chunk files that exist: nothing finished is recomputed or lost. Every chunk file carries
 the fingerprint of the manifest it was computed for and Parquet page checksums; a file of another
 run, or a damaged one, is refused by name instead of being scored. A run holds ``.lock`` in the
-directory while it writes there: a second run on the same directory is refused at once.
+directory while it writes there: a second run on the same directory is refused at once. With
+trajectories, the trajectory file is written first and a chunk counts as done only when both files
+exist; a chunk that has one without the other is simulated again (episodes are deterministic, so both
+are rewritten identically).
 """
 
 from __future__ import annotations
@@ -65,9 +70,19 @@ class ProtocolResult:
 
 
 def simulate_chunk(
-    policy: Policy, preset: Preset, cell: Cell, start: int, stop: int, label: str, batch_size: int = 256
+    policy: Policy,
+    preset: Preset,
+    cell: Cell,
+    start: int,
+    stop: int,
+    label: str,
+    batch_size: int = 256,
+    until: int | None = None,
 ) -> list[Trajectory]:
-    """Simulates episodes [start, stop) of a cell; trajectories in index order."""
+    """Simulates episodes [start, stop) of a cell; trajectories in index order.
+
+    ``until``: stop as soon as the episode of this index has finished (replay of one episode).
+    """
     settings = cell_world_settings(preset, cell)
     world = World(
         settings,
@@ -84,6 +99,8 @@ def simulate_chunk(
         world.reset()
         while world.busy:
             trajs.extend(world.step(policy.act(world.observe(oracle=oracle))).finished)
+            if until is not None and any(t.settings["index"] == until for t in trajs):
+                break
     return sorted(trajs, key=lambda t: t.settings["index"])
 
 
@@ -110,6 +127,24 @@ def score_trajectories(trajs: list[Trajectory], cell: Cell, label: str) -> list[
     return rows, sorted({(w.category.__name__, str(w.message)) for w in caught})
 
 
+def episode_id(scenario: str, visibility: str, index: int) -> str:
+    """The id of an evaluated episode, e.g. ``passing/invisible/3`` (see evaluate/results.py)."""
+    return f"{scenario}/{visibility}/{int(index)}"
+
+
+def store_and_score(
+    trajs: list[Trajectory], cell: Cell, label: str, traj_path: Path | None
+) -> tuple[list[dict[str, Any]], list[tuple[str, str]]]:
+    """Writes the chunk's trajectories (when ``traj_path`` is given), then scores them (in a worker)."""
+    if traj_path is not None:
+        from socialnav.trajectory_io import write_trajectories
+
+        for traj in trajs:
+            traj.settings["episode"] = episode_id(cell.scenario, cell.visibility, traj.settings["index"])
+        write_trajectories(traj_path, trajs)
+    return score_trajectories(trajs, cell, label)
+
+
 def _reissue(notes: list[tuple[str, str]]) -> None:
     # Warnings raised while scoring in a worker are re-raised here, where the caller can see them.
     import socialnav.metrics as metrics
@@ -131,6 +166,7 @@ def run_protocol(
     extra_manifest: dict | None = None,
     batch_size: int = 256,
     workers: int | None = None,
+    trajectories: bool = True,
 ) -> ProtocolResult:
     """Runs (or resumes) the protocol of ``preset`` for ``policy`` and writes every result file.
 
@@ -145,6 +181,8 @@ def run_protocol(
         batch_size: Episodes simulated in lockstep.
         workers: Processes that score finished chunks while the next chunk is simulated (default:
             one per core, at most 4; 0 scores in this process).
+        trajectories: Keep every episode's trajectory under ``trajectories/`` (for ``socialnav
+            replay``, ``render`` and ``report``).
 
     Raises:
         ResumeMismatchError: ``out_dir`` holds a different run's results.
@@ -163,6 +201,10 @@ def run_protocol(
                 {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells
             ],
             "chunk_size": chunk,
+            # replay re-simulates a whole chunk in batches of this size, so that a learned policy sees
+            # the same batch composition as during the run
+            "batch_size": batch_size,
+            "trajectories": bool(trajectories),
             **(extra_manifest or {}),
         }
     )
@@ -177,13 +219,13 @@ def run_protocol(
         _refuse_foreign_chunks(out, expected)
         todo = []
         for path, (cell, a, b) in expected.items():
-            if path.exists():
+            if _chunk_done(out, cell, a, b, trajectories):
                 _read_chunk(path, cell, a, b, label, stamp)  # damaged or foreign files are refused now
             else:
                 todo.append((cell, a, b))
         computed = _simulate_and_score(
             policy, preset, out, todo, label, stamp, sum(c.episodes for c in cells), progress, batch_size,
-            workers,
+            workers, trajectories,
         )
         rows = read_episode_rows(out, cells, chunk, label, stamp)
         summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
@@ -202,6 +244,7 @@ def _simulate_and_score(
     progress: bool,
     batch_size: int,
     workers: int | None,
+    trajectories: bool = True,
 ) -> int:
     """Simulates the chunks ``todo`` and writes one scored file per chunk; returns the episodes done."""
     chunk_meta = {CHUNK_STAMP_KEY: stamp}
@@ -226,10 +269,13 @@ def _simulate_and_score(
         for cell, a, b in todo:
             bar.set_description(f"{label} {cell.scenario} {cell.visibility}")
             trajs = simulate_chunk(policy, preset, cell, a, b, label, batch_size)
+            traj_path = _trajectory_path(out, cell, a, b) if trajectories else None
+            if traj_path is not None:
+                traj_path.parent.mkdir(parents=True, exist_ok=True)
             job = (
-                pool.submit(score_trajectories, trajs, cell, label)
+                pool.submit(store_and_score, trajs, cell, label, traj_path)
                 if pool
-                else score_trajectories(trajs, cell, label)
+                else store_and_score(trajs, cell, label, traj_path)
             )
             pending.append((cell, a, b, job))
             while len(pending) > (workers if pool else 0):
@@ -311,6 +357,16 @@ def _refuse_foreign_chunks(out: Path, expected: dict[Path, Any]) -> None:
 
 def _chunk_path(out: Path, cell: Cell, a: int, b: int) -> Path:
     return out / "episodes" / cell.key / f"{a:05d}-{b:05d}.parquet"
+
+
+def _trajectory_path(out: Path, cell: Cell, a: int, b: int) -> Path:
+    return out / "trajectories" / cell.key / f"{a:05d}-{b:05d}.parquet"
+
+
+def _chunk_done(out: Path, cell: Cell, a: int, b: int, trajectories: bool) -> bool:
+    return _chunk_path(out, cell, a, b).exists() and (
+        not trajectories or _trajectory_path(out, cell, a, b).exists()
+    )
 
 
 def _validate_cells(preset: Preset, cells: list[Cell], batch_size: int) -> None:

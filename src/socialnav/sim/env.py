@@ -23,6 +23,7 @@ from socialnav.sim.actions import discrete_actions
 from socialnav.sim.observation import Observation
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
+from socialnav.viz.env_render import available_render_modes
 
 OUTCOME_CODES = {"running": 0, "success": 1, "collision": 2, "timeout": 3}
 
@@ -93,9 +94,11 @@ class SocialNavEnv(gym.Env):
         world: World settings (dict or WorldSettings).
         split: Episode split ("train", "val", "test").
         action_set: "continuous" or "discrete" (CrowdSim's 81 actions).
+        render_mode: None, "rgb_array" (``render()`` returns the frame) or "human" (a window, where
+            a display exists); drawn by socialnav.viz (needs the ``viz`` extra).
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": available_render_modes(), "render_fps": 4}
 
     def __init__(
         self,
@@ -104,7 +107,15 @@ class SocialNavEnv(gym.Env):
         world: dict | WorldSettings | None = None,
         split: str = "train",
         action_set: str = "continuous",
+        render_mode: str | None = None,
     ):
+        self._recorder = None
+        if render_mode is not None:
+            from socialnav.viz.env_render import EnvRecorder, check_render_mode
+
+            check_render_mode(render_mode)
+            self._recorder = EnvRecorder()
+        self.render_mode = render_mode
         self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set)
         self._world = World(self._cfg.settings, self._cfg.scenario, 1, split=split, record=False)
         self._next_index = 0
@@ -120,7 +131,13 @@ class SocialNavEnv(gym.Env):
             self._next_index = int(seed)
         obs = self._world.restart(self._next_index)
         self._next_index += 1
-        return self._single(obs), self._info(outcome="running")
+        single = self._single(obs)
+        if self._recorder is not None:
+            self._recorder.start(self._world, single, self._next_index - 1)
+            self.metadata = {**self.metadata, "render_fps": 1.0 / self._cfg.settings.dt}
+            if self.render_mode == "human":
+                self.render()
+        return single, self._info(outcome="running")
 
     def step(self, action):
         result = self._world.step(self._cfg.to_actions(action), final_observation=True)
@@ -131,12 +148,32 @@ class SocialNavEnv(gym.Env):
         else:
             obs = self._world.observe()
             outcome = "running"
-        return self._single(obs), float(result.reward[0]), terminated, truncated, self._info(outcome)
+        single = self._single(obs)
+        if self._recorder is not None:
+            self._recorder.record(single, outcome)
+            if self.render_mode == "human":
+                self.render()
+        return single, float(result.reward[0]), terminated, truncated, self._info(outcome)
+
+    def render(self):
+        """The current episode so far as an RGB array (``rgb_array``), or shown in a window (``human``)."""
+        if self._recorder is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to make()")
+            return None
+        if not self._recorder.positions:
+            raise RuntimeError("render() before reset(): nothing to draw yet")
+        if self.render_mode == "human":
+            self._recorder.show(self.metadata["render_fps"])
+            return None
+        return self._recorder.frame()
 
     def close(self) -> None:
-        """Stops the world's native threads now."""
+        """Closes the render window, if any, and stops the world's native threads now."""
+        if getattr(self, "_recorder", None) is not None:
+            self._recorder.close()
         if getattr(self, "_world", None) is not None:
             self._world.close()
+        super().close()
 
     def _single(self, obs: Observation) -> dict[str, np.ndarray]:
         return {k: v[0] for k, v in _obs_rows(obs).items()}

@@ -36,6 +36,7 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     )
     tr.add_argument("--rl-episodes", type=int, dest="rl_episodes", help="RL episodes (default 10000)")
     tr.add_argument("--no-progress", action="store_true")
+    tr.add_argument("--quiet", action="store_true", dest="no_progress", help="same as --no-progress")
     tr.set_defaults(run=_run)
 
 

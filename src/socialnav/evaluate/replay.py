@@ -1,0 +1,139 @@
+"""Re-simulates one stored episode from a result directory's manifest and compares it bit for bit.
+
+The manifest records the preset, the policy (name, parameters, information setting, checkpoint) and
+the batch size. Replay rebuilds them and re-simulates the episode's whole chunk up to that episode in
+batches of the recorded size: native policies give the same episode in any batch, but a learned
+policy evaluates only the active rows, so its floating-point results could depend on which other
+episodes share the batch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from socialnav.evaluate.results import ResultsError, find_episode, load_episode, load_manifest
+from socialnav.trajectory import Trajectory
+
+_ARRAYS = ("positions", "velocities", "radii", "v_pref", "goals", "min_clearance", "continuation")
+
+
+@dataclass(frozen=True)
+class ReplayResult:
+    episode_id: str
+    stored: Trajectory
+    replayed: Trajectory
+    identical: bool
+    max_abs_diff: float  # over every compared array; inf when shapes differ
+    differences: list[str]  # one line per field that differs
+
+
+def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
+    """The policy a manifest describes, built as `socialnav evaluate` built it."""
+    from socialnav.policies.base import get_policy_entry
+    from socialnav.policies.loading import build_policy
+
+    desc = dict(manifest.get("policy") or {})
+    name = desc.get("policy")
+    if not name:
+        raise ResultsError("manifest.json: the policy's name (policy.policy) is not recorded")
+    try:
+        entry = get_policy_entry(name)
+    except KeyError as err:
+        raise ResultsError(
+            f"manifest.json: policy {name!r} is not registered in this installation; {err.args[0]}"
+        ) from None
+    if entry.learned:
+        checkpoint = desc.get("checkpoint") or manifest.get("checkpoint")
+        if checkpoint and not Path(checkpoint).is_file():
+            raise ResultsError(f"manifest.json: the policy's checkpoint {checkpoint} does not exist")
+        policy = build_policy(name, preset, checkpoint, information=desc.get("information"))
+    else:
+        params = {k: desc[k] for k in entry.parameters if k in desc}
+        policy = build_policy(name, preset, None, **params)
+    rebuilt = {"label": desc.get("label"), **policy.describe()}
+    if json_norm(rebuilt) != json_norm(desc):
+        raise ResultsError(
+            f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"
+        )
+    return policy
+
+
+def json_norm(value: Any) -> Any:
+    import json
+
+    return json.loads(json.dumps(value, default=str))
+
+
+def replay_episode(results_dir: str | Path, episode_id: str) -> ReplayResult:
+    """Re-simulates ``episode_id`` and compares it with the stored trajectory.
+
+    Raises:
+        ResultsError: Not a result directory, unknown episode, or a policy that cannot be rebuilt.
+    """
+    from socialnav.config import ConfigError, from_dict
+    from socialnav.evaluate.plan import Cell, _is_single_human
+    from socialnav.evaluate.runner import episode_id as make_id
+    from socialnav.evaluate.runner import simulate_chunk
+    from socialnav.presets import Preset
+
+    root = Path(results_dir)
+    manifest = load_manifest(root)
+    ref = find_episode(root, episode_id)
+    stored = load_episode(root, ref.episode_id)
+    try:
+        preset = from_dict(Preset, manifest["preset"])
+    except (KeyError, ConfigError) as err:
+        raise ResultsError(f"{root}/manifest.json: cannot rebuild the preset ({err})") from None
+    cells = {(c["scenario"], c["visibility"]): c for c in manifest.get("cells", [])}
+    recorded = cells.get((ref.scenario, ref.visibility))
+    if recorded is None:
+        raise ResultsError(f"{root}/manifest.json: no cell {ref.scenario}/{ref.visibility}")
+    single = ref.scenario in preset.evaluation.single_human or _is_single_human(ref.scenario)
+    cell = Cell(ref.scenario, ref.visibility, int(recorded["episodes"]), single)
+    policy = rebuild_policy(manifest, preset)
+    a, b = ref.chunk
+    trajs = simulate_chunk(
+        policy,
+        preset,
+        cell,
+        a,
+        b,
+        manifest["policy"].get("label") or policy.name,
+        int(manifest.get("batch_size", 256)),
+        until=ref.index,
+    )
+    replayed = next(t for t in trajs if t.settings["index"] == ref.index)
+    replayed.settings["episode"] = make_id(ref.scenario, ref.visibility, ref.index)
+    return compare(ref.episode_id, stored, replayed)
+
+
+def compare(episode_id: str, stored: Trajectory, replayed: Trajectory) -> ReplayResult:
+    """Bitwise comparison of every array, the outcome and the human-overlap count."""
+    diffs: list[str] = []
+    worst = 0.0
+    if stored.dt != replayed.dt:
+        diffs.append(f"dt: stored {stored.dt}, replayed {replayed.dt}")
+    if stored.outcome != replayed.outcome:
+        diffs.append(f"outcome: stored {stored.outcome}, replayed {replayed.outcome}")
+    if stored.human_overlaps != replayed.human_overlaps:
+        diffs.append(f"human_overlaps: stored {stored.human_overlaps}, replayed {replayed.human_overlaps}")
+    for name in _ARRAYS:
+        x, y = getattr(stored, name), getattr(replayed, name)
+        if x is None and y is None:
+            continue
+        if x is None or y is None or x.shape != y.shape:
+            shape = lambda v: None if v is None else v.shape  # noqa: E731
+            diffs.append(f"{name}: stored shape {shape(x)}, replayed shape {shape(y)}")
+            worst = float("inf")
+            continue
+        if not np.array_equal(x, y):
+            d = np.abs(x - y)
+            at = np.unravel_index(int(np.argmax(d)), d.shape)
+            diffs.append(f"{name}: max |difference| {d[at]:.3g} at index {tuple(int(i) for i in at)}")
+        if x.size:
+            worst = max(worst, float(np.max(np.abs(x - y))))
+    return ReplayResult(episode_id, stored, replayed, not diffs, worst, diffs)

@@ -1,0 +1,180 @@
+"""`socialnav render` and `socialnav report` argument parsing and commands (matplotlib imported lazily)."""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+FORMATS = ("png", "svg", "gif", "mp4", "html")
+
+
+def add_viz_parsers(sub: argparse._SubParsersAction) -> None:
+    rd = sub.add_parser(
+        "render",
+        help="draw one episode: plot (png/svg), animation (gif/mp4) or a viewer page (html)",
+        description="Draws one episode of an evaluation's result directory (stored trajectories) or of "
+        "a trajectory file (docs/trajectory_format.md).",
+    )
+    rd.add_argument(
+        "source", help="result directory of `socialnav evaluate`, or a .parquet/.csv trajectory file"
+    )
+    rd.add_argument(
+        "--episode",
+        help="episode id: <scenario>/<visibility>/<index> in a result directory, the episode key in a file "
+        "(optional when the file holds one episode)",
+    )
+    rd.add_argument("--format", choices=FORMATS, help="default: from --out's suffix, else png")
+    rd.add_argument("--out", help="output file (default: <source dir>/renders/<episode>.<format>)")
+    rd.add_argument(
+        "--overlay",
+        nargs="+",
+        default=[],
+        help="metric geometry: personal_space (M_I), velocity_rectangles (M_II), side_preference (M_VI), all",
+    )
+    rd.add_argument("--every", type=int, help="plots: steps between time-stamped discs (default ~8 stamps)")
+    rd.add_argument("--stride", type=int, default=1, help="animations: show every n-th sample")
+    rd.add_argument("--max-frames", type=int, default=400, help="animations: at most this many frames")
+    rd.add_argument("--speed", type=float, default=1.0, help="animations: playback speed x real time")
+    rd.add_argument("--eps", type=float, default=0.2, help="M_I threshold of the overlay [m] (default 0.2)")
+    rd.add_argument("--tau", type=float, default=1.0, help="M_II horizon of the overlay [s] (default 1)")
+    rd.add_argument("--resample", action="store_true", help="files: resample irregular timestamps")
+    rd.add_argument("--quiet", action="store_true", help="no progress bar, no message")
+    rd.set_defaults(run=_run_render)
+
+    rp = sub.add_parser(
+        "report",
+        help="one self-contained HTML report (tables, figures, settings, interactive episode viewer)",
+        description="Writes one HTML file that opens without network access: the paper's tables, metric "
+        "figures, every setting and threshold, and an episode viewer. Several result directories "
+        "(one per policy) are compared in one report.",
+    )
+    rp.add_argument("results", nargs="+", help="result directories of `socialnav evaluate`")
+    rp.add_argument("--out", help="HTML file (default <first result directory>/report.html)")
+    rp.add_argument("--curves", nargs="*", default=[], help="training curves.csv files to plot")
+    rp.add_argument(
+        "--viewer-episodes",
+        type=int,
+        default=3,
+        help="episodes per (policy, scenario, visibility) in the viewer, picked best/median/worst by a "
+        "metric (default 3; 0: no viewer)",
+    )
+    rp.add_argument("--no-figure-files", action="store_true", help="do not also write figures/*.png|svg")
+    rp.add_argument("--quiet", action="store_true", help="no progress bar, no message")
+    rp.set_defaults(run=_run_report)
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "episode"
+
+
+def load_source(source: str | Path, episode: str | None, resample: bool = False):
+    """(trajectory, default output directory) from a result directory or a trajectory file."""
+    from socialnav.trajectory import read_trajectories
+
+    path = Path(source)
+    if path.is_dir():
+        from socialnav.evaluate.results import list_episodes, load_episode
+
+        if episode is None:
+            ids = list_episodes(path)
+            shown = ", ".join(ids[:5]) + (", ..." if len(ids) > 5 else "")
+            raise ValueError(f"{path}: pass --episode <scenario>/<visibility>/<index> (stored: {shown})")
+        return load_episode(path, episode), path / "renders"
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such result directory or trajectory file")
+    trajs = read_trajectories(path, resample=resample, episodes=None if episode is None else [episode])
+    if not trajs:
+        keys = [str(t.settings.get("episode")) for t in read_trajectories(path, resample=resample)]
+        raise ValueError(
+            f"{path}: no episode {episode!r}; episodes in the file: {', '.join(keys[:20])}"
+            + (", ..." if len(keys) > 20 else "")
+        )
+    if len(trajs) > 1:
+        keys = [str(t.settings.get("episode")) for t in trajs]
+        raise ValueError(
+            f"{path} holds {len(trajs)} episodes: pass --episode KEY "
+            f"(one of {', '.join(keys[:20])}{', ...' if len(keys) > 20 else ''})"
+        )
+    return trajs[0], Path(".")
+
+
+def _run_render(args: argparse.Namespace) -> int:
+    from socialnav.viz import require_viz
+    from socialnav.viz.geometry import parse_overlays
+
+    require_viz()
+    overlays = parse_overlays(args.overlay)
+    fmt = args.format
+    if fmt is None:
+        suffix = Path(args.out).suffix.lower().lstrip(".") if args.out else ""
+        fmt = suffix if suffix in FORMATS else "png"
+    if args.out and Path(args.out).suffix.lower().lstrip(".") not in ("", fmt):
+        raise ValueError(f"--out {args.out} does not end in .{fmt} (the --format)")
+    traj, default_dir = load_source(args.source, args.episode, args.resample)
+    name = _safe(str(traj.settings.get("episode", "episode")))
+    out = Path(args.out) if args.out else default_dir / f"{name}.{fmt}"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    progress = not args.quiet
+    detail = ""
+    if fmt in ("png", "svg"):
+        from socialnav.evaluate.files import atomic_write
+        from socialnav.viz.draw import plot_trajectory
+
+        fig = plot_trajectory(traj, overlays=overlays, every=args.every, eps=args.eps, tau=args.tau)
+        atomic_write(out, lambda tmp: fig.savefig(tmp, format=fmt))
+    elif fmt == "gif":
+        from socialnav.viz.animate import write_gif
+
+        n = write_gif(
+            traj,
+            out,
+            overlays=overlays,
+            stride=args.stride,
+            max_frames=args.max_frames,
+            speed=args.speed,
+            progress=progress,
+        )
+        detail = f" ({n} frames)"
+    elif fmt == "mp4":
+        from socialnav.viz.animate import write_mp4
+
+        n = write_mp4(
+            traj,
+            out,
+            overlays=overlays,
+            stride=args.stride,
+            max_frames=args.max_frames,
+            speed=args.speed,
+            progress=progress,
+        )
+        detail = f" ({n} frames)"
+    else:
+        from socialnav.evaluate.files import atomic_write_text
+        from socialnav.viz.report import episode_page
+
+        atomic_write_text(out, episode_page(traj, eps=args.eps, tau=args.tau))
+    if not args.quiet:
+        print(f"wrote {out}{detail}", file=sys.stderr)
+    return 0
+
+
+def _run_report(args: argparse.Namespace) -> int:
+    from socialnav.viz.report import write_report
+
+    out = Path(args.out) if args.out else Path(args.results[0]) / "report.html"
+    info = write_report(
+        [Path(r) for r in args.results],
+        out,
+        curves=[Path(c) for c in args.curves],
+        viewer_episodes=args.viewer_episodes,
+        figure_files=not args.no_figure_files,
+        progress=not args.quiet,
+    )
+    if not args.quiet:
+        print(
+            f"wrote {out} ({info['bytes'] / 1e6:.2f} MB, {info['viewer_episodes']} episodes in the viewer)",
+            file=sys.stderr,
+        )
+    return 0

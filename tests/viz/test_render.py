@@ -1,0 +1,299 @@
+"""Episode plots, animations, overlays, metric figures and the env's rgb_array rendering."""
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+pytest.importorskip("matplotlib")
+PIL = pytest.importorskip("PIL")
+from PIL import Image  # noqa: E402
+
+from socialnav.cli import main  # noqa: E402
+from socialnav.evaluate.runner import run_protocol  # noqa: E402
+from socialnav.policies import make_policy  # noqa: E402
+from socialnav.presets import load_preset  # noqa: E402
+from socialnav.trajectory import Trajectory, write_trajectories  # noqa: E402
+from socialnav.viz import animate  # noqa: E402
+from socialnav.viz.draw import VIOLATION, frame_indices, plot_trajectory  # noqa: E402
+from socialnav.viz.geometry import episode_view, parse_overlays  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("viz-run")
+    preset = load_preset("wang2022")
+    preset = dataclasses.replace(preset, evaluation=dataclasses.replace(preset.evaluation, chunk_size=4))
+    run_protocol(
+        make_policy("orca", safety_space=0.2),
+        preset,
+        out,
+        scenarios=["circle_crossing", "passing"],
+        episodes=4,
+        progress=False,
+        workers=0,
+    )
+    return out
+
+
+def rgb(path) -> np.ndarray:
+    return np.asarray(Image.open(path).convert("RGB"))
+
+
+def assert_not_blank(img: np.ndarray) -> None:
+    assert img.std() > 10, "image is (nearly) uniform"
+    assert len(np.unique(img.reshape(-1, 3), axis=0)) > 20
+
+
+def red_pixels(img: np.ndarray) -> int:
+    r, g, b = (int(VIOLATION[i : i + 2], 16) for i in (1, 3, 5))
+    return int(
+        np.sum(
+            (abs(img[..., 0] - r) < 30)
+            & (abs(img[..., 1].astype(int) - g) < 30)
+            & (abs(img[..., 2].astype(int) - b) < 30)
+        )
+    )
+
+
+def close_pass() -> Trajectory:
+    """Robot up the y axis, one human standing 0.7 m to its side: clearance 0.1 m < ε = 0.2 m at y = 0."""
+    k = np.arange(9)
+    robot = np.stack([np.zeros(9), -2.0 + 0.5 * k], axis=1)
+    human = np.tile([0.7, 0.0], (9, 1))
+    return Trajectory.from_positions(
+        np.stack([robot, human], axis=1), 0.5, radii=0.3, goals=[[0, 2.5], [0.7, 0]], outcome="success"
+    )
+
+
+def test_plot_png_and_svg_from_a_result_directory(run_dir, tmp_path):
+    png, svg = tmp_path / "ep.png", tmp_path / "ep.svg"
+    assert (
+        main(
+            [
+                "render",
+                str(run_dir),
+                "--episode",
+                "circle_crossing/invisible/1",
+                "--out",
+                str(png),
+                "--overlay",
+                "all",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    img = rgb(png)
+    assert img.shape == (720, 720, 3)
+    assert_not_blank(img)
+    assert (
+        main(["render", str(run_dir), "--episode", "passing/invisible/3", "--out", str(svg), "--quiet"]) == 0
+    )
+    text = svg.read_text()
+    assert text.lstrip().startswith("<?xml") and "<svg" in text and "passing/invisible/3" in text
+
+
+def test_default_output_goes_under_renders(run_dir):
+    assert main(["render", str(run_dir), "--episode", "passing/invisible/0", "--quiet"]) == 0
+    assert (run_dir / "renders" / "passing_invisible_0.png").stat().st_size > 1000
+
+
+def test_gif_has_one_frame_per_sample(run_dir, tmp_path):
+    from socialnav.evaluate.results import load_episode
+
+    traj = load_episode(run_dir, "circle_crossing/visible/2")
+    samples = traj.positions.shape[0] + traj.continuation.shape[0]
+    out = tmp_path / "a.gif"
+    assert (
+        main(
+            [
+                "render",
+                str(run_dir),
+                "--episode",
+                "circle_crossing/visible/2",
+                "--format",
+                "gif",
+                "--out",
+                str(out),
+                "--max-frames",
+                "1000",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    gif = Image.open(out)
+    assert gif.n_frames == samples and gif.size == (560, 560)
+    gif.seek(0)
+    first = np.asarray(gif.convert("RGB")).copy()
+    gif.seek(gif.n_frames - 1)
+    last = np.asarray(gif.convert("RGB"))
+    assert_not_blank(last)
+    assert np.mean(first != last) > 0.01  # the agents moved
+    assert gif.info["duration"] == 250  # dt = 0.25 s at speed 1
+
+
+def test_mp4_through_ffmpeg(run_dir, tmp_path):
+    out = tmp_path / "a.mp4"
+    if animate.ffmpeg_path() is None:
+        pytest.skip("ffmpeg is not installed (.ci/run installs it where apt-get works)")
+    assert (
+        main(["render", str(run_dir), "--episode", "passing/invisible/1", "--out", str(out), "--quiet"]) == 0
+    )
+    head = out.read_bytes()[:12]
+    assert head[4:8] == b"ftyp" and out.stat().st_size > 2000
+
+
+def test_mp4_without_ffmpeg_is_one_clear_line(run_dir, tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(animate, "ffmpeg_path", lambda: None)
+    assert (
+        main(
+            [
+                "render",
+                str(run_dir),
+                "--episode",
+                "passing/invisible/1",
+                "--format",
+                "mp4",
+                "--out",
+                str(tmp_path / "x.mp4"),
+            ]
+        )
+        == 2
+    )
+    err = capsys.readouterr().err
+    assert "needs ffmpeg, which is not installed" in err and "--format gif" in err and "Traceback" not in err
+    assert not (tmp_path / "x.mp4").exists()
+
+
+def test_personal_space_overlay_marks_the_flagged_samples_red():
+    traj = close_pass()
+    view = episode_view(traj, eps=0.2)
+    # hand-computed: clearance |0.7 - 0| - 0.6 = 0.1 < 0.2 only at sample 4 (y = 0)
+    assert view.m1.tolist() == [False] * 4 + [True] + [False] * 4
+    assert not view.collision.any()
+    unflagged = red_pixels(np.asarray(_png(plot_trajectory(traj, every=4, eps=0.05, overlays=["m1"]))))
+    ring = red_pixels(np.asarray(_png(plot_trajectory(traj, every=4, eps=0.2, overlays=["personal_space"]))))
+    assert ring > unflagged + 100  # the same figure and legend, plus one red ring at sample 4
+
+
+def test_collision_is_marked():
+    traj = close_pass()
+    pos = traj.positions.copy()
+    pos[4:, 1, 0] = 0.3  # the human steps into the robot: overlap from sample 4 on
+    hit = dataclasses.replace(traj, positions=pos, velocities=np.zeros_like(pos), outcome="collision")
+    view = episode_view(hit)
+    assert view.collision[:4].tolist() == [False] * 4 and view.collision[4]
+    assert red_pixels(np.asarray(_png(plot_trajectory(hit)))) > 50
+
+
+def _png(fig):
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    buf.seek(0)
+    return Image.open(buf).convert("RGB")
+
+
+def test_render_a_users_csv_file(tmp_path, capsys):
+    path = tmp_path / "log.csv"
+    a, b = close_pass(), close_pass()
+    write_trajectories(path, [a, b])
+    assert main(["render", str(path), "--episode", "1", "--out", str(tmp_path / "log.png"), "--quiet"]) == 0
+    assert_not_blank(rgb(tmp_path / "log.png"))
+    assert main(["render", str(path), "--out", str(tmp_path / "x.png")]) == 2
+    assert "holds 2 episodes: pass --episode KEY (one of 0, 1)" in capsys.readouterr().err
+    assert main(["render", str(path), "--episode", "7", "--out", str(tmp_path / "x.png")]) == 2
+    assert "no episode '7'" in capsys.readouterr().err
+
+
+def test_bad_overlay_and_format_mismatch_are_clear(run_dir, capsys):
+    assert main(["render", str(run_dir), "--episode", "passing/invisible/1", "--overlay", "m9"]) == 2
+    assert "unknown overlay 'm9'; valid: personal_space" in capsys.readouterr().err
+    assert (
+        main(
+            ["render", str(run_dir), "--episode", "passing/invisible/1", "--format", "gif", "--out", "a.png"]
+        )
+        == 2
+    )
+    assert "does not end in .gif" in capsys.readouterr().err
+    assert parse_overlays(["m1,m2", "all"]) == ("personal_space", "velocity_rectangles", "side_preference")
+
+
+def test_frame_indices_hand_computed():
+    assert frame_indices(5) == [0, 1, 2, 3, 4]
+    assert frame_indices(10, stride=4) == [0, 4, 8, 9]
+    assert frame_indices(101, max_frames=11) == list(range(0, 101, 10))
+
+
+@given(st.integers(1, 2000), st.integers(1, 7), st.integers(2, 300))
+def test_frame_indices_properties(n, stride, max_frames):
+    idx = frame_indices(n, stride, max_frames)
+    assert idx[0] == 0 and idx[-1] == n - 1
+    assert all(b > a for a, b in zip(idx, idx[1:], strict=False))
+    assert len(idx) <= max(max_frames, 1) + 1
+
+
+def test_training_curves_figure(tmp_path):
+    from socialnav.viz.figures import read_curves, save_figure, training_curves
+
+    rows = read_curves(ROOT / "benchmarks" / "results" / "train_crowdnav_sarl_s0_curves.csv")
+    paths = save_figure(training_curves(rows), tmp_path / "curves")
+    assert [p.suffix for p in paths] == [".png", ".svg"]
+    assert_not_blank(rgb(paths[0]))
+    with pytest.raises(ValueError, match="not a curves.csv"):
+        (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
+        read_curves(tmp_path / "bad.csv")
+
+
+def test_env_rgb_array_rendering():
+    import gymnasium as gym
+
+    import socialnav.sim.registration  # noqa: F401
+
+    env = gym.make("socialnav/CircleCrossing-v0", render_mode="rgb_array")
+    env.reset(seed=3)
+    first = env.render()
+    assert first.shape == (480, 480, 3) and first.dtype == np.uint8
+    assert_not_blank(first)
+    for _ in range(6):
+        env.step(np.array([0.0, 1.0]))
+    assert np.mean(env.render() != first) > 0.005
+    env.close()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="displays are detected by DISPLAY on Linux")
+def test_env_human_mode_without_display_is_a_clear_error(monkeypatch):
+    from socialnav.sim.env import SocialNavEnv
+
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(RuntimeError, match="needs a display"):
+        SocialNavEnv(render_mode="human")
+    with pytest.raises(ValueError, match="render_mode must be one of rgb_array, human"):
+        SocialNavEnv(render_mode="video")
+
+
+def test_html_page_of_one_episode(run_dir, tmp_path):
+    import json
+    import re
+
+    out = tmp_path / "ep.html"
+    assert (
+        main(["render", str(run_dir), "--episode", "passing/invisible/2", "--out", str(out), "--quiet"]) == 0
+    )
+    text = out.read_text()
+    data = json.loads(
+        re.search(r'type="application/json">(.*?)</script>', text, re.S).group(1).replace("<\\/", "</")
+    )
+    assert [e["id"] for e in data["episodes"]] == ["passing/invisible/2"]
+    assert data["episodes"][0]["side"][1] in ("left", "right", "unlabelled")
+    assert "<script src" not in text and "viewer-canvas" in text
