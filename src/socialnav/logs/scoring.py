@@ -323,18 +323,29 @@ def score_file(
     require_success: bool = True,
     goal_tolerance: float | None = None,
     params: Any = None,
+    workers: int = 0,
     **load_kwargs: Any,
 ) -> LogScores:
     """:func:`load_trajectories` then :func:`score_trajectories`; the Python twin of ``socialnav metrics``.
 
     Notes and warnings raised while loading (assumed radii, resampling, skipped egos) are collected
     into the result as well as re-issued.
+
+    Args:
+        workers: Processes that read and score disjoint sets of episodes of a long-format file
+            (0: in this process). Rows come back in file order, so the result does not depend on it.
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        trajs = load_trajectories(path, **load_kwargs)
-        scores = score_trajectories(trajs, require_success=require_success, goal_tolerance=goal_tolerance,
-                                    params=params)
+        if workers > 1 and load_kwargs.get("ego") is None and detect_format(
+                path, load_kwargs.get("columns")) == "long" and load_kwargs.get("format", "auto") in (
+                "auto", "long"):
+            scores = _score_parallel(Path(path), workers, require_success, goal_tolerance, params,
+                                     load_kwargs)
+        else:
+            trajs = load_trajectories(path, **load_kwargs)
+            scores = score_trajectories(trajs, require_success=require_success,
+                                        goal_tolerance=goal_tolerance, params=params)
     for w in caught:
         text = str(w.message)
         if issubclass(w.category, DataWarning):
@@ -345,3 +356,68 @@ def score_file(
     for w in caught:
         warnings.warn(w.message, w.category, stacklevel=2)
     return scores
+
+
+def _episode_keys(path: Path) -> list[Any]:
+    import pyarrow as pa
+
+    if path.suffix.lower() == ".parquet":
+        import pyarrow.parquet as pq
+
+        col = pq.read_table(path, columns=["episode"]).column("episode")
+    else:
+        import pyarrow.csv as pcsv
+
+        col = pcsv.read_csv(path, convert_options=pcsv.ConvertOptions(include_columns=["episode"])).column(
+            "episode")
+    if not pa.types.is_integer(col.type):
+        col = col.cast(pa.string())
+    values = col.to_numpy(zero_copy_only=False)
+    _, first = np.unique(values, return_index=True)
+    return [v.item() if hasattr(v, "item") else v for v in values[np.sort(first)]]
+
+
+def _score_chunk(path: str, keys: list[Any], require_success: bool, goal_tolerance: float | None,
+                 params: Any, load_kwargs: dict[str, Any]) -> tuple[list[dict], list[str], list[str]]:
+    from socialnav.trajectory_io import read_trajectories
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        trajs = read_trajectories(path, resample=load_kwargs.get("resample", False), dt=load_kwargs.get("dt"),
+                                  episodes=keys)
+        for tr in trajs:
+            tr.settings.setdefault("source", path)
+        scores = score_trajectories(trajs, require_success=require_success, goal_tolerance=goal_tolerance,
+                                    params=params)
+    notes = [str(w.message) for w in caught if not issubclass(w.category, DataWarning)]
+    return scores.rows, notes, scores.warnings
+
+
+def _score_parallel(path: Path, workers: int, require_success: bool, goal_tolerance: float | None,
+                    params: Any, load_kwargs: dict[str, Any]) -> LogScores:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    keys = _episode_keys(path)
+    chunks = [list(c) for c in np.array_split(np.array(keys, dtype=object), workers) if len(c)]
+    ctx = multiprocessing.get_context("forkserver")  # pyarrow's threads make a plain fork unsafe
+    with ProcessPoolExecutor(max_workers=len(chunks), mp_context=ctx) as pool:
+        futures = [pool.submit(_score_chunk, str(path), c, require_success, goal_tolerance, params,
+                               load_kwargs) for c in chunks]
+        try:
+            results = [f.result() for f in futures]
+        except (ValueError, KeyError):
+            results = None
+    if results is None:  # read again in this process for the error message with the file's row numbers
+        load_trajectories(path, **load_kwargs)
+        raise TrajectoryFormatError(f"{path}: invalid (see the worker's error)")
+    rows = [r for res in results for r in res[0]]
+    notes = list(dict.fromkeys(n for res in results for n in res[1]))
+    problems = list(dict.fromkeys(p for res in results for p in res[2]))
+    for note in notes:
+        warnings.warn(note, UserWarning, stacklevel=3)
+    for problem in problems:
+        warnings.warn(problem, DataWarning, stacklevel=3)
+    modes = {r["mode"] for r in rows}
+    label = "human-as-robot" if modes == {"human_as_robot"} else "robot"
+    return LogScores(rows=rows, summaries=summarize_scores(rows, label), notes=notes, warnings=problems)

@@ -283,9 +283,10 @@ def aggregated_time(traj: Trajectory, cap_s: float = 100.0) -> dict[str, float]:
     arrived = ~np.isnan(took)
     late = arrived & (took > cap_steps + 1e-9)
     observed = last_step - np.nan_to_num(entry, nan=last_step)  # steps of data after each entry
-    never = ~arrived & (observed * traj.dt >= cap_s - 1e-9 * traj.dt)
-    unresolved = ~arrived & ~never
-    steps = np.where(arrived & ~late, took, cap_steps)
+    ghost = np.isnan(entry)  # never present in the data: not part of the scene
+    never = ~arrived & ~ghost & (observed * traj.dt >= cap_s - 1e-9 * traj.dt)
+    unresolved = ~arrived & ~never & ~ghost
+    steps = np.where(arrived & ~late, took, np.where(ghost, 0.0, cap_steps))
     n_unresolved = int(unresolved.sum())
     total = float("nan") if n_unresolved else float(steps.sum())
     return {
