@@ -305,6 +305,7 @@ def read_trajectories(
     for group in np.argsort(first, kind="stable"):
         rows = by_group[bounds[group] : bounds[group + 1]]
         key = episode_raw[rows[0]]
+        key = key.item() if isinstance(key, np.generic) else key
         traj = None if resample else _fast_episode(tab, rows, agents, key, dt)
         trajs.append(traj if traj is not None else _read_episode(tab, rows, agents, key, resample, dt))
     return trajs

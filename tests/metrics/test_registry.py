@@ -63,8 +63,8 @@ def test_key_naming_and_parse_round_trip() -> None:
         "m2_projected_path.count@tau=1,anchor=rear"
     )
     # omitted parameters take their defaults, so the key is the row's key
-    key = metric_key("m2_projected_path", "count", {"tau": 1.0})
-    assert key == "m2_projected_path.count@tau=1,anchor=rear"
+    key2 = metric_key("m2_projected_path", "count", {"tau": 1.0})
+    assert key2 == "m2_projected_path.count@tau=1,anchor=rear"
     assert metric_key("m2_projected_path", "count", {"tau": 1.0}) in score_keys()
     assert metric_key("m3_aggregated_time", "steps") == "m3_aggregated_time.steps@cap_s=100"
     with pytest.raises(KeyError, match="no output"):

@@ -72,3 +72,17 @@ def test_failed_episode_does_not_warn() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         score_episode(traj)
+
+
+def test_unknown_outcome_warns_that_social_metrics_are_nan() -> None:
+    from socialnav.metrics import UnknownOutcomeWarning
+
+    traj = Trajectory.from_positions(np.zeros((3, 2, 2)) + [[0, 0], [3, 0]], 0.25, radii=0.3,
+                                     goals=[[0, 0], [3, 0]])
+    with pytest.warns(UnknownOutcomeWarning, match="require_success=False"):
+        row = score_episode(traj)
+    assert math.isnan(row["m4_jerk.mean_sq"]) and math.isnan(row["success"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert not math.isnan(score_episode(traj, require_success=False)["m1_personal_space.count@eps=0.2,"
+                                                                          "distance=clearance"])

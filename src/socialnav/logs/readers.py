@@ -8,6 +8,7 @@ them. See ``docs/real_world_logs.md``.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -178,8 +179,9 @@ def read_eth_ucy(
     scene_ids, grid = scene_from_tracks(name=path.stem, source=str(path), t=t, agent=agent, xy=xy,
                                         rows=row_arr, dt=dt, max_gap=max_gap, fail=fail)
     n = len(scene_ids)
-    return [_make_scene(path, path.stem, scene_ids, grid, np.full(n, radius), np.full(n, np.nan),
-                        np.full((n, 2), np.nan), None, "unknown", {"format": "eth-ucy"})]
+    scene = _make_scene(path, path.stem, scene_ids, grid, np.full(n, radius), np.full(n, np.nan),
+                        np.full((n, 2), np.nan), None, "unknown", {"format": "eth-ucy"})
+    return [dataclasses.replace(scene, row_word="line")]
 
 
 def _assumed_radius(path: Path, radius: float | None, why: str) -> float:

@@ -61,6 +61,7 @@ class Scene:
         outcome: The logged robot's outcome (``unknown`` when not logged).
         rows: File row (0-based) of each agent's first sample, (A,), for error messages.
         source: File the scene came from.
+        row_word: How ``rows`` are named in messages ("row" for tables, "line" for text files).
         resampled: Whether the tracks were interpolated onto the grid.
         settings: Extra settings copied into every trajectory.
     """
@@ -81,6 +82,7 @@ class Scene:
     source: str = ""
     resampled: bool = False
     settings: dict[str, Any] = field(default_factory=dict)
+    row_word: str = "row"
 
     @property
     def n_agents(self) -> int:
@@ -133,7 +135,7 @@ class Scene:
         """
         ks = np.flatnonzero(self.present[:, ego])
         label = f"{self.source}: scene {self.name!r}, agent {self.ids[ego]}"
-        row = "" if self.rows is None else f" (first sample at row {int(self.rows[ego]) + 1})"
+        row = "" if self.rows is None else f" (first sample at {self.row_word} {int(self.rows[ego]) + 1})"
         if ks.size < 2:
             raise SceneError(f"{label}{row}: has {ks.size} sample(s); at least 2 are needed to score it "
                              "as the robot")
@@ -225,6 +227,12 @@ def scene_from_tracks(
     for i in range(len(ids)):
         sel = order[bounds[i] : bounds[i + 1]]
         ts = t[sel]
+        by_time = np.argsort(ts, kind="stable")
+        same = np.flatnonzero(np.diff(ts[by_time]) == 0)
+        if same.size:  # reported before ordering problems: the clearer diagnosis
+            a, b = sorted((int(rows[sel[by_time[same[0]]]]), int(rows[sel[by_time[same[0] + 1]]])))
+            raise fail("t", b, f"duplicated sample: agent {ids[i]} at t = {ts[by_time[same[0]]]:g} s also at "
+                       f"{getattr(fail, 'unit', 'row')} {a + 1}")
         d = np.diff(ts)
         if np.any(d <= 0):
             j = int(np.flatnonzero(d <= 0)[0])
