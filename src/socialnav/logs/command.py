@@ -119,6 +119,10 @@ def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
     for group in scores.summaries:
         title = "dataset" if group["scope"] == "dataset" else f"scene {group['scenario']}"
         print(f"summary, {title} [{group['policy']}], {group['episodes']} episode(s):")
+        for rate in ("success_rate", "collision_rate", "timeout_rate"):
+            value = group.get(rate)
+            if value is not None and math.isfinite(value):
+                print(f"  {rate:60s} {value:.4g} (of known outcomes)")
         for k in keys:
             mean, std = group.get(f"{k}.mean"), group.get(f"{k}.std")
             if mean is None:
