@@ -3,7 +3,8 @@
 Simulates N episodes (default 10 000) of the `wang2022` circle-crossing cell with the batched World
 (ORCA robot, as in bench_protocol.py), writes them to one Parquet file in the long format, then times
 `socialnav.logs.score_file` on it with 2 worker processes (the target: <= 10 s on 2 cores), and with
-0 workers as the in-run reference. Prints one JSON object last.
+0 workers as the in-run reference. The single process's CPU seconds and the load average are
+reported too: on a shared machine the wall time says little. Prints one JSON object last.
 
     python benchmarks/bench_metrics.py [--episodes 10000] [--workers 2]
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import tempfile
 import time
 import warnings
@@ -57,9 +59,10 @@ def main() -> None:
         start = time.perf_counter()
         scores = score_file(path, workers=args.workers)
         seconds = time.perf_counter() - start
-        start = time.perf_counter()
+        start, cpu0 = time.perf_counter(), time.process_time()
         serial = score_file(path, workers=0)
         serial_s = time.perf_counter() - start
+        serial_cpu = time.process_time() - cpu0
     assert len(scores.rows) == len(serial.rows) == len(trajs)
     assert scores.rows[-1] == serial.rows[-1] or str(scores.rows[-1]) == str(serial.rows[-1])
     print(f"scored {len(trajs)} episodes from Parquet ({size_mb:.1f} MB) in {seconds:.2f} s with "
@@ -71,6 +74,8 @@ def main() -> None:
         "workers": args.workers,
         "episodes_per_s": round(len(trajs) / seconds, 1),
         "single_process_seconds": round(serial_s, 3),
+        "single_process_cpu_seconds": round(serial_cpu, 3),
+        "load_average_1min": round(os.getloadavg()[0], 2),
         "ratio_to_single_process": round(seconds / serial_s, 3),
         "simulation_seconds": round(sim_s, 3),
         "ratio_to_simulation": round(seconds / sim_s, 2),
