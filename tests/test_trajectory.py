@@ -9,7 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from socialnav.trajectory import Trajectory, TrajectoryFormatError, read_trajectories, write_trajectories
+from socialnav.trajectory import (
+    AssumedValueWarning,
+    Trajectory,
+    TrajectoryFormatError,
+    read_trajectories,
+    write_trajectories,
+)
 
 HEADER = "episode,t,agent,x,y,radius,gx,gy,v_pref"
 
@@ -72,7 +78,12 @@ def test_frozen_and_read_only() -> None:
 
 def test_from_positions_derives_velocities() -> None:
     pos = np.array([[[0.0, 0.0]], [[0.1, 0.0]], [[0.3, 0.0]]])
-    traj = Trajectory.from_positions(pos, 0.1)
+    with pytest.raises(ValueError, match="radii is required"):
+        Trajectory.from_positions(pos, 0.1)
+    with pytest.warns(AssumedValueWarning, match="goals"):
+        traj = Trajectory.from_positions(pos, 0.1, radii=0.2)
+    np.testing.assert_allclose(traj.goals, [[0.3, 0.0]])
+    assert np.isnan(traj.v_pref[0]) and traj.outcome == "unknown"  # unknown, not 1 m/s
     np.testing.assert_allclose(traj.velocities[:, 0, 0], [1.0, 1.0, 2.0])
     np.testing.assert_allclose(traj.executed_velocities()[:, 0, 0], [1.0, 2.0])
     assert traj.n_steps == 2 and traj.duration == pytest.approx(0.2) and traj.roles == ("robot",)

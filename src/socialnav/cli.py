@@ -161,18 +161,9 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--report", action="store_true", help="also write the HTML report (report.html)")
     ev.set_defaults(run=cmd_evaluate)
 
-    me = sub.add_parser("metrics", help="score trajectories from a Parquet/CSV file (e.g. a robot log)")
-    me.add_argument("file", help="trajectory file (.parquet or .csv; schema in docs/trajectory_format.md)")
-    me.add_argument("--resample", action="store_true", help="resample irregular timestamps to a fixed dt")
-    me.add_argument("--dt", type=float, help="dt for --resample [s] (default: the median step)")
-    me.add_argument(
-        "--all-episodes",
-        action="store_true",
-        help="score social metrics on every episode, not only successful ones (logs)",
-    )
-    me.add_argument("--json", action="store_true", help="print one JSON object")
-    me.add_argument("--quiet", action="store_true", help="no progress bar")
-    me.set_defaults(run=cmd_metrics)
+    from socialnav.logs.command import add_metrics_parser
+
+    add_metrics_parser(sub)
 
     ls = sub.add_parser("list", help="registered scenarios, policies, human models, metrics and presets")
     ls.add_argument("--json", action="store_true")
@@ -189,7 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from socialnav.evaluate.report import table2, table3
+    from socialnav.evaluate.report import table2, table3, table_notes
     from socialnav.evaluate.runner import run_protocol
     from socialnav.policies.loading import build_policy
     from socialnav.presets import load_preset
@@ -233,7 +224,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"preset": preset.name, "out": str(out), "rows": _clean(result.summary)}))
     elif not args.quiet:
-        print(table2(result.summary, "md"))
+        print(table2(result.summary, "md", table_notes(preset)))
         print(table3(result.summary, "md"))
         print(
             f"{result.computed_episodes} episodes simulated, results in {out}/ "
@@ -242,61 +233,6 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             + (", report.html" if args.report else "")
             + ")"
         )
-    return 0
-
-
-def cmd_metrics(args: argparse.Namespace) -> int:
-    from socialnav.evaluate.summary import summarize_episodes
-    from socialnav.metrics import score_episode
-    from socialnav.trajectory import read_trajectories
-
-    if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
-        raise ValueError(f"--dt must be a finite number > 0, got {args.dt}")
-    trajs = read_trajectories(args.file, resample=args.resample, dt=args.dt)
-    if not trajs:
-        raise ValueError(f"{args.file}: no episodes (the file has a header but no rows)")
-    rows = []
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        from tqdm.auto import tqdm
-
-        shown = not args.quiet and len(trajs) >= 100  # a bar only where scoring takes a while
-        for i, traj in enumerate(tqdm(trajs, desc="scoring", unit="ep", disable=not shown, leave=False)):
-            episode = traj.settings.get("episode", i)
-            rows.append(
-                {
-                    "policy": str(traj.settings.get("policy", "log")),
-                    "scenario": str(traj.settings.get("scenario", "log")),
-                    "visibility": str(traj.settings.get("visibility", "unknown")),
-                    "index": i,
-                    "episode": str(episode),
-                    "outcome": traj.outcome,
-                    **score_episode(traj, require_success=not args.all_episodes),
-                }
-            )
-    summary = summarize_episodes([{k: v for k, v in r.items() if k != "episode"} for r in rows])
-    notes = sorted({str(w.message) for w in caught})
-    if args.json:
-        print(
-            json.dumps(
-                {"file": args.file, "episodes": _clean(rows), "summary": _clean(summary), "warnings": notes}
-            )
-        )
-        return 0
-    for note in notes:
-        print(f"warning: {note}", file=sys.stderr)
-    ids = ("policy", "scenario", "visibility", "index", "episode", "outcome")
-    keys = [k for k in rows[0] if k not in ids]
-    for row in rows:
-        print(f"episode {row['episode']} ({row['outcome']}):")
-        for k in keys:
-            print(f"  {k:60s} {row[k]:.4g}")
-    for group in summary:
-        print(f"summary over {group['episodes']} episode(s) [{group['scenario']}, {group['visibility']}]:")
-        for k in keys:
-            mean, std = group.get(f"{k}.mean"), group.get(f"{k}.std")
-            if mean is not None:
-                print(f"  {k:60s} {mean:.4g} ± {std:.3g} (n={group.get(f'{k}.n')})")
     return 0
 
 

@@ -14,6 +14,7 @@ after step K + m + 1, at time (K + m + 1)·dt, with the robot parked at its goal
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -23,6 +24,7 @@ import numpy as np
 __all__ = [
     "OUTCOMES",
     "ROLES",
+    "AssumedValueWarning",
     "Trajectory",
     "TrajectoryFormatError",
     "read_trajectories",
@@ -34,6 +36,14 @@ OUTCOMES: tuple[str, ...] = ("success", "collision", "timeout", "unknown")
 
 ROLES: tuple[str, ...] = ("robot", "human")
 """Allowed values of :attr:`Trajectory.roles`; agent 0 is always the robot."""
+
+
+class AssumedValueWarning(UserWarning):
+    """A value the data did not give was assumed (e.g. goals taken as the last positions).
+
+    Issued by :meth:`Trajectory.from_positions` and the log importers, so that no default changes a
+    score without a word; the message names every assumed value.
+    """
 
 
 class TrajectoryFormatError(ValueError):
@@ -78,7 +88,7 @@ class Trajectory:
         velocities: Velocity applied during step k [m/s], shape (K+1, A, 2); sample 0 holds the
             initial velocity. Metrics use velocities executed between samples, (p_k − p_{k−1})/dt.
         radii: Agent radii [m], shape (A,).
-        v_pref: Preferred speeds [m/s], shape (A,).
+        v_pref: Preferred speeds [m/s], shape (A,); NaN where unknown (logs, pedestrian data).
         goals: Goal each agent had at reset [m], shape (A, 2).
         roles: "robot" for agent 0, "human" for the others, shape (A,).
         outcome: One of ``OUTCOMES``.
@@ -89,6 +99,12 @@ class Trajectory:
         human_overlaps: Human–human overlap count reported by the simulator, or None.
         settings: Free-form settings (scenario, split, index, seed, visibility, human_model, policy,
             information, ...), JSON-serialisable.
+        present: Presence mask, shape (K+1, A) bool, or None when every agent is present at every
+            sample. Agents entering or leaving the scene (logs) are absent (False) outside their
+            track; their positions and velocities there are NaN, never invented. The robot (agent 0)
+            must be present at every sample. All-True masks are stored as None.
+        arrival_times: Known time [s since sample 0] at which each agent reached its goal, shape (A,),
+            NaN where unknown (M_III then detects arrival from the positions), or None.
     """
 
     dt: float
@@ -103,6 +119,8 @@ class Trajectory:
     continuation: np.ndarray | None = None
     human_overlaps: int | None = None
     settings: dict[str, Any] = field(default_factory=dict)
+    present: np.ndarray | None = None
+    arrival_times: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__  # frozen: normalise fields once, here
@@ -114,14 +132,28 @@ class Trajectory:
         n_samples, n_agents = pos.shape[:2]
         if n_samples < 1 or n_agents < 1:
             raise ValueError(f"Trajectory.positions: need >= 1 sample and >= 1 agent, got {pos.shape}")
-        _require_finite(pos, "positions")
-        set_(self, "positions", pos)
         vel = _frozen_array(self.velocities, "velocities", (n_samples, n_agents, 2))
-        _require_finite(vel, "velocities")
+        present = self._check_present(n_samples, n_agents)
+        if present is not None:
+            # absent samples hold NaN so that no metric can use a value the data never had
+            pos, vel = pos.copy(), vel.copy()
+            pos[~present], vel[~present] = np.nan, np.nan
+            pos.setflags(write=False)
+            vel.setflags(write=False)
+            _require_finite(pos[present], "positions (where present)")
+            _require_finite(vel[present], "velocities (where present)")
+        else:
+            _require_finite(pos, "positions")
+            _require_finite(vel, "velocities")
+        set_(self, "present", present)
+        set_(self, "positions", pos)
         set_(self, "velocities", vel)
         for name in ("radii", "v_pref"):
             arr = _frozen_array(getattr(self, name), name, (n_agents,))
-            _require_finite(arr, name)
+            if name == "radii":
+                _require_finite(arr, name)
+            elif np.any(np.isinf(arr)):  # v_pref: NaN means unknown, inf is an error
+                _require_finite(arr[~np.isnan(arr)], name)
             if np.any(arr < 0.0):
                 raise ValueError(f"Trajectory.{name}: must be >= 0, got {arr.tolist()}")
             set_(self, name, arr)
@@ -144,6 +176,8 @@ class Trajectory:
                 raise ValueError("Trajectory.min_clearance: contains NaN")
             set_(self, "min_clearance", mc)
         if self.continuation is not None:
+            if present is not None:
+                raise ValueError("Trajectory.continuation: not supported with absent agents (present mask)")
             cont = _frozen_array(self.continuation, "continuation", (None, n_agents, 2))
             _require_finite(cont, "continuation")
             set_(self, "continuation", cont)
@@ -154,11 +188,41 @@ class Trajectory:
                     f"Trajectory.human_overlaps: must be a non-negative int, got {self.human_overlaps!r}"
                 )
             set_(self, "human_overlaps", ho)
+        if self.arrival_times is not None:
+            arr = _frozen_array(self.arrival_times, "arrival_times", (n_agents,))
+            if np.any(np.isinf(arr)) or np.any(arr < 0.0):
+                raise ValueError(f"Trajectory.arrival_times: must be >= 0 or NaN (unknown), "
+                                 f"got {arr.tolist()}")
+            set_(self, "arrival_times", arr)
         if not isinstance(self.settings, Mapping):
             raise ValueError(f"Trajectory.settings: must be a mapping, got {type(self.settings)}")
         set_(self, "settings", dict(self.settings))
 
+    def _check_present(self, n_samples: int, n_agents: int) -> np.ndarray | None:
+        if self.present is None:
+            return None
+        mask = np.asarray(self.present)
+        if mask.shape != (n_samples, n_agents) or mask.dtype != bool:
+            raise ValueError(f"Trajectory.present: expected a bool array of shape ({n_samples}, {n_agents}), "
+                             f"got {mask.dtype} {mask.shape}")
+        if not mask[:, 0].all():
+            k = int(np.flatnonzero(~mask[:, 0])[0])
+            raise ValueError(f"Trajectory.present: the robot (agent 0) must be present at every sample; "
+                             f"absent at sample {k}")
+        if mask.all():
+            return None
+        mask = mask.copy()
+        mask.setflags(write=False)
+        return mask
+
     # ------------------------------------------------------------------ derived quantities
+    @property
+    def presence(self) -> np.ndarray:
+        """Presence mask (K+1, A) bool, all True when :attr:`present` is None."""
+        if self.present is None:
+            return np.ones(self.positions.shape[:2], dtype=bool)
+        return self.present
+
     @property
     def n_steps(self) -> int:
         """Number of steps K (samples are 0..K)."""
@@ -198,48 +262,99 @@ class Trajectory:
         positions: np.ndarray,
         dt: float,
         *,
-        radii: float | np.ndarray = 0.3,
-        v_pref: float | np.ndarray = 1.0,
+        radii: float | np.ndarray | None = None,
+        v_pref: float | np.ndarray | None = None,
         goals: np.ndarray | None = None,
         outcome: str = "unknown",
+        present: np.ndarray | None = None,
         **kwargs: Any,
     ) -> Trajectory:
         """Build a Trajectory from positions alone, deriving velocities by finite differences.
 
-        Velocity k (k ≥ 1) is (p_k − p_{k−1})/dt; sample 0 copies velocity 1 (zero when K = 0),
-        because a log rarely records the velocity before its first sample.
+        Velocity k (k ≥ 1) is (p_k − p_{k−1})/dt; an agent's first present sample copies the next
+        velocity (zero when it has one sample), because a log rarely records the velocity before its
+        first sample. Nothing that changes a score is assumed silently:
+
+        - ``radii`` is required (every clearance-based metric depends on it);
+        - ``v_pref`` defaults to NaN (unknown), which no metric uses;
+        - ``goals`` defaults to each agent's last present position, with an
+          :class:`AssumedValueWarning` (M_III's arrivals then happen at the end by construction);
+        - ``outcome`` defaults to ``"unknown"``: basic rates are NaN and
+          :func:`socialnav.metrics.score_episode` warns that social metrics are NaN unless
+          ``require_success=False``.
 
         Args:
-            positions: [m], shape (K+1, A, 2), agent 0 the robot.
+            positions: [m], shape (K+1, A, 2), agent 0 the robot; NaN allowed where ``present`` is False.
             dt: Step [s].
-            radii: [m], scalar or shape (A,).
-            v_pref: [m/s], scalar or shape (A,).
-            goals: [m], shape (A, 2); defaults to each agent's last position.
+            radii: [m], scalar or shape (A,). Required.
+            v_pref: [m/s], scalar or shape (A,); default NaN (unknown).
+            goals: [m], shape (A, 2); default each agent's last present position (with a warning).
             outcome: One of ``OUTCOMES``.
+            present: Presence mask (K+1, A) bool; default every agent present at every sample.
             **kwargs: Other Trajectory fields (min_clearance, continuation, settings, ...).
 
         Returns:
             The validated Trajectory.
+
+        Raises:
+            ValueError: ``radii`` missing, or a field fails validation.
         """
-        pos = np.asarray(positions, dtype=np.float64)
+        pos = np.array(positions, dtype=np.float64)
         if pos.ndim != 3 or pos.shape[-1] != 2:
             raise ValueError(f"Trajectory.positions: expected shape (K+1, A, 2), got {pos.shape}")
+        if radii is None:
+            raise ValueError("Trajectory.from_positions: radii is required (agent body radii [m], scalar "
+                             "or one per agent); clearance-based metrics depend on it")
         n_agents = pos.shape[1]
-        vel = np.zeros_like(pos)
-        if pos.shape[0] > 1:
-            vel[1:] = np.diff(pos, axis=0) / float(dt)
-            vel[0] = vel[1]
+        mask = np.ones(pos.shape[:2], dtype=bool) if present is None else np.asarray(present, dtype=bool)
+        if mask.shape != pos.shape[:2]:
+            raise ValueError(f"Trajectory.present: expected shape {pos.shape[:2]}, got {mask.shape}")
+        vel = derive_velocities(pos, mask, float(dt))
+        if goals is None:
+            goals = last_present_positions(pos, mask)
+            warnings.warn("Trajectory.from_positions: goals not given; assumed each agent's last position",
+                          AssumedValueWarning, stacklevel=2)
+        v_pref = np.nan if v_pref is None else v_pref
         return cls(
             dt=dt,
             positions=pos,
             velocities=vel,
             radii=np.broadcast_to(np.asarray(radii, dtype=np.float64), (n_agents,)),
             v_pref=np.broadcast_to(np.asarray(v_pref, dtype=np.float64), (n_agents,)),
-            goals=pos[-1] if goals is None else goals,
+            goals=goals,
             roles=("robot",) + ("human",) * (n_agents - 1),
             outcome=outcome,
+            present=None if present is None else mask,
             **kwargs,
         )
+
+
+def derive_velocities(positions: np.ndarray, present: np.ndarray, dt: float) -> np.ndarray:
+    """Velocities (K+1, A, 2) from positions by backward differences, NaN where absent.
+
+    v_k = (p_k − p_{k−1})/dt where both samples are present; an agent's first present sample after
+    an absence (or sample 0) copies the next velocity if that exists, else 0.
+    """
+    pos = np.where(present[..., None], positions, np.nan)
+    vel = np.full_like(pos, np.nan)
+    if pos.shape[0] > 1:
+        vel[1:] = np.diff(pos, axis=0) / dt
+    starts = present & ~np.concatenate([np.zeros((1, pos.shape[1]), bool), present[:-1]], axis=0)
+    k, a = np.nonzero(starts)
+    nxt = np.minimum(k + 1, pos.shape[0] - 1)
+    ok = (k + 1 < pos.shape[0]) & present[nxt, a]
+    vel[k, a] = np.where(ok[:, None], vel[nxt, a], 0.0)
+    return np.where(present[..., None], vel, np.nan)
+
+
+def last_present_positions(positions: np.ndarray, present: np.ndarray) -> np.ndarray:
+    """Each agent's position at its last present sample, shape (A, 2) (NaN for never-present agents)."""
+    out = np.full((positions.shape[1], 2), np.nan)
+    for a in range(positions.shape[1]):
+        ks = np.flatnonzero(present[:, a])
+        if ks.size:
+            out[a] = positions[ks[-1], a]
+    return out
 
 
 def write_trajectories(path: Any, trajs: Any) -> None:
@@ -250,7 +365,7 @@ def write_trajectories(path: Any, trajs: Any) -> None:
 
 
 def read_trajectories(
-    path: Any, *, resample: bool = False, dt: float | None = None, episodes: Any = None
+    path: Any, *, resample: bool = False, dt: float | None = None, episodes: list[Any] | None = None
 ) -> list[Trajectory]:
     """Read trajectories from ``path`` (``.parquet`` or ``.csv``); see trajectory_io."""
     from socialnav.trajectory_io import read_trajectories as _read

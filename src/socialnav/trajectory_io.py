@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-from collections.abc import Collection, Iterable
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -24,19 +24,37 @@ __all__ = ["REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "read_trajectories", "write_t
 REQUIRED_COLUMNS: tuple[str, ...] = ("episode", "t", "agent", "x", "y", "radius", "gx", "gy", "v_pref")
 OPTIONAL_COLUMNS: tuple[str, ...] = (
     "role", "vx", "vy", "outcome", "continuation", "min_clearance", "human_overlaps", "settings",
+    "arrival_t",
 )
-_FLOAT_COLUMNS = ("t", "x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref", "min_clearance")
+_FLOAT_COLUMNS = ("t", "x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref", "min_clearance", "arrival_t")
 _WRITE_ORDER = (
     "episode", "t", "agent", "role", "x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref", "outcome",
-    "continuation", "min_clearance", "human_overlaps", "settings",
+    "continuation", "min_clearance", "human_overlaps", "settings", "arrival_t",
 )
 _METADATA_KEY = b"socialnav"
+_ROW_GROUP = 1 << 16
 _FORMAT_VERSION = 1
 # Relative tolerance on sample spacing: CSV text round-trips k·dt exactly, but logs written by other
 # tools carry float noise of order 1e-12 s; real jitter (ms) is far above this.
 _DT_RTOL = 1e-6
 #: Samples of one resampled episode at most (a dt far below the log's own step is a typo).
 MAX_RESAMPLED_STEPS = 1_000_000
+
+
+def _episode_keys(episodes: Iterable[Any], kind: Any) -> list[Any]:
+    """Episode keys as the file stores them: integers for an integer column (keys that are not
+    integers cannot match and are dropped), strings otherwise; "1" and 1 name the same episode."""
+    import pyarrow as pa
+
+    if not pa.types.is_integer(kind):
+        return [str(e) for e in episodes]
+    out = []
+    for e in episodes:
+        try:
+            out.append(int(str(e).strip()))
+        except ValueError:
+            continue
+    return out
 
 
 def _suffix(path: Path) -> str:
@@ -72,7 +90,6 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
         raise TrajectoryFormatError(f"{path}: duplicated episode keys {keys}")
     cols: dict[str, list[np.ndarray]] = {c: [] for c in _WRITE_ORDER}
     settings_json: dict[str, str] = {}
-    rows_per_episode: list[int] = []
     for key, tr in zip(keys, trajs, strict=True):
         try:
             settings_json[str(key)] = json.dumps(tr.settings, sort_keys=True)
@@ -83,7 +100,6 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
         n_main, n_agents = tr.positions.shape[:2]
         cont = tr.continuation if tr.continuation is not None else np.zeros((0, n_agents, 2))
         n_rows = (n_main + cont.shape[0]) * n_agents
-        rows_per_episode.append(n_rows)
         pos = np.concatenate([tr.positions, cont]).reshape(-1, 2)
         vel = np.concatenate([tr.velocities, np.full_like(cont, np.nan)]).reshape(-1, 2)
         t = np.repeat(np.arange(n_main + cont.shape[0]) * tr.dt, n_agents)
@@ -91,46 +107,39 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
         mc = np.full(n_rows, np.nan)
         if tr.min_clearance is not None:
             mc[n_agents : n_main * n_agents : n_agents] = tr.min_clearance  # robot rows, k >= 1
+        settings_col = np.full(n_rows, "", dtype=object)
+        settings_col[0] = settings_json[str(key)]
         per_row = {
+            "episode": np.full(n_rows, key, dtype=object),
             "t": t, "agent": agent, "x": pos[:, 0], "y": pos[:, 1], "vx": vel[:, 0], "vy": vel[:, 1],
+            "role": np.asarray(tr.roles, dtype=object)[agent],
             "radius": tr.radii[agent], "gx": tr.goals[agent, 0], "gy": tr.goals[agent, 1],
             "v_pref": tr.v_pref[agent],
+            "outcome": np.full(n_rows, tr.outcome, dtype=object),
             "continuation": np.repeat(np.arange(n_main + cont.shape[0]) >= n_main, n_agents),
             "min_clearance": mc,
             "human_overlaps": np.full(n_rows, -1 if tr.human_overlaps is None else tr.human_overlaps),
+            "settings": settings_col,
+            "arrival_t": (np.full(n_rows, np.nan) if tr.arrival_times is None else tr.arrival_times[agent]),
         }
+        keep = None
+        if tr.present is not None:  # absent agents have no row at that sample (nothing invented)
+            keep = np.concatenate([tr.present.reshape(-1), np.ones(cont.shape[0] * n_agents, bool)])
+            keep[0] = True  # the settings cell lives on the first row (the robot's, always present)
         for name, values in per_row.items():
-            cols[name].append(np.asarray(values))
-    # Per-episode strings are repeated through dictionary indices (decoded by Arrow, not Python):
-    # a chunk of an evaluation holds ~10^5 rows.
-    episode_of_row = np.repeat(np.arange(len(trajs)), rows_per_episode)
-    agent_all = np.concatenate(cols["agent"]) if trajs else np.zeros(0, dtype=np.int64)
-
-    def repeated(indices: np.ndarray, values: list[str]) -> Any:
-        return pa.DictionaryArray.from_arrays(
-            pa.array(indices.astype(np.int32)), pa.array(values, type=pa.string())
-        ).cast(pa.string())
-
+            values = np.asarray(values)
+            cols[name].append(values if keep is None else values[keep])
     arrays: dict[str, Any] = {}
     all_int = all(isinstance(k, (int, np.integer)) and not isinstance(k, bool) for k in keys)
     for name, parts in cols.items():
         values = np.concatenate(parts) if parts else np.zeros(0)
         if name == "episode":
-            if all_int:
-                arrays[name] = pa.array(np.asarray(keys, dtype=np.int64)[episode_of_row], type=pa.int64())
-            else:
-                arrays[name] = repeated(episode_of_row, [str(k) for k in keys])
-        elif name == "role":
-            arrays[name] = repeated((agent_all != 0).astype(np.int32), list(ROLES))
-        elif name == "outcome":
-            arrays[name] = repeated(episode_of_row, [tr.outcome for tr in trajs])
-        elif name == "settings":
-            if suffix == ".parquet":
+            arrays[name] = pa.array(values.astype(np.int64) if all_int else [str(v) for v in values],
+                                    type=pa.int64() if all_int else pa.string())
+        elif name in ("role", "outcome", "settings"):
+            if name == "settings" and suffix == ".parquet":
                 continue  # Parquet keeps settings in the file metadata instead
-            first = np.zeros(len(episode_of_row), dtype=bool)
-            first[np.cumsum([0, *rows_per_episode[:-1]])[: len(trajs)]] = True
-            text = [settings_json[str(k)] for k in keys] + [""]
-            arrays[name] = repeated(np.where(first, episode_of_row, len(trajs)), text)
+            arrays[name] = pa.array([str(v) for v in values], type=pa.string())
         elif name == "agent":
             arrays[name] = pa.array(values.astype(np.int64))
         elif name == "continuation":
@@ -142,7 +151,7 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
             arrays[name] = pa.array(vals, mask=vals < 0)
         else:
             vals = values.astype(np.float64)
-            if name == "min_clearance" and np.all(np.isnan(vals)):
+            if name in ("min_clearance", "arrival_t") and np.all(np.isnan(vals)):
                 continue
             arrays[name] = pa.array(vals, mask=np.isnan(vals))  # NaN is written as an empty cell
     table = pa.table(arrays)
@@ -153,20 +162,21 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
 
 
 def _atomic_write(path: Path, table: Any, suffix: str) -> None:
-    import pyarrow as pa
-
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
     os.close(fd)
     try:
         if suffix == ".parquet":
+            import pyarrow as pa
             import pyarrow.parquet as pq
 
+            # Episodes are contiguous: small row groups let a reader of some episodes skip the rest.
             # zstd on byte-split floats: about 25 % smaller than the default snappy, and as fast;
             # values stay float64 so that a stored episode compares bit for bit with its replay.
             floats = [f.name for f in table.schema if pa.types.is_floating(f.type)]
             pq.write_table(
                 table,
                 tmp,
+                row_group_size=_ROW_GROUP,
                 compression="zstd",
                 use_byte_stream_split=floats,
                 use_dictionary=[c for c in table.column_names if c not in floats],
@@ -187,7 +197,7 @@ def _atomic_write(path: Path, table: Any, suffix: str) -> None:
 class _Table:
     """Columns of the file as NumPy arrays, plus helpers that raise errors naming file/column/row."""
 
-    def __init__(self, path: Path, episodes: Collection[str] | None = None) -> None:
+    def __init__(self, path: Path, episodes: list[Any] | None = None) -> None:
         import pyarrow as pa
 
         self.path = path
@@ -198,10 +208,19 @@ class _Table:
             raise TrajectoryFormatError(f"{path}: is a directory, not a trajectory file")
         meta_settings: dict[str, str] = {}
         if suffix == ".parquet":
+
             from socialnav.evaluate.files import CorruptFileError, read_parquet_verified
 
-            try:
-                table = read_parquet_verified(path)  # page checksums, where the writer stored them
+            try:  # page checksums verified, where the writer stored them
+                if episodes is not None:  # read only the row groups that can hold them (statistics)
+                    import pyarrow.parquet as pq
+
+                    schema = pq.read_schema(path)
+                    kind = schema.field("episode").type if "episode" in schema.names else pa.string()
+                    keys = _episode_keys(episodes, kind)
+                    table = read_parquet_verified(path, filters=[("episode", "in", keys)] if keys else None)
+                else:
+                    table = read_parquet_verified(path)
             except CorruptFileError as err:
                 raise TrajectoryFormatError(str(err)) from None
             raw = (table.schema.metadata or {}).get(_METADATA_KEY)
@@ -217,17 +236,23 @@ class _Table:
                 text = " ".join(str(err).split())
                 raise TrajectoryFormatError(f"{path}: not a readable CSV file ({text[:200]})") from None
         self.meta_settings = meta_settings
+        self.row_map = None
+        if episodes is not None and "episode" in table.column_names:
+            # a subset of episodes (parallel scoring); messages keep the file's row numbers
+            import pyarrow.compute as pc
+
+            col = table.column("episode")
+            integer = pa.types.is_integer(col.type)
+            keys = pa.array(_episode_keys(episodes, col.type), type=col.type if integer else pa.string())
+            mask = pc.is_in(col if integer else col.cast(pa.string()), value_set=keys)
+            self.row_map = np.flatnonzero(mask.to_numpy(zero_copy_only=False))
+            table = table.filter(mask)
+        self.n_rows = table.num_rows
         missing = [c for c in REQUIRED_COLUMNS if c not in table.column_names]
         if missing:
             raise TrajectoryFormatError(
                 f"{path}: missing required column(s) {missing}; columns present: {table.column_names}"
             )
-        if episodes is not None:
-            import pyarrow.compute as pc
-
-            keys = pc.cast(table.column("episode"), pa.string())
-            table = table.filter(pc.is_in(keys, value_set=pa.array([str(e) for e in episodes], pa.string())))
-        self.n_rows = table.num_rows
         self.cols: dict[str, np.ndarray] = {}
         for name in table.column_names:
             if name not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS:
@@ -238,16 +263,30 @@ class _Table:
                     arr = col.cast(pa.float64()).to_numpy()
                 except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
                     raise TrajectoryFormatError(f"{path}: column '{name}': not numeric ({exc})") from exc
+            elif name in ("agent", "episode") and pa.types.is_integer(col.type) and col.null_count == 0:
+                arr = col.to_numpy()
+            elif name == "continuation" and pa.types.is_boolean(col.type):
+                arr = np.asarray(col.to_numpy(zero_copy_only=False), dtype=object)
+            elif pa.types.is_string(col.type) or pa.types.is_large_string(col.type):
+                # through a dictionary: a few distinct strings repeated over many rows
+                enc = col.combine_chunks().dictionary_encode()
+                values = np.asarray(enc.dictionary.to_pylist() + [None], dtype=object)
+                idx = enc.indices.fill_null(len(values) - 1).to_numpy()
+                arr = values[idx]
             else:
                 arr = np.asarray(col.to_pylist(), dtype=object)
             self.cols[name] = arr
 
     def fail(self, column: str, row_index: int | None, message: str) -> TrajectoryFormatError:
+        if row_index is not None and self.row_map is not None:
+            row_index = int(self.row_map[row_index])
         where = f"column '{column}'" + ("" if row_index is None else f", row {row_index + 1}")
         return TrajectoryFormatError(f"{self.path}: {where}: {message}")
 
     def int_column(self, name: str) -> np.ndarray:
         values = self.cols[name]
+        if values.dtype.kind in "iu":
+            return values.astype(np.int64)
         out = np.empty(len(values), dtype=np.int64)
         for i, v in enumerate(values):
             try:
@@ -267,11 +306,8 @@ class _Table:
 
 
 def read_trajectories(
-    path: str | os.PathLike[str],
-    *,
-    resample: bool = False,
-    dt: float | None = None,
-    episodes: Collection[str] | None = None,
+    path: str | os.PathLike[str], *, resample: bool = False, dt: float | None = None,
+    episodes: list[Any] | None = None,
 ) -> list[Trajectory]:
     """Read trajectories from a Parquet or CSV file in the long format.
 
@@ -289,8 +325,7 @@ def read_trajectories(
         dt: Step [s] to resample to, or to assume for one-sample episodes. Default: (t_K − t_0)/K
             on a regular grid, the median of the robot's steps when resampling (both rounded to 12
             significant digits, which recovers a dt written as text exactly).
-        episodes: Read only the episodes with these keys (compared as strings); row numbers in
-            errors then count the selected rows only.
+        episodes: Read only these episode keys (rows keep their file numbers in messages).
 
     Returns:
         One Trajectory per episode.
@@ -299,17 +334,120 @@ def read_trajectories(
         TrajectoryFormatError: The file breaks the schema; the message names file, column and row.
     """
     tab = _Table(Path(path), episodes)
-    for name in ("t", "x", "y", "radius", "gx", "gy", "v_pref"):
+    for name in ("t", "x", "y", "radius", "gx", "gy"):
         tab.require_finite(name)
+    vp = tab.cols["v_pref"]
+    if np.any(np.isinf(vp)):  # empty v_pref means unknown (logs); inf is an error
+        raise tab.fail("v_pref", int(np.flatnonzero(np.isinf(vp))[0]), "value is inf (not finite)")
     agents = tab.int_column("agent")
     episode_raw = tab.cols["episode"]
-    episode_keys = np.array([str(v) for v in episode_raw], dtype=object)
+    episode_keys = episode_raw if episode_raw.dtype.kind in "iu" else np.array(
+        [str(v) for v in episode_raw], dtype=object)
     _, first, inverse = np.unique(episode_keys, return_index=True, return_inverse=True)
+    by_group = np.argsort(inverse, kind="stable")  # rows of each episode, in file order
+    bounds = np.concatenate([[0], np.cumsum(np.bincount(inverse.reshape(-1), minlength=len(first)))])
     trajs = []
     for group in np.argsort(first, kind="stable"):
-        rows = np.flatnonzero(inverse == group)
-        trajs.append(_read_episode(tab, rows, agents, episode_raw[rows[0]], resample, dt))
+        rows = by_group[bounds[group] : bounds[group + 1]]
+        key = episode_raw[rows[0]]
+        key = key.item() if isinstance(key, np.generic) else key
+        traj = None if resample else _fast_episode(tab, rows, agents, key, dt)
+        trajs.append(traj if traj is not None else _read_episode(tab, rows, agents, key, resample, dt))
     return trajs
+
+
+def _fast_episode(tab: _Table, rows: np.ndarray, agents: np.ndarray, key: Any, dt_arg: float | None
+                  ) -> Trajectory | None:
+    """The common case in a few array operations: every agent on one regular grid, written
+    sample-major (as :func:`write_trajectories` does). None means "not that case": the general
+    reader then handles it and reports any error precisely."""
+    cols = tab.cols
+    ep_agents = agents[rows]
+    n_agents = int(np.count_nonzero(ep_agents == ep_agents[0]))
+    n_agents = len(rows) // max(n_agents, 1)
+    if n_agents < 1 or len(rows) % n_agents or ep_agents[0] != 0:
+        return None
+    n_samples = len(rows) // n_agents
+    grid_agents = ep_agents.reshape(n_samples, n_agents)
+    ids = grid_agents[0]
+    if not (np.all(grid_agents == ids) and np.all(np.diff(ids) > 0)):
+        return None
+    t = cols["t"][rows].reshape(n_samples, n_agents)
+    if not np.all(t == t[:, :1]):
+        return None
+    cont = np.zeros(n_samples, dtype=bool)
+    if "continuation" in cols:
+        raw = cols["continuation"][rows].reshape(n_samples, n_agents)
+        flags = (raw == True) | (raw == "true")  # noqa: E712 - object array of bools/strings
+        if not np.all((flags | (raw == False) | (raw == "false")) == True):  # noqa: E712
+            return None
+        if not np.all(flags == flags[:, :1]):
+            return None
+        cont = flags[:, 0].astype(bool)
+    n_main = int(np.count_nonzero(~cont))
+    if n_main < 2 or np.any(cont[:n_main]):
+        return None
+    t_main = t[:n_main, 0]
+    steps = np.diff(t_main)
+    dt = float(dt_arg) if dt_arg is not None else float(f"{(t_main[-1] - t_main[0]) / steps.size:.12g}")
+    if not (dt > 0 and np.all(np.abs(steps - dt) <= _DT_RTOL * dt)):
+        return None
+    if n_main < n_samples:
+        expected = t_main[-1] + dt * np.arange(1, n_samples - n_main + 1)
+        if np.any(np.abs(t[n_main:, 0] - expected) > _DT_RTOL * dt * np.arange(1, n_samples - n_main + 1)):
+            return None
+    per_agent = {}
+    for name in ("radius", "gx", "gy", "v_pref", "arrival_t"):
+        if name not in cols:
+            continue
+        v = cols[name][rows].reshape(n_samples, n_agents)
+        if not np.all((v == v[:1]) | (np.isnan(v) & np.isnan(v[:1]))):
+            return None
+        per_agent[name] = v[0]
+    for name in ("role", "outcome", "human_overlaps"):
+        if name in cols:
+            v = cols[name][rows].reshape(n_samples, n_agents)
+            if not np.all(v == v[:1]):
+                return None
+    if "role" in cols:
+        want = np.array(["robot"] + ["human"] * (n_agents - 1), dtype=object)
+        if not np.all((cols["role"][rows[:n_agents]] == want) | (cols["role"][rows[:n_agents]] == None)):  # noqa: E711
+            return None
+    outcome = "unknown"
+    if "outcome" in cols:
+        outcome = cols["outcome"][rows[0]] or "unknown"
+        if outcome not in OUTCOMES:
+            return None
+    pos = np.stack([cols["x"][rows], cols["y"][rows]], axis=1).reshape(n_samples, n_agents, 2)
+    if "vx" in cols and "vy" in cols:
+        vel = np.stack([cols["vx"][rows], cols["vy"][rows]], axis=1).reshape(n_samples, n_agents, 2)[:n_main]
+        if not np.all(np.isfinite(vel)):
+            return None
+    else:
+        vel = _velocities([{"vel": None}], pos[:n_main], dt)
+    min_clearance = None
+    if "min_clearance" in cols:
+        mc = cols["min_clearance"][rows].reshape(n_samples, n_agents)[1:n_main, 0]
+        if np.any(np.isnan(mc)) and not np.all(np.isnan(mc)):
+            return None
+        min_clearance = None if np.all(np.isnan(mc)) else mc
+    overlaps = None
+    if "human_overlaps" in cols:
+        ho = cols["human_overlaps"][rows[0]]
+        overlaps = None if ho is None or (isinstance(ho, float) and np.isnan(ho)) else int(ho)
+    settings = _episode_settings(tab, rows, key)
+    if t_main[0] != 0.0:
+        settings["t0"] = float(t_main[0])
+    if not np.array_equal(ids, np.arange(n_agents)):
+        settings["agent_ids"] = [int(i) for i in ids]
+    arrival = per_agent.get("arrival_t")
+    return Trajectory(
+        dt=dt, positions=pos[:n_main], velocities=vel, radii=per_agent["radius"], v_pref=per_agent["v_pref"],
+        goals=np.stack([per_agent["gx"], per_agent["gy"]], axis=1),
+        roles=("robot",) + ("human",) * (n_agents - 1), outcome=outcome, min_clearance=min_clearance,
+        continuation=pos[n_main:] if n_main < n_samples else None, human_overlaps=overlaps,
+        settings=settings, arrival_times=None if arrival is None or np.all(np.isnan(arrival)) else arrival,
+    )
 
 
 def _constant(tab: _Table, name: str, rows: np.ndarray, *, allow_empty: bool = True) -> Any:
@@ -378,6 +516,7 @@ def _read_episode(
             "rows": arows, "t": t, "cont": is_cont,
             "pos": np.stack([cols["x"][arows], cols["y"][arows]], axis=1), "vel": vel,
             "radius": _constant(tab, "radius", arows), "v_pref": _constant(tab, "v_pref", arows),
+            "arrival": _constant(tab, "arrival_t", arows) if "arrival_t" in cols else None,
             "goal": (_constant(tab, "gx", arows), _constant(tab, "gy", arows)),
         })
     robot = per_agent[0]
@@ -393,12 +532,19 @@ def _read_episode(
         overlaps = None if ho is None else int(ho)
     grid_t = robot["t"][~robot["cont"]]
     regular, dt = _check_grid(tab, per_agent, dt_arg, key)
-    if not regular and not resample:
+    masked = None if regular else _masked_grid(per_agent, dt)
+    if not regular and masked is None and not resample:
         raise _regular_error(tab, per_agent, dt, key)
-    if not regular and dt_arg is None:
+    if not regular and masked is None and dt_arg is None:
         dt = float(f"{np.median(np.diff(grid_t)):.12g}")
     min_clearance = None
-    if regular:
+    present = None
+    if masked is not None:
+        pos, vel, present = masked
+        cont = None
+        if "min_clearance" in cols:
+            min_clearance = _min_clearance(tab, robot)
+    elif regular:
         pos = np.stack([p["pos"][~p["cont"]] for p in per_agent], axis=1)
         vel = _velocities(per_agent, pos, dt)
         cont = _regular_continuation(tab, per_agent, grid_t[-1], dt, key)
@@ -411,8 +557,10 @@ def _read_episode(
         settings["t0"] = float(grid_t[0])
     if not np.array_equal(ids, np.arange(len(ids))):
         settings["agent_ids"] = [int(i) for i in ids]
+    arrival = np.array([np.nan if p["arrival"] is None else p["arrival"] for p in per_agent], dtype=float)
     return Trajectory(
-        dt=dt, positions=pos, velocities=vel,
+        dt=dt, positions=pos, velocities=vel, present=present,
+        arrival_times=None if np.all(np.isnan(arrival)) else arrival,
         radii=np.array([p["radius"] for p in per_agent], dtype=float),
         v_pref=np.array([p["v_pref"] for p in per_agent], dtype=float),
         goals=np.array([p["goal"] for p in per_agent], dtype=float),
@@ -462,6 +610,37 @@ def _check_grid(
         t = p["t"][~p["cont"]]
         regular &= t.shape == robot_t.shape and bool(np.all(np.abs(t - robot_t) <= tol))
     return regular, dt
+
+
+def _masked_grid(
+    per_agent: list[dict[str, Any]], dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Agents entering or leaving: every sample on the robot's regular grid, some agents absent at some
+    samples (no row). Returns (positions, velocities, present) or None when that is not the case."""
+    if any(np.any(p["cont"]) for p in per_agent):
+        return None  # continuation samples need every agent at every sample
+    robot_t = per_agent[0]["t"]
+    if robot_t.size < 2 or not np.all(np.abs(np.diff(robot_t) - dt) <= _DT_RTOL * dt):
+        return None
+    n = robot_t.size
+    pos = np.full((n, len(per_agent), 2), np.nan)
+    present = np.zeros((n, len(per_agent)), dtype=bool)
+    given = per_agent[0]["vel"] is not None
+    vel = np.full_like(pos, np.nan)
+    for a, p in enumerate(per_agent):
+        k = (p["t"] - robot_t[0]) / dt
+        ki = np.rint(k)
+        if np.any(np.abs(k - ki) > _DT_RTOL * np.maximum(1.0, np.abs(k))) or ki.min() < 0 or ki.max() > n - 1:
+            return None
+        ki = ki.astype(np.int64)
+        pos[ki, a], present[ki, a] = p["pos"], True
+        if given:
+            vel[ki, a] = p["vel"]
+    if not given:
+        from socialnav.trajectory import derive_velocities
+
+        vel = derive_velocities(pos, present, dt)
+    return np.nan_to_num(pos), np.nan_to_num(vel), present
 
 
 def _regular_error(

@@ -52,3 +52,25 @@ def test_summarize_rows() -> None:
     assert out["a"]["mean"] == 2.0 and out["b"]["n"] == 1.0
     with pytest.raises(ValueError, match="confidence"):
         summarize([1.0], confidence=1.5)
+
+
+def test_summarize_rows_states_population_per_column() -> None:
+    import numpy as np
+
+    from socialnav.metrics import score_episode
+    from socialnav.trajectory import Trajectory
+
+    k = np.arange(9)
+    pos = np.stack([np.stack([0 * k, -2 + 0.5 * k], 1), np.tile([1.0, 0.0], (9, 1))], 1)
+    rows = [
+        score_episode(Trajectory.from_positions(pos, 0.25, radii=0.3, goals=pos[-1], outcome=o))
+        for o in ("success", "collision", "success")
+    ]
+    out = summarize_rows(rows)
+    assert out["path_length"]["population"] == "all" and out["path_length"]["n"] == 3.0
+    assert out["success"]["population"] == "known_outcome" and out["success"]["mean"] == pytest.approx(2 / 3)
+    assert out["navigation_time"]["population"] == "success" and out["navigation_time"]["n"] == 2.0
+    key = "m1_personal_space.count@eps=0.2,distance=clearance"
+    assert out[key]["population"] == "success" and out[key]["n"] == 2.0 and out[key]["n_rows"] == 3.0
+    assert summarize_rows(rows, require_success=False)[key]["population"] == "all"
+    assert summarize_rows([{"custom": 1.0}])["custom"]["population"] == "unknown"

@@ -14,7 +14,8 @@ from socialnav.trajectory import Trajectory
 def _traj(robot: list, humans: list | None = None, dt: float = 0.25, **kwargs) -> Trajectory:
     """Robot path (K+1, 2) and humans (H, K+1, 2) -> Trajectory with radii 0.3."""
     agents = [np.asarray(robot, float)] + [np.asarray(h, float) for h in humans or []]
-    return Trajectory.from_positions(np.stack(agents, axis=1), dt, radii=0.3, **kwargs)
+    pos = np.stack(agents, axis=1)
+    return Trajectory.from_positions(pos, dt, radii=0.3, **{"goals": pos[-1], **kwargs})
 
 
 @pytest.mark.parametrize(

@@ -12,8 +12,8 @@ from socialnav.trajectory import Trajectory
 
 
 def _traj(agents: list, dt: float = 0.25, radii: float | list = 0.3, **kwargs) -> Trajectory:
-    return Trajectory.from_positions(np.stack([np.asarray(a, float) for a in agents], 1), dt, radii=radii,
-                                     **kwargs)
+    pos = np.stack([np.asarray(a, float) for a in agents], 1)
+    return Trajectory.from_positions(pos, dt, radii=radii, **{"goals": pos[-1], **kwargs})
 
 
 def _square(x0: float, y0: float, side: float = 1.0) -> np.ndarray:

@@ -14,7 +14,8 @@ from socialnav.trajectory import Trajectory
 
 
 def _robot(path: np.ndarray, dt: float, v_pref: float = 2.0) -> Trajectory:
-    return Trajectory.from_positions(np.asarray(path, float)[:, None], dt, v_pref=v_pref)
+    pos = np.asarray(path, float)[:, None]
+    return Trajectory.from_positions(pos, dt, radii=0.3, v_pref=v_pref, goals=pos[-1])
 
 
 # ----------------------------------------------------------------------------------------- M_IV
@@ -74,8 +75,11 @@ def test_walking_speed_robust_to_heading_rounding() -> None:
 
 def test_walking_speed_warns_when_robot_cannot_exceed_threshold() -> None:
     path = _speeds_path([1.0, 1.0], [0.0, 0.0], 0.25)
-    with pytest.warns(WalkingSpeedWarning, match="v_pref"):
-        naturalness.walking_speed(_robot(path, 0.25, v_pref=1.5))
+    # stated once per table/scoring call, not per episode: the metric itself stays silent
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        naturalness.walking_speed(_robot(path, 0.25, v_pref=1.6))
+        naturalness.walking_speed(_robot(path, 0.25, v_pref=1.5))
+    assert "M_V≥" in naturalness.walking_speed_note(1.5) and "1.5" in naturalness.walking_speed_note(1.2)
+    assert naturalness.walking_speed_note(1.6) is None
+    assert naturalness.walking_speed_note(float("nan")) is None
+    assert issubclass(WalkingSpeedWarning, UserWarning)

@@ -23,14 +23,16 @@ def scenes(draw: st.DrawFn, min_humans: int = 1, max_humans: int = 4) -> Traject
     a = 1 + draw(st.integers(min_humans, max_humans))
     pos = draw(arrays(np.float64, (k + 1, a, 2), elements=coords))
     radii = draw(arrays(np.float64, (a,), elements=st.floats(0.1, 0.5)))
-    return Trajectory.from_positions(pos, draw(dts), radii=radii, v_pref=2.0, outcome="success")
+    return Trajectory.from_positions(pos, draw(dts), radii=radii, v_pref=2.0, goals=pos[-1],
+                                     outcome="success")
 
 
 def _transformed(traj: Trajectory, angle: float, shift: tuple[float, float]) -> Trajectory:
     c, s = math.cos(angle), math.sin(angle)
     rot = np.array([[c, -s], [s, c]])
     return Trajectory.from_positions(traj.positions @ rot.T + shift, traj.dt, radii=traj.radii,
-                                     v_pref=traj.v_pref, outcome=traj.outcome)
+                                     v_pref=traj.v_pref, goals=traj.goals @ rot.T + shift,
+                                     outcome=traj.outcome)
 
 
 def _check_indicator(out: dict[str, float], dt: float) -> None:
@@ -76,7 +78,8 @@ def test_m2_invariant_under_rigid_motion(traj: Trajectory, angle: float, dx: flo
 @given(scenes(min_humans=1, max_humans=1))
 @settings(max_examples=100, deadline=None)
 def test_m6_label_flips_under_mirror(traj: Trajectory) -> None:
-    mirrored = Trajectory.from_positions(traj.positions * [-1.0, 1.0], traj.dt, radii=traj.radii)
+    mirrored = Trajectory.from_positions(traj.positions * [-1.0, 1.0], traj.dt, radii=traj.radii,
+                                         goals=traj.goals * [-1.0, 1.0])
     label, flipped = sociability.side_preference(traj), sociability.side_preference(mirrored)
     assert flipped == {"left": "right", "right": "left", None: None}[label]
 

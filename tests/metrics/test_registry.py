@@ -9,19 +9,20 @@ import pytest
 
 import socialnav.metrics as sm
 from socialnav.metrics.registry import get_metric, list_metrics, metric_key, parse_key, register_metric
+from socialnav.metrics.score import score_keys
 
 
 def test_all_metrics_registered_with_records() -> None:
     names = [m.name for m in list_metrics()]
     assert names == [
         "success", "collision", "timeout", "navigation_time", "path_length", "min_clearance",
-        "discomfort", "human_overlaps", "m1_personal_space", "m2_projected_path",
+        "discomfort", "human_overlaps", "n_humans", "m1_personal_space", "m2_projected_path",
         "m3_aggregated_time", "m4_jerk", "m5_walking_speed", "m6_side_preference",
     ]
     for m in list_metrics():
         assert m.direction in ("lower", "higher", "none")
         assert m.unit and m.outputs and m.description and m.reference
-        assert "2202.01045" in (m.fn.__doc__ or "") or m.name in ("path_length", "human_overlaps")
+        assert "2202.01045" in (m.fn.__doc__ or "") or m.name in ("path_length", "human_overlaps", "n_humans")
     assert "Jin" in get_metric("m2_projected_path").fn.__doc__
     assert "Jin" in get_metric("m2_projected_path").reference
 
@@ -61,6 +62,17 @@ def test_key_naming_and_parse_round_trip() -> None:
     assert metric_key("m2_projected_path", "count", {"tau": 1.0, "anchor": "rear"}) == (
         "m2_projected_path.count@tau=1,anchor=rear"
     )
+    # omitted parameters take their defaults, so the key is the row's key
+    key2 = metric_key("m2_projected_path", "count", {"tau": 1.0})
+    assert key2 == "m2_projected_path.count@tau=1,anchor=rear"
+    assert metric_key("m2_projected_path", "count", {"tau": 1.0}) in score_keys()
+    assert metric_key("m3_aggregated_time", "steps") == "m3_aggregated_time.steps@cap_s=100"
+    with pytest.raises(KeyError, match="no output"):
+        metric_key("m2_projected_path", "counts")
+    with pytest.raises(KeyError, match="unknown parameter"):
+        metric_key("m2_projected_path", "count", {"taus": 1.0})
+    with pytest.raises(KeyError, match="unknown metric"):
+        metric_key("m9_nonsense", "value")
     assert parse_key(key) == ("m1_personal_space", "duration_s", {"eps": "0.2", "distance": "clearance"})
     assert parse_key("success") == ("success", "value", {})
 

@@ -17,7 +17,7 @@ def _episode(outcome: str) -> Trajectory:
     robot = np.stack([0 * k, -4 + 0.4 * k], 1)  # 1.6 m/s, above v_pref: no speed warning needed
     human = np.tile([0.5, 0.0], (21, 1))
     return Trajectory.from_positions(np.stack([robot, human], 1), 0.25, radii=0.3, v_pref=[2.0, 1.0],
-                                     outcome=outcome)
+                                     goals=[robot[-1], human[-1]], outcome=outcome)
 
 
 def test_keys_are_stable_and_documented_form() -> None:
@@ -67,7 +67,22 @@ def test_parameter_overrides() -> None:
 
 
 def test_failed_episode_does_not_warn() -> None:
-    traj = Trajectory.from_positions(np.zeros((3, 1, 2)), 0.25, v_pref=1.0, outcome="timeout")
+    traj = Trajectory.from_positions(np.zeros((3, 1, 2)), 0.25, radii=0.3, v_pref=1.0, goals=[[0, 0]],
+                                     outcome="timeout")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         score_episode(traj)
+
+
+def test_unknown_outcome_warns_that_social_metrics_are_nan() -> None:
+    from socialnav.metrics import UnknownOutcomeWarning
+
+    traj = Trajectory.from_positions(np.zeros((3, 2, 2)) + [[0, 0], [3, 0]], 0.25, radii=0.3,
+                                     goals=[[0, 0], [3, 0]])
+    with pytest.warns(UnknownOutcomeWarning, match="require_success=False"):
+        row = score_episode(traj)
+    assert math.isnan(row["m4_jerk.mean_sq"]) and math.isnan(row["success"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert not math.isnan(score_episode(traj, require_success=False)["m1_personal_space.count@eps=0.2,"
+                                                                          "distance=clearance"])

@@ -58,7 +58,7 @@ def atomic_write_rows_parquet(
     atomic_write(path, lambda tmp: pq.write_table(table, tmp, write_page_checksum=True))
 
 
-def read_parquet_verified(path: Path):
+def read_parquet_verified(path: Path, filters: Any = None):
     """Reads a Parquet file verifying its page checksums; a damaged file is an error naming it.
 
     Raises:
@@ -68,7 +68,7 @@ def read_parquet_verified(path: Path):
     import pyarrow.parquet as pq
 
     try:
-        return pq.read_table(path, page_checksum_verification=True)
+        return pq.read_table(path, page_checksum_verification=True, filters=filters)
     except (OSError, pa.ArrowException) as err:
         if isinstance(err, FileNotFoundError | IsADirectoryError | PermissionError):
             raise

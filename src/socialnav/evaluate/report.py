@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from socialnav.evaluate.files import atomic_write_json, atomic_write_text
-from socialnav.metrics import list_metrics
+from socialnav.metrics import get_metric, list_metrics, walking_speed_note
 from socialnav.presets import Preset
 
 # (header, key prefix, visibility of the pass it comes from, digits)
@@ -41,17 +41,32 @@ def write_reports(
             "unit": m.unit,
             "direction": m.direction,
             "social": m.social,
+            "population": m.population,
             "outputs": dict(m.outputs),
             "description": m.description,
         }
         for m in list_metrics()
     ]
-    atomic_write_json(out / "summary.json", {"preset": preset.name, "rows": summary, "metrics": metrics})
+    notes = table_notes(preset)
+    atomic_write_json(
+        out / "summary.json", {"preset": preset.name, "rows": summary, "metrics": metrics, "notes": notes}
+    )
     atomic_write_text(out / "summary.csv", to_csv(summary))
-    atomic_write_text(out / "table2.md", table2(summary, "md"))
-    atomic_write_text(out / "table2.tex", table2(summary, "tex"))
+    atomic_write_text(out / "table2.md", table2(summary, "md", notes))
+    atomic_write_text(out / "table2.tex", table2(summary, "tex", notes))
     atomic_write_text(out / "table3.md", table3(summary, "md"))
     atomic_write_text(out / "table3.tex", table3(summary, "tex"))
+
+
+def table_notes(preset: Preset) -> list[str]:
+    """Caveats that apply to a whole table, stated once under it instead of once per episode.
+
+    Today: M_V is 0 by construction when the robot's v_pref ≤ v_th (``wang2022``: 1.5 m/s = v_th),
+    the spec's warning, which used to be raised on every episode.
+    """
+    v_th = float(get_metric("m5_walking_speed").parameters["v_th"])
+    note = walking_speed_note(preset.robot.v_pref, v_th)
+    return [note] if note else []
 
 
 def to_csv(summary: Sequence[dict[str, Any]]) -> str:
@@ -120,7 +135,8 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
     return out
 
 
-def table2(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
+def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[str] = ()) -> str:
+    """Table II (pooled) and one per multi-human scenario; ``notes`` (see :func:`table_notes`) follow."""
     header = [
         "Policy",
         "Success %",
@@ -144,6 +160,9 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
     ]
     for s in scenarios:
         parts.append(_render(f"Table II, {s}", header, table2_rows(summary, s), fmt))
+    if notes:
+        prefix = "% " if fmt == "tex" else ""
+        parts.append("".join(f"{prefix}Note: {n}\n" for n in notes))
     return "\n".join(parts)
 
 

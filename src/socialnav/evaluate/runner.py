@@ -33,8 +33,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from socialnav.evaluate.files import (
     DirectoryLock,
     atomic_write_json,
@@ -45,14 +43,12 @@ from socialnav.evaluate.files import (
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, plan_cells
 from socialnav.evaluate.report import write_reports
 from socialnav.evaluate.summary import summarize_episodes
-from socialnav.metrics import score_episode
+from socialnav.metrics import score_episode, side_case_of_row
 from socialnav.policies.base import Policy
 from socialnav.presets import Preset
 from socialnav.sim.world import World, check_world_size
 from socialnav.trajectory import Trajectory
 
-SIDE_LABEL = {1.0: "left", -1.0: "right", 0.0: "unlabelled"}
-SIDE_KEY = "m6_side_preference.sign@frame=world"
 #: Parquet metadata key of a chunk file: the fingerprint of the manifest of the run that wrote it.
 CHUNK_STAMP_KEY = "socialnav.manifest"
 
@@ -121,8 +117,7 @@ def score_trajectories(trajs: list[Trajectory], cell: Cell, label: str) -> list[
                 **score_episode(traj),
             }
             if cell.single_human:
-                sign = row.get(SIDE_KEY, np.nan)
-                row["side"] = "failed" if traj.outcome != "success" else SIDE_LABEL.get(sign, "unlabelled")
+                row["side"] = "failed" if traj.outcome != "success" else side_case_of_row(row)
             rows.append(row)
     return rows, sorted({(w.category.__name__, str(w.message)) for w in caught})
 

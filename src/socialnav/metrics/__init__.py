@@ -6,7 +6,7 @@ episode with :func:`score_episode`; aggregate with :func:`summarize`. See ``docs
 
 from socialnav.metrics import basic, comfort, naturalness, sociability  # noqa: F401  (registration)
 from socialnav.metrics.aggregate import summarize, summarize_rows
-from socialnav.metrics.naturalness import WalkingSpeedWarning
+from socialnav.metrics.naturalness import WalkingSpeedWarning, walking_speed_note
 from socialnav.metrics.registry import (
     Metric,
     get_metric,
@@ -15,11 +15,19 @@ from socialnav.metrics.registry import (
     parse_key,
     register_metric,
 )
-from socialnav.metrics.score import score_episode, score_keys
-from socialnav.metrics.sociability import side_preference, summarize_side_preference
+from socialnav.metrics.score import UnknownOutcomeWarning, score_episode, score_keys
+from socialnav.metrics.sociability import (
+    SIDE_CASES,
+    side_case,
+    side_case_of_row,
+    side_preference,
+    summarize_side_preference,
+)
 
 __all__ = [
+    "SIDE_CASES",
     "Metric",
+    "UnknownOutcomeWarning",
     "WalkingSpeedWarning",
     "get_metric",
     "list_metrics",
@@ -28,8 +36,11 @@ __all__ = [
     "register_metric",
     "score_episode",
     "score_keys",
+    "side_case",
+    "side_case_of_row",
     "side_preference",
     "summarize",
     "summarize_rows",
     "summarize_side_preference",
+    "walking_speed_note",
 ]

@@ -52,19 +52,52 @@ def summarize(
 def summarize_rows(
     rows: Sequence[Mapping[str, float]],
     rng: np.random.Generator | None = None,
+    *,
+    require_success: bool = True,
     **kwargs: float,
-) -> dict[str, dict[str, float]]:
-    """Summarise each key of per-episode rows (e.g. from ``score_episode``).
+) -> dict[str, dict[str, float | str]]:
+    """Summarise each key of per-episode rows (e.g. from ``score_episode``), stating its population.
+
+    Columns are averaged over different episodes: basic metrics over all of them, outcome rates over
+    those with a known outcome, navigation time and the social metrics (M_I–M_VI) over successful
+    ones (``score_episode`` leaves them NaN elsewhere). Each key's summary says which, and how many
+    episodes entered its mean (``n``) out of ``n_rows``.
 
     Keys are processed in the order of the first row, then any new ones; one generator is shared,
     so the result depends only on ``rng`` and the rows.
 
+    Args:
+        rows: Per-episode rows; a row missing a key counts as NaN for it.
+        rng: Generator for the bootstrap (default seeded, reproducible).
+        require_success: The value passed to ``score_episode``: with False the social metrics'
+            population is every episode.
+        **kwargs: ``n_boot`` and ``confidence`` of :func:`summarize`.
+
     Returns:
-        ``{key: summarize(values of key)}``; a row missing a key counts as NaN for it.
+        ``{key: {mean, std, ci_low, ci_high, n, n_rows, population}}``; ``population`` is
+        ``"all"``, ``"success"`` or ``"known_outcome"`` (see ``Metric.population``), ``"unknown"``
+        for keys that are not metric keys.
     """
     rng = np.random.default_rng(DEFAULT_SEED) if rng is None else rng
     keys = list(dict.fromkeys(k for row in rows for k in row))
-    return {k: summarize([row.get(k, np.nan) for row in rows], rng, **kwargs) for k in keys}
+    out: dict[str, dict[str, float | str]] = {}
+    for k in keys:
+        stats: dict[str, float | str] = dict(summarize([row.get(k, np.nan) for row in rows], rng, **kwargs))
+        stats["n_rows"] = float(len(rows))
+        stats["population"] = _population(k, require_success)
+        out[k] = stats
+    return out
+
+
+def _population(key: str, require_success: bool) -> str:
+    from socialnav.metrics.registry import _REGISTRY, parse_key
+
+    metric = _REGISTRY.get(parse_key(key)[0])
+    if metric is None:
+        return "unknown"
+    if metric.social and not require_success:
+        return "all"
+    return metric.population
 
 
 def column_stats(

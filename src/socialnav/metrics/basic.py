@@ -21,6 +21,7 @@ __all__ = [
     "indicator_outputs",
     "min_clearance",
     "min_over_humans",
+    "n_humans",
     "navigation_time",
     "path_length",
     "robot_human_distance",
@@ -32,7 +33,7 @@ _OUTCOME_REF = WANG2022 + ", basic metrics, Tables I and II (success, collision,
 
 
 def robot_human_distance(traj: Trajectory, distance: str = "clearance") -> np.ndarray:
-    """Robot–human distance at samples k = 1..K.
+    """Robot–human distance at samples k = 1..K (+inf where the human is absent).
 
     Args:
         traj: The episode.
@@ -47,6 +48,8 @@ def robot_human_distance(traj: Trajectory, distance: str = "clearance") -> np.nd
     d = np.linalg.norm(pos[:, 1:] - pos[:, :1], axis=-1)
     if distance == "clearance":
         d = d - traj.radii[1:] - traj.radii[0]
+    if traj.present is not None:
+        d = np.where(traj.present[1:, 1:], d, np.inf)  # an absent human is infinitely far
     return d
 
 
@@ -63,7 +66,8 @@ def _outcome_indicator(traj: Trajectory, outcome: str) -> dict[str, float]:
     return {"value": float(traj.outcome == outcome)}
 
 
-@register_metric("success", unit="1", direction="higher", outputs={"value": "1"}, reference=_OUTCOME_REF)
+@register_metric("success", unit="1", direction="higher", outputs={"value": "1"}, reference=_OUTCOME_REF,
+                 population="known_outcome")
 def success(traj: Trajectory) -> dict[str, float]:
     """Success indicator: 1 when the robot reached its goal, 0 otherwise, NaN when unknown.
 
@@ -72,7 +76,8 @@ def success(traj: Trajectory) -> dict[str, float]:
     return _outcome_indicator(traj, "success")
 
 
-@register_metric("collision", unit="1", direction="lower", outputs={"value": "1"}, reference=_OUTCOME_REF)
+@register_metric("collision", unit="1", direction="lower", outputs={"value": "1"}, reference=_OUTCOME_REF,
+                 population="known_outcome")
 def collision(traj: Trajectory) -> dict[str, float]:
     """Collision indicator: 1 when the episode ended in a collision, 0 otherwise, NaN when unknown.
 
@@ -81,7 +86,8 @@ def collision(traj: Trajectory) -> dict[str, float]:
     return _outcome_indicator(traj, "collision")
 
 
-@register_metric("timeout", unit="1", direction="lower", outputs={"value": "1"}, reference=_OUTCOME_REF)
+@register_metric("timeout", unit="1", direction="lower", outputs={"value": "1"}, reference=_OUTCOME_REF,
+                 population="known_outcome")
 def timeout(traj: Trajectory) -> dict[str, float]:
     """Timeout indicator: 1 when the episode hit the time limit, 0 otherwise, NaN when unknown.
 
@@ -91,7 +97,7 @@ def timeout(traj: Trajectory) -> dict[str, float]:
 
 
 @register_metric("navigation_time", unit="s", direction="lower", outputs={"value": "s"},
-                 reference=WANG2022 + ", Table I/II 'Nav. time' (successful episodes)")
+                 reference=WANG2022 + ", Table I/II 'Nav. time' (successful episodes)", population="success")
 def navigation_time(traj: Trajectory) -> dict[str, float]:
     """Navigation time T = K·dt [s] of a successful episode; NaN unless the outcome is success.
 
@@ -157,7 +163,7 @@ def discomfort(traj: Trajectory, threshold: float = 0.2) -> dict[str, float]:
 
 
 def count_human_overlaps(traj: Trajectory) -> int:
-    """Number of (sample k = 1..K, human pair) with centre distance < r_i + r_j."""
+    """Number of (sample k = 1..K, human pair) with centre distance < r_i + r_j (both present)."""
     h = traj.positions[1:, 1:]
     if h.shape[1] < 2:
         return 0
@@ -179,6 +185,19 @@ def human_overlaps(traj: Trajectory) -> dict[str, float]:
     if traj.human_overlaps is not None:
         return {"value": float(traj.human_overlaps)}
     return {"value": float(count_human_overlaps(traj))}
+
+
+@register_metric("n_humans", unit="count", direction="none", outputs={"value": "count"},
+                 reference="Scene description; not in " + WANG2022)
+def n_humans(traj: Trajectory) -> dict[str, float]:
+    """Number of humans in the episode (present at one sample at least).
+
+    Recorded on every episode so that summaries can tell single-human episodes (M_VI) from others
+    without the outcome gating of the social metrics.
+    """
+    if traj.present is None:
+        return {"value": float(traj.n_humans)}
+    return {"value": float(np.count_nonzero(traj.present[:, 1:].any(axis=0)))}
 
 
 def indicator_outputs(flags: np.ndarray, dt: float) -> dict[str, float]:

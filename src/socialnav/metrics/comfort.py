@@ -238,6 +238,15 @@ def first_arrival_steps(traj: Trajectory) -> np.ndarray:
     return first
 
 
+def entry_steps(traj: Trajectory) -> np.ndarray:
+    """First sample at which each agent is present, shape (A,) float (0 without a mask; NaN if never)."""
+    if traj.present is None:
+        return np.zeros(traj.n_agents)
+    first = np.argmax(traj.present, axis=0).astype(float)
+    first[~traj.present.any(axis=0)] = np.nan
+    return first
+
+
 @register_metric(
     "m3_aggregated_time", unit="s", direction="lower",
     outputs={"time_s": "s", "steps": "steps", "censored": "count", "unresolved": "count"},
@@ -248,10 +257,13 @@ def aggregated_time(traj: Trajectory, cap_s: float = 100.0) -> dict[str, float]:
 
     Wang et al., ARSO 2022 (arXiv 2202.01045), definition of M_III, measured with a visible robot.
     The robot contributes T = K·dt; each human its first arrival (within its radius) at the goal it had
-    at reset, searched through the episode and the ``continuation`` (robot parked at its goal). Times
-    above ``cap_s`` count as the cap; a human that has not arrived when the data reach the cap is
-    ``censored`` (counted as the cap). A human that has not arrived when the data end *before* the cap
-    is ``unresolved`` and makes the sums NaN, since its time is unknown.
+    at reset, searched through the episode and the ``continuation`` (robot parked at its goal). Known
+    arrival times (``traj.arrival_times``, finite entries) replace the detection, for the robot too.
+    A human that enters the scene late (presence mask) contributes its arrival minus its entry, the
+    time it took. Times above ``cap_s`` count as the cap and are ``censored`` (the robot's too); a
+    human that has not arrived when the data reach the cap is censored (counted as the cap). A human
+    that has not arrived when the data end *before* the cap is ``unresolved`` and makes the sums NaN,
+    since its time is unknown.
 
     Args:
         traj: A successful episode.
@@ -259,19 +271,22 @@ def aggregated_time(traj: Trajectory, cap_s: float = 100.0) -> dict[str, float]:
 
     Returns:
         ``time_s`` [s], ``steps`` (the same sum in steps; the paper's values read as steps),
-        ``censored`` and ``unresolved`` human counts.
+        ``censored`` (robot and humans) and ``unresolved`` human counts.
     """
     cap_steps = cap_s / traj.dt
     first = first_arrival_steps(traj)
+    first[0] = traj.n_steps  # the robot's time is its episode, successful by contract
+    entry = entry_steps(traj)
+    known = np.full(traj.n_agents, np.nan) if traj.arrival_times is None else traj.arrival_times / traj.dt
+    took = np.where(np.isfinite(known), known, first - entry)  # steps from entry to arrival
     last_step = traj.n_steps + (0 if traj.continuation is None else traj.continuation.shape[0])
-    steps = np.empty(traj.n_agents)
-    steps[0] = min(traj.n_steps, cap_steps)  # the robot's time is its episode, successful by contract
-    human = first[1:]
-    arrived = ~np.isnan(human)
-    late = arrived & (human > cap_steps)
-    never = ~arrived & (last_step * traj.dt >= cap_s - 1e-9 * traj.dt)
-    unresolved = ~arrived & ~never
-    steps[1:] = np.where(arrived & ~late, human, cap_steps)
+    arrived = ~np.isnan(took)
+    late = arrived & (took > cap_steps + 1e-9)
+    observed = last_step - np.nan_to_num(entry, nan=last_step)  # steps of data after each entry
+    ghost = np.isnan(entry)  # never present in the data: not part of the scene
+    never = ~arrived & ~ghost & (observed * traj.dt >= cap_s - 1e-9 * traj.dt)
+    unresolved = ~arrived & ~never & ~ghost
+    steps = np.where(arrived & ~late, took, np.where(ghost, 0.0, cap_steps))
     n_unresolved = int(unresolved.sum())
     total = float("nan") if n_unresolved else float(steps.sum())
     return {

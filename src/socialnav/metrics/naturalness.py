@@ -7,15 +7,21 @@ Both are computed from the robot's positions only, so logs without velocities ar
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
 from socialnav.metrics.basic import indicator_outputs
 from socialnav.metrics.registry import WANG2022, register_metric
 from socialnav.trajectory import Trajectory
 
-__all__ = ["SPEED_TOL", "WalkingSpeedWarning", "jerk", "squared_jerk", "walking_speed", "walking_speed_flags"]
+__all__ = [
+    "SPEED_TOL",
+    "WalkingSpeedWarning",
+    "jerk",
+    "squared_jerk",
+    "walking_speed",
+    "walking_speed_flags",
+    "walking_speed_note",
+]
 
 SPEED_TOL = 1e-6
 """Tolerance [m/s] around v_th: speeds computed from positions at exactly v_th land a rounding step
@@ -23,7 +29,24 @@ above or below it depending on the heading, so comparisons are made against v_th
 
 
 class WalkingSpeedWarning(UserWarning):
-    """The robot cannot exceed the walking-speed threshold, so M_V is zero by construction."""
+    """The robot cannot exceed the walking-speed threshold, so M_V is zero by construction.
+
+    Not issued per episode (a protocol would repeat it thousands of times): the protocol's tables state
+    it once in their notes, and :func:`socialnav.logs.score_trajectories` warns once per call.
+    """
+
+
+def walking_speed_note(v_pref: float, v_th: float = 1.5) -> str | None:
+    """The M_V caveat for a robot with preferred speed ``v_pref``, or None when it does not apply.
+
+    A robot that respects v_pref ≤ v_th never moves strictly faster than v_th, so M_V is 0 by
+    construction and M_V≥ (``*_ge`` outputs) is the informative column (spec: warn in that case).
+    NaN (unknown v_pref) gives None.
+    """
+    if not v_pref <= v_th:
+        return None
+    return (f"robot v_pref {v_pref:g} m/s <= v_th {v_th:g} m/s: M_V (strictly above v_th) is 0 for a robot "
+            "that respects v_pref; compare M_V≥ (m5_walking_speed.*_ge) instead")
 
 
 def jerk(positions: np.ndarray, dt: float) -> np.ndarray:
@@ -90,19 +113,12 @@ def walking_speed(traj: Trajectory, v_th: float = 1.5) -> dict[str, float]:
     |v_k| ≥ v_th − 1e-6 (``M_V≥``, at or above), the column comparable with the paper's values for
     a robot whose v_pref equals v_th.
 
-    Warns:
-        WalkingSpeedWarning: The robot's v_pref ≤ v_th, so M_V (strict) is 0 by construction.
+    When the robot's v_pref ≤ v_th the strict M_V is 0 by construction; that caveat is stated once
+    per table or scoring call (:func:`walking_speed_note`), not per episode.
 
     Returns:
         Indicator outputs for both comparisons [samples, 1, s].
     """
-    if traj.v_pref[0] <= v_th:
-        warnings.warn(
-            f"robot v_pref {traj.v_pref[0]:g} m/s <= v_th {v_th:g} m/s: M_V is 0 for a robot that "
-            "respects v_pref; compare m5_walking_speed.*_ge (M_V≥) instead",
-            WalkingSpeedWarning,
-            stacklevel=2,
-        )
     above, at_or_above = walking_speed_flags(traj, v_th)
     out = indicator_outputs(above, traj.dt)
     out.update({f"{k}_ge": v for k, v in indicator_outputs(at_or_above, traj.dt).items()})

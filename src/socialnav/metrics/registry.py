@@ -40,6 +40,9 @@ JIN2020 = "Jin et al., 'Mapless Navigation among Dynamics with Social-safety-awa
 
 _REGISTRY: dict[str, Metric] = {}
 
+POPULATIONS: tuple[str, ...] = ("all", "success", "known_outcome")
+"""Which episodes a metric's mean is over (see :attr:`Metric.population`)."""
+
 
 @dataclass(frozen=True)
 class Metric:
@@ -56,6 +59,8 @@ class Metric:
         variants: Parameter overrides reported by default (e.g. ε = 0.2 and 1.2); each is merged
             over ``parameters``. One empty override means "defaults only".
         social: Only meaningful on successful episodes (NaN otherwise in ``score_episode``).
+        population: Episodes whose values enter a mean: ``"all"``, ``"success"`` (social metrics and
+            navigation time) or ``"known_outcome"`` (outcome rates; NaN when the outcome is unknown).
         fn: ``fn(traj, **params) -> {output: value}``.
     """
 
@@ -68,6 +73,7 @@ class Metric:
     outputs: Mapping[str, str]
     variants: tuple[Mapping[str, Any], ...] = ({},)
     social: bool = False
+    population: str = "all"
     fn: MetricFn = field(default=lambda traj: {}, repr=False)
 
     def resolve(self, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -90,7 +96,7 @@ class Metric:
         cache_key = tuple((k, repr(v)) for k, v in resolved.items())
         cached = _KEY_CACHE.get((self.name, cache_key))
         if cached is None:
-            cached = [metric_key(self.name, out, resolved) for out in self.outputs]
+            cached = [_format_key(self.name, out, resolved) for out in self.outputs]
             _KEY_CACHE[(self.name, cache_key)] = cached
         return list(cached)
 
@@ -106,17 +112,31 @@ def _format_value(value: Any) -> str:
     return str(value)
 
 
-def metric_key(name: str, output: str, params: Mapping[str, Any] | None = None) -> str:
-    """Build a flat key ``<name>[.<output>][@k=v,...]``.
+def metric_key(name: str, output: str = "value", params: Mapping[str, Any] | None = None) -> str:
+    """Build the flat key ``<name>[.<output>][@k=v,...]`` that :func:`score_episode` rows use.
+
+    Parameters are resolved against the registered metric: omitted ones take their defaults and all
+    are listed in declaration order, so ``metric_key("m2_projected_path", "count", {"tau": 1.0})``
+    is ``m2_projected_path.count@tau=1,anchor=rear``, exactly the row's key.
 
     Args:
-        name: Metric name.
-        output: Output name; ``"value"`` is omitted from the key.
-        params: Resolved parameters, in declaration order.
+        name: Registered metric name.
+        output: Output name; ``"value"`` (single-valued metrics) is omitted from the key.
+        params: Parameter overrides (any subset of the metric's parameters).
 
     Returns:
-        The key, e.g. ``m2_projected_path.fraction@tau=0.5,anchor=rear``.
+        The key.
+
+    Raises:
+        KeyError: Unknown metric, output or parameter name (the message lists the valid ones).
     """
+    metric = get_metric(name)
+    if output not in metric.outputs:
+        raise KeyError(f"metric {name!r} has no output {output!r}; outputs: {list(metric.outputs)}")
+    return _format_key(name, output, metric.resolve(params))
+
+
+def _format_key(name: str, output: str, params: Mapping[str, Any]) -> str:
     key = name if output == "value" else f"{name}.{output}"
     if params:
         key += "@" + ",".join(f"{k}={_format_value(v)}" for k, v in params.items())
@@ -142,6 +162,7 @@ def register_metric(
     variants: tuple[Mapping[str, Any], ...] = ({},),
     social: bool = False,
     description: str | None = None,
+    population: str | None = None,
 ) -> Callable[[MetricFn], MetricFn]:
     """Decorator registering ``fn(traj, **params) -> {output: value}`` as a metric.
 
@@ -153,6 +174,9 @@ def register_metric(
     """
     if direction not in ("lower", "higher", "none"):
         raise ValueError(f"metric {name!r}: direction must be lower/higher/none, got {direction!r}")
+    population = population or ("success" if social else "all")
+    if population not in POPULATIONS:
+        raise ValueError(f"metric {name!r}: population must be one of {POPULATIONS}, got {population!r}")
 
     def wrap(fn: MetricFn) -> MetricFn:
         if name in _REGISTRY:
@@ -161,7 +185,7 @@ def register_metric(
             name=name, unit=unit, direction=direction, parameters=dict(parameters or {}),
             description=description or (fn.__doc__ or "").strip().splitlines()[0],
             reference=reference, outputs=dict(outputs), variants=tuple(variants), social=social,
-            fn=fn,
+            population=population, fn=fn,
         )
         for variant in metric.variants:
             metric.resolve(variant)  # fail at import time on a misspelt variant parameter

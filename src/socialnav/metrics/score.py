@@ -10,13 +10,19 @@ basic metrics are computed on every episode.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 from socialnav.metrics.registry import Metric, list_metrics
 from socialnav.trajectory import Trajectory
 
-__all__ = ["ParamsSpec", "score_episode", "score_keys"]
+__all__ = ["ParamsSpec", "UnknownOutcomeWarning", "score_episode", "score_keys"]
+
+
+class UnknownOutcomeWarning(UserWarning):
+    """Social metrics were requested on an episode whose outcome is unknown: they are NaN."""
+
 
 ParamsSpec = Mapping[str, Mapping[str, Any] | Sequence[Mapping[str, Any]]]
 """Per metric name: one parameter override (dict) or several (list of dicts, one key group each)."""
@@ -60,10 +66,18 @@ def score_episode(
 
     Returns:
         ``{flat key: value}`` with the same keys for every episode (see :func:`score_keys`).
+
+    Warns:
+        UnknownOutcomeWarning: ``require_success`` is True and the outcome is ``unknown``, so every
+            social metric is NaN (a log without outcome: pass ``require_success=False``).
     """
     _check_names(params)
     row: dict[str, float] = {}
     gated = require_success and traj.outcome != "success"
+    if gated and traj.outcome == "unknown":
+        warnings.warn("episode outcome is 'unknown': social metrics (M_I-M_VI) are NaN because they are "
+                      "computed on successful episodes only; pass require_success=False (CLI: "
+                      "--all-episodes) or give the outcome", UnknownOutcomeWarning, stacklevel=2)
     for metric in list_metrics():
         for variant in _variants(metric, params):
             keys = metric.keys(variant)

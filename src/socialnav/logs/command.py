@@ -1,0 +1,148 @@
+"""The ``socialnav metrics`` subcommand (kept here, apart from the rest of the CLI).
+
+Exit status: 0 scored cleanly (notes about assumed values may be printed), 1 scored but the data
+raised warnings (inconsistent outcome labels, agents skipped, social metrics NaN for unknown
+outcomes), 2 nothing scored: the input is wrong (one line naming file, column and row).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from typing import Any
+
+from socialnav.logs.readers import ETH_UCY_FPS, FIELDS, MAX_SPEED
+from socialnav.logs.scoring import FORMATS
+
+EXIT_WARNINGS = 1
+EXIT_ERROR = 2
+_PER_EPISODE_LIMIT = 10
+
+
+def add_metrics_parser(sub: Any) -> None:
+    me = sub.add_parser(
+        "metrics",
+        help="score trajectory files: robot logs, or pedestrians as the robot (ETH/UCY, any CSV/Parquet)",
+        description="Score robot logs or pedestrian data with every metric. Formats: long (the project's "
+        "schema, docs/trajectory_format.md), csv/parquet with any columns (--columns), eth-ucy "
+        "('frame id x y' text). See docs/real_world_logs.md.",
+    )
+    me.add_argument("file", nargs="+", help="trajectory file(s); several files are scenes of one dataset")
+    me.add_argument("--format", choices=FORMATS, default="auto",
+                    help="default auto: .txt -> eth-ucy; .csv/.parquet with the long schema's columns -> "
+                    "long, else csv/parquet")
+    me.add_argument("--ego", help="score agent ID (or 'all': every non-robot agent in turn) as the robot, "
+                    "from its observed start to its observed end ('human as robot')")
+    me.add_argument("--columns", help="csv/parquet column mapping FIELD=COLUMN,... with FIELD in: "
+                    + ", ".join(FIELDS))
+    me.add_argument("--robot", help="csv/parquet: id of the robot (default: the agent with role 'robot')")
+    me.add_argument("--radius", type=float, help="radius of every agent when the file has none [m] "
+                    "(default 0.3, with a note)")
+    me.add_argument("--dt", type=float, help="time step to score at [s] (default: the data's median step)")
+    me.add_argument("--resample", action="store_true",
+                    help="long format: interpolate irregular timestamps (other formats always do, with a "
+                    "note)")
+    me.add_argument("--max-gap", type=float, help="longest gap in a track bridged by interpolation [s] "
+                    "(default: twice the median step)")
+    me.add_argument("--fps", type=float, default=ETH_UCY_FPS,
+                    help=f"eth-ucy: frame numbers per second (default {ETH_UCY_FPS:g}: 10 frames = 0.4 s)")
+    me.add_argument("--max-speed", type=float, default=MAX_SPEED,
+                    help=f"reject faster steps as implausible [m/s] (default {MAX_SPEED:g}; 'inf' disables)")
+    me.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m", help="csv/parquet positions")
+    me.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], default="s", help="csv/parquet times")
+    me.add_argument("--goal-tolerance", type=float,
+                    help="a 'success' ending farther than this from its goal is reported [m] (default: "
+                    "the robot's radius)")
+    me.add_argument("--all-episodes", action="store_true",
+                    help="score social metrics on every episode, not only successful ones (logs)")
+    me.add_argument("--per-episode", action="store_true",
+                    help=f"print every episode (default: only when there are <= {_PER_EPISODE_LIMIT})")
+    me.add_argument("--json", action="store_true", help="print one JSON object")
+    me.add_argument("--quiet", action="store_true", help="print no notes (warnings and errors still show)")
+    me.set_defaults(run=cmd_metrics)
+
+
+def cmd_metrics(args: argparse.Namespace) -> int:
+    import warnings
+
+    from socialnav.logs.scoring import DataWarning, load_trajectories, score_trajectories
+
+    notes: list[str] = []
+    problems: list[str] = []
+    if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
+        print(f"socialnav metrics: error: --dt must be > 0 and finite, got {args.dt}", file=sys.stderr)
+        return EXIT_ERROR
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            trajs = []
+            for path in args.file:
+                trajs += load_trajectories(
+                    path, format=args.format, ego=args.ego, columns=args.columns, robot=args.robot,
+                    radius=args.radius, dt=args.dt, resample=args.resample, max_gap=args.max_gap,
+                    fps=args.fps, max_speed=args.max_speed, length_unit=args.length_unit,
+                    time_unit=args.time_unit,
+                )
+            scores = score_trajectories(trajs, require_success=not args.all_episodes,
+                                        goal_tolerance=args.goal_tolerance)
+    except (ValueError, KeyError, OSError) as err:
+        message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
+        print(f"socialnav metrics: error: {message}", file=sys.stderr)
+        return EXIT_ERROR
+    for w in caught:
+        bucket = problems if issubclass(w.category, DataWarning) else notes
+        if str(w.message) not in bucket:
+            bucket.append(str(w.message))
+    if args.json:
+        print(json.dumps(_clean({"files": args.file, "episodes": scores.rows, "summaries": scores.summaries,
+                                 "notes": notes, "warnings": problems})))
+    else:
+        _print_text(scores, args.per_episode, not args.all_episodes)
+        for note in [] if args.quiet else notes:
+            print(f"note: {note}", file=sys.stderr)
+        for problem in problems:
+            print(f"warning: {problem}", file=sys.stderr)
+    return EXIT_WARNINGS if problems else 0
+
+
+def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
+    from socialnav.metrics.aggregate import _population
+
+    rows = scores.rows
+    ids = ("source", "scene", "episode", "ego", "mode", "outcome")
+    keys = [k for k in rows[0] if k not in ids]
+    if per_episode or len(rows) <= _PER_EPISODE_LIMIT:
+        for row in rows:
+            who = f", ego {row['ego']}" if row["mode"] == "human_as_robot" else ""
+            print(f"episode {row['episode']} ({row['outcome']}{who}):")
+            for k in keys:
+                print(f"  {k:60s} {row[k]:.4g}")
+    words = {"all": "all episodes", "success": "successful episodes", "known_outcome": "known outcomes"}
+    for group in scores.summaries:
+        title = "dataset" if group["scope"] == "dataset" else f"scene {group['scenario']}"
+        print(f"summary, {title} [{group['policy']}], {group['episodes']} episode(s):")
+        for rate in ("success_rate", "collision_rate", "timeout_rate"):
+            value = group.get(rate)
+            if value is not None and math.isfinite(value):
+                print(f"  {rate:60s} {value:.4g} (of known outcomes)")
+        for k in keys:
+            mean, std = group.get(f"{k}.mean"), group.get(f"{k}.std")
+            if mean is None:
+                continue
+            population = words.get(_population(k, require_success), "")
+            print(f"  {k:60s} {mean:.4g} ± {std:.3g} (n={group.get(f'{k}.n')} of {population})")
+
+
+def _clean(value: Any) -> Any:
+    """JSON-safe copy: NaN/inf become null (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_clean(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if hasattr(value, "item"):
+        return _clean(value.item())
+    return value

@@ -1,0 +1,423 @@
+"""Score trajectory files of any supported format: robot logs and "human as robot" pedestrian data.
+
+:func:`load_trajectories` turns a file into :class:`~socialnav.trajectory.Trajectory` objects (the
+logged robot's, or one per ego pedestrian); :func:`score_trajectories` scores them, checks logged
+outcomes against the geometry, and summarises per scene and over the whole dataset. The
+``socialnav metrics`` command is a thin layer over :func:`score_file`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from socialnav.logs.readers import ETH_UCY_FPS, MAX_SPEED, read_eth_ucy, read_table
+from socialnav.logs.scene import Scene, SceneError
+from socialnav.trajectory import AssumedValueWarning, Trajectory, TrajectoryFormatError
+
+__all__ = [
+    "FORMATS",
+    "DataWarning",
+    "LogScores",
+    "detect_format",
+    "load_trajectories",
+    "outcome_problems",
+    "score_file",
+    "score_trajectories",
+]
+
+FORMATS = ("auto", "long", "csv", "parquet", "eth-ucy")
+"""``long``: the project's schema (docs/trajectory_format.md); ``csv``/``parquet``: any columns, mapped
+with ``columns``; ``eth-ucy``: ``frame id x y`` text files."""
+ID_KEYS = ("source", "scene", "episode", "ego", "mode", "outcome")
+
+
+class DataWarning(UserWarning):
+    """The data are suspicious but can still be scored (inconsistent outcome label, skipped agents)."""
+
+
+@dataclass
+class LogScores:
+    """Result of scoring a file: per-trajectory rows, summaries, and what was assumed or suspicious.
+
+    Attributes:
+        rows: One dict per trajectory: ``source``, ``scene``, ``episode``, ``ego``, ``mode``
+            (``robot`` or ``human_as_robot``), ``outcome`` and every metric key of ``score_episode``.
+        summaries: One dict per scene (``scope: "scene"``) and, with several scenes, one over the
+            whole input (``scope: "dataset"``): ``episodes`` and per metric key ``<key>.mean``,
+            ``.std``, ``.ci_low``, ``.ci_high``, ``.n``, as in the protocol's summary.
+        notes: Values assumed or caveats (radius defaults, resampling, M_V), once each.
+        warnings: Data problems found (scoring went on); ``socialnav metrics`` exits with 1 if any.
+    """
+
+    rows: list[dict[str, Any]]
+    summaries: list[dict[str, Any]]
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+
+# ------------------------------------------------------------------------------------ loading
+def detect_format(path: str | Path, columns: Any = None) -> str:
+    """The format of ``path`` for ``format="auto"``: by suffix, and for tables by their header."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in (".txt", ".dat", ".ndjson"):
+        return "eth-ucy"
+    if suffix not in (".csv", ".parquet", ".tsv"):
+        raise TrajectoryFormatError(f"{path}: cannot tell the format from suffix {path.suffix!r}; pass "
+                                    f"--format ({', '.join(FORMATS[1:])})")
+    if columns:
+        return "parquet" if suffix == ".parquet" else "csv"
+    from socialnav.trajectory_io import REQUIRED_COLUMNS
+
+    names = _header(path)
+    if names is not None and all(c in names for c in REQUIRED_COLUMNS):
+        return "long"
+    return "parquet" if suffix == ".parquet" else "csv"
+
+
+def _header(path: Path) -> list[str] | None:
+    if path.is_dir() or not path.exists() or path.stat().st_size == 0:
+        return None  # the reader gives the precise error
+    if path.suffix.lower() == ".parquet":
+        try:
+            import pyarrow.parquet as pq
+
+            return list(pq.read_schema(path).names)
+        except Exception:  # noqa: BLE001 - unreadable: let the reader report it
+            return None
+    with path.open("rb") as handle:
+        line = handle.readline(65536)
+    try:
+        return [c.strip().strip('"') for c in line.decode("utf-8").strip().split(",")]
+    except UnicodeDecodeError:
+        return None
+
+
+def load_trajectories(
+    path: str | Path,
+    *,
+    format: str = "auto",
+    ego: Any = None,
+    columns: Any = None,
+    robot: Any = None,
+    radius: float | None = None,
+    dt: float | None = None,
+    resample: bool = False,
+    max_gap: float | None = None,
+    fps: float = ETH_UCY_FPS,
+    max_speed: float = MAX_SPEED,
+    length_unit: str = "m",
+    time_unit: str = "s",
+) -> list[Trajectory]:
+    """Read ``path`` and return the trajectories to score.
+
+    Without ``ego`` the logged robot of each scene is scored (long format: agent 0; tables: the
+    ``robot`` id or the agent whose role is ``robot``). With ``ego=ID`` that agent, and with
+    ``ego="all"`` every agent except the logged robot in turn, is scored as the robot against
+    everyone else ("human as robot": start and goal are its observed first and last positions).
+
+    Args:
+        path: The file.
+        format: One of :data:`FORMATS`.
+        ego: None, an agent id, or ``"all"``.
+        columns: Column mapping for ``csv``/``parquet`` (see :func:`socialnav.logs.read_table`).
+        robot: Robot id for ``csv``/``parquet`` logs without a role column.
+        radius: Radius for files without radii [m] (default 0.3 m with a warning).
+        dt: Grid step [s] (default: the data's median step).
+        resample: Long format only: interpolate irregular timestamps (other formats always do, with a
+            note, since their clocks are rarely regular).
+        max_gap: Longest gap in a track bridged when resampling [s] (default twice the median step).
+        fps: ETH/UCY frame numbers per second.
+        max_speed: Reject faster steps as implausible [m/s].
+        length_unit, time_unit: Units of tables (``m``/``cm``/``mm``, ``s``/``ms``/``us``/``ns``).
+
+    Raises:
+        TrajectoryFormatError: The file is unreadable or breaks its format (file, column, row named).
+        KeyError: ``ego`` or ``robot`` names no agent.
+        SceneError: An explicitly named ego cannot be scored (too short, or gaps).
+    """
+    if format not in FORMATS:
+        raise ValueError(f"unknown format {format!r}; valid: {', '.join(FORMATS)}")
+    path = Path(path)
+    fmt = detect_format(path, columns) if format == "auto" else format
+    if fmt != "long" and format == "auto" and path.is_dir():
+        raise TrajectoryFormatError(f"{path}: is a directory, not a trajectory file")
+    if fmt == "long":
+        if columns:
+            raise ValueError("--columns applies to --format csv/parquet, not to the long format")
+        from socialnav.trajectory_io import read_trajectories
+
+        trajs = read_trajectories(path, resample=resample, dt=dt)
+        if ego is None:
+            for tr in trajs:
+                tr.settings.setdefault("source", str(path))
+            return trajs
+        scenes = [Scene.from_trajectory(tr, str(path)) for tr in trajs]
+    elif fmt == "eth-ucy":
+        if columns or robot is not None:
+            raise ValueError("ETH/UCY files have fixed columns (frame id x y) and no robot; use --ego")
+        scenes = read_eth_ucy(path, fps=fps, radius=radius, dt=dt, max_gap=max_gap, max_speed=max_speed)
+    else:
+        expected = ".parquet" if fmt == "parquet" else ".csv"
+        if path.suffix.lower() not in (expected, ".tsv" if fmt == "csv" else expected) and not path.is_dir():
+            raise TrajectoryFormatError(f"{path}: --format {fmt} expects a {expected} file")
+        scenes = read_table(path, columns, robot=robot, radius=radius, dt=dt, max_gap=max_gap,
+                            max_speed=max_speed, length_unit=length_unit, time_unit=time_unit)
+    for scene in scenes:
+        if scene.resampled:
+            warnings.warn(f"{path}: scene {scene.name!r}: irregular timestamps, linearly interpolated onto "
+                          f"a {scene.dt:g} s grid", AssumedValueWarning, stacklevel=2)
+    return _select(path, scenes, ego)
+
+
+def _select(path: Path, scenes: list[Scene], ego: Any) -> list[Trajectory]:
+    if ego is None:
+        missing = [s.name for s in scenes if s.robot is None]
+        if missing:
+            raise ValueError(f"{path}: no robot in scene(s) {missing[:5]}: map a role column (--columns "
+                             "role=...), pass --robot ID, or score pedestrians with --ego ID|all")
+        return [s.robot_trajectory() for s in scenes]
+    if str(ego) != "all":
+        found = [s for s in scenes if str(ego) in s.ids.astype(str)]
+        if not found:
+            raise KeyError(f"{path}: no agent with id {ego!r} in any scene")
+        return [s.ego_trajectory(ego) for s in found]
+    trajs = []
+    for scene in scenes:
+        skipped = []
+        for a in range(scene.n_agents):
+            if a == scene.robot:
+                continue
+            try:
+                trajs.append(scene.trajectory(a, human_as_robot=True))
+            except SceneError as err:
+                skipped.append(str(err).split(": ", 1)[1])
+        if skipped:
+            warnings.warn(f"{path}: {len(skipped)} agent(s) not scored as ego: {skipped[0]}"
+                          + (f" (and {len(skipped) - 1} more)" if len(skipped) > 1 else ""),
+                          DataWarning, stacklevel=2)
+    if not trajs:
+        raise SceneError(f"{path}: no agent can be scored as ego (each needs >= 2 samples without gaps)")
+    return trajs
+
+
+# ------------------------------------------------------------------------------------ checks
+def outcome_problems(traj: Trajectory, goal_tolerance: float | None = None) -> list[str]:
+    """Contradictions between a logged ``success`` and the geometry (empty when none).
+
+    A successful robot neither overlaps a human at any sample (centre distance < r_r + r_h) nor ends
+    farther than ``goal_tolerance`` (default its radius, the simulator's success test) from its goal.
+    """
+    if traj.outcome != "success":
+        return []
+    where = _where(traj)
+    out = []
+    if traj.n_humans:
+        pos = traj.positions
+        d = np.linalg.norm(pos[:, 1:] - pos[:, :1], axis=-1) - traj.radii[1:] - traj.radii[0]
+        d = np.where(traj.presence[:, 1:], d, np.inf)
+        k, h = np.unravel_index(int(np.argmin(d)), d.shape)
+        if d[k, h] < -1e-9:
+            ids = traj.settings.get("agent_ids")
+            who = ids[h + 1] if ids else h + 1
+            out.append(f"{where}: labelled 'success' but the robot overlaps agent {who} at "
+                       f"t = {k * traj.dt:g} s (clearance {d[k, h]:.3g} m)")
+    tol = float(traj.radii[0]) if goal_tolerance is None else float(goal_tolerance)
+    miss = float(np.linalg.norm(traj.positions[-1, 0] - traj.goals[0]))
+    if miss > tol + 1e-9:
+        out.append(f"{where}: labelled 'success' but the robot ends {miss:.3g} m from its goal "
+                   f"(tolerance {tol:g} m)")
+    return out
+
+
+def _where(traj: Trajectory) -> str:
+    s = traj.settings
+    parts = [str(s.get("source", "")), f"episode {s.get('episode', s.get('scene', '?'))!r}"]
+    if s.get("mode") == "human_as_robot":
+        parts.append(f"ego {s.get('ego')}")
+    return ": ".join(p for p in parts if p)
+
+
+# ------------------------------------------------------------------------------------ scoring
+def score_trajectories(
+    trajs: Iterable[Trajectory],
+    *,
+    require_success: bool = True,
+    goal_tolerance: float | None = None,
+    params: Any = None,
+    label: str | None = None,
+) -> LogScores:
+    """Score trajectories, check logged outcomes, summarise per scene and over all of them.
+
+    Args:
+        trajs: From :func:`load_trajectories` (or anywhere).
+        require_success: Social metrics on successful episodes only (the paper's protocol). Episodes of
+            unknown outcome then have NaN social metrics, which is reported once in ``warnings``.
+        goal_tolerance: See :func:`outcome_problems`.
+        params: Metric parameter overrides, as for ``score_episode``.
+        label: Name of the scored agents in summaries (default ``human-as-robot`` or ``robot``).
+    """
+    from socialnav.metrics import score_episode, walking_speed_note
+    from socialnav.metrics.score import UnknownOutcomeWarning
+
+    trajs = list(trajs)
+    rows: list[dict[str, Any]] = []
+    problems: list[str] = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnknownOutcomeWarning)  # reported once below, not per episode
+        for i, tr in enumerate(trajs):
+            s = tr.settings
+            mode = s.get("mode", "robot")
+            if mode != "human_as_robot":
+                problems += outcome_problems(tr, goal_tolerance)
+            rows.append({
+                "source": str(s.get("source", "")), "scene": str(s.get("scene", s.get("episode", i))),
+                "episode": str(s.get("episode", s.get("scene", i))), "ego": str(s.get("ego", "robot")),
+                "mode": mode, "outcome": tr.outcome,
+                **score_episode(tr, params, require_success=require_success),
+            })
+    notes = []
+    unknown = sum(tr.outcome == "unknown" for tr in trajs)
+    if unknown and require_success:
+        problems.append(f"{unknown} episode(s) have outcome 'unknown': their social metrics (M_I-M_VI) are "
+                        "NaN; score them with --all-episodes (require_success=False) or log the outcome")
+    v_prefs = {float(tr.v_pref[0]) for tr in trajs if np.isfinite(tr.v_pref[0])}
+    notes += sorted(filter(None, (walking_speed_note(v) for v in v_prefs)))
+    for note in notes:
+        warnings.warn(note, AssumedValueWarning if "v_pref" not in note else UserWarning, stacklevel=2)
+    for problem in problems:
+        warnings.warn(problem, DataWarning, stacklevel=2)
+    modes = {r["mode"] for r in rows}
+    label = label or ("human-as-robot" if modes == {"human_as_robot"} else "robot")
+    return LogScores(rows=rows, summaries=summarize_scores(rows, label), notes=notes, warnings=problems)
+
+
+def summarize_scores(rows: Sequence[dict[str, Any]], label: str) -> list[dict[str, Any]]:
+    """Per-scene summaries, plus one over the dataset when there are several scenes."""
+    from socialnav.evaluate.summary import summarize_group
+
+    by_scene: dict[str, list[dict[str, Any]]] = {}
+    for i, row in enumerate(rows):
+        metric_row = {"policy": label, "scenario": row["scene"], "visibility": "-", "index": i,
+                      "outcome": row["outcome"], **{k: v for k, v in row.items() if k not in ID_KEYS}}
+        by_scene.setdefault(row["scene"], []).append(metric_row)
+    out = []
+    for scene, members in by_scene.items():
+        out.append({"scope": "scene", **summarize_group((label, scene, "-"), members)})
+    if len(by_scene) > 1:
+        everything = [m for members in by_scene.values() for m in members]
+        out.append({"scope": "dataset", **summarize_group((label, "dataset", "-"), everything,
+                                                          pooled_over=sorted(by_scene))})
+    return out
+
+
+def score_file(
+    path: str | Path,
+    *,
+    require_success: bool = True,
+    goal_tolerance: float | None = None,
+    params: Any = None,
+    workers: int = 0,
+    **load_kwargs: Any,
+) -> LogScores:
+    """:func:`load_trajectories` then :func:`score_trajectories`; the Python twin of ``socialnav metrics``.
+
+    Notes and warnings raised while loading (assumed radii, resampling, skipped egos) are collected
+    into the result as well as re-issued.
+
+    Args:
+        workers: Processes that read and score disjoint sets of episodes of a long-format file
+            (0: in this process). Rows come back in file order, so the result does not depend on it.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        if workers > 1 and load_kwargs.get("ego") is None and detect_format(
+                path, load_kwargs.get("columns")) == "long" and load_kwargs.get("format", "auto") in (
+                "auto", "long"):
+            scores = _score_parallel(Path(path), workers, require_success, goal_tolerance, params,
+                                     load_kwargs)
+        else:
+            trajs = load_trajectories(path, **load_kwargs)
+            scores = score_trajectories(trajs, require_success=require_success,
+                                        goal_tolerance=goal_tolerance, params=params)
+    for w in caught:
+        text = str(w.message)
+        if issubclass(w.category, DataWarning):
+            if text not in scores.warnings:
+                scores.warnings.append(text)
+        elif text not in scores.notes:
+            scores.notes.append(text)
+    for w in caught:
+        warnings.warn(w.message, w.category, stacklevel=2)
+    return scores
+
+
+def _episode_keys(path: Path) -> list[Any]:
+    import pyarrow as pa
+
+    if path.suffix.lower() == ".parquet":
+        import pyarrow.parquet as pq
+
+        col = pq.read_table(path, columns=["episode"]).column("episode")
+    else:
+        import pyarrow.csv as pcsv
+
+        col = pcsv.read_csv(path, convert_options=pcsv.ConvertOptions(include_columns=["episode"])).column(
+            "episode")
+    if not pa.types.is_integer(col.type):
+        col = col.cast(pa.string())
+    values = col.to_numpy(zero_copy_only=False)
+    _, first = np.unique(values, return_index=True)
+    return [v.item() if hasattr(v, "item") else v for v in values[np.sort(first)]]
+
+
+def _score_chunk(path: str, keys: list[Any], require_success: bool, goal_tolerance: float | None,
+                 params: Any, load_kwargs: dict[str, Any]) -> tuple[list[dict], list[str], list[str]]:
+    from socialnav.trajectory_io import read_trajectories
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        trajs = read_trajectories(path, resample=load_kwargs.get("resample", False), dt=load_kwargs.get("dt"),
+                                  episodes=keys)
+        for tr in trajs:
+            tr.settings.setdefault("source", path)
+        scores = score_trajectories(trajs, require_success=require_success, goal_tolerance=goal_tolerance,
+                                    params=params)
+    notes = [str(w.message) for w in caught if not issubclass(w.category, DataWarning)]
+    return scores.rows, notes, scores.warnings
+
+
+def _score_parallel(path: Path, workers: int, require_success: bool, goal_tolerance: float | None,
+                    params: Any, load_kwargs: dict[str, Any]) -> LogScores:
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    keys = _episode_keys(path)
+    chunks = [list(c) for c in np.array_split(np.array(keys, dtype=object), workers) if len(c)]
+    ctx = multiprocessing.get_context("forkserver")  # pyarrow's threads make a plain fork unsafe
+    with ProcessPoolExecutor(max_workers=len(chunks), mp_context=ctx) as pool:
+        futures = [pool.submit(_score_chunk, str(path), c, require_success, goal_tolerance, params,
+                               load_kwargs) for c in chunks]
+        try:
+            results = [f.result() for f in futures]
+        except (ValueError, KeyError):
+            results = None
+    if results is None:  # read again in this process for the error message with the file's row numbers
+        load_trajectories(path, **load_kwargs)
+        raise TrajectoryFormatError(f"{path}: invalid (see the worker's error)")
+    rows = [r for res in results for r in res[0]]
+    notes = list(dict.fromkeys(n for res in results for n in res[1]))
+    problems = list(dict.fromkeys(p for res in results for p in res[2]))
+    for note in notes:
+        warnings.warn(note, UserWarning, stacklevel=3)
+    for problem in problems:
+        warnings.warn(problem, DataWarning, stacklevel=3)
+    modes = {r["mode"] for r in rows}
+    label = "human-as-robot" if modes == {"human_as_robot"} else "robot"
+    return LogScores(rows=rows, summaries=summarize_scores(rows, label), notes=notes, warnings=problems)
