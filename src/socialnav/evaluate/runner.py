@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from socialnav.evaluate.files import atomic_write_json, atomic_write_rows_parquet
+from socialnav.evaluate.mainguard import main_module_reruns_call
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, plan_cells
 from socialnav.evaluate.report import write_reports
 from socialnav.evaluate.summary import summarize_episodes
@@ -130,7 +131,9 @@ def run_protocol(
         extra_manifest: Extra fields recorded in the manifest (e.g. the checkpoint path).
         batch_size: Episodes simulated in lockstep.
         workers: Processes that score finished chunks while the next chunk is simulated (default:
-            one per core, at most 4; 0 scores in this process).
+            one per core, at most 4; 0 scores in this process). Called from the top level of a
+            script without an ``if __name__ == "__main__":`` guard, scoring stays in this process
+            (workers would re-run the script).
 
     Raises:
         ResumeMismatchError: ``out_dir`` holds a different run's results.
@@ -161,6 +164,8 @@ def run_protocol(
     bar = _progress(total, done, progress)
     computed = 0
     workers = min(os.cpu_count() or 1, 4) if workers is None else workers
+    if workers > 0 and main_module_reruns_call():
+        workers = 0  # workers would re-run the calling script's top level (see evaluate/mainguard.py)
     pool = _scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
     pending: deque = deque()
 
