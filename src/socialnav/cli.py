@@ -41,7 +41,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     ev = sub.add_parser("evaluate", help="run a protocol preset for one policy and print the paper's tables")
     ev.add_argument(
-        "--policy", default="orca", help="registered policy name (see `socialnav list`); default orca"
+        "--policy",
+        default="orca",
+        help="registered policy name (see `socialnav list`), an entry point of group socialnav.policies, "
+        "or module.path:ClassName (docs/custom_policies.md); default orca",
+    )
+    ev.add_argument(
+        "--policy-arg",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="policy parameter, repeatable (e.g. safety_space=0.2); VALUE is read as YAML: "
+        "numbers, true/false, null, [lists] and strings",
     )
     ev.add_argument("--checkpoint", help="checkpoint of a learned policy (from `socialnav train`)")
     ev.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
@@ -92,9 +103,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from socialnav.presets import load_preset
 
     preset = load_preset(args.preset)
-    overrides = {"information": args.information} if args.information else {}
+    overrides = parse_policy_args(args.policy_arg)
+    if args.information:
+        overrides["information"] = args.information
     policy = build_policy(args.policy, preset, args.checkpoint, **overrides)
+    # A module path would make a poor directory name: such policies are labelled by their own name.
     label = args.label or args.policy
+    if not args.label and ":" in args.policy:
+        label = str(getattr(policy, "name", "") or args.policy.rpartition(":")[2])
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -122,6 +138,25 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             f"(summary.json, summary.csv, table2/3 .md and .tex, episodes/*.parquet)"
         )
     return 0
+
+
+def parse_policy_args(items: list[str]) -> dict[str, Any]:
+    """``["safety_space=0.2", "mode=fast"]`` -> ``{"safety_space": 0.2, "mode": "fast"}`` (YAML values)."""
+    import yaml
+
+    params: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key.isidentifier():
+            raise ValueError(f"--policy-arg {item!r}: expected KEY=VALUE with KEY a parameter name")
+        if key in params:
+            raise ValueError(f"--policy-arg {key} given twice")
+        try:
+            params[key] = yaml.safe_load(text) if text.strip() else ""
+        except yaml.YAMLError as err:
+            raise ValueError(f"--policy-arg {item!r}: VALUE is not valid YAML ({err})") from None
+    return params
 
 
 def cmd_metrics(args: argparse.Namespace) -> int:
