@@ -37,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="socialnav", description="Crowd navigation: simulate, evaluate, train."
     )
+    parser.add_argument("--version", action="version", version=f"socialnav {_version()}")
     sub = parser.add_subparsers(dest="command")
 
     ev = sub.add_parser("evaluate", help="run a protocol preset for one policy and print the paper's tables")
@@ -131,8 +132,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"preset": preset.name, "out": str(out), "rows": _clean(result.summary)}))
     else:
-        print(table2(result.summary, "md"))
-        print(table3(result.summary, "md"))
+        for table in (table2(result.summary, "md"), table3(result.summary, "md")):
+            if table:  # a run without multi- or single-human scenarios has no such table
+                print(table)
         print(
             f"{result.computed_episodes} episodes simulated, results in {out}/ "
             f"(summary.json, summary.csv, table2/3 .md and .tex, episodes/*.parquet)"
@@ -207,11 +209,19 @@ def cmd_metrics(args: argparse.Namespace) -> int:
     return 0
 
 
+def _version() -> str:
+    from socialnav import __version__
+
+    return __version__
+
+
 def cmd_list(args: argparse.Namespace) -> int:
     from socialnav.metrics import list_metrics
     from socialnav.policies import list_policies
+    from socialnav.policies.loading import list_shipped_checkpoints
     from socialnav.presets import shipped_presets
     from socialnav.scenarios import list_scenarios
+    from socialnav.sim.registration import ENV_IDS
     from socialnav.sim.settings import HUMAN_MODELS
 
     data = {
@@ -236,6 +246,8 @@ def cmd_list(args: argparse.Namespace) -> int:
             for m in list_metrics()
         ],
         "presets": shipped_presets(),
+        "gym_ids": {env_id: kwargs["scenario"] for env_id, kwargs in ENV_IDS.items()},
+        "checkpoints": list_shipped_checkpoints(),
     }
     if args.json:
         print(json.dumps(data, default=str))
@@ -256,6 +268,13 @@ def cmd_list(args: argparse.Namespace) -> int:
         params = ", ".join(f"{k}={v}" for k, v in m["parameters"].items())
         print(f"  {m['name']} [{m['unit']}, {m['direction']} is better]" + (f" ({params})" if params else ""))
     print("Presets: " + ", ".join(data["presets"]))
+    print("Gymnasium ids (gym.make / gym.make_vec; docs/simulator.md):")
+    for env_id, scenario in data["gym_ids"].items():
+        print(f"  {env_id}: {scenario}")
+    print(
+        "Shipped checkpoints (<policy>_<preset>, used by `evaluate --policy P --preset S` without "
+        "--checkpoint): " + (", ".join(data["checkpoints"]) or "none")
+    )
     return 0
 
 
