@@ -137,7 +137,7 @@ def test_rl_episodes_is_met_exactly_when_many_episodes_end_together(tmp_path, se
 def test_smoke_config_is_shipped_and_loads_by_name():
     assert "smoke" in shipped_train_configs()
     smoke = load_train_settings("smoke")
-    assert smoke.rl.episodes == 100 and smoke.imitation.epochs == 5
+    assert smoke.rl.episodes == 64 and smoke.imitation.epochs == 5
     with pytest.raises(ConfigError, match="shipped configs: smoke"):
         load_train_settings("smokey")
 
@@ -149,6 +149,6 @@ def test_smoke_config_trains_end_to_end(tmp_path, capsys):
     assert main(["train", "--policy", "sarl", "--preset", "crowdnav", "--config", "smoke", "--out",
                  str(tmp_path), "--no-progress"]) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
-    assert summary["episodes"] == 100
+    assert summary["episodes"] == 64
     for name in ("il.pt", "best.pt", "last.pt", "curves.csv"):
         assert (tmp_path / name).exists()
