@@ -1,7 +1,11 @@
 """socialnav: batched crowd-navigation simulation and social-conformity evaluation.
 
 The package root imports nothing heavy: `import socialnav.metrics` needs NumPy only, and
-PyTorch is imported only by learned policies and training.
+PyTorch is imported only by learned policies and training. Importing the package registers the
+Gymnasium ids (``socialnav/CircleCrossing-v0`` …; Gymnasium 1.x has no plugin loader), which costs
+Gymnasium's import (about 0.1 s beyond NumPy's).
 """
 
 __version__ = "0.1.0"
+
+from socialnav.sim import registration as _registration  # noqa: E402,F401  (registers the env ids)

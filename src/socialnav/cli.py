@@ -110,11 +110,23 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="socialnav", description="Crowd navigation: simulate, evaluate, train."
     )
+    parser.add_argument("--version", action="version", version=f"socialnav {_version()}")
     sub = parser.add_subparsers(dest="command")
 
     ev = sub.add_parser("evaluate", help="run a protocol preset for one policy and print the paper's tables")
     ev.add_argument(
-        "--policy", default="orca", help="registered policy name (see `socialnav list`); default orca"
+        "--policy",
+        default="orca",
+        help="registered policy name (see `socialnav list`), an entry point of group socialnav.policies, "
+        "or module.path:ClassName (docs/custom_policies.md); default orca",
+    )
+    ev.add_argument(
+        "--policy-arg",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="policy parameter, repeatable (e.g. safety_space=0.2); VALUE is read as YAML: "
+        "numbers, true/false, null, [lists] and strings",
     )
     ev.add_argument("--checkpoint", help="checkpoint of a learned policy (from `socialnav train`)")
     ev.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
@@ -188,17 +200,19 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.batch_size < 1:
         raise ValueError(f"--batch-size must be >= 1, got {args.batch_size}")
     preset = load_preset(args.preset)
-    overrides = {
-        k: getattr(args, k)
-        for k in ("information", "planning_depth", "planning_width")
-        if getattr(args, k) is not None
-    }
+    overrides = parse_policy_args(args.policy_arg)
+    for key in ("information", "planning_depth", "planning_width"):
+        if getattr(args, key) is not None:
+            overrides[key] = getattr(args, key)
     policy = build_policy(
         args.policy, preset, args.checkpoint, allow_preset_mismatch=args.allow_preset_mismatch, **overrides
     )
     for difference in getattr(policy, "preset_mismatch", []):
         print(f"warning: preset mismatch allowed: {difference}", file=sys.stderr)
+    # A module path would make a poor directory name: such policies are labelled by their own name.
     label = args.label or args.policy
+    if not args.label and ":" in args.policy:
+        label = str(getattr(policy, "name", "") or args.policy.rpartition(":")[2])
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -224,8 +238,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"preset": preset.name, "out": str(out), "rows": _clean(result.summary)}))
     elif not args.quiet:
-        print(table2(result.summary, "md", table_notes(preset)))
-        print(table3(result.summary, "md"))
+        for table in (table2(result.summary, "md", table_notes(preset)), table3(result.summary, "md")):
+            if table:  # a run without multi- or single-human scenarios has no such table
+                print(table)
         print(
             f"{result.computed_episodes} episodes simulated, results in {out}/ "
             f"(summary.json, summary.csv, table2/3 .md and .tex, episodes/*.parquet"
@@ -236,11 +251,38 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def parse_policy_args(items: list[str]) -> dict[str, Any]:
+    """``["safety_space=0.2", "mode=fast"]`` -> ``{"safety_space": 0.2, "mode": "fast"}`` (YAML values)."""
+    import yaml
+
+    params: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key.isidentifier():
+            raise ValueError(f"--policy-arg {item!r}: expected KEY=VALUE with KEY a parameter name")
+        if key in params:
+            raise ValueError(f"--policy-arg {key} given twice")
+        try:
+            params[key] = yaml.safe_load(text) if text.strip() else ""
+        except yaml.YAMLError as err:
+            raise ValueError(f"--policy-arg {item!r}: VALUE is not valid YAML ({err})") from None
+    return params
+
+
+def _version() -> str:
+    from socialnav import __version__
+
+    return __version__
+
+
 def cmd_list(args: argparse.Namespace) -> int:
     from socialnav.metrics import list_metrics
     from socialnav.policies import list_policies
+    from socialnav.policies.loading import list_shipped_checkpoints
     from socialnav.presets import shipped_presets
     from socialnav.scenarios import list_scenarios
+    from socialnav.sim.registration import ENV_IDS
     from socialnav.sim.settings import HUMAN_MODELS
 
     data = {
@@ -265,6 +307,8 @@ def cmd_list(args: argparse.Namespace) -> int:
             for m in list_metrics()
         ],
         "presets": shipped_presets(),
+        "gym_ids": {env_id: kwargs["scenario"] for env_id, kwargs in ENV_IDS.items()},
+        "checkpoints": list_shipped_checkpoints(),
     }
     if args.json:
         print(json.dumps(data, default=str))
@@ -285,6 +329,13 @@ def cmd_list(args: argparse.Namespace) -> int:
         params = ", ".join(f"{k}={v}" for k, v in m["parameters"].items())
         print(f"  {m['name']} [{m['unit']}, {m['direction']} is better]" + (f" ({params})" if params else ""))
     print("Presets: " + ", ".join(data["presets"]))
+    print("Gymnasium ids (gym.make / gym.make_vec; docs/simulator.md):")
+    for env_id, scenario in data["gym_ids"].items():
+        print(f"  {env_id}: {scenario}")
+    print(
+        "Shipped checkpoints (<policy>_<preset>, used by `evaluate --policy P --preset S` without "
+        "--checkpoint): " + (", ".join(data["checkpoints"]) or "none")
+    )
     return 0
 
 

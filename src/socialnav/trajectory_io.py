@@ -186,6 +186,9 @@ def _atomic_write(path: Path, table: Any, suffix: str) -> None:
             import pyarrow.csv as pcsv
 
             pcsv.write_csv(table, tmp)
+        from socialnav.evaluate.files import default_file_mode
+
+        os.chmod(tmp, default_file_mode())  # as open() would, not mkstemp's 0600
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

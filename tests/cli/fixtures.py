@@ -37,7 +37,9 @@ CASES: list[Case] = [
     C("metrics-empty-csv", "file", "metrics {base}/empty.csv", "empty.csv"),
     C("metrics-header-only", "file", "metrics {base}/header_only.csv", "header_only.csv", "no episodes"),
     C("metrics-not-numeric", "type", "metrics {base}/text_x.csv", "text_x.csv", "column 'x'", "not numeric"),
-    C("metrics-missing-column", "file", "metrics {base}/no_goal.csv", "no_goal.csv", "gx"),
+    # A log without goals is scored with assumed goals (a note says so: docs/real_world_logs.md); one
+    # without y cannot be scored at all.
+    C("metrics-missing-column", "file", "metrics {base}/no_y.csv", "no_y.csv", "'y'"),
     C("metrics-nan", "type", "metrics {base}/nan_x.csv", "nan_x.csv", "column 'x', row 1"),
     C(
         "metrics-huge-id",
@@ -402,8 +404,8 @@ def build_inputs(base: Path):
     with_value("nan_x.csv", "x", "")
     with_value("huge_id.csv", "agent", str(10**30))
     with_value("float_id.csv", "agent", "0.5")
-    keep = [i for i, c in enumerate(cols) if c != "gx"]
-    write_csv("no_goal.csv", [cols[i] for i in keep], [[r[i] for i in keep] for r in rows])
+    keep = [i for i, c in enumerate(cols) if c != "y"]
+    write_csv("no_y.csv", [cols[i] for i in keep], [[r[i] for i in keep] for r in rows])
     write_csv("no_robot.csv", cols, [r for r in rows if r[cols.index("agent")] != "0"])
     (base / "binary.csv").write_bytes(bytes(range(256)) * 8)
     t = cols.index("t")

@@ -17,7 +17,9 @@ def test_single_env_passes_gymnasium_checker(kwargs):
 def test_registered_ids_make_both_envs():
     env = gym.make("socialnav/CircleCrossing-v0")
     obs, info = env.reset(seed=5)
-    assert obs["humans"].shape == (5, 5) and info["episode_index"] == 5
+    assert obs["humans"].shape == (5, 5) and info["episode_index"] == 5 * 10_000_000
+    obs, info = env.reset(options={"index": 7})
+    assert info["episode_index"] == 7
     venv = gym.make_vec("socialnav/CircleCrossing-v0", num_envs=4, vectorization_mode="vector_entry_point")
     obs, _ = venv.reset(seed=0)
     assert obs["robot"].shape == (4, 9)
@@ -81,7 +83,7 @@ def test_single_env_outcome_comes_from_the_world_not_the_reward():
     # With a zero success reward the outcome must still read "success" (not inferred from the reward).
     env = SocialNavEnv(scenario="passing", scenario_params={"n_humans": 1},
                        world={"human_model": "linear", "reward": {"success_reward": 0.0}})
-    env.reset(seed=19)  # the human walks at the far offset: a straight robot passes clear
+    env.reset(options={"index": 19})  # the human walks at the far offset: a straight robot passes clear
     for _ in range(200):
         _, reward, terminated, truncated, info = env.step(np.array([0.0, 1.0]))
         if terminated or truncated:

@@ -1,7 +1,10 @@
 """Atomic result files: write to a temporary file in the same directory, then rename.
 
 A reader (or a resumed run) therefore sees either the previous complete file or the new complete
-file, never a partial one, even if the process is killed mid-write.
+file, never a partial one, even if the process is killed mid-write. The file gets the permissions a
+plain ``open()`` would give it (0666 masked by the process umask), not the temporary file's 0600, so
+colleagues on a shared server can read results. JSON files hold ``null`` where a value is NaN or
+infinite (JSON has no NaN).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ def atomic_write(path: Path, write: Callable[[str], None]) -> None:
     os.close(fd)
     try:
         write(tmp)
+        os.chmod(tmp, default_file_mode())
         os.replace(tmp, path)
     except BaseException as err:
         if os.path.exists(tmp):
@@ -29,6 +33,41 @@ def atomic_write(path: Path, write: Callable[[str], None]) -> None:
         if isinstance(err, OSError) and err.filename is None:  # e.g. a full disk: say which file
             raise OSError(err.errno, f"cannot write {path}: {err.strerror or err}") from None
         raise
+
+
+def process_umask() -> int:
+    """The process umask, read without changing it where the OS allows (Linux: /proc)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)  # the only portable way to read it; restored at once
+    os.umask(mask)
+    return mask
+
+
+def default_file_mode() -> int:
+    """Mode of a newly created regular file: 0666 minus the umask (temporary files get 0600)."""
+    return 0o666 & ~process_umask()
+
+
+def json_safe(value: Any) -> Any:
+    """A copy of ``value`` that ``json.dumps(allow_nan=False)`` accepts: NaN/inf become None,
+    NumPy scalars and arrays become Python values, tuples become lists."""
+    import math
+
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, str | bytes):  # NumPy scalar or array
+        return json_safe(value.tolist())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def atomic_write_text(path: Path, text: str) -> None:
@@ -42,7 +81,8 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 
 def atomic_write_json(path: Path, data: Any) -> None:
-    atomic_write_text(path, json.dumps(data, indent=2, sort_keys=False, default=_json_default) + "\n")
+    text = json.dumps(json_safe(data), indent=2, sort_keys=False, default=_json_default, allow_nan=False)
+    atomic_write_text(path, text + "\n")
 
 
 def atomic_write_rows_parquet(

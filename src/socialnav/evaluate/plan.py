@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass
 
 from socialnav.config import ConfigError
@@ -60,6 +61,14 @@ def plan_cells(preset: Preset, scenarios: list[str] | None = None, episodes: int
         if single:
             if "invisible" in passes:
                 n = make_single(preset, name).n_episodes
+                if episodes and episodes > n:
+                    warnings.warn(
+                        f"{name} has {n} episodes (n_offsets x evaluation.repeats = {n}): "
+                        f"runs {n}, not the {episodes} asked for (raise evaluation.repeats in the "
+                        f"preset for more)",
+                        UserWarning,
+                        stacklevel=2,
+                    )
                 cells.append(Cell(name, "invisible", min(n, episodes) if episodes else n, True))
         else:
             for vis in passes:

@@ -52,10 +52,12 @@ def write_reports(
         out / "summary.json", {"preset": preset.name, "rows": summary, "metrics": metrics, "notes": notes}
     )
     atomic_write_text(out / "summary.csv", to_csv(summary))
-    atomic_write_text(out / "table2.md", table2(summary, "md", notes))
-    atomic_write_text(out / "table2.tex", table2(summary, "tex", notes))
-    atomic_write_text(out / "table3.md", table3(summary, "md"))
-    atomic_write_text(out / "table3.tex", table3(summary, "tex"))
+    for name, make, missing in (
+        ("table2", lambda s, f: table2(s, f, notes), "no multi-human scenario was evaluated"),
+        ("table3", table3, "no single-human scenario (passing, overtaking, crossing) was evaluated"),
+    ):
+        for fmt, comment in (("md", "<!-- {} -->\n"), ("tex", "% {}\n")):
+            atomic_write_text(out / f"{name}.{fmt}", make(summary, fmt) or comment.format(missing))
 
 
 def table_notes(preset: Preset) -> list[str]:
@@ -145,22 +147,20 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
         "Nav. time (s)",
         *[c[0] for c in TABLE2_COLUMNS],
     ]
-    parts = [
-        _render(
-            "Table II: pooled over the multi-human scenarios (invisible robot; M_III visible)",
-            header,
-            table2_rows(summary),
-            fmt,
-        )
-    ]
+    # Tables without rows are left out (a run of single-human scenarios only has no Table II).
+    pooled = table2_rows(summary)
+    title = "Table II: pooled over the multi-human scenarios (invisible robot; M_III visible)"
+    parts = [_render(title, header, pooled, fmt)] if pooled else []
     scenarios = [
         s
         for s in dict.fromkeys(r["scenario"] for r in summary)
         if s != "pooled" and not any("m6_left_pct" in r for r in summary if r["scenario"] == s)
     ]
     for s in scenarios:
-        parts.append(_render(f"Table II, {s}", header, table2_rows(summary, s), fmt))
-    if notes:
+        rows = table2_rows(summary, s)
+        if rows:
+            parts.append(_render(f"Table II, {s}", header, rows, fmt))
+    if notes and parts:
         prefix = "% " if fmt == "tex" else ""
         parts.append("".join(f"{prefix}Note: {n}\n" for n in notes))
     return "\n".join(parts)
@@ -196,9 +196,10 @@ def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
         "Crossing L % (behind)",
         "Crossing R % (front)",
     ]
-    return _render(
-        "Table III: M_VI side preference (successful single-human cases)", header, table3_rows(summary), fmt
-    )
+    rows = table3_rows(summary)
+    if not rows:
+        return ""  # no single-human scenario in the run: no table, not an empty header
+    return _render("Table III: M_VI side preference (successful single-human cases)", header, rows, fmt)
 
 
 def _render(title: str, header: list[str], rows: list[list[str]], fmt: str) -> str:

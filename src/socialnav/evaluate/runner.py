@@ -40,6 +40,7 @@ from socialnav.evaluate.files import (
     read_parquet_verified,
     remove_orphan_temporaries,
 )
+from socialnav.evaluate.mainguard import main_module_reruns_call
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, plan_cells
 from socialnav.evaluate.report import write_reports
 from socialnav.evaluate.summary import summarize_episodes
@@ -175,7 +176,9 @@ def run_protocol(
         extra_manifest: Extra fields recorded in the manifest (e.g. the checkpoint path).
         batch_size: Episodes simulated in lockstep.
         workers: Processes that score finished chunks while the next chunk is simulated (default:
-            one per core, at most 4; 0 scores in this process).
+            one per core, at most 4; 0 scores in this process). Called from the top level of a
+            script without an ``if __name__ == "__main__":`` guard, scoring stays in this process
+            (workers would re-run the script).
         trajectories: Keep every episode's trajectory under ``trajectories/`` (for ``socialnav
             replay``, ``render`` and ``report``).
 
@@ -247,6 +250,8 @@ def _simulate_and_score(
     bar = _progress(total, done, progress)
     computed = 0
     workers = min(os.cpu_count() or 1, 4) if workers is None else workers
+    if workers > 0 and main_module_reruns_call():
+        workers = 0  # workers would re-run the calling script's top level (see evaluate/mainguard.py)
     pool = _scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
     pending: deque = deque()
 

@@ -79,12 +79,15 @@ def cmd_metrics(args: argparse.Namespace) -> int:
             warnings.simplefilter("always")
             trajs = []
             for path in args.file:
-                trajs += load_trajectories(
+                loaded = load_trajectories(
                     path, format=args.format, ego=args.ego, columns=args.columns, robot=args.robot,
                     radius=args.radius, dt=args.dt, resample=args.resample, max_gap=args.max_gap,
                     fps=args.fps, max_speed=args.max_speed, length_unit=args.length_unit,
                     time_unit=args.time_unit,
                 )
+                if not loaded:
+                    raise ValueError(f"{path}: no episodes (the file has a header but no rows)")
+                trajs += loaded
             scores = score_trajectories(trajs, require_success=not args.all_episodes,
                                         goal_tolerance=args.goal_tolerance)
     except (ValueError, KeyError, OSError) as err:

@@ -3,11 +3,21 @@
 A policy maps a batch of observations to a batch of actions. It never holds the environment; the
 information it receives about the future is a named setting (``information``) that is recorded with
 every result.
+
+Policies are found by name in the registry (built-in ones, ``@register_policy``, and the entry points
+of group ``socialnav.policies``, loaded on the first unknown name), or as ``module.path:Attribute``
+naming a class or factory anywhere on the import path (docs/custom_policies.md).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib
+import importlib.metadata
+import inspect
+import os
+import sys
+import warnings
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
@@ -38,16 +48,23 @@ class PolicyEntry:
 
 
 _REGISTRY: dict[str, PolicyEntry] = {}
+ENTRY_POINT_GROUP = "socialnav.policies"
+_plugins_loaded = False
 
 
 def register_policy(name: str, *, description: str, learned: bool = False,
                     parameters: dict[str, Any] | None = None) -> Callable:
-    """Class/function decorator registering a policy factory under ``name``."""
+    """Class/function decorator registering a policy factory under ``name``.
+
+    ``parameters`` maps each keyword the factory accepts to its default (shown by ``socialnav list``;
+    other keywords are refused). Left out, they are read from the factory's signature.
+    """
 
     def decorator(factory: Callable[..., Policy]) -> Callable[..., Policy]:
         if name in _REGISTRY:
             raise ValueError(f"policy {name!r} is already registered")
-        _REGISTRY[name] = PolicyEntry(name, factory, description, learned, dict(parameters or {}))
+        params = dict(parameters) if parameters is not None else _signature_parameters(factory)
+        _REGISTRY[name] = PolicyEntry(name, factory, description, learned, params)
         return factory
 
     return decorator
@@ -55,25 +72,104 @@ def register_policy(name: str, *, description: str, learned: bool = False,
 
 def list_policies() -> list[PolicyEntry]:
     _load_builtin()
+    _load_plugins()
     return [_REGISTRY[k] for k in sorted(_REGISTRY)]
 
 
 def get_policy_entry(name: str) -> PolicyEntry:
+    """The entry of a registered name, an entry-point name, or ``module.path:Attribute``."""
     _load_builtin()
+    if name in _REGISTRY:
+        return _REGISTRY[name]
+    if ":" in name:
+        return _entry_from_path(name)
+    _load_plugins()
     if name not in _REGISTRY:
-        raise KeyError(f"unknown policy {name!r}; valid: {', '.join(sorted(_REGISTRY))}")
+        raise KeyError(
+            f"unknown policy {name!r}; valid: {', '.join(sorted(_REGISTRY))}, or module.path:ClassName "
+            f"(see docs/custom_policies.md)"
+        )
     return _REGISTRY[name]
 
 
 def make_policy(name: str, **params: Any) -> Policy:
     """Builds a registered policy; unknown parameters are refused with the valid ones listed."""
     entry = get_policy_entry(name)
-    if not entry.learned:
+    if not entry.learned and not _accepts_any_keyword(entry.factory):
         unknown = sorted(set(params) - set(entry.parameters))
         if unknown:
             raise ValueError(f"policy {name!r} has no parameter(s) {', '.join(unknown)}; "
                              f"valid: {', '.join(sorted(entry.parameters)) or 'none'}")
-    return entry.factory(**params)
+    try:
+        policy = entry.factory(**params)
+    except TypeError as err:  # e.g. a required argument missing: the user's to fix, so no traceback
+        raise ValueError(f"policy {name!r} could not be built with {params}: {err}") from None
+    missing = [a for a in ("name", "act", "describe") if not hasattr(policy, a)]
+    if missing:
+        raise ValueError(
+            f"policy {name!r} built a {type(policy).__name__} without {', '.join(missing)}: a policy needs "
+            "name, information, act(observation) and describe() (docs/custom_policies.md)"
+        )
+    return policy
+
+
+def _entry_from_path(spec: str) -> PolicyEntry:
+    module_name, _, attr = spec.partition(":")
+    if not module_name or not attr:
+        raise ValueError(f"policy {spec!r}: expected module.path:ClassName")
+    if os.getcwd() not in sys.path and "" not in sys.path:
+        sys.path.append(os.getcwd())  # `socialnav evaluate --policy my_policy:X` finds ./my_policy.py
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as err:
+        raise ValueError(f"policy {spec!r}: cannot import module {module_name!r} ({err})") from None
+    obj: Any = module
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            raise ValueError(f"policy {spec!r}: module {module_name!r} has no attribute {attr!r}")
+        obj = getattr(obj, part)
+    if not callable(obj):
+        raise ValueError(f"policy {spec!r}: {attr} is not a class or a factory function")
+    doc = (inspect.getdoc(obj) or "").strip().splitlines()
+    return PolicyEntry(spec, obj, doc[0] if doc else "", False, _signature_parameters(obj))
+
+
+def _signature_parameters(factory: Callable) -> dict[str, Any]:
+    try:
+        sig = inspect.signature(factory)
+    except (TypeError, ValueError):
+        return {}
+    return {
+        p.name: (None if p.default is inspect.Parameter.empty else p.default)
+        for p in sig.parameters.values()
+        if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+    }
+
+
+def _accepts_any_keyword(factory: Callable) -> bool:
+    try:
+        return any(p.kind is p.VAR_KEYWORD for p in inspect.signature(factory).parameters.values())
+    except (TypeError, ValueError):
+        return True
+
+
+def _load_plugins() -> None:
+    """Imports the entry points of group ``socialnav.policies`` once; each names a policy class or
+    factory (registered under the entry point's name) or a module whose import registers policies."""
+    global _plugins_loaded
+    if _plugins_loaded:
+        return
+    _plugins_loaded = True
+    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        try:
+            obj = ep.load()
+        except Exception as exc:  # a broken plugin must not hide the built-in policies
+            message = f"could not load policy plugin {ep.name!r} ({ep.value}): {exc!r}"
+            warnings.warn(message, RuntimeWarning, stacklevel=3)
+            continue
+        if callable(obj) and ep.name not in _REGISTRY:
+            doc = (inspect.getdoc(obj) or "").strip().splitlines()
+            register_policy(ep.name, description=doc[0] if doc else f"plugin {ep.value}")(obj)
 
 
 def _load_builtin() -> None:

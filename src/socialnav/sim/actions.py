@@ -1,4 +1,4 @@
-"""CrowdSim's discrete action set (spec/simulator.md), NumPy version for non-torch users."""
+"""CrowdSim's discrete action set (docs/simulator.md), NumPy version for non-torch users."""
 
 from __future__ import annotations
 

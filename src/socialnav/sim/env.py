@@ -2,13 +2,27 @@
 
 Observations are dicts of arrays: ``robot`` (9,), ``humans`` (N, 5) and ``human_mask`` (N,)
 (see :mod:`socialnav.sim.observation`). Actions are continuous (vx, vy) or (v, dθ) by default,
-or an index into CrowdSim's 81-action set with ``action_set="discrete"``. Episodes are named by
-their index in the chosen split: ``reset(seed=k)`` starts at episode k, later resets continue with
-k+1, k+2, …, so a seed reproduces an episode exactly.
+or an index into CrowdSim's 81-action set with ``action_set="discrete"``.
+
+Episodes are named by their index in the chosen split (``info["episode_index"]``) and played in
+an order an :class:`EpisodeOrder` fixes:
+
+- ``reset(seed=s)`` starts the stream of seed s: episodes ``s·10⁷, s·10⁷+1, …`` of an endless
+  split (train), or, where the episodes are finite (a single-human sweep's 20, or the 1000 of the
+  val/test splits), a permutation of them drawn from s, a new permutation each time round (cycling).
+  Distinct seeds give distinct streams, so the copies of ``gym.make_vec(..., "sync"/"async")``
+  (seeded s, s+1, …, or from entropy with ``seed=None``) never replay each other's episodes.
+- ``reset(options={"index": k})`` plays episodes k, k+1, … (wrapping round a finite set): replays
+  episode k exactly.
+- ``reset()`` continues the current stream (a fresh random one on the first call).
+
+The native vector env plays the same stream B episodes at a time; its ``info`` has the layout
+Gymnasium's own ``SyncVectorEnv`` gives (``key`` / ``_key`` masks, ``final_obs``, ``final_info``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import gymnasium as gym
@@ -19,11 +33,15 @@ from gymnasium.vector.utils import batch_space
 
 from socialnav.config import from_dict
 from socialnav.scenarios import make_scenario
+from socialnav.scenarios.base import SPLIT_SIZE
 from socialnav.sim.actions import discrete_actions
 from socialnav.sim.observation import Observation
 from socialnav.sim.settings import WorldSettings
-from socialnav.sim.world import World
+from socialnav.sim.world import EpisodeStream, StepResult, World
 from socialnav.viz.env_render import available_render_modes
+
+#: Episodes reserved per seed in an endless split (as ``socialnav train`` does with its seed).
+SEED_STRIDE = 10_000_000
 
 OUTCOME_CODES = {"running": 0, "success": 1, "collision": 2, "timeout": 3}
 
@@ -54,6 +72,55 @@ def _obs_rows(obs: Observation) -> dict[str, np.ndarray]:
     return {"robot": obs.robot, "humans": obs.humans, "human_mask": obs.human_mask.astype(np.int8)}
 
 
+class EpisodeOrder:
+    """The episode index each position 0, 1, 2, … of an env's stream plays.
+
+    Args:
+        n_episodes: Size of a finite episode set (cycled through), or None for an endless split.
+        seed: Seeded order (see the module docstring); seeds >= 2**32 are hashed into [0, 2**32).
+        start: Contiguous order from this episode index instead.
+    """
+
+    def __init__(self, n_episodes: int | None, *, seed: int | None = None, start: int | None = None):
+        if (seed is None) == (start is None):
+            raise ValueError("EpisodeOrder needs exactly one of seed and start")
+        self.n = n_episodes
+        if start is not None:
+            start = int(start)
+            if start < 0 or (self.n is not None and start >= self.n):
+                where = f"0..{self.n - 1}" if self.n is not None else ">= 0"
+                raise ValueError(f"episode index must be in {where}, got {start}")
+        if seed is not None:
+            seed = int(seed)
+            if seed < 0:
+                raise ValueError(f"seed must be >= 0, got {seed}")
+            if seed >= 2**32:
+                seed = int(np.random.SeedSequence(seed).generate_state(1)[0])
+        self.seed, self.start = seed, start
+        self._perms: dict[int, np.ndarray] = {}
+
+    def __call__(self, positions: np.ndarray) -> np.ndarray:
+        pos = np.asarray(positions, dtype=np.int64)
+        if self.start is not None:
+            out = self.start + pos
+            return out if self.n is None else out % self.n
+        if self.n is None:
+            return self.seed * SEED_STRIDE + pos
+        out = np.empty_like(pos)
+        cycles = pos // self.n
+        for c in np.unique(cycles):
+            rows = cycles == c
+            out[rows] = self._permutation(int(c))[pos[rows] % self.n]
+        return out
+
+    def _permutation(self, cycle: int) -> np.ndarray:
+        if cycle not in self._perms:
+            if len(self._perms) > 8:
+                self._perms.clear()
+            self._perms[cycle] = np.random.default_rng([self.seed, cycle]).permutation(self.n)
+        return self._perms[cycle]
+
+
 class _EnvConfig:
     """Shared construction of the world's settings and scenario from keyword arguments."""
 
@@ -64,9 +131,12 @@ class _EnvConfig:
         world: dict | WorldSettings | None,
         split: str,
         action_set: str,
+        preset: Any = None,
     ):
         if action_set not in ("continuous", "discrete"):
             raise ValueError(f"action_set must be 'continuous' or 'discrete', got {action_set!r}")
+        if preset is not None:
+            scenario_params, world = _preset_defaults(preset, scenario, scenario_params, world)
         self.settings = (
             world if isinstance(world, WorldSettings) else from_dict(WorldSettings, world, "world")
         )
@@ -75,6 +145,15 @@ class _EnvConfig:
         self.action_set = action_set
         self.v_pref = float(self.scenario.robot_v_pref)
         self.table = discrete_actions(self.settings.kinematics, self.v_pref, self.settings.rotation_limit)
+        # Episodes available: a finite scenario's set, the val/test split's range, or endless (train).
+        n = self.scenario.n_episodes
+        self.n_episodes = n if n is not None else (None if split == "train" else SPLIT_SIZE)
+
+    def order(self, *, seed: int | None = None, start: int | None = None) -> EpisodeOrder:
+        return EpisodeOrder(self.n_episodes, seed=seed, start=start)
+
+    def stream(self, order: EpisodeOrder, position: int, count: int | None = None) -> EpisodeStream:
+        return EpisodeStream(self.scenario, self.split, position, count, index_map=order)
 
     def to_actions(self, action: np.ndarray) -> np.ndarray:
         if self.action_set == "discrete":
@@ -83,6 +162,35 @@ class _EnvConfig:
                 raise ValueError(f"discrete action out of range [0, {len(self.table)}): {index}")
             return self.table[index]
         return np.asarray(action, dtype=np.float64).reshape(-1, 2)
+
+
+def _preset_defaults(preset: Any, scenario: str, scenario_params: dict | None, world: Any):
+    """Scenario parameters and world settings of a protocol preset (explicit arguments win)."""
+    from socialnav.presets import Preset, load_preset
+
+    p = preset if isinstance(preset, Preset) else load_preset(preset)
+    single = scenario in p.evaluation.single_human or make_scenario(scenario).n_episodes is not None
+    params: dict[str, Any] = {
+        "n_humans": 1 if single else p.evaluation.n_humans,
+        "robot_v_pref": p.robot.v_pref,
+        "robot_radius": p.robot.radius,
+    }
+    if single:
+        params["repeats"] = p.evaluation.repeats
+    params.update(scenario_params or {})
+    if world is None:
+        world = p.world
+    elif not isinstance(world, WorldSettings):
+        world = {**dataclasses.asdict(p.world), **dict(world)}
+    return params, world
+
+
+def _check_options(options: dict[str, Any] | None) -> dict[str, Any]:
+    options = dict(options or {})
+    unknown = sorted(set(options) - {"index"})
+    if unknown:
+        raise ValueError(f"unknown reset option(s) {', '.join(unknown)}; valid: index")
+    return options
 
 
 class SocialNavEnv(gym.Env):
@@ -94,6 +202,8 @@ class SocialNavEnv(gym.Env):
         world: World settings (dict or WorldSettings).
         split: Episode split ("train", "val", "test").
         action_set: "continuous" or "discrete" (CrowdSim's 81 actions).
+        preset: A protocol preset (name, YAML path or Preset): its world settings, robot, crowd size
+            (and, for the single-human sweeps, repeats); ``scenario_params``/``world`` override it.
         render_mode: None, "rgb_array" (``render()`` returns the frame) or "human" (a window, where
             a display exists); drawn by socialnav.viz (needs the ``viz`` extra).
     """
@@ -107,6 +217,7 @@ class SocialNavEnv(gym.Env):
         world: dict | WorldSettings | None = None,
         split: str = "train",
         action_set: str = "continuous",
+        preset: Any = None,
         render_mode: str | None = None,
     ):
         self._recorder = None
@@ -116,44 +227,54 @@ class SocialNavEnv(gym.Env):
             check_render_mode(render_mode)
             self._recorder = EnvRecorder()
         self.render_mode = render_mode
-        self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set)
+        self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set, preset)
         self._world = World(self._cfg.settings, self._cfg.scenario, 1, split=split, record=False)
-        self._next_index = 0
+        self._order: EpisodeOrder | None = None
+        self._position = 0
         self.observation_space, self.action_space = _spaces(
             self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set
         )
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        if options and "index" in options:
-            self._next_index = int(options["index"])
-        elif seed is not None:
-            self._next_index = int(seed)
-        obs = self._world.restart(self._next_index)
-        self._next_index += 1
+        options = _check_options(options)
+        if "index" in options:
+            self._order, self._position = self._cfg.order(start=int(options["index"])), 0
+        elif seed is not None or self._order is None:
+            stream_seed = seed if seed is not None else int(self.np_random.integers(2**32))
+            self._order, self._position = self._cfg.order(seed=stream_seed), 0
+        obs = self._world.use_stream(self._cfg.stream(self._order, self._position, 1))
+        self._position += 1
         single = self._single(obs)
+        index = int(self._world.episode_index[0])
         if self._recorder is not None:
-            self._recorder.start(self._world, single, self._next_index - 1)
+            self._recorder.start(self._world, single, index)
             self.metadata = {**self.metadata, "render_fps": 1.0 / self._cfg.settings.dt}
             if self.render_mode == "human":
                 self.render()
-        return single, self._info(outcome="running")
+        return single, self._info("running", float(self._world.dmin[0]), 0.0, index)
 
     def step(self, action):
+        if not self._world.busy:
+            raise RuntimeError("the episode is over: call reset() before step()")
         result = self._world.step(self._cfg.to_actions(action), final_observation=True)
         terminated, truncated = bool(result.terminated[0]), bool(result.truncated[0])
+        w = self._world
         if terminated or truncated:
+            # The finished episode's values: the world has already emptied its slot.
             obs = result.final_observation
-            outcome = result.outcome[0]
+            info = self._info(result.outcome[0], float(result.final_dmin[0]), float(obs.time[0]),
+                              int(result.final_episode[0]))
         else:
-            obs = self._world.observe()
-            outcome = "running"
+            obs = w.observe()
+            info = self._info("running", float(w.dmin[0]), float(w.steps[0] * w.settings.dt),
+                              int(w.episode_index[0]))
         single = self._single(obs)
         if self._recorder is not None:
-            self._recorder.record(single, outcome)
+            self._recorder.record(single, info["outcome"])
             if self.render_mode == "human":
                 self.render()
-        return single, float(result.reward[0]), terminated, truncated, self._info(outcome)
+        return single, float(result.reward[0]), terminated, truncated, info
 
     def render(self):
         """The current episode so far as an RGB array (``rgb_array``), or shown in a window (``human``)."""
@@ -178,14 +299,9 @@ class SocialNavEnv(gym.Env):
     def _single(self, obs: Observation) -> dict[str, np.ndarray]:
         return {k: v[0] for k, v in _obs_rows(obs).items()}
 
-    def _info(self, outcome: str) -> dict[str, Any]:
-        w = self._world
-        return {
-            "outcome": outcome,
-            "dmin": float(w.dmin[0]),
-            "time": float(w.steps[0] * w.settings.dt),
-            "episode_index": self._next_index - 1,
-        }
+    @staticmethod
+    def _info(outcome: str, dmin: float, time: float, episode_index: int) -> dict[str, Any]:
+        return {"outcome": outcome, "dmin": dmin, "time": time, "episode_index": episode_index}
 
 
 class SocialNavVectorEnv(VectorEnv):
@@ -193,7 +309,9 @@ class SocialNavVectorEnv(VectorEnv):
 
     Follows Gymnasium's ``AutoresetMode.SAME_STEP``: when an episode ends, the returned observation
     is the first of the next episode and ``info["final_obs"]`` / ``info["final_info"]`` hold the
-    finished one's. ``info`` values are arrays of shape (num_envs,).
+    finished one's (``final_info["outcome"]``, ``["time"]``, ``["dmin"]``, ``["episode_index"]``,
+    each with its ``_key`` mask). ``info["outcome"]`` etc. describe the episodes now in the slots.
+    The layout is the one ``gym.make_vec(..., vectorization_mode="sync")`` gives.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
@@ -206,10 +324,12 @@ class SocialNavVectorEnv(VectorEnv):
         world: dict | WorldSettings | None = None,
         split: str = "train",
         action_set: str = "continuous",
+        preset: Any = None,
     ):
-        self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set)
+        self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set, preset)
         self.num_envs = int(num_envs)
         self._world = World(self._cfg.settings, self._cfg.scenario, self.num_envs, split=split, record=False)
+        self._order: EpisodeOrder | None = None
         self.single_observation_space, self.single_action_space = _spaces(
             self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set
         )
@@ -217,11 +337,21 @@ class SocialNavVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        options = _check_options(options)
+        if seed is not None and not isinstance(seed, int | np.integer):
+            raise ValueError(f"seed must be one int (it names the stream all slots share), got {seed!r}")
+        position = 0
         if seed is not None:
-            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
-        start = int(options["index"]) if options and "index" in options else int(seed or 0)
-        obs = self._world.restart(start)
-        return _obs_rows(obs), {"episode_index": self._world.episode_index.copy()}
+            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(int(seed))
+        if "index" in options:
+            self._order = self._cfg.order(start=int(options["index"]))
+        elif seed is not None or self._order is None:
+            stream_seed = int(seed) if seed is not None else int(self.np_random.integers(2**32))
+            self._order = self._cfg.order(seed=stream_seed)
+        else:
+            position = self._world.stream.next_index  # continue the stream: no episode twice
+        obs = self._world.use_stream(self._cfg.stream(self._order, position))
+        return _obs_rows(obs), self._current_info()
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stops the world's native threads now (called by ``VectorEnv.close``)."""
@@ -232,15 +362,48 @@ class SocialNavVectorEnv(VectorEnv):
         result = self._world.step(self._cfg.to_actions(actions), final_observation=True)
         obs = _obs_rows(self._world.observe())
         done = result.terminated | result.truncated
-        info: dict[str, Any] = {
-            "dmin": self._world.dmin.copy(),
-            "episode_index": self._world.episode_index.copy(),
-        }
+        info = self._current_info()
         if done.any():
-            final = np.empty(self.num_envs, dtype=object)
+            final = np.full(self.num_envs, None, dtype=object)
             rows = _obs_rows(result.final_observation)
             for k, b in enumerate(np.flatnonzero(done)):
                 final[b] = {key: value[k] for key, value in rows.items()}
-            info["final_obs"] = final
-            info["_final_obs"] = done.copy()
+            info["final_obs"], info["_final_obs"] = final, done.copy()
+            info["final_info"], info["_final_info"] = self._final_info(result, done), done.copy()
         return obs, result.reward, result.terminated, result.truncated, info
+
+    def _current_info(self) -> dict[str, Any]:
+        w = self._world
+        outcome = np.full(self.num_envs, "running", dtype=object)
+        return _masked(
+            {
+                "outcome": outcome,
+                "dmin": w.dmin.copy(),
+                "time": w.steps * w.settings.dt,
+                "episode_index": w.episode_index.copy(),
+            },
+            np.ones(self.num_envs, dtype=bool),
+        )
+
+    def _final_info(self, result: StepResult, done: np.ndarray) -> dict[str, Any]:
+        # Rows of slots that did not finish hold zeros/None, as SyncVectorEnv leaves them.
+        outcome = np.full(self.num_envs, None, dtype=object)
+        outcome[done] = result.outcome[done]
+        time = np.zeros(self.num_envs)
+        time[np.flatnonzero(done)] = result.final_observation.time
+        return _masked(
+            {
+                "outcome": outcome,
+                "dmin": np.where(done, result.final_dmin, 0.0),
+                "time": time,
+                "episode_index": np.where(done, result.final_episode, 0),
+            },
+            done,
+        )
+
+
+def _masked(values: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in values.items():
+        out[key], out[f"_{key}"] = value, mask.copy()
+    return out

@@ -1,4 +1,4 @@
-"""World settings: the simulator's semantics as data (spec/simulator.md).
+"""World settings: the simulator's semantics as data (docs/simulator.md).
 
 Defaults are CrowdSim's. Every deviation from CrowdSim is a named field; ``crowdsim_compat``
 restores CrowdSim's quirks (late timeout taking precedence, collision sweep with the humans'

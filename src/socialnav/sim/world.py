@@ -10,6 +10,7 @@ interact, an episode's trajectory is the same whatever the batch size or slot it
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,8 +55,11 @@ class EpisodeStream:
     Args:
         scenario: The scenario generator.
         split: "train", "val" or "test" (decides the seeds).
-        start: First episode index.
+        start: First episode index (first position when ``index_map`` is given).
         count: Number of episodes, or None for an endless stream (training).
+        index_map: Maps stream positions (int64 array) to episode indices, for streams that are
+            not ``start, start+1, …`` (the Gymnasium envs' seeded and cycling orders). The map
+            decides where such a stream ends: a finite scenario does not cap it.
     """
 
     #: Episodes generated per call: generation has a fixed cost per call, and a world refills only
@@ -63,7 +67,14 @@ class EpisodeStream:
     #: each episode depends only on its own index).
     chunk_size = 1024
 
-    def __init__(self, scenario: Scenario, split: str = "test", start: int = 0, count: int | None = None):
+    def __init__(
+        self,
+        scenario: Scenario,
+        split: str = "test",
+        start: int = 0,
+        count: int | None = None,
+        index_map: Callable[[np.ndarray], np.ndarray] | None = None,
+    ):
         if count is not None and count < 0:
             raise ValueError(f"count must be >= 0, got {count}")
         episode_seeds(split, np.zeros(1, dtype=np.int64))  # validates the split name early
@@ -72,7 +83,8 @@ class EpisodeStream:
         self.next_index = start  # next index handed out
         self._generated = start  # next index to generate
         self.stop = None if count is None else start + count
-        if scenario.n_episodes is not None:
+        self.index_map = index_map
+        if scenario.n_episodes is not None and index_map is None:
             # A finite scenario (the single-human sweeps) ends the stream at its last episode.
             self.stop = scenario.n_episodes if self.stop is None else min(self.stop, scenario.n_episodes)
         self._buffer: EpisodeBatch | None = None
@@ -94,6 +106,8 @@ class EpisodeStream:
             if self.stop is not None:
                 n = min(n, self.stop - self._generated)
             indices = np.arange(self._generated, self._generated + n, dtype=np.int64)
+            if self.index_map is not None:
+                indices = np.asarray(self.index_map(indices), dtype=np.int64)
             fresh = self.scenario.generate(indices, episode_seeds(self.split, indices))
             self._generated += n
             parts = [fresh] if buffered == 0 else [self._buffer.take(slice(self._buffer_pos, None)), fresh]
@@ -116,6 +130,8 @@ class StepResult:
         finished: trajectories of the episodes that ended in this step (empty when not recording).
         final_observation: observation of the finished slots before their reset (rows where done).
         outcome: (B,) "success", "collision" or "timeout" where an episode ended in this step, "" elsewhere.
+        final_dmin: (B,) the finished episodes' minimum robot-human distance (NaN elsewhere).
+        final_episode: (B,) the finished episodes' indices (-1 elsewhere).
     """
 
     reward: np.ndarray
@@ -124,6 +140,8 @@ class StepResult:
     finished: list
     final_observation: Observation | None
     outcome: np.ndarray
+    final_dmin: np.ndarray | None = None
+    final_episode: np.ndarray | None = None
 
 
 class World:
@@ -252,6 +270,13 @@ class World:
         )
         return self.reset()
 
+    def use_stream(self, stream: EpisodeStream) -> Observation:
+        """Replaces the episode stream (same scenario) and refills every slot from it."""
+        if stream.scenario is not self.scenario:
+            raise ValueError("the stream must hand out episodes of this world's scenario")
+        self.stream = stream
+        return self.reset()
+
     def _fill(self, slots: np.ndarray) -> None:
         episodes = self.stream.take(len(slots))
         n = 0 if episodes is None else len(episodes.indices)
@@ -357,7 +382,11 @@ class World:
         outcome = np.full(self.batch_size, "", dtype=object)
         finished: list = []
         final_obs = None
+        final_dmin = np.full(self.batch_size, np.nan)
+        final_episode = np.full(self.batch_size, -1, dtype=np.int64)
         if done_slots.size:
+            final_dmin[done_slots] = self.dmin[done_slots]
+            final_episode[done_slots] = self.episode_index[done_slots]
             # end_step marks the robot's outcome; a timeout is a truncation, not a termination.
             outcome_status = self.status[done_slots]
             truncated[done_slots] = outcome_status == _core.STATUS_TIMEOUT
@@ -368,7 +397,9 @@ class World:
             if self._recorder is not None:
                 finished = self._recorder.collect(done_slots)
             self._fill(done_slots)
-        return StepResult(reward, terminated, truncated, finished, final_obs, outcome)
+        return StepResult(
+            reward, terminated, truncated, finished, final_obs, outcome, final_dmin, final_episode
+        )
 
 
 def orca_params(settings: WorldSettings) -> _core.OrcaParams:

@@ -1,10 +1,10 @@
 """Training settings: frozen dataclasses loadable from YAML with strict keys (``socialnav.config``).
 
-Defaults follow RGL's configuration (spec/baselines.md, "Training") with one measured deviation:
-``rl.gradient_steps_per_episode`` (the replay ratio) is 10, not 100. The spec's 100 steps of batch 100
+Defaults follow RGL's configuration (CrowdNav's `train.config`) with one measured deviation:
+``rl.gradient_steps_per_episode`` (the replay ratio) is 10, not 100. RGL's 100 steps of batch 100
 per collected episode costs about 1 M gradient steps for 10 000 episodes, i.e. hours on a 2-core CPU;
 docs/training.md has the measurements behind the chosen default. Set it back to 100 in a YAML file
-(``rl: {gradient_steps_per_episode: 100}``) for the spec's ratio.
+(``rl: {gradient_steps_per_episode: 100}``) for RGL's ratio.
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ class RLSettings:
     epsilon_decay_episodes: int = 4000  # linear decay over the first episodes
     capacity: int = 100000  # replay memory [transitions]
     batch_size: int = 100
-    gradient_steps_per_episode: float = 10.0  # replay ratio; spec: 100 (see docs/training.md)
+    gradient_steps_per_episode: float = 10.0  # replay ratio; RGL: 100 (see docs/training.md)
     warmup_transitions: int = 1000  # no gradient step before the memory holds this many transitions
     lr: float = 1e-3  # Adam
     target_update_every: int = 1000  # [episodes]
@@ -228,9 +228,7 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
     """
     data: dict[str, Any] = {}
     if path is not None:
-        path = Path(path)
-        if not path.exists():
-            raise ConfigError(f"training config {path} does not exist")
+        path = _resolve_config(path)
         if path.is_dir():
             raise ConfigError(f"training config {path} is a directory, not a YAML file")
         try:
@@ -246,6 +244,28 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
         return from_dict(TrainSettings, data)
     except ConfigError as err:
         raise ConfigError(f"{path}: {err}" if path is not None else str(err)) from None
+
+
+def shipped_train_configs() -> list[str]:
+    """Names of the training configs shipped in ``socialnav/configs/train`` (``smoke`` …)."""
+    from importlib import resources
+
+    folder = resources.files("socialnav.configs") / "train"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
+
+
+def _resolve_config(path: str | Path) -> Path:
+    """A YAML path, or the name of a shipped training config (``--config smoke``)."""
+    p = Path(path)
+    if p.exists():
+        return p
+    if p.suffix not in (".yaml", ".yml") and str(path) in shipped_train_configs():
+        from importlib import resources
+
+        return Path(str(resources.files("socialnav.configs") / "train" / f"{path}.yaml"))
+    raise ConfigError(
+        f"training config {p} does not exist (shipped configs: {', '.join(shipped_train_configs())})"
+    )
 
 
 def derive_seeds(seed: int) -> dict[str, int]:

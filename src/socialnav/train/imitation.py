@@ -121,24 +121,62 @@ def collect_demonstrations(
     )
 
 
+def save_demonstrations(path, demos: Demonstrations, config_json: str) -> None:
+    """Writes the demonstrations atomically (float32, as the regression uses them) with the run's
+    config, so that a resumed imitation reuses them instead of collecting again."""
+    from socialnav.evaluate.files import atomic_write
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as f:
+            np.savez(
+                f,
+                robot=demos.robot.astype(np.float32),
+                humans=demos.humans.astype(np.float32),
+                mask=demos.mask.astype(bool),
+                value=demos.value.astype(np.float32),
+                episodes=np.int64(demos.episodes),
+                outcomes=np.array([demos.outcomes[k] for k in OUTCOMES], dtype=np.int64),
+                config=np.array(config_json),
+            )
+
+    atomic_write(path, write)
+
+
+def load_demonstrations(path) -> tuple[Demonstrations, str]:
+    """The demonstrations and the config JSON they were collected under."""
+    with np.load(path, allow_pickle=False) as z:
+        demos = Demonstrations(
+            z["robot"], z["humans"], z["mask"], z["value"], int(z["episodes"]),
+            dict(zip(OUTCOMES, (int(v) for v in z["outcomes"]), strict=True)),
+        )
+        return demos, str(z["config"])
+
+
+OUTCOMES = ("success", "collision", "timeout")
+
+
 def fit_values(
     policy,
     demos: Demonstrations,
     epochs: int,
     batch_size: int,
-    lr: float,
     generator: torch.Generator,
-    make_optimizer: Callable,
+    optimizer: torch.optim.Optimizer,
     on_epoch: Callable[[int, float], None] | None = None,
+    start_epoch: int = 0,
 ) -> list[float]:
     """Supervised regression (MSE) of the policy's network onto the demonstrations' values.
 
+    Epochs ``start_epoch .. epochs-1`` are run; ``on_epoch(epoch, loss)`` is called after each one
+    (the trainer saves the network, ``optimizer`` and ``generator`` there, so that an interrupted
+    imitation resumes at the next epoch with the same result as an uninterrupted one).
+
     Returns:
-        Mean loss per epoch.
+        Mean loss per epoch run.
     """
     net = policy.network
     dev = policy.device
-    if len(demos) == 0 or epochs == 0:
+    if len(demos) == 0 or epochs <= start_epoch:
         return []
     robot = torch.as_tensor(demos.robot, dtype=torch.float32, device=dev)
     humans = torch.as_tensor(demos.humans, dtype=torch.float32, device=dev)
@@ -146,11 +184,11 @@ def fit_values(
     value = torch.as_tensor(demos.value, dtype=torch.float32, device=dev)
     with torch.no_grad():
         joint = policy.transform(robot, humans, mask)  # the transform does not depend on the weights
-    opt = make_optimizer(net.parameters(), lr)
+    opt = optimizer
     net.train()
     losses = []
     m = len(value)
-    for epoch in range(epochs):
+    for epoch in range(start_epoch, epochs):
         perm = torch.randperm(m, generator=generator).to(dev)
         total, count = 0.0, 0
         for s in range(0, m, batch_size):

@@ -241,6 +241,124 @@ def _better(a: dict[str, Any], b: dict[str, Any] | None) -> bool:
     return key(a) > key(b)
 
 
+def _check_same_run(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:
+    """Refuses to resume a run directory written with other settings (naming keys and values)."""
+    diff = resume_diff(saved, config)
+    if diff:
+        changes = "; ".join(f"{k}: {_dotted(saved, k)!r} -> {_dotted(config, k)!r}" for k in diff[:6])
+        raise ConfigError(
+            f"{out} holds a run with other settings ({changes}{'; ...' if len(diff) > 6 else ''}); "
+            f"use another --out or the run's own settings (config.yaml)"
+        )
+
+
+def _imitation(
+    policy_name, preset, settings, config, out, policy, net, device, n_humans, seeds, success_reward,
+    progress, say, predictor=None, predictor_opt=None,
+) -> tuple[float, list[float]]:
+    """Imitation learning, resumable: the demonstrations are kept in ``il_demos.npz`` once collected,
+    and ``il_state.pt`` holds the network, optimizer and sampling generator after every epoch. A
+    complete ``il.pt`` is reused as it is. With a state predictor (information ``learned``), it is
+    fitted on the demonstrations' human transitions after the value network (as RGL does during
+    imitation), in one block: a kill during that block repeats only the predictor's fit.
+    Returns the last epoch's value loss and the predictor's losses per epoch."""
+    from socialnav.policies.learned import load_checkpoint, save_checkpoint
+    from socialnav.policies.learned.registry import canonical_name
+    from socialnav.policies.native import NativePolicy
+    from socialnav.train.imitation import (
+        collect_demonstrations,
+        fit_values,
+        load_demonstrations,
+        save_demonstrations,
+    )
+
+    il, rl = settings.imitation, settings.rl
+    il_path, state_path, demos_path = out / "il.pt", out / "il_state.pt", out / "il_demos.npz"
+    name = canonical_name(policy_name)
+    if il_path.exists():  # imitation finished before the interruption
+        ck = load_checkpoint(il_path, name, map_location=device)
+        _check_same_run(ck.config, config, out)
+        net.load_state_dict(ck.model.state_dict())
+        if predictor is not None and ck.predictor is not None:
+            predictor.load_state_dict(ck.predictor.state_dict())
+        losses = ck.extra.get("il_losses") or []
+        say(f"imitation: reusing {il_path}")
+        return (losses[-1] if losses else math.nan), list(ck.extra.get("predictor_losses") or [])
+    config_json = json.dumps(config, sort_keys=True)
+    if demos_path.exists():
+        demos, saved = load_demonstrations(demos_path)
+        _check_same_run(json.loads(saved), config, out)
+        say(f"imitation: reusing {demos.episodes} teacher episodes from {demos_path}, {len(demos)} states")
+    else:
+        teacher = NativePolicy(
+            "orca", safety_space=il.teacher_safety_space, orca=preset.world.orca, threads=preset.world.threads
+        )
+        world = MultiWorld(preset, n_humans, settings.collection_batch, "train", seeds["scenario_start"])
+        world.reset()
+        bar = _progress(il.episodes, 0, f"{policy_name} imitation: ORCA demos", progress)
+        demos = collect_demonstrations(
+            world, teacher, il.episodes, rl.gamma, success_reward,
+            progress=lambda k: bar.update(k) if k else None,
+        )
+        bar.close()
+        save_demonstrations(demos_path, demos, config_json)
+        say(f"imitation: {demos.episodes} teacher episodes {demos.outcomes}, {len(demos)} states")
+
+    generator = torch.Generator().manual_seed(seeds["sampling"] ^ 0x1A1A)
+    optimizer = _make_optimizer(net.parameters(), il.lr, device)
+    losses: list[float] = []
+    if state_path.exists():
+        ck = load_checkpoint(state_path, name, map_location=device)
+        _check_same_run(ck.config, config, out)
+        net.load_state_dict(ck.model.state_dict())
+        _load_optimizer_state(optimizer, ck.extra["optimizer"])
+        generator.set_state(ck.extra["generator"])
+        losses = list(ck.extra["il_losses"])
+        say(f"imitation: resuming at epoch {len(losses)} of {il.epochs}")
+    bar = _progress(il.epochs, len(losses), f"{policy_name} imitation: fit", progress)
+
+    def on_epoch(epoch: int, loss: float) -> None:
+        losses.append(loss)
+        extra = {
+            "phase": "imitation",
+            "il_losses": losses,
+            "optimizer": _optimizer_state(optimizer),
+            "generator": generator.get_state(),
+        }
+        save_checkpoint(state_path, policy_name, net, config=config, extra=extra)
+        bar.update(1)
+        bar.set_postfix(loss=f"{loss:.4g}")
+
+    try:
+        fit_values(policy, demos, il.epochs, il.batch_size, generator, optimizer, on_epoch, len(losses))
+    except FloatingPointError as err:
+        raise TrainingDiverged(f"{err}; {state_path} keeps the last good epoch") from None
+    finally:
+        bar.close()
+    predictor_losses: list[float] = []
+    if predictor is not None:
+        from socialnav.train.imitation import fit_predictor
+
+        predictor_losses = fit_predictor(
+            predictor,
+            predictor_opt,
+            demos,
+            il.epochs,
+            il.batch_size,
+            preset.world.dt,
+            torch.Generator().manual_seed(seeds["sampling"] ^ 0x9E3D),
+            device,
+        )
+        if predictor_losses:
+            say(f"imitation: state predictor position MSE {predictor_losses[-1]:.4g} m² ({il.epochs} epochs)")
+    extra = {"phase": "imitation", "il_losses": losses, "predictor_losses": predictor_losses}
+    save_checkpoint(il_path, policy_name, net, config=config, extra=extra, predictor=predictor)
+    # il.pt is complete: the intermediate files are no longer needed (the demonstrations are large).
+    state_path.unlink(missing_ok=True)
+    demos_path.unlink(missing_ok=True)
+    return (losses[-1] if losses else math.nan), predictor_losses
+
+
 def train(
     policy_name: str,
     preset: Preset | str,
@@ -311,7 +429,6 @@ def _train(
     )
     from socialnav.policies.learned.registry import canonical_name
     from socialnav.policies.learned.state import RewardParams
-    from socialnav.policies.native import NativePolicy
 
     t_call = time.perf_counter()
     say = log or (lambda s: print(s, file=sys.stderr, flush=True))
@@ -342,12 +459,7 @@ def _train(
         }
     )
     out = Path(out_dir)
-    last_path, best_path, il_path, curves_path = (
-        out / "last.pt",
-        out / "best.pt",
-        out / "il.pt",
-        out / "curves.csv",
-    )
+    last_path, best_path, curves_path = out / "last.pt", out / "best.pt", out / "curves.csv"
 
     # -- network, policy, optimizer, generators ------------------------------------------------
     with torch.random.fork_rng(devices=[]):
@@ -400,13 +512,7 @@ def _train(
             raise ConfigError(
                 f"{last_path} is not a training state (no 'resume' record); move it away to restart"
             )
-        diff = resume_diff(ck.config, config)
-        if diff:
-            changes = "; ".join(f"{k}: {_dotted(ck.config, k)!r} -> {_dotted(config, k)!r}" for k in diff[:6])
-            raise ConfigError(
-                f"{out} holds a run with other settings ({changes}{'; ...' if len(diff) > 6 else ''}); "
-                f"use another --out or the run's own settings (config.yaml)"
-            )
+        _check_same_run(ck.config, config, out)
         net.load_state_dict(ck.model.state_dict())
         if predictor is not None and ck.predictor is not None:
             predictor.load_state_dict(ck.predictor.state_dict())
@@ -435,70 +541,10 @@ def _train(
     if resume is None:
         il = settings.imitation
         if il.episodes > 0 and il.epochs > 0:
-            teacher = NativePolicy(
-                "orca",
-                safety_space=il.teacher_safety_space,
-                orca=preset.world.orca,
-                threads=preset.world.threads,
+            il_loss, predictor_losses = _imitation(
+                policy_name, preset, settings, config, out, policy, net, device, n_humans, seeds,
+                success_reward, progress, say, predictor, predictor_opt if predictor is not None else None,
             )
-            world = MultiWorld(preset, n_humans, settings.collection_batch, "train", seeds["scenario_start"])
-            stack.callback(world.close)
-            world.reset()
-            from socialnav.train.imitation import collect_demonstrations, fit_values
-
-            bar = _progress(il.episodes, 0, f"{policy_name} imitation: ORCA demos", progress)
-            demos = collect_demonstrations(
-                world,
-                teacher,
-                il.episodes,
-                rl.gamma,
-                success_reward,
-                progress=lambda k: bar.update(k) if k else None,
-            )
-            bar.close()
-            say(f"imitation: {demos.episodes} teacher episodes {demos.outcomes}, {len(demos)} states")
-            bar = _progress(il.epochs, 0, f"{policy_name} imitation: fit", progress)
-
-            def on_epoch(e: int, loss: float) -> None:
-                bar.update(1)
-                bar.set_postfix(loss=f"{loss:.4g}")
-
-            try:
-                losses = fit_values(
-                    policy,
-                    demos,
-                    il.epochs,
-                    il.batch_size,
-                    il.lr,
-                    torch.Generator().manual_seed(seeds["sampling"] ^ 0x1A1A),
-                    lambda p, lr: _make_optimizer(p, lr, device),
-                    on_epoch,
-                )
-            except FloatingPointError as err:
-                raise TrainingDiverged(f"{err}; no checkpoint was written") from None
-            finally:
-                bar.close()
-            il_loss = losses[-1] if losses else math.nan
-            predictor_losses: list[float] = []
-            if predictor is not None:
-                from socialnav.train.imitation import fit_predictor
-
-                predictor_losses = fit_predictor(
-                    predictor,
-                    predictor_opt,
-                    demos,
-                    il.epochs,
-                    il.batch_size,
-                    preset.world.dt,
-                    torch.Generator().manual_seed(seeds["sampling"] ^ 0x9E3D),
-                    device,
-                )
-                if predictor_losses:
-                    say(
-                        f"imitation: state predictor position MSE {predictor_losses[-1]:.4g} m² "
-                        f"after {il.epochs} epochs"
-                    )
-            save(il_path, {"phase": "imitation", "il_losses": losses, "predictor_losses": predictor_losses})
         else:
             il_loss = math.nan
             predictor_losses = []
@@ -612,11 +658,19 @@ def _train(
             res = world.step(np.asarray(actions, dtype=np.float64))
             push_step(memory, obs, res)
             state["transitions"] += int(obs.active.sum())
-            finished = int((res.terminated | res.truncated).sum())
-            window.add(res.terminated, res.truncated, res.reward, res.final_time, success_reward)
+            # Training stops at exactly rl.episodes: when more episodes end in the last lockstep step
+            # than are still needed (untrained policies often time out together), only the first ones
+            # (in slot order) count; the others' transitions stay in the memory but are not counted.
+            counted = res.terminated | res.truncated
+            need = rl.episodes - int(state["episode"])
+            if int(counted.sum()) > need:
+                counted[np.flatnonzero(counted)[need:]] = False
+            finished = int(counted.sum())
+            window.add(res.terminated & counted, res.truncated & counted, res.reward, res.final_time,
+                       success_reward)
             state["episode"] += finished
             episodes_this_call += finished
-            bar.update(min(finished, rl.episodes - bar.n) if bar.n < rl.episodes else 0)
+            bar.update(finished)
             # gradient steps at the replay ratio
             if len(memory) >= max(rl.batch_size, rl.warmup_transitions):
                 state["credit"] += rl.gradient_steps_per_episode * finished

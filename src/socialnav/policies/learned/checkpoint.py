@@ -128,6 +128,9 @@ def save_checkpoint(
             torch.save(payload, f)
             f.flush()
             os.fsync(f.fileno())
+        from socialnav.evaluate.files import default_file_mode
+
+        os.chmod(tmp, default_file_mode())  # as open() would, not mkstemp's 0600
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -1,0 +1,56 @@
+"""Smaller CLI gaps: --version, `list` shows Gym ids and shipped checkpoints, an episode count above a
+single-human sweep's size is warned about, and tables without rows are not printed."""
+
+import json
+
+import pytest
+
+from socialnav import __version__
+from socialnav.cli import main
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"socialnav {__version__}"
+
+
+def test_list_shows_gym_ids_and_shipped_checkpoints(capsys):
+    code, out, _ = run(capsys, "list", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert data["gym_ids"]["socialnav/Passing-v0"] == "passing"
+    assert data["gym_ids"]["socialnav/CircleCrossing-v0"] == "circle_crossing"
+    assert {"sarl_crowdnav", "sarl_wang2022"} <= set(data["checkpoints"])
+    code, out, _ = run(capsys, "list")
+    assert "socialnav/Crossing-v0: crossing" in out
+    assert "sarl_wang2022" in out
+
+
+def test_too_many_episodes_for_a_single_human_sweep_is_warned(tmp_path, capsys):
+    code, out, err = run(capsys, "evaluate", "--scenario", "passing", "--episodes", "5000", "--out",
+                         str(tmp_path), "--no-progress", "--json")
+    assert code == 0, err
+    assert "warning: passing has 20 episodes" in err and "not the 5000 asked for" in err
+    assert json.loads(out)["rows"][0]["episodes"] == 20
+
+
+def test_only_tables_with_rows_are_printed(tmp_path, capsys):
+    code, out, err = run(capsys, "evaluate", "--scenario", "passing", "--out", str(tmp_path / "a"),
+                         "--no-progress")
+    assert code == 0, err
+    assert "Table III" in out and "Table II" not in out.replace("Table III", "")
+    assert "no multi-human scenario was evaluated" in (tmp_path / "a" / "table2.md").read_text()
+    code, out, err = run(capsys, "evaluate", "--preset", "crowdnav", "--episodes", "4", "--out",
+                         str(tmp_path / "b"), "--no-progress")
+    assert code == 0, err
+    assert "Table II" in out and "Table III" not in out
+    assert "| orca" in out
+    assert (tmp_path / "b" / "table3.tex").read_text().startswith("% no single-human scenario")

@@ -1,0 +1,149 @@
+"""Custom policies from the command line: ``--policy module:Class``, the ``socialnav.policies``
+entry-point group, typed ``--policy-arg`` values, and the docs page's example run as a script."""
+
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from socialnav.cli import main, parse_policy_args
+from socialnav.policies import make_policy
+
+ROOT = Path(__file__).resolve().parents[2]
+HERE = Path(__file__).resolve().parent
+MODULE = __name__
+
+
+class GoalSeeker:
+    """Straight to the goal at a fraction of v_pref (a test policy)."""
+
+    information = "none"
+
+    def __init__(self, speed_factor: float = 1.0, tag: str = "plain", flag: bool = False):
+        self.name = "goal_seeker"
+        self.speed_factor, self.tag, self.flag = speed_factor, tag, flag
+
+    def act(self, observation):
+        to_goal = observation.robot[:, 5:7] - observation.robot[:, 0:2]
+        dist = np.maximum(np.linalg.norm(to_goal, axis=1, keepdims=True), 1e-9)
+        speed = self.speed_factor * observation.robot[:, 7:8]
+        return to_goal / dist * np.minimum(speed, dist / observation.dt)
+
+    def describe(self):
+        return {"policy": self.name, "information": self.information, "speed_factor": self.speed_factor,
+                "tag": self.tag, "flag": self.flag}
+
+
+def evaluate(capsys, tmp_path, *extra):
+    code = main(["evaluate", "--preset", "crowdnav", "--episodes", "6", "--out", str(tmp_path), "--json",
+                 "--no-progress", *extra])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_policy_given_as_module_path_with_typed_arguments(tmp_path, capsys):
+    code, out, err = evaluate(capsys, tmp_path, "--policy", f"{MODULE}:GoalSeeker",
+                              "--policy-arg", "speed_factor=0.5", "--policy-arg", "flag=true",
+                              "--policy-arg", "tag=abc")
+    assert code == 0, err
+    rows = json.loads(out)["rows"]
+    assert rows[0]["policy"] == "goal_seeker" and rows[0]["episodes"] == 6
+    policy = json.loads((tmp_path / "manifest.json").read_text())["policy"]
+    assert policy == {"label": "goal_seeker", "policy": "goal_seeker", "information": "none",
+                      "speed_factor": 0.5, "tag": "abc", "flag": True}
+    # Half speed: every success takes longer than the straight-line time at v_pref (1 m/s, 8 m).
+    assert rows[0]["nav_time_s"] > 8.0 / 0.5 - 1.0
+
+
+def test_policy_arguments_reach_a_registered_policy(tmp_path, capsys):
+    code, _, err = evaluate(capsys, tmp_path, "--policy", "orca", "--policy-arg", "safety_space=0.05")
+    assert code == 0, err
+    assert json.loads((tmp_path / "manifest.json").read_text())["policy"]["safety_space"] == 0.05
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--policy", f"{MODULE}:GoalSeeker", "--policy-arg", "bogus=1"],
+         "has no parameter(s) bogus; valid: flag, speed_factor, tag"),
+        (["--policy", "no_such_module_xyz:Thing"], "cannot import module 'no_such_module_xyz'"),
+        (["--policy", f"{MODULE}:Nothing"], f"module '{MODULE}' has no attribute 'Nothing'"),
+        (["--policy", f"{MODULE}:MODULE"], "is not a class or a factory function"),
+        (["--policy", f"{MODULE}:np"], "is not a class or a factory function"),
+        (["--policy", "orca", "--policy-arg", "safety_space"], "expected KEY=VALUE"),
+        (["--policy", "orca", "--policy-arg", "safety_space=[1"], "not valid YAML"),
+        (["--policy", "not_registered"], "unknown policy 'not_registered'"),
+    ],
+)
+def test_bad_policy_specs_are_one_line_errors(tmp_path, capsys, argv, message):
+    code, _, err = evaluate(capsys, tmp_path, *argv)
+    assert code == 2
+    assert message in err and "Traceback" not in err, err
+
+
+def test_parse_policy_args_gives_typed_values():
+    assert parse_policy_args(["a=0.2", "b=3", "c=true", "d=[1, 2]", "e=fast", "f=null", "g="]) == {
+        "a": 0.2, "b": 3, "c": True, "d": [1, 2], "e": "fast", "f": None, "g": ""}
+    with pytest.raises(ValueError, match="given twice"):
+        parse_policy_args(["a=1", "a=2"])
+
+
+def test_make_policy_refuses_an_object_that_is_not_a_policy():
+    with pytest.raises(ValueError, match="without act, describe"):
+        make_policy(f"{MODULE}:NotAPolicy")
+
+
+class NotAPolicy:
+    name = "x"
+
+
+def _plugin_env(tmp_path: Path) -> dict:
+    dist = tmp_path / "site" / "socialnav_test_plugin-0.1.dist-info"
+    dist.mkdir(parents=True)
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: socialnav-test-plugin\nVersion: 0.1\n")
+    (dist / "entry_points.txt").write_text(f"[socialnav.policies]\ngoal_seeker = {MODULE}:GoalSeeker\n")
+    path = os.pathsep.join([str(tmp_path / "site"), str(HERE), str(ROOT / "src")])
+    return {**os.environ, "PYTHONPATH": path}
+
+
+def test_policy_from_an_entry_point(tmp_path):
+    env = _plugin_env(tmp_path)
+    cmd = [sys.executable, "-m", "socialnav.cli"]
+    listed = subprocess.run([*cmd, "list", "--json"], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert listed.returncode == 0, listed.stderr
+    names = {p["name"]: p for p in json.loads(listed.stdout)["policies"]}
+    assert names["goal_seeker"]["parameters"] == {"speed_factor": 1.0, "tag": "plain", "flag": False}
+    run = subprocess.run(
+        [*cmd, "evaluate", "--policy", "goal_seeker", "--policy-arg", "speed_factor=0.8", "--preset",
+         "crowdnav", "--episodes", "4", "--out", str(tmp_path / "out"), "--json", "--no-progress"],
+        capture_output=True, text=True, env=env, cwd=tmp_path,
+    )
+    assert run.returncode == 0, run.stderr
+    assert json.loads(run.stdout)["rows"][0]["episodes"] == 4
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert manifest["policy"]["speed_factor"] == 0.8 and manifest["policy"]["label"] == "goal_seeker"
+
+
+def test_docs_example_runs_as_a_script_and_from_the_cli(tmp_path):
+    text = (ROOT / "docs" / "custom_policies.md").read_text()
+    code = re.search(r"## A complete example.*?```python\n(.*?)```", text, re.S).group(1)
+    (tmp_path / "cautious.py").write_text(code)
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    result = subprocess.run([sys.executable, "cautious.py"], cwd=tmp_path, capture_output=True, text=True,
+                            env=env, timeout=300)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert re.search(r"circle_crossing invisible success \d\.\d\d", result.stdout), result.stdout
+    # The same module from the command line, found in the current directory.
+    cli = subprocess.run(
+        [sys.executable, "-m", "socialnav.cli", "evaluate", "--policy", "cautious:Cautious", "--policy-arg",
+         "slow_factor=0.3", "--preset", "crowdnav", "--episodes", "5", "--out", "cli", "--json",
+         "--no-progress"],
+        cwd=tmp_path, capture_output=True, text=True, env=env, timeout=300,
+    )
+    assert cli.returncode == 0, cli.stderr[-3000:]
+    assert json.loads((tmp_path / "cli" / "manifest.json").read_text())["policy"]["slow_factor"] == 0.3
