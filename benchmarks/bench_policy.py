@@ -8,9 +8,15 @@ rate and its fraction of the float32 matmul rate (1024×1024 @ 1024×1024) measu
 them, so the time includes conversion, the action set, propagation, reward and the agent-centric
 transform, not only the network. On a shared machine, other processes make timings noisy: all
 timings are best-of-repeats.
+
+RGL and model-predictive RGL (Chen et al., IROS 2020) are timed in the same run at B = 256 (the same
+scene), next to SARL: RGL's one-step lookahead (constant velocity), and MP-RGL with its learned state
+predictor (swept-reward lookahead) at depth/width 1/1 and 2/2. A "decision" is choosing one episode's
+action; ms per decision = time of one batched call / B. The issue's goal: a d = 2, w = 2 decision costs
+at most 4x a d = 1 decision.
 The last line printed is one JSON object.
 
-    PYTHONPATH=src python benchmarks/bench_policy.py [--threads 2] [--batches 256 1024 4096]
+    PYTHONPATH=src python benchmarks/bench_policy.py [--threads 2] [--batches 256 1024 4096] [--device cuda]
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ import time
 import numpy as np
 import torch
 
-from socialnav.policies.learned import ValuePolicy, build
+from socialnav.policies.learned import StatePredictor, ValuePolicy, build
 
 N_ACTIONS = 81
 
@@ -84,17 +90,56 @@ def time_act(policy: ValuePolicy, obs: dict, min_time: float = 1.0, min_reps: in
     return float(np.min(times))
 
 
+def time_rgl(n_humans: int, min_time: float, device: str, b: int = 256) -> dict[str, float]:
+    """RGL and MP-RGL decision costs at batch ``b``, with SARL's in the same conditions."""
+    obs = scene(b, n_humans, seed=1)
+    torch.manual_seed(1)
+    sarl = ValuePolicy(build("sarl"), device=device)
+    rgl = ValuePolicy(build("rgl"), device=device)
+    net, predictor = build("mp_rgl"), StatePredictor()
+    mp = {
+        (d, w): ValuePolicy(
+            net,
+            information="learned",
+            predictor=predictor,
+            planning_depth=d,
+            planning_width=w,
+            reward_rule="swept",
+            device=device,
+        )
+        for d, w in ((1, 1), (2, 2))
+    }
+    t_sarl = time_act(sarl, obs, min_time)
+    t_rgl = time_act(rgl, obs, min_time)
+    t_mp = {k: time_act(p, obs, min_time) for k, p in mp.items()}
+    print(
+        f"B={b}: SARL {b / t_sarl:.0f}, RGL {b / t_rgl:.0f} env-steps/s; MP-RGL d1 "
+        f"{t_mp[1, 1] / b * 1e3:.3f} ms, d2w2 {t_mp[2, 2] / b * 1e3:.3f} ms per decision "
+        f"(x{t_mp[2, 2] / t_mp[1, 1]:.2f})"
+    )
+    return {
+        "sarl_env_steps_per_s_rgl_run": round(b / t_sarl, 1),
+        "rgl_env_steps_per_s": round(b / t_rgl, 1),
+        "mp_rgl_d1_env_steps_per_s": round(b / t_mp[1, 1], 1),
+        "mp_rgl_d1_ms_per_decision": round(t_mp[1, 1] / b * 1e3, 4),
+        "mp_rgl_d2w2_ms_per_decision": round(t_mp[2, 2] / b * 1e3, 4),
+        "mp_rgl_d2w2_over_d1": round(t_mp[2, 2] / t_mp[1, 1], 3),
+        "rgl_batch": b,
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--threads", type=int, default=2, help="torch intra-op threads (0: torch default)")
     ap.add_argument("--humans", type=int, default=5)
     ap.add_argument("--batches", type=int, nargs="+", default=[256, 1024, 4096])
     ap.add_argument("--min-time", type=float, default=1.0, help="seconds spent timing each batch size")
+    ap.add_argument("--device", default="cpu", help="cpu or cuda (nothing requires a GPU)")
     args = ap.parse_args()
     if args.threads > 0:
         torch.set_num_threads(args.threads)
     torch.manual_seed(0)
-    policy = ValuePolicy(build("sarl"))
+    policy = ValuePolicy(build("sarl"), device=args.device)
     policy.network.eval()
 
     peak = matmul_gflops()
@@ -129,6 +174,7 @@ def main() -> None:
         for v in results.values():
             v["fraction"] = v["gflops"] / peak_after
         peak = peak_after
+    rgl = time_rgl(args.humans, args.min_time, args.device)
     head = 256 if 256 in results else args.batches[0]
     best = max(results, key=lambda k: results[k]["fraction"])
     out = {
@@ -143,6 +189,8 @@ def main() -> None:
         "sarl_mflops_per_env_step": round(flops["performed"] / 1e6, 3),
         "threads": torch.get_num_threads(),
         "humans": args.humans,
+        "device": args.device,
+        **rgl,
     }
     print(json.dumps(out))
 
