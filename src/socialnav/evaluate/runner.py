@@ -14,6 +14,7 @@ skipping the chunk files that exist: nothing finished is recomputed or lost.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 import warnings
@@ -117,6 +118,7 @@ def run_protocol(
     extra_manifest: dict | None = None,
     batch_size: int = 256,
     workers: int | None = None,
+    simulate_in_workers: bool | None = None,
 ) -> ProtocolResult:
     """Runs (or resumes) the protocol of ``preset`` for ``policy`` and writes every result file.
 
@@ -131,6 +133,11 @@ def run_protocol(
         batch_size: Episodes simulated in lockstep.
         workers: Processes that score finished chunks while the next chunk is simulated (default:
             one per core, at most 4; 0 scores in this process).
+        simulate_in_workers: Simulate chunks in the worker processes too, one torch thread each
+            (default: when the policy can be pickled, i.e. learned policies). Each chunk is simulated
+            exactly as in this process (same slots, same batches), so results are bit-identical; on
+            few cores, one process per core beats intra-op threads on the small batches of a
+            draining chunk (docs/reproduction.md).
 
     Raises:
         ResumeMismatchError: ``out_dir`` holds a different run's results.
@@ -161,7 +168,13 @@ def run_protocol(
     bar = _progress(total, done, progress)
     computed = 0
     workers = min(os.cpu_count() or 1, 4) if workers is None else workers
-    pool = _scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
+    payload = None
+    if workers > 0 and len(todo) > 1 and simulate_in_workers is not False:
+        payload = _policy_payload(policy, required=bool(simulate_in_workers))
+    if payload is not None:
+        pool = _simulation_pool(workers, payload, preset)
+    else:
+        pool = _scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
     pending: deque = deque()
 
     def finish_oldest() -> None:
@@ -176,12 +189,15 @@ def run_protocol(
     try:
         for cell, a, b in todo:
             bar.set_description(f"{label} {cell.scenario} {cell.visibility}")
-            trajs = simulate_chunk(policy, preset, cell, a, b, label, batch_size)
-            job = (
-                pool.submit(score_trajectories, trajs, cell, label)
-                if pool
-                else score_trajectories(trajs, cell, label)
-            )
+            if payload is not None:
+                job = pool.submit(_simulate_and_score, cell, a, b, label, batch_size)
+            else:
+                trajs = simulate_chunk(policy, preset, cell, a, b, label, batch_size)
+                job = (
+                    pool.submit(score_trajectories, trajs, cell, label)
+                    if pool
+                    else score_trajectories(trajs, cell, label)
+                )
             pending.append((cell, a, b, job))
             while len(pending) > (workers if pool else 0):
                 finish_oldest()
@@ -246,6 +262,54 @@ def _scoring_pool(workers: int):
     from concurrent.futures import ProcessPoolExecutor
 
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("forkserver"))
+
+
+def _policy_payload(policy: Policy, required: bool) -> bytes | None:
+    """The pickled policy for simulation workers, or None when it cannot travel (native policies,
+    whose simulation is cheap anyway)."""
+    import pickle
+
+    try:
+        return pickle.dumps(policy)
+    except Exception as err:
+        if required:
+            raise ValueError(f"policy {policy.name!r} cannot be simulated in workers: {err}") from None
+        return None
+
+
+def _simulation_pool(workers: int, payload: bytes, preset: Preset):
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    # One native thread per world in a worker: the workers already use every core.
+    worker_preset = dataclasses.replace(preset, world=dataclasses.replace(preset.world, threads=1))
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("forkserver"),
+        initializer=_init_simulation_worker,
+        initargs=(payload, worker_preset),
+    )
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _init_simulation_worker(payload: bytes, preset: Preset) -> None:
+    import pickle
+
+    try:
+        import torch
+
+        torch.set_num_threads(1)  # parallelism comes from the processes; results do not depend on it
+    except ImportError:
+        pass
+    _WORKER["policy"] = pickle.loads(payload)
+    _WORKER["preset"] = preset
+
+
+def _simulate_and_score(cell: Cell, start: int, stop: int, label: str, batch_size: int):
+    trajs = simulate_chunk(_WORKER["policy"], _WORKER["preset"], cell, start, stop, label, batch_size)
+    return score_trajectories(trajs, cell, label)
 
 
 def _progress(total: int, initial: int, enabled: bool):
