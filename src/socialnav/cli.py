@@ -41,7 +41,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     ev = sub.add_parser("evaluate", help="run a protocol preset for one policy and print the paper's tables")
     ev.add_argument(
-        "--policy", default="orca", help="registered policy name (see `socialnav list`); default orca"
+        "--policy",
+        default="orca",
+        help="registered policy name (see `socialnav list`), or all: every shipped checkpoint for the "
+        "preset and the native policies into one directory; default orca",
     )
     ev.add_argument("--checkpoint", help="checkpoint of a learned policy (from `socialnav train`)")
     ev.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
@@ -94,6 +97,9 @@ def build_parser() -> argparse.ArgumentParser:
     from socialnav.train.cli import add_train_parser  # torch is imported only when training runs
 
     add_train_parser(sub)
+    from socialnav.evaluate.cli import add_reproduce_parser
+
+    add_reproduce_parser(sub)
     return parser
 
 
@@ -103,6 +109,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from socialnav.policies.loading import build_policy
     from socialnav.presets import load_preset
 
+    if args.policy == "all":
+        from socialnav.evaluate.cli import cmd_evaluate_all
+
+        return cmd_evaluate_all(args)
     preset = load_preset(args.preset)
     overrides = {
         k: getattr(args, k)

@@ -13,7 +13,8 @@ from socialnav.presets import load_preset  # noqa: E402
 
 def small(chunk_size):
     preset = load_preset("wang2022")
-    return dataclasses.replace(preset, evaluation=dataclasses.replace(preset.evaluation, chunk_size=chunk_size))
+    evaluation = dataclasses.replace(preset.evaluation, chunk_size=chunk_size)
+    return dataclasses.replace(preset, evaluation=evaluation)
 
 
 @pytest.fixture
@@ -30,7 +31,9 @@ def test_worker_simulation_is_bit_identical_to_in_process(tmp_path, one_thread):
     policy = build_policy("sarl", preset)
     kwargs = dict(scenarios=["random", "passing"], episodes=8, progress=False)
     serial = run_protocol(policy, preset, tmp_path / "serial", workers=0, **kwargs)
-    parallel = run_protocol(policy, preset, tmp_path / "parallel", workers=2, simulate_in_workers=True, **kwargs)
+    parallel = run_protocol(
+        policy, preset, tmp_path / "parallel", workers=2, simulate_in_workers=True, **kwargs
+    )
     assert parallel.computed_episodes == serial.computed_episodes == 8 * 2 + 8
 
     def key(r):
