@@ -51,7 +51,7 @@ class ShippedCheckpoint:
 
     @property
     def path(self) -> Path:
-        return Path(str(resources.files("socialnav.checkpoints") / self.file))
+        return checkpoint_dir() / self.file
 
     @property
     def exists(self) -> bool:
@@ -82,6 +82,11 @@ def build_policy(name: str, preset: Preset, checkpoint: str | Path | None = None
     return entry.factory(checkpoint=Path(checkpoint), preset=preset, **params)
 
 
+def checkpoint_dir() -> Path:
+    """The directory of the shipped checkpoints (``socialnav/checkpoints``)."""
+    return Path(str(resources.files("socialnav.checkpoints")))
+
+
 def read_checkpoint_index() -> list[ShippedCheckpoint]:
     """Every entry of the index, including pending ones whose file is not shipped yet.
 
@@ -90,7 +95,7 @@ def read_checkpoint_index() -> list[ShippedCheckpoint]:
     """
     import yaml
 
-    source = resources.files("socialnav.checkpoints") / INDEX_FILE
+    source = checkpoint_dir() / INDEX_FILE
     if not source.is_file():
         return []
     try:
@@ -127,7 +132,7 @@ def shipped_checkpoints(preset: str | None = None) -> list[ShippedCheckpoint]:
     indexed = read_checkpoint_index()
     out = [e for e in indexed if e.exists]
     known = {e.file for e in indexed}
-    for path in sorted(resources.files("socialnav.checkpoints").iterdir(), key=lambda p: p.name):
+    for path in sorted(checkpoint_dir().iterdir(), key=lambda p: p.name):
         if path.name.endswith(".pt") and path.name not in known:
             guess = _entry_from_name(path.name)
             if guess is not None:
@@ -140,7 +145,7 @@ def unindexed_checkpoint_files() -> list[str]:
     known = {e.file for e in read_checkpoint_index()}
     return sorted(
         p.name
-        for p in resources.files("socialnav.checkpoints").iterdir()
+        for p in checkpoint_dir().iterdir()
         if p.name.endswith(".pt") and p.name not in known
     )
 
