@@ -269,6 +269,9 @@ def _policy_payload(policy: Policy, required: bool) -> bytes | None:
     whose simulation is cheap anyway)."""
     import pickle
 
+    device = str(getattr(getattr(policy, "value_policy", None), "device", "cpu"))
+    if device != "cpu" and not required:
+        return None  # one GPU serves one process best; workers would each hold a copy of the network
     try:
         return pickle.dumps(policy)
     except Exception as err:
