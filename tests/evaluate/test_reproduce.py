@@ -184,3 +184,18 @@ def test_paper_results_cover_every_column():
     paper = load_paper_results()
     for row in paper["table2"].values():
         assert {c.id for c in [*BASIC, *SOCIAL]} == set(row)
+
+
+def test_reproduce_modules_do_not_import_torch():
+    code = (
+        "import sys\n"
+        "import socialnav.evaluate.reproduce, socialnav.evaluate.multi, socialnav.evaluate.ranking\n"
+        "import socialnav.evaluate.expectations, socialnav.cli\n"
+        "socialnav.cli.build_parser()\n"
+        "socialnav.evaluate.multi.default_specs('wang2022')\n"
+        "socialnav.evaluate.reproduce.load_paper_results()\n"
+        "assert 'torch' not in sys.modules, 'torch was imported'\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            env={"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin"})
+    assert result.returncode == 0, result.stderr
