@@ -23,8 +23,6 @@ from socialnav.evaluate.reproduce import (
 from socialnav.evaluate.runner import ResumeMismatchError
 from socialnav.presets import load_preset
 
-ROOT = Path(__file__).resolve().parents[2]
-
 
 def test_reproduce_quick_json_subprocess(tmp_path):
     pytest.importorskip("torch")
@@ -32,8 +30,7 @@ def test_reproduce_quick_json_subprocess(tmp_path):
     proc = subprocess.run(
         [sys.executable, "-m", "socialnav.cli", "reproduce", "--quick", "--json", "--no-progress",
          "--human-model", "both", "--out", str(tmp_path)],
-        capture_output=True, text=True, cwd=ROOT, env={"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin"},
-        timeout=300,
+        capture_output=True, text=True, cwd=tmp_path, timeout=300,
     )
     seconds = time.perf_counter() - t0
     assert proc.returncode == 0, proc.stderr
@@ -196,6 +193,5 @@ def test_reproduce_modules_do_not_import_torch():
         "socialnav.evaluate.reproduce.load_paper_results()\n"
         "assert 'torch' not in sys.modules, 'torch was imported'\n"
     )
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                            env={"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin"})
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
