@@ -3,7 +3,7 @@
 
 import pytest
 
-from socialnav.evaluate.reproduce import BASIC, SOCIAL, load_paper_results
+from socialnav.evaluate.paper_tables import BASIC, SOCIAL, load_paper_results
 
 # Tables I-III of Wang et al. 2022 as printed in the spec (paper_results.md), typed in independently.
 TABLE1 = """

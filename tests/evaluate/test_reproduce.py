@@ -12,14 +12,8 @@ import pytest
 
 from socialnav.cli import main
 from socialnav.evaluate.multi import MultiResult, PolicySpec, run_policies
-from socialnav.evaluate.reproduce import (
-    BASIC,
-    SOCIAL,
-    load_paper_results,
-    ranking_rows,
-    wilson_interval,
-    write_reproduction,
-)
+from socialnav.evaluate.paper_tables import BASIC, SOCIAL, load_paper_results, wilson_interval
+from socialnav.evaluate.reproduce import ranking_rows, write_reproduction
 from socialnav.evaluate.runner import ResumeMismatchError
 from socialnav.presets import load_preset
 
@@ -187,10 +181,11 @@ def test_reproduce_modules_do_not_import_torch():
     code = (
         "import sys\n"
         "import socialnav.evaluate.reproduce, socialnav.evaluate.multi, socialnav.evaluate.ranking\n"
+        "import socialnav.evaluate.paper_tables\n"
         "import socialnav.evaluate.expectations, socialnav.cli\n"
         "socialnav.cli.build_parser()\n"
         "socialnav.evaluate.multi.default_specs('wang2022')\n"
-        "socialnav.evaluate.reproduce.load_paper_results()\n"
+        "socialnav.evaluate.paper_tables.load_paper_results()\n"
         "assert 'torch' not in sys.modules, 'torch was imported'\n"
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
