@@ -118,7 +118,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--policy",
         default="orca",
         help="registered policy name (see `socialnav list`), an entry point of group socialnav.policies, "
-        "or module.path:ClassName (docs/custom_policies.md); default orca",
+        "module.path:ClassName (docs/custom_policies.md), or all: every shipped checkpoint for the preset "
+        "and the native policies into one directory; default orca",
     )
     ev.add_argument(
         "--policy-arg",
@@ -188,6 +189,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_train_parser(sub)
     add_replay_parser(sub)
     add_viz_parsers(sub)
+    from socialnav.evaluate.cli import add_reproduce_parser
+
+    add_reproduce_parser(sub)
     return parser
 
 
@@ -199,6 +203,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     if args.batch_size < 1:
         raise ValueError(f"--batch-size must be >= 1, got {args.batch_size}")
+    if args.policy == "all":
+        from socialnav.evaluate.cli import cmd_evaluate_all
+
+        return cmd_evaluate_all(args)
     preset = load_preset(args.preset)
     overrides = parse_policy_args(args.policy_arg)
     for key in ("information", "planning_depth", "planning_width"):

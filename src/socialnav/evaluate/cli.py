@@ -1,9 +1,13 @@
-"""`socialnav replay` argument parsing and command (kept free of torch imports)."""
+"""`socialnav replay`, `socialnav reproduce` and `socialnav evaluate --policy all` (argument parsing
+kept free of torch imports)."""
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+import warnings
+from pathlib import Path
 
 
 def add_replay_parser(sub: argparse._SubParsersAction) -> None:
@@ -46,3 +50,106 @@ def _run_replay(args: argparse.Namespace) -> int:
         if args.out:
             print(f"replayed trajectory written to {args.out}", file=sys.stderr)
     return 0 if result.identical else 1
+
+
+def add_reproduce_parser(sub: argparse._SubParsersAction) -> None:
+    rp = sub.add_parser(
+        "reproduce",
+        help="Wang et al. 2022's Tables I-III: every shipped wang2022 checkpoint plus linear, ORCA and "
+        "social force on the full protocol, beside the paper's numbers",
+    )
+    rp.add_argument("--quick", action="store_true",
+                    help="a few episodes per scenario (smoke test, < 1 min)")
+    rp.add_argument(
+        "--out", help="result directory (default runs/reproduce, or runs/reproduce-quick); resumed"
+    )
+    rp.add_argument(
+        "--human-model",
+        dest="human_model",
+        choices=["orca", "social_force", "both"],
+        default="orca",
+        help="humans of the evaluation: orca (the paper's, default), social_force, or both (adds the "
+        "ranking-robustness table ranking.md)",
+    )
+    rp.add_argument(
+        "--episodes", type=int, help="episodes per scenario (default: the protocol's 500; 3 with --quick)"
+    )
+    rp.add_argument("--workers", type=int, help="worker processes (default: one per core, at most 4)")
+    rp.add_argument("--batch-size", type=int, default=256, help="episodes simulated in lockstep")
+    rp.add_argument("--json", action="store_true", help="print one JSON object last (rows of every summary)")
+    rp.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    rp.set_defaults(run=cmd_reproduce)
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    from socialnav.cli import _clean
+    from socialnav.evaluate.reproduce import HUMAN_MODELS, PRESET, run_reproduction
+
+    if args.episodes is not None and args.episodes < 1:
+        raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
+    models = HUMAN_MODELS if args.human_model == "both" else (args.human_model,)
+    out = Path(args.out or ("runs/reproduce-quick" if args.quick else "runs/reproduce"))
+    log = None if args.json else (lambda line: print(line, file=sys.stderr))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = run_reproduction(
+            out, human_models=models, quick=args.quick, episodes=args.episodes,
+            progress=not args.no_progress, batch_size=args.batch_size, workers=args.workers, log=log,
+        )
+    for note in sorted({str(w.message) for w in caught}):
+        print(f"warning: {note}", file=sys.stderr)
+    if args.json:
+        rows = [
+            {"human_model": hm, **row} for hm, run in result.runs.items() for row in run.summary
+        ]
+        print(json.dumps(_clean({
+            "preset": PRESET, "out": str(out), "quick": args.quick, "human_models": list(models),
+            "rows": rows, "comparison": result.comparison, "ranking": result.ranking,
+            "timings": {hm: run.timings for hm, run in result.runs.items()},
+        })))
+        return 0
+    for text in result.tables.values():
+        print(text)
+    files = ", ".join(f"{stem}.md" for stem in result.tables)
+    print(f"results in {out}/ ({files}, .tex, reproduction.json; per human model and policy under "
+          f"{'/'.join(models)}/policies/)")
+    return 0
+
+
+def cmd_evaluate_all(args: argparse.Namespace) -> int:
+    """`socialnav evaluate --policy all`: shipped checkpoints for the preset + native policies."""
+    from socialnav.cli import _clean
+    from socialnav.evaluate.multi import default_specs, run_policies
+    from socialnav.evaluate.report import table2, table3
+    from socialnav.presets import load_preset
+
+    refused = [
+        flag for flag, value in (
+            ("--checkpoint", args.checkpoint), ("--label", args.label), ("--information", args.information),
+            ("--planning-depth", args.planning_depth), ("--planning-width", args.planning_width),
+        ) if value is not None
+    ]
+    if refused:
+        raise ValueError(f"--policy all takes no {', '.join(refused)} (each policy uses its own settings)")
+    preset = load_preset(args.preset)
+    specs = default_specs(preset.name)
+    out = Path(args.out or f"runs/evaluate/{preset.name}-all")
+    log = None if args.json else (lambda line: print(line, file=sys.stderr))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = run_policies(
+            specs, preset, out, scenarios=args.scenario, episodes=args.episodes, visibility=args.visibility,
+            progress=not args.no_progress, batch_size=args.batch_size, log=log,
+        )
+    for note in sorted({str(w.message) for w in caught}):
+        print(f"warning: {note}", file=sys.stderr)
+    if args.json:
+        print(json.dumps({"preset": preset.name, "out": str(out), "policies": [s.name for s in specs],
+                          "rows": _clean(result.summary)}))
+        return 0
+    print(table2(result.summary, "md"))
+    print(table3(result.summary, "md"))
+    computed = sum(t["episodes"] for t in result.timings.values())
+    print(f"{len(specs)} policies ({', '.join(s.name for s in specs)}), {computed} episodes simulated; "
+          f"results in {out}/ (summary.json/csv, table2/3 .md and .tex; per policy under policies/)")
+    return 0

@@ -22,6 +22,7 @@ are rewritten identically).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -163,6 +164,7 @@ def run_protocol(
     batch_size: int = 256,
     workers: int | None = None,
     trajectories: bool = True,
+    simulate_in_workers: bool | None = None,
 ) -> ProtocolResult:
     """Runs (or resumes) the protocol of ``preset`` for ``policy`` and writes every result file.
 
@@ -181,6 +183,11 @@ def run_protocol(
             (workers would re-run the script).
         trajectories: Keep every episode's trajectory under ``trajectories/`` (for ``socialnav
             replay``, ``render`` and ``report``).
+        simulate_in_workers: Simulate chunks in the worker processes too, one torch thread each
+            (default: when the policy can be pickled, i.e. learned policies). Each chunk is simulated
+            exactly as in this process (same slots, same batches), so results are bit-identical; on
+            few cores, one process per core beats intra-op threads on the small batches of a
+            draining chunk (docs/protocol.md).
 
     Raises:
         ResumeMismatchError: ``out_dir`` holds a different run's results.
@@ -223,7 +230,7 @@ def run_protocol(
                 todo.append((cell, a, b))
         computed = _simulate_and_score(
             policy, preset, out, todo, label, stamp, sum(c.episodes for c in cells), progress, batch_size,
-            workers, trajectories,
+            workers, trajectories, simulate_in_workers,
         )
         rows = read_episode_rows(out, cells, chunk, label, stamp)
         summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
@@ -243,6 +250,7 @@ def _simulate_and_score(
     batch_size: int,
     workers: int | None,
     trajectories: bool = True,
+    simulate_in_workers: bool | None = None,
 ) -> int:
     """Simulates the chunks ``todo`` and writes one scored file per chunk; returns the episodes done."""
     chunk_meta = {CHUNK_STAMP_KEY: stamp}
@@ -252,7 +260,13 @@ def _simulate_and_score(
     workers = min(os.cpu_count() or 1, 4) if workers is None else workers
     if workers > 0 and main_module_reruns_call():
         workers = 0  # workers would re-run the calling script's top level (see evaluate/mainguard.py)
-    pool = _scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
+    payload = None
+    if workers > 0 and len(todo) > 1 and simulate_in_workers is not False:
+        payload = _policy_payload(policy, required=bool(simulate_in_workers))
+    if payload is not None:
+        pool = _simulation_pool(workers, payload, preset)
+    else:
+        pool = _scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
     pending: deque = deque()
 
     def finish_oldest() -> None:
@@ -268,15 +282,20 @@ def _simulate_and_score(
     try:
         for cell, a, b in todo:
             bar.set_description(f"{label} {cell.scenario} {cell.visibility}")
-            trajs = simulate_chunk(policy, preset, cell, a, b, label, batch_size)
             traj_path = _trajectory_path(out, cell, a, b) if trajectories else None
             if traj_path is not None:
                 traj_path.parent.mkdir(parents=True, exist_ok=True)
-            job = (
-                pool.submit(store_and_score, trajs, cell, label, traj_path)
-                if pool
-                else store_and_score(trajs, cell, label, traj_path)
-            )
+            if payload is not None:
+                job = pool.submit(
+                    _simulate_store_and_score_in_worker, cell, a, b, label, batch_size, traj_path
+                )
+            else:
+                trajs = simulate_chunk(policy, preset, cell, a, b, label, batch_size)
+                job = (
+                    pool.submit(store_and_score, trajs, cell, label, traj_path)
+                    if pool
+                    else store_and_score(trajs, cell, label, traj_path)
+                )
             pending.append((cell, a, b, job))
             while len(pending) > (workers if pool else 0):
                 finish_oldest()
@@ -471,6 +490,67 @@ def _scoring_pool(workers: int):
         mp_context=multiprocessing.get_context("forkserver"),
         initializer=lifeline.worker_init,
     )
+
+
+def _policy_payload(policy: Policy, required: bool) -> bytes | None:
+    """The pickled policy for simulation workers, or None when it cannot travel (native policies,
+    whose simulation is cheap anyway)."""
+    import pickle
+
+    device = str(getattr(getattr(policy, "value_policy", None), "device", "cpu"))
+    if device != "cpu" and not required:
+        return None  # one GPU serves one process best; workers would each hold a copy of the network
+    try:
+        return pickle.dumps(policy)
+    except Exception as err:
+        if required:
+            raise ValueError(f"policy {policy.name!r} cannot be simulated in workers: {err}") from None
+        return None
+
+
+def _simulation_pool(workers: int, payload: bytes, preset: Preset):
+    # Same lifetime guarantees as the scoring pool (evaluate/lifeline.py); each worker holds the
+    # policy, unpickled once.
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from socialnav.evaluate import lifeline
+
+    lifeline.start_forkserver()
+    # One native thread per world in a worker: the workers already use every core.
+    worker_preset = dataclasses.replace(preset, world=dataclasses.replace(preset.world, threads=1))
+    return ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("forkserver"),
+        initializer=_init_simulation_worker,
+        initargs=(payload, worker_preset),
+    )
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _init_simulation_worker(payload: bytes, preset: Preset) -> None:
+    import pickle
+
+    from socialnav.evaluate import lifeline
+
+    lifeline.worker_init()
+    try:
+        import torch
+
+        torch.set_num_threads(1)  # parallelism comes from the processes; results do not depend on it
+    except ImportError:
+        pass
+    _WORKER["policy"] = pickle.loads(payload)
+    _WORKER["preset"] = preset
+
+
+def _simulate_store_and_score_in_worker(
+    cell: Cell, start: int, stop: int, label: str, batch_size: int, traj_path: Path | None
+):
+    trajs = simulate_chunk(_WORKER["policy"], _WORKER["preset"], cell, start, stop, label, batch_size)
+    return store_and_score(trajs, cell, label, traj_path)
 
 
 def _progress(total: int, initial: int, enabled: bool):

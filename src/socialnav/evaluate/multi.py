@@ -1,0 +1,148 @@
+"""Several policies into one result directory with one set of tables.
+
+    <out>/policies/<name>/        one protocol run per policy (``run_protocol``'s layout, resumable)
+    <out>/summary.json, .csv      every policy's summary rows
+    <out>/table2.md/.tex, table3.md/.tex
+    <out>/timings.json            per policy: episodes simulated by the last call and its wall time
+
+Each policy's directory is resumed on its own, so an interrupted multi-policy run loses at most the
+chunk in progress, and a checkpoint added later is evaluated without re-running the others. A
+shipped checkpoint's SHA-256 is recorded in its manifest: a replaced checkpoint is refused in an old
+directory instead of being mixed with results of its predecessor.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from socialnav.evaluate.files import atomic_write_json
+from socialnav.evaluate.report import write_reports
+from socialnav.presets import Preset
+
+
+@dataclass(frozen=True)
+class PolicySpec:
+    """One policy of a multi-policy run.
+
+    Attributes:
+        name: Label in the results (the ``policy`` column; the sub-directory name).
+        policy: Registered policy name.
+        label: Display name in tables.
+        checkpoint: Checkpoint of a learned policy.
+        shipped: The checkpoint's index entry, when it ships with the package.
+    """
+
+    name: str
+    policy: str
+    label: str
+    checkpoint: Path | None = None
+    shipped: dict[str, Any] | None = None
+
+
+@dataclass(frozen=True)
+class MultiResult:
+    out_dir: Path
+    summary: list[dict[str, Any]]
+    timings: dict[str, dict[str, float]]  # name -> {"episodes": simulated now, "seconds": wall time}
+    specs: list[PolicySpec]
+
+
+def default_specs(preset_name: str, learned: bool = True) -> list[PolicySpec]:
+    """Every shipped checkpoint for ``preset_name`` (index order) and the native policies."""
+    from socialnav.policies.base import list_policies
+    from socialnav.policies.loading import DEFAULT_LABELS, describe_checkpoint, shipped_checkpoints
+
+    specs = []
+    if learned:
+        specs += [
+            PolicySpec(e.name, e.policy, e.label, e.path, describe_checkpoint(e))
+            for e in shipped_checkpoints(preset_name)
+        ]
+    natives = {"linear": "Linear", "orca": "ORCA", "social_force": "Social force"}
+    specs += [
+        PolicySpec(p.name, p.name, natives.get(p.name, DEFAULT_LABELS.get(p.name, p.name)))
+        for p in list_policies()
+        if not p.learned
+    ]
+    names = [s.name for s in specs]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise ValueError(
+            f"two policies would share the result name(s) {duplicates}; fix checkpoints/index.yaml"
+        )
+    return specs
+
+
+def run_policies(
+    specs: Sequence[PolicySpec],
+    preset: Preset,
+    out_dir: str | Path,
+    *,
+    scenarios: Sequence[str] | None = None,
+    episodes: int | None = None,
+    visibility: str | None = None,
+    progress: bool = True,
+    batch_size: int = 256,
+    workers: int | None = None,
+    build: Callable[..., Any] | None = None,
+    log: Callable[[str], None] | None = None,
+) -> MultiResult:
+    """Runs (or resumes) the protocol for every policy of ``specs`` and writes the joint tables.
+
+    Raises:
+        ResumeMismatchError: A policy's directory holds a different run's results.
+    """
+    from socialnav.evaluate.runner import run_protocol
+    from socialnav.policies.loading import build_policy
+
+    if not specs:
+        raise ValueError("no policies to evaluate")
+    build = build or build_policy
+    out = Path(out_dir)
+    summary: list[dict[str, Any]] = []
+    timings: dict[str, dict[str, float]] = {}
+    for spec in specs:
+        t0 = time.perf_counter()
+        policy = build(spec.policy, preset, spec.checkpoint)
+        extra = {"checkpoint": str(spec.checkpoint) if spec.checkpoint else None}
+        if spec.checkpoint is not None:
+            extra["checkpoint_sha256"] = file_sha256(spec.checkpoint)
+        if spec.shipped is not None:
+            extra["shipped"] = spec.shipped
+        result = run_protocol(
+            policy,
+            preset,
+            out / "policies" / spec.name,
+            label=spec.name,
+            scenarios=scenarios,
+            episodes=episodes,
+            visibility=visibility,
+            progress=progress,
+            batch_size=batch_size,
+            workers=workers,
+            extra_manifest=extra,
+        )
+        seconds = time.perf_counter() - t0
+        timings[spec.name] = {"episodes": result.computed_episodes, "seconds": round(seconds, 3)}
+        if log is not None:
+            log(f"{spec.name}: {result.computed_episodes} episodes simulated in {seconds:.1f} s")
+        summary.extend(result.summary)
+    write_reports(out, summary, [], preset)
+    atomic_write_json(
+        out / "timings.json",
+        {"preset": preset.name, "human_model": preset.world.human_model, "policies": timings},
+    )
+    return MultiResult(out, summary, timings, list(specs))
+
+
+def file_sha256(path: str | Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
