@@ -109,9 +109,22 @@ def time_rgl(n_humans: int, min_time: float, device: str, b: int = 256) -> dict[
         )
         for d, w in ((1, 1), (2, 2))
     }
-    t_sarl = time_act(sarl, obs, min_time)
-    t_rgl = time_act(rgl, obs, min_time)
-    t_mp = {k: time_act(p, obs, min_time) for k, p in mp.items()}
+    # Interleaved best-of-reps: on a shared machine, load that comes and goes then hits every policy
+    # alike instead of whichever happened to be timed at that moment.
+    policies = {"sarl": sarl, "rgl": rgl, "d1": mp[1, 1], "d2w2": mp[2, 2]}
+    best = dict.fromkeys(policies, float("inf"))
+    for p in policies.values():
+        p.act(obs)  # warm-up
+    start = time.perf_counter()
+    rounds = 0
+    while rounds < 3 or time.perf_counter() - start < 4 * min_time:
+        for name, p in policies.items():
+            t = time.perf_counter()
+            p.act(obs)
+            best[name] = min(best[name], time.perf_counter() - t)
+        rounds += 1
+    t_sarl, t_rgl = best["sarl"], best["rgl"]
+    t_mp = {(1, 1): best["d1"], (2, 2): best["d2w2"]}
     print(
         f"B={b}: SARL {b / t_sarl:.0f}, RGL {b / t_rgl:.0f} env-steps/s; MP-RGL d1 "
         f"{t_mp[1, 1] / b * 1e3:.3f} ms, d2w2 {t_mp[2, 2] / b * 1e3:.3f} ms per decision "
