@@ -16,6 +16,8 @@ from pathlib import Path
 
 import pytest
 
+from tests._env import subprocess_env
+
 ROOT = Path(__file__).resolve().parents[2]
 PRESET = (
     "name: fault\n"
@@ -24,9 +26,7 @@ PRESET = (
 
 
 def _env() -> dict[str, str]:
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(ROOT / "src") + os.pathsep + env.get("PYTHONPATH", "")
-    return env
+    return subprocess_env()
 
 
 def evaluate(tmp_path: Path, out: Path, episodes: int, *extra: str, **kw) -> subprocess.Popen:

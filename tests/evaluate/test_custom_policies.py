@@ -2,7 +2,6 @@
 entry-point group, typed ``--policy-arg`` values, and the docs page's example run as a script."""
 
 import json
-import os
 import re
 import subprocess
 import sys
@@ -10,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tests._env import subprocess_env
 
 from socialnav.cli import main, parse_policy_args
 from socialnav.policies import make_policy
@@ -107,8 +107,7 @@ def _plugin_env(tmp_path: Path) -> dict:
     dist.mkdir(parents=True)
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: socialnav-test-plugin\nVersion: 0.1\n")
     (dist / "entry_points.txt").write_text(f"[socialnav.policies]\ngoal_seeker = {MODULE}:GoalSeeker\n")
-    path = os.pathsep.join([str(tmp_path / "site"), str(HERE), str(ROOT / "src")])
-    return {**os.environ, "PYTHONPATH": path}
+    return subprocess_env(tmp_path / "site", HERE)
 
 
 def test_policy_from_an_entry_point(tmp_path):
@@ -133,7 +132,7 @@ def test_docs_example_runs_as_a_script_and_from_the_cli(tmp_path):
     text = (ROOT / "docs" / "custom_policies.md").read_text()
     code = re.search(r"## A complete example.*?```python\n(.*?)```", text, re.S).group(1)
     (tmp_path / "cautious.py").write_text(code)
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    env = subprocess_env()
     result = subprocess.run([sys.executable, "cautious.py"], cwd=tmp_path, capture_output=True, text=True,
                             env=env, timeout=300)
     assert result.returncode == 0, result.stderr[-3000:]

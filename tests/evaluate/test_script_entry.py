@@ -1,7 +1,6 @@
 """The README's Python snippet and the custom-policy example run as scripts (real subprocesses):
 ``run_protocol`` at a script's top level must not be re-run by its worker processes."""
 
-import os
 import re
 import subprocess
 import sys
@@ -9,6 +8,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from tests._env import subprocess_env
 
 from socialnav.evaluate.mainguard import main_module_reruns_call
 
@@ -23,7 +23,7 @@ def python_block_after(text: str, marker: str) -> str:
 def run_script(tmp_path: Path, code: str, timeout: int = 300) -> subprocess.CompletedProcess:
     script = tmp_path / "snippet.py"
     script.write_text(code)
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
+    env = subprocess_env()
     return subprocess.run(
         [sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=timeout, env=env
     )
@@ -96,7 +96,7 @@ def test_main_guard_detection(tmp_path, body, expected):
 def test_no_main_file_means_no_rerun():
     # Under pytest __main__ is pytest's entry; from python -c there is no file at all.
     code = "from socialnav.evaluate.mainguard import main_module_reruns_call as f; print(f())"
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    env = subprocess_env()
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert out.stdout.strip() == "False", out.stderr
     assert main_module_reruns_call() in (True, False)

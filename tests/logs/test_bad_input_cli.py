@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from tests._env import subprocess_env
 
 HEADER = "t,id,x,y,role"
 
@@ -107,8 +108,7 @@ def _cases(tmp: Path) -> list[tuple[str, list[str], list[str], int]]:
 def test_bad_input_corpus(tmp_path: Path) -> None:
     cases = _cases(tmp_path)
     assert len(cases) >= 20
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(Path("src").resolve()),
-                                                                     os.environ.get("PYTHONPATH")]))}
+    env = subprocess_env()
     failures = []
     for name, argv, words, status in cases:
         proc = subprocess.run([sys.executable, "-m", "socialnav.cli", "metrics", *argv], capture_output=True,
@@ -137,5 +137,5 @@ def test_format_flag_mismatch(tmp_path: Path, fmt: str) -> None:
     path = _csv(tmp_path, "x.csv" if fmt == "parquet" else "x.parquet", _rows())
     proc = subprocess.run([sys.executable, "-m", "socialnav.cli", "metrics", str(path), "--format", fmt],
                           capture_output=True, text=True, timeout=120,
-                          env={**os.environ, "PYTHONPATH": str(Path("src").resolve())})
+                          env=subprocess_env())
     assert proc.returncode == 2 and "Traceback" not in proc.stderr and str(path) in proc.stderr
