@@ -107,7 +107,7 @@ def _plugin_env(tmp_path: Path) -> dict:
     dist.mkdir(parents=True)
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: socialnav-test-plugin\nVersion: 0.1\n")
     (dist / "entry_points.txt").write_text(f"[socialnav.policies]\ngoal_seeker = {MODULE}:GoalSeeker\n")
-    return subprocess_env(tmp_path / "site", HERE)
+    return subprocess_env(tmp_path / "site", HERE, ROOT)  # ROOT: the module imports tests._env
 
 
 def test_policy_from_an_entry_point(tmp_path):
