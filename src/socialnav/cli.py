@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 import warnings
 from pathlib import Path
 from typing import Any
+
+from socialnav.evaluate.files import json_safe
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     ValueError,  # ConfigError, CheckpointError, TrajectoryFormatError, ResumeMismatchError's base too
@@ -244,7 +245,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
         write_report(out, out / "report.html", progress=not (args.no_progress or args.quiet))
     if args.json:
-        print(json.dumps({"preset": preset.name, "out": str(out), "rows": _clean(result.summary)}))
+        print(json.dumps({"preset": preset.name, "out": str(out), "rows": json_safe(result.summary)}))
     elif not args.quiet:
         for table in (table2(result.summary, "md", table_notes(preset)), table3(result.summary, "md")):
             if table:  # a run without multi- or single-human scenarios has no such table
@@ -347,17 +348,6 @@ def cmd_list(args: argparse.Namespace) -> int:
     return 0
 
 
-def _clean(value: Any) -> Any:
-    """JSON-safe copy: NaN/inf become null (JSON has no NaN)."""
-    if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_clean(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if hasattr(value, "item"):
-        return _clean(value.item())
-    return value
 
 
 if __name__ == "__main__":

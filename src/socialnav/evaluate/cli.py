@@ -82,7 +82,7 @@ def add_reproduce_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    from socialnav.cli import _clean
+    from socialnav.evaluate.files import json_safe
     from socialnav.evaluate.reproduce import HUMAN_MODELS, PRESET, run_reproduction
 
     if args.episodes is not None and args.episodes < 1:
@@ -102,7 +102,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         rows = [
             {"human_model": hm, **row} for hm, run in result.runs.items() for row in run.summary
         ]
-        print(json.dumps(_clean({
+        print(json.dumps(json_safe({
             "preset": PRESET, "out": str(out), "quick": args.quick, "human_models": list(models),
             "rows": rows, "comparison": result.comparison, "ranking": result.ranking,
             "timings": {hm: run.timings for hm, run in result.runs.items()},
@@ -118,7 +118,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 def cmd_evaluate_all(args: argparse.Namespace) -> int:
     """`socialnav evaluate --policy all`: shipped checkpoints for the preset + native policies."""
-    from socialnav.cli import _clean
+    from socialnav.evaluate.files import json_safe
     from socialnav.evaluate.multi import default_specs, run_policies
     from socialnav.evaluate.report import table2, table3
     from socialnav.presets import load_preset
@@ -145,7 +145,7 @@ def cmd_evaluate_all(args: argparse.Namespace) -> int:
         print(f"warning: {note}", file=sys.stderr)
     if args.json:
         print(json.dumps({"preset": preset.name, "out": str(out), "policies": [s.name for s in specs],
-                          "rows": _clean(result.summary)}))
+                          "rows": json_safe(result.summary)}))
         return 0
     print(table2(result.summary, "md"))
     print(table3(result.summary, "md"))

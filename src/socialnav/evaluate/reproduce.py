@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.files import atomic_write_json, atomic_write_text
+from socialnav.evaluate.files import atomic_write_json, atomic_write_text, json_safe
 from socialnav.evaluate.multi import MultiResult, PolicySpec, default_specs, run_policies
 from socialnav.evaluate.paper_tables import (
     BASIC,
@@ -128,7 +128,7 @@ def write_reproduction(
     atomic_write_json(
         out / "reproduction.json",
         {"preset": PRESET, "quick": quick, "episodes": episodes, "human_models": list(runs),
-         "compared_on": main_model, "comparison": _json_safe(comparison), "ranking": _json_safe(ranking),
+         "compared_on": main_model, "comparison": json_safe(comparison), "ranking": json_safe(ranking),
          "timings": {hm: r.timings for hm, r in runs.items()}},
     )
     return Reproduction(out, runs, comparison, ranking, {k: v[0] for k, v in tables.items()})
@@ -195,13 +195,3 @@ def ranking_markdown(rows: Sequence[dict], quick: bool) -> tuple[str, None]:
         for name, va, vb in zip(r["policies"], r["orca"], r["social_force"], strict=True):
             values.append(f"| {r['header']} | {name} | {va:.3f} | {vb:.3f} |")
     return "\n".join(lines + ["#### Values", "", *values]) + "\n", None
-
-
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value

@@ -13,6 +13,7 @@ import math
 import sys
 from typing import Any
 
+from socialnav.evaluate.files import json_safe
 from socialnav.logs.readers import ETH_UCY_FPS, FIELDS, MAX_SPEED
 from socialnav.logs.scoring import FORMATS
 
@@ -99,8 +100,9 @@ def cmd_metrics(args: argparse.Namespace) -> int:
         if str(w.message) not in bucket:
             bucket.append(str(w.message))
     if args.json:
-        print(json.dumps(_clean({"files": args.file, "episodes": scores.rows, "summaries": scores.summaries,
-                                 "notes": notes, "warnings": problems})))
+        out = {"files": args.file, "episodes": scores.rows, "summaries": scores.summaries,
+               "notes": notes, "warnings": problems}
+        print(json.dumps(json_safe(out)))
     else:
         _print_text(scores, args.per_episode, not args.all_episodes)
         for note in [] if args.quiet else notes:
@@ -136,16 +138,3 @@ def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
                 continue
             population = words.get(_population(k, require_success), "")
             print(f"  {k:60s} {mean:.4g} ± {std:.3g} (n={group.get(f'{k}.n')} of {population})")
-
-
-def _clean(value: Any) -> Any:
-    """JSON-safe copy: NaN/inf become null (JSON has no NaN)."""
-    if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_clean(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if hasattr(value, "item"):
-        return _clean(value.item())
-    return value

@@ -176,6 +176,14 @@ def reward(
     r = robot_next.unsqueeze(-2)
     d = torch.sqrt((humans_next[..., 0] - r[..., 0]) ** 2 + (humans_next[..., 1] - r[..., 1]) ** 2)
     clearance = d - r[..., 4] - humans_next[..., 4]
+    return _reward_from_clearance(clearance, mask, robot_next, params)
+
+
+def _reward_from_clearance(
+    clearance: torch.Tensor, mask: torch.Tensor, robot_next: torch.Tensor, params: RewardParams
+) -> torch.Tensor:
+    """CrowdSim's reward from per-human clearances (…, N) and the robot's next state (…, 9):
+    collision, else success at the goal, else discomfort, else 0; padded humans ignored."""
     clearance = torch.where(mask, clearance, torch.full_like(clearance, float("inf")))
     if clearance.shape[-1] > 0:
         dmin = clearance.amin(dim=-1)
@@ -188,8 +196,7 @@ def reward(
     disc = (dmin - params.discomfort_dist) * params.discomfort_penalty_factor * params.time_step
     out = torch.where(dmin < params.discomfort_dist, disc, zero)
     out = torch.where(goal_d < robot_next[..., 4], zero + params.success_reward, out)
-    out = torch.where(dmin < 0, zero + params.collision_penalty, out)
-    return out
+    return torch.where(dmin < 0, zero + params.collision_penalty, out)
 
 
 def swept_reward(
@@ -219,7 +226,6 @@ def swept_reward(
         (B, K) rewards.
     """
     params = params if params is not None else RewardParams()
-    dt = params.time_step
     d0x = (humans[..., 0] - robot[..., 0:1]).unsqueeze(1)  # (B, 1, N)
     d0y = (humans[..., 1] - robot[..., 1:2]).unsqueeze(1)
     # Displacements over the step (positions, not velocities: a predictor's next velocity need not
@@ -234,19 +240,7 @@ def swept_reward(
     s = torch.where(dd2 > 0, s.clamp(0.0, 1.0), torch.zeros_like(s))
     cx, cy = d0x + s * ddx, d0y + s * ddy
     clearance = torch.sqrt(cx * cx + cy * cy) - robot[..., 4:5].unsqueeze(-1) - humans[..., 4].unsqueeze(1)
-    clearance = torch.where(mask.unsqueeze(1), clearance, torch.full_like(clearance, float("inf")))
-    if clearance.shape[-1] > 0:
-        dmin = clearance.amin(dim=-1)
-    else:
-        dmin = torch.full_like(robot_next[..., 0], float("inf"))
-    gx = robot_next[..., 0] - robot_next[..., 5]
-    gy = robot_next[..., 1] - robot_next[..., 6]
-    goal_d = torch.sqrt(gx * gx + gy * gy)
-    zero = torch.zeros_like(dmin)
-    disc = (dmin - params.discomfort_dist) * params.discomfort_penalty_factor * dt
-    out = torch.where(dmin < params.discomfort_dist, disc, zero)
-    out = torch.where(goal_d < robot_next[..., 4], zero + params.success_reward, out)
-    return torch.where(dmin < 0, zero + params.collision_penalty, out)
+    return _reward_from_clearance(clearance, mask.unsqueeze(1).expand_as(clearance), robot_next, params)
 
 
 def occupancy_map(

@@ -254,18 +254,34 @@ class ValuePolicy:
         if depth == 2:  # V_1 = V: the best of the top w one-step values is the best one-step value
             best = q.amax(dim=1)
         else:
-            m, w = q.shape[0], min(self.planning_width, q.shape[1])
-            top = q.topk(w, dim=1).indices  # (M, w)
-            rn = robot_next.gather(1, top.unsqueeze(-1).expand(m, w, robot_next.shape[-1]))
-            deeper = self._planned_value(
-                rn.reshape(m * w, -1),
-                humans_next.repeat_interleave(w, dim=0),
-                mask.repeat_interleave(w, dim=0),
-                depth - 1,
-                dt,
-            ).view(m, w)
-            best = (r.gather(1, top) + disc * deeper).amax(dim=1)
+            top, returns = self._top_returns(q, r, disc, robot_next, humans_next, mask, depth - 1, dt)
+            best = returns.amax(dim=1)
         return v / depth + (depth - 1) / depth * best
+
+    def _top_returns(
+        self,
+        q: torch.Tensor,
+        r: torch.Tensor,
+        disc: torch.Tensor,
+        robot_next: torch.Tensor,
+        humans_next: torch.Tensor,
+        mask: torch.Tensor,
+        depth: int,
+        dt: float,
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The top-w actions of each of M states by one-step value q (M, K), and their returns
+        r̂ + γ·V_depth(s') (M, w), the w successors of every state planned in one batched call."""
+        m, w = q.shape[0], min(self.planning_width, q.shape[1])
+        top = q.topk(w, dim=1).indices  # (M, w)
+        rn = robot_next.gather(1, top.unsqueeze(-1).expand(m, w, robot_next.shape[-1]))
+        deeper = self._planned_value(
+            rn.reshape(m * w, -1),
+            humans_next.repeat_interleave(w, dim=0),
+            mask.repeat_interleave(w, dim=0),
+            depth,
+            dt,
+        ).view(m, w)
+        return top, r.gather(1, top) + disc * deeper
 
     @torch.inference_mode()
     def _values(
@@ -280,19 +296,9 @@ class ValuePolicy:
         d = self.planning_depth
         if d == 1:
             return q, actions
-        b, k = q.shape
-        w = min(self.planning_width, k)
-        top = q.topk(w, dim=1).indices  # (B, w)
-        rn = robot_next.gather(1, top.unsqueeze(-1).expand(b, w, robot_next.shape[-1]))
-        vd = self._planned_value(
-            rn.reshape(b * w, -1),
-            humans_next.repeat_interleave(w, dim=0),
-            mask.repeat_interleave(w, dim=0),
-            d,
-            dt,
-        ).view(b, w)
+        top, returns = self._top_returns(q, r, disc, robot_next, humans_next, mask, d, dt)
         planned = torch.full_like(q, float("-inf"))
-        planned.scatter_(1, top, r.gather(1, top) + disc * vd)
+        planned.scatter_(1, top, returns)
         return planned, actions
 
     def _network_values(self, joint: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
