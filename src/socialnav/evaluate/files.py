@@ -54,6 +54,16 @@ def default_file_mode() -> int:
     return 0o666 & ~process_umask()
 
 
+def make_output_dir(out: Path) -> None:
+    """Creates ``out`` (and parents), refusing a path through a file or a directory it cannot write."""
+    for parent in [out, *out.parents]:
+        if parent.exists() and not parent.is_dir():
+            raise NotADirectoryError(f"--out {out}: {parent} exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise PermissionError(f"--out {out}: directory is not writable")
+
+
 def json_safe(value: Any) -> Any:
     """A copy of ``value`` that ``json.dumps(allow_nan=False)`` accepts: NaN/inf become None,
     NumPy scalars and arrays become Python values, tuples become lists."""

@@ -38,6 +38,7 @@ from socialnav.evaluate.files import (
     DirectoryLock,
     atomic_write_json,
     atomic_write_rows_parquet,
+    make_output_dir,
     read_parquet_verified,
     remove_orphan_temporaries,
 )
@@ -214,7 +215,7 @@ def run_protocol(
         }
     )
     stamp = manifest_stamp(manifest)
-    _make_out_dir(out)
+    make_output_dir(out)
     with DirectoryLock(out, "evaluation"):
         remove_orphan_temporaries(out)
         _check_or_write_manifest(out, manifest)
@@ -396,15 +397,6 @@ def _validate_cells(preset: Preset, cells: list[Cell], batch_size: int) -> None:
         settings = cell_world_settings(preset, cell)
         scenario = cell_scenario(preset, cell)
         check_world_size(settings, min(batch_size, cell.episodes), 1 + int(scenario.n_humans))
-
-
-def _make_out_dir(out: Path) -> None:
-    for parent in [out, *out.parents]:
-        if parent.exists() and not parent.is_dir():
-            raise NotADirectoryError(f"--out {out}: {parent} exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise PermissionError(f"--out {out}: directory is not writable")
 
 
 def _normalised(manifest: dict) -> dict:

@@ -184,28 +184,21 @@ def fit_values(
     value = torch.as_tensor(demos.value, dtype=torch.float32, device=dev)
     with torch.no_grad():
         joint = policy.transform(robot, humans, mask)  # the transform does not depend on the weights
-    opt = optimizer
     net.train()
-    losses = []
-    m = len(value)
-    for epoch in range(start_epoch, epochs):
-        perm = torch.randperm(m, generator=generator).to(dev)
-        total, count = 0.0, 0
-        for s in range(0, m, batch_size):
-            idx = perm[s : s + batch_size]
-            loss = torch.nn.functional.mse_loss(net.value(joint[idx], mask[idx]), value[idx])
-            if not torch.isfinite(loss):
-                raise FloatingPointError(f"imitation loss became {loss.item()} in epoch {epoch}")
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
-            total += float(loss.detach()) * len(idx)
-            count += len(idx)
-        losses.append(total / count)
-        if on_epoch is not None:
-            on_epoch(epoch, losses[-1])
-    net.eval()
-    return losses
+    try:
+        return _epochs(
+            len(value),
+            range(start_epoch, epochs),
+            batch_size,
+            generator,
+            dev,
+            optimizer,
+            lambda idx: torch.nn.functional.mse_loss(net.value(joint[idx], mask[idx]), value[idx]),
+            "imitation",
+            on_epoch,
+        )
+    finally:
+        net.eval()
 
 
 def fit_predictor(
@@ -233,21 +226,50 @@ def fit_predictor(
     nxt = torch.as_tensor(demos.next_humans, dtype=torch.float32, device=dev)
     nmask = torch.as_tensor(demos.next_mask, dtype=torch.bool, device=dev)
     predictor.train()
+    try:
+        return _epochs(
+            len(robot),
+            range(epochs),
+            batch_size,
+            generator,
+            dev,
+            optimizer,
+            lambda idx: predictor.loss(robot[idx], humans[idx], mask[idx], nxt[idx], nmask[idx], dt),
+            "state-predictor",
+        )
+    finally:
+        predictor.eval()
+
+
+def _epochs(
+    m: int,
+    epochs: range,
+    batch_size: int,
+    generator: torch.Generator,
+    device: torch.device | str,
+    optimizer: torch.optim.Optimizer,
+    batch_loss: Callable[[torch.Tensor], torch.Tensor],
+    what: str,
+    on_epoch: Callable[[int, float], None] | None = None,
+) -> list[float]:
+    """Minibatch epochs over ``m`` samples in a fresh permutation each (from ``generator``): one
+    optimizer step per ``batch_loss(indices)``; returns the mean loss per epoch. A non-finite loss
+    raises FloatingPointError naming ``what`` and the epoch."""
     losses = []
-    m = len(robot)
-    for epoch in range(epochs):
-        perm = torch.randperm(m, generator=generator).to(dev)
+    for epoch in epochs:
+        perm = torch.randperm(m, generator=generator).to(device)
         total, count = 0.0, 0
         for s in range(0, m, batch_size):
             idx = perm[s : s + batch_size]
-            loss = predictor.loss(robot[idx], humans[idx], mask[idx], nxt[idx], nmask[idx], dt)
+            loss = batch_loss(idx)
             if not torch.isfinite(loss):
-                raise FloatingPointError(f"state-predictor loss became {loss.item()} in epoch {epoch}")
+                raise FloatingPointError(f"{what} loss became {loss.item()} in epoch {epoch}")
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             optimizer.step()
             total += float(loss.detach()) * len(idx)
             count += len(idx)
         losses.append(total / count)
-    predictor.eval()
+        if on_epoch is not None:
+            on_epoch(epoch, losses[-1])
     return losses

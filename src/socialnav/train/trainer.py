@@ -37,6 +37,7 @@ from socialnav.evaluate.files import (
     DirectoryLock,
     atomic_write_json,
     atomic_write_text,
+    make_output_dir,
     remove_orphan_temporaries,
 )
 from socialnav.presets import Preset, load_preset
@@ -500,7 +501,7 @@ def _train(
         preset, n_humans, min(settings.collection_batch, rl.val_episodes), "val", 0, rl.val_episodes
     )
     stack.callback(val_world.close)
-    _make_run_dir(out)
+    make_output_dir(out)
     stack.enter_context(DirectoryLock(out, "training"))
     remove_orphan_temporaries(out)
 
@@ -790,15 +791,6 @@ def _train(
         resume is not None,
         not stopped_early,
     )
-
-
-def _make_run_dir(out: Path) -> None:
-    for parent in [out, *out.parents]:
-        if parent.exists() and not parent.is_dir():
-            raise NotADirectoryError(f"--out {out}: {parent} exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise PermissionError(f"--out {out}: directory is not writable")
 
 
 def train_from_args(args) -> int:
