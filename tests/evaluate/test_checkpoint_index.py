@@ -34,7 +34,8 @@ def fake_dir(tmp_path, monkeypatch):
 def test_cadrl_circle_file_is_cadrl_original_for_wang2022(fake_dir):
     assert shipped_checkpoint("cadrl", "wang2022", "original") is None  # pending: not shipped yet
     (fake_dir / "cadrl_circle_wang2022.pt").write_bytes(b"x")
-    (fake_dir / "cadrl_wang2022.pt").write_bytes(b"x")  # not indexed: recognised by its name
+    (fake_dir / "cadrl_wang2022.pt").write_bytes(b"x")  # indexed
+    (fake_dir / "lstm_rl_wang2022.pt").write_bytes(b"x")  # not indexed: recognised by its name
     entries = {e.file: e for e in shipped_checkpoints("wang2022")}
     original = entries["cadrl_circle_wang2022.pt"]
     assert (original.policy, original.preset, original.variant) == ("cadrl", "wang2022", "original")
@@ -47,7 +48,9 @@ def test_cadrl_circle_file_is_cadrl_original_for_wang2022(fake_dir):
     assert shipped_checkpoint("cadrl", "wang2022") == fake_dir / "cadrl_wang2022.pt"
     assert shipped_checkpoint("cadrl", "wang2022", "original") == fake_dir / "cadrl_circle_wang2022.pt"
     assert shipped_checkpoint("cadrl", "crowdnav") is None
-    assert unindexed_checkpoint_files() == ["cadrl_wang2022.pt"]
+    unindexed = entries["lstm_rl_wang2022.pt"]
+    assert (unindexed.policy, unindexed.preset, unindexed.variant) == ("lstm_rl", "wang2022", "protocol")
+    assert unindexed_checkpoint_files() == ["lstm_rl_wang2022.pt"]
     specs = [s.name for s in default_specs("wang2022")]
     assert specs[-3:] == ["linear", "orca", "social_force"]
     assert {"cadrl_original", "cadrl"} <= set(specs)
