@@ -131,8 +131,11 @@ def test_killed_evaluate_leaves_no_process_of_its_tree(tmp_path, sig):
 
 def test_ctrl_c_prints_one_line_and_the_run_resumes(tmp_path):
     out = tmp_path / "out"
-    episodes = 500
-    proc = evaluate(tmp_path, out, episodes, start_new_session=True)
+    # Enough work (40 chunks, episodes one at a time) that the run is still going when the signal
+    # lands, however fast the machine.
+    episodes = 1000
+    slow = ("--batch-size", "1")
+    proc = evaluate(tmp_path, out, episodes, *slow, start_new_session=True)
     wait_for_chunks(out, 2, proc)
     wait_for_workers(proc.pid, 3)
     os.killpg(proc.pid, signal.SIGINT)  # what a terminal sends: to the run and every process of its group
@@ -146,7 +149,7 @@ def test_ctrl_c_prints_one_line_and_the_run_resumes(tmp_path):
     )
     assert 0 < kept < episodes
     (out / "episodes" / "circle_crossing__invisible" / ".00000-00025.parquet.x1.tmp").write_text("partial")
-    again = evaluate(tmp_path, out, episodes, "--json")
+    again = evaluate(tmp_path, out, episodes, *slow, "--json")
     stdout, stderr = again.communicate(timeout=120)
     assert again.returncode == 0, stderr
     summary = json.loads(stdout)
@@ -157,8 +160,9 @@ def test_ctrl_c_prints_one_line_and_the_run_resumes(tmp_path):
 
 def test_two_evaluations_on_one_directory_one_is_refused(tmp_path):
     out = tmp_path / "out"
-    first = evaluate(tmp_path, out, 600, "--label", "first", "--json")
-    second = evaluate(tmp_path, out, 600, "--label", "second", "--json")
+    # One episode at a time: the winner still holds the lock when the other starts, on any machine.
+    first = evaluate(tmp_path, out, 600, "--label", "first", "--json", "--batch-size", "1")
+    second = evaluate(tmp_path, out, 600, "--label", "second", "--json", "--batch-size", "1")
     (o1, e1), (o2, e2) = first.communicate(timeout=120), second.communicate(timeout=120)
     results = {"first": (first.returncode, o1, e1), "second": (second.returncode, o2, e2)}
     winners = [k for k, (code, _, _) in results.items() if code == 0]
