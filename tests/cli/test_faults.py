@@ -135,7 +135,16 @@ def test_ctrl_c_prints_one_line_and_the_run_resumes(tmp_path):
     # lands, however fast the machine.
     episodes = 1000
     slow = ("--batch-size", "1")
-    proc = evaluate(tmp_path, out, episodes, *slow, start_new_session=True)
+    # A foreground job in a terminal has SIGINT at its default; a test run started in the background
+    # of a non-interactive shell inherits it ignored, so restore it as a terminal would have it.
+    proc = evaluate(
+        tmp_path,
+        out,
+        episodes,
+        *slow,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     wait_for_chunks(out, 2, proc)
     wait_for_workers(proc.pid, 3)
     os.killpg(proc.pid, signal.SIGINT)  # what a terminal sends: to the run and every process of its group
