@@ -29,9 +29,17 @@ def _env() -> dict[str, str]:
     return subprocess_env()
 
 
-def evaluate(tmp_path: Path, out: Path, episodes: int, *extra: str, **kw) -> subprocess.Popen:
+LONG_PRESET = PRESET.replace(
+    "multi_human: [circle_crossing]",
+    "multi_human: [circle_crossing, random, parallel_traffic, perpendicular_traffic]",
+)
+
+
+def evaluate(
+    tmp_path: Path, out: Path, episodes: int, *extra: str, preset_text: str = PRESET, **kw
+) -> subprocess.Popen:
     preset = tmp_path / "fault.yaml"
-    preset.write_text(PRESET)
+    preset.write_text(preset_text)
     argv = [
         sys.executable,
         "-m",
@@ -131,8 +139,8 @@ def test_killed_evaluate_leaves_no_process_of_its_tree(tmp_path, sig):
 
 def test_ctrl_c_prints_one_line_and_the_run_resumes(tmp_path):
     out = tmp_path / "out"
-    # Enough work (40 chunks, episodes one at a time) that the run is still going when the signal
-    # lands, however fast the machine.
+    # Enough work (4 scenarios x 40 chunks, episodes one at a time) that the run is still going when
+    # the signal lands, however fast the machine.
     episodes = 1000
     slow = ("--batch-size", "1")
     # A foreground job in a terminal has SIGINT at its default; a test run started in the background
@@ -142,6 +150,7 @@ def test_ctrl_c_prints_one_line_and_the_run_resumes(tmp_path):
         out,
         episodes,
         *slow,
+        preset_text=LONG_PRESET,
         start_new_session=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
@@ -156,9 +165,9 @@ def test_ctrl_c_prints_one_line_and_the_run_resumes(tmp_path):
     kept = sum(
         int(p.stem.split("-")[1]) - int(p.stem.split("-")[0]) for p in out.glob("episodes/*/*.parquet")
     )
-    assert 0 < kept < episodes
+    assert 0 < kept < 4 * episodes
     (out / "episodes" / "circle_crossing__invisible" / ".00000-00025.parquet.x1.tmp").write_text("partial")
-    again = evaluate(tmp_path, out, episodes, *slow, "--json")
+    again = evaluate(tmp_path, out, episodes, *slow, "--json", preset_text=LONG_PRESET)
     stdout, stderr = again.communicate(timeout=120)
     assert again.returncode == 0, stderr
     summary = json.loads(stdout)
