@@ -172,9 +172,9 @@ CASES: list[Case] = [
     C("ev-scenario-unknown", "setting", EV + " --scenario plaza", "unknown scenario 'plaza'"),
     C("ev-policy-unknown", "setting", EV + " --policy teleport", "unknown policy 'teleport'"),
     C("ev-checkpoint-not-learned", "setting", EV + " --checkpoint {base}/sarl.pt", "is not learned"),
-    C(
-        "ev-learned-no-checkpoint", "setting", "evaluate --policy om_sarl --preset crowdnav", "pass --checkpoint"
-    ),
+    # om_sarl ships for wang2022 only
+    C("ev-learned-no-checkpoint", "setting", "evaluate --policy om_sarl --preset crowdnav",
+      "pass --checkpoint"),
     # -- evaluate: the output directory -----------------------------------------------------------
     C("ev-out-is-file", "out", EV + " --out {base}/afile", "afile", "not a directory"),
     C("ev-out-parent-is-file", "out", EV + " --out {base}/afile/sub", "afile", "not a directory"),
