@@ -13,16 +13,15 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
-import importlib.metadata
 import inspect
 import os
 import sys
-import warnings
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from socialnav.plugins import load_entry_points
 from socialnav.sim.observation import Observation
 
 
@@ -160,13 +159,7 @@ def _load_plugins() -> None:
     if _plugins_loaded:
         return
     _plugins_loaded = True
-    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        try:
-            obj = ep.load()
-        except Exception as exc:  # a broken plugin must not hide the built-in policies
-            message = f"could not load policy plugin {ep.name!r} ({ep.value}): {exc!r}"
-            warnings.warn(message, RuntimeWarning, stacklevel=3)
-            continue
+    for ep, obj in load_entry_points(ENTRY_POINT_GROUP, "policy"):
         if callable(obj) and ep.name not in _REGISTRY:
             doc = (inspect.getdoc(obj) or "").strip().splitlines()
             register_policy(ep.name, description=doc[0] if doc else f"plugin {ep.value}")(obj)

@@ -10,11 +10,10 @@ lazily, the first time a name is looked up that is not built in, or the list is 
 from __future__ import annotations
 
 import dataclasses
-import importlib.metadata
-import warnings
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
+from socialnav.plugins import load_entry_points
 from socialnav.scenarios.base import ParamSpec, Scenario
 
 __all__ = [
@@ -87,16 +86,7 @@ def _load_plugins() -> None:
     if _plugins_loaded:
         return
     _plugins_loaded = True
-    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
-        try:
-            obj = ep.load()
-        except Exception as exc:  # a broken plugin must not hide the built-in scenarios
-            warnings.warn(
-                f"could not load scenario plugin {ep.name!r} ({ep.value}): {exc!r}",
-                RuntimeWarning,
-                stacklevel=3,
-            )
-            continue
+    for ep, obj in load_entry_points(ENTRY_POINT_GROUP, "scenario"):
         if isinstance(obj, type) and issubclass(obj, Scenario) and not obj.name:
             register_scenario(ep.name)(obj)
 

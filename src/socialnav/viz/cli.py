@@ -124,23 +124,11 @@ def _run_render(args: argparse.Namespace) -> int:
 
         fig = plot_trajectory(traj, overlays=overlays, every=args.every, eps=args.eps, tau=args.tau)
         atomic_write(out, lambda tmp: fig.savefig(tmp, format=fmt))
-    elif fmt == "gif":
-        from socialnav.viz.animate import write_gif
+    elif fmt in ("gif", "mp4"):
+        from socialnav.viz.animate import write_gif, write_mp4
 
-        n = write_gif(
-            traj,
-            out,
-            overlays=overlays,
-            stride=args.stride,
-            max_frames=args.max_frames,
-            speed=args.speed,
-            progress=progress,
-        )
-        detail = f" ({n} frames)"
-    elif fmt == "mp4":
-        from socialnav.viz.animate import write_mp4
-
-        n = write_mp4(
+        writer = write_gif if fmt == "gif" else write_mp4
+        n = writer(
             traj,
             out,
             overlays=overlays,
