@@ -193,6 +193,9 @@ def build_parser() -> argparse.ArgumentParser:
     from socialnav.evaluate.cli import add_reproduce_parser
 
     add_reproduce_parser(sub)
+    from socialnav.sweep.cli import add_sweep_parser
+
+    add_sweep_parser(sub)
     return parser
 
 

@@ -198,34 +198,20 @@ def run_protocol(
     cells = plan_cells(preset, list(scenarios) if scenarios else None, episodes, visibility)
     chunk = preset.evaluation.chunk_size
     # Everything that can be refused is refused before the first file is written.
-    _validate_cells(preset, cells, batch_size)
-    manifest = _normalised(
-        {
-            "preset": preset.to_dict(),
-            "policy": {"label": label, **policy.describe()},
-            "cells": [
-                {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells
-            ],
-            "chunk_size": chunk,
-            # replay re-simulates a whole chunk in batches of this size, so that a learned policy sees
-            # the same batch composition as during the run
-            "batch_size": batch_size,
-            "trajectories": bool(trajectories),
-            **(extra_manifest or {}),
-        }
-    )
+    validate_cells(preset, cells, batch_size)
+    manifest = protocol_manifest(policy, preset, cells, label, batch_size, trajectories, extra_manifest)
     stamp = manifest_stamp(manifest)
     make_output_dir(out)
     with DirectoryLock(out, "evaluation"):
         remove_orphan_temporaries(out)
-        _check_or_write_manifest(out, manifest)
+        check_or_write_manifest(out, manifest)
         expected = {
-            _chunk_path(out, cell, a, b): (cell, a, b) for cell in cells for a, b in cell.chunks(chunk)
+            chunk_path(out, cell, a, b): (cell, a, b) for cell in cells for a, b in cell.chunks(chunk)
         }
-        _refuse_foreign_chunks(out, expected)
+        refuse_foreign_chunks(out, expected)
         todo = []
         for path, (cell, a, b) in expected.items():
-            if _chunk_done(out, cell, a, b, trajectories):
+            if chunk_done(out, cell, a, b, trajectories):
                 _read_chunk(path, cell, a, b, label, stamp)  # damaged or foreign files are refused now
             else:
                 todo.append((cell, a, b))
@@ -237,6 +223,34 @@ def run_protocol(
         summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
         write_reports(out, summary, rows, preset)
     return ProtocolResult(out, rows, summary, computed)
+
+
+def protocol_manifest(
+    policy: Policy,
+    preset: Preset,
+    cells: list[Cell],
+    label: str,
+    batch_size: int,
+    trajectories: bool,
+    extra_manifest: dict | None = None,
+) -> dict:
+    """What a run consists of, as recorded in ``manifest.json`` and fingerprinted into every chunk file
+    (a sweep builds the same manifest, so its directories are ``socialnav evaluate``'s)."""
+    return _normalised(
+        {
+            "preset": preset.to_dict(),
+            "policy": {"label": label, **policy.describe()},
+            "cells": [
+                {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells
+            ],
+            "chunk_size": preset.evaluation.chunk_size,
+            # replay re-simulates a whole chunk in batches of this size, so that a learned policy sees
+            # the same batch composition as during the run
+            "batch_size": batch_size,
+            "trajectories": bool(trajectories),
+            **(extra_manifest or {}),
+        }
+    )
 
 
 def _simulate_and_score(
@@ -276,14 +290,14 @@ def _simulate_and_score(
         rows, notes = future.result() if pool else future
         _reissue(notes)
         # A chunk lands whole or not at all, stamped with the run it belongs to.
-        atomic_write_rows_parquet(_chunk_path(out, cell, a, b), rows, chunk_meta)
+        atomic_write_rows_parquet(chunk_path(out, cell, a, b), rows, chunk_meta)
         computed += b - a
         bar.update(b - a)
 
     try:
         for cell, a, b in todo:
             bar.set_description(f"{label} {cell.scenario} {cell.visibility}")
-            traj_path = _trajectory_path(out, cell, a, b) if trajectories else None
+            traj_path = trajectory_path(out, cell, a, b) if trajectories else None
             if traj_path is not None:
                 traj_path.parent.mkdir(parents=True, exist_ok=True)
             if payload is not None:
@@ -325,7 +339,7 @@ def read_episode_rows(
     rows: list[dict[str, Any]] = []
     for cell in cells:
         for a, b in cell.chunks(chunk):
-            rows.extend(_read_chunk(_chunk_path(out, cell, a, b), cell, a, b, label, stamp))
+            rows.extend(_read_chunk(chunk_path(out, cell, a, b), cell, a, b, label, stamp))
     return rows
 
 
@@ -363,7 +377,7 @@ def _read_chunk(path: Path, cell: Cell, a: int, b: int, label: str | None, stamp
     return rows
 
 
-def _refuse_foreign_chunks(out: Path, expected: dict[Path, Any]) -> None:
+def refuse_foreign_chunks(out: Path, expected: dict[Path, Any]) -> None:
     episodes = out / "episodes"
     if not episodes.is_dir():
         return
@@ -375,21 +389,21 @@ def _refuse_foreign_chunks(out: Path, expected: dict[Path, Any]) -> None:
         )
 
 
-def _chunk_path(out: Path, cell: Cell, a: int, b: int) -> Path:
+def chunk_path(out: Path, cell: Cell, a: int, b: int) -> Path:
     return out / "episodes" / cell.key / f"{a:05d}-{b:05d}.parquet"
 
 
-def _trajectory_path(out: Path, cell: Cell, a: int, b: int) -> Path:
+def trajectory_path(out: Path, cell: Cell, a: int, b: int) -> Path:
     return out / "trajectories" / cell.key / f"{a:05d}-{b:05d}.parquet"
 
 
-def _chunk_done(out: Path, cell: Cell, a: int, b: int, trajectories: bool) -> bool:
-    return _chunk_path(out, cell, a, b).exists() and (
-        not trajectories or _trajectory_path(out, cell, a, b).exists()
+def chunk_done(out: Path, cell: Cell, a: int, b: int, trajectories: bool) -> bool:
+    return chunk_path(out, cell, a, b).exists() and (
+        not trajectories or trajectory_path(out, cell, a, b).exists()
     )
 
 
-def _validate_cells(preset: Preset, cells: list[Cell], batch_size: int) -> None:
+def validate_cells(preset: Preset, cells: list[Cell], batch_size: int) -> None:
     """Builds each cell's world settings and scenario and sizes its world, allocating nothing big."""
     if not isinstance(batch_size, int) or batch_size < 1:
         raise ValueError(f"batch size must be an integer >= 1, got {batch_size!r}")
@@ -403,7 +417,7 @@ def _normalised(manifest: dict) -> dict:
     return json.loads(json.dumps(manifest, default=list))
 
 
-def _check_or_write_manifest(out: Path, manifest: dict) -> None:
+def check_or_write_manifest(out: Path, manifest: dict) -> None:
     path = out / "manifest.json"
     if path.exists():
         try:

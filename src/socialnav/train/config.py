@@ -246,6 +246,26 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
         raise ConfigError(f"{path}: {err}" if path is not None else str(err)) from None
 
 
+def resolve_train_settings(
+    config: str | Path | None = None,
+    *,
+    seed: int | None = None,
+    device: str | None = None,
+    collection_batch: int | None = None,
+    information: str | None = None,
+    rl_episodes: int | None = None,
+) -> TrainSettings:
+    """The settings of ``socialnav train`` (and of a sweep's training job): the config file, then the
+    command-line options that override it (None: not given)."""
+    settings = load_train_settings(config, seed=seed, device=device)
+    for key, value in (("collection_batch", collection_batch), ("information", information)):
+        if value is not None:
+            settings = dataclasses.replace(settings, **{key: value})
+    if rl_episodes is not None:
+        settings = dataclasses.replace(settings, rl=dataclasses.replace(settings.rl, episodes=rl_episodes))
+    return settings
+
+
 def shipped_train_configs() -> list[str]:
     """Names of the training configs shipped in ``socialnav/configs/train`` (``smoke`` …)."""
     from importlib import resources

@@ -44,7 +44,7 @@ from socialnav.presets import Preset, load_preset
 from socialnav.train.config import (
     TrainSettings,
     derive_seeds,
-    load_train_settings,
+    resolve_train_settings,
     resume_diff,
 )
 from socialnav.train.envs import MultiWorld, training_n_humans
@@ -795,16 +795,11 @@ def _train(
 
 def train_from_args(args) -> int:
     """Entry point of ``socialnav train`` (see train/cli.py)."""
-    settings = load_train_settings(
-        getattr(args, "config", None), seed=getattr(args, "seed", None), device=getattr(args, "device", None)
+    settings = resolve_train_settings(
+        getattr(args, "config", None),
+        **{key: getattr(args, key, None)
+           for key in ("seed", "device", "collection_batch", "information", "rl_episodes")},
     )
-    for key in ("collection_batch", "information"):
-        value = getattr(args, key, None)
-        if value is not None:
-            settings = dataclasses.replace(settings, **{key: value})
-    rl_episodes = getattr(args, "rl_episodes", None)
-    if rl_episodes is not None:
-        settings = dataclasses.replace(settings, rl=dataclasses.replace(settings.rl, episodes=rl_episodes))
     preset = load_preset(args.preset)
     out = Path(args.out or f"runs/train/{preset.name}-{args.policy}-s{settings.seed}")
     result = train(args.policy, preset, out, settings, progress=not getattr(args, "no_progress", False))

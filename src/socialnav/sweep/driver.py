@@ -1,0 +1,296 @@
+"""Runs a sweep: training jobs, then evaluation jobs split into episode chunks, on an executor.
+
+Result directory::
+
+    sweep.json                    the resolved jobs and the executor of the last run
+    train/<job>/                  ``socialnav train``'s run directory (resumes from last.pt)
+    evaluate/<job>/               ``socialnav evaluate``'s result directory (manifest, chunk files,
+                                  trajectories, summary, tables), labelled with the job's name
+    summary.json/.csv, table2.*, table3.*   every evaluation job's summary rows and tables
+    jobs.json                     per job: done or failed, its directory, what this run computed
+    failures.json                 every job or chunk that failed, with its error (empty when none)
+    sweep_log.jsonl               one line per finished task: where it ran, how long it took
+
+Only this process writes result files; each chunk lands atomically, stamped with its job's manifest,
+exactly as ``socialnav evaluate`` writes it. Rerunning the same command after a kill recomputes no
+finished chunk and duplicates none: a chunk is a file named by its episode range. Results are the
+same, bit for bit, whatever the executor, the number of workers or the order chunks finish in,
+because each chunk is simulated on its own exactly as ``socialnav evaluate`` simulates it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import pickle
+import sys
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from socialnav.evaluate.files import (
+    DirectoryLock,
+    atomic_write,
+    atomic_write_json,
+    atomic_write_rows_parquet,
+    make_output_dir,
+    remove_orphan_temporaries,
+)
+from socialnav.sweep.executors import Task, TaskFailed
+from socialnav.sweep.spec import TRAIN_REFERENCE, Job, SweepSpec, job_record
+from socialnav.sweep.tasks import build_job_policy, evaluate_chunk, job_preset, train_job
+
+
+@dataclass
+class SweepResult:
+    out_dir: Path
+    summary: list[dict[str, Any]]
+    jobs: dict[str, dict[str, Any]]  # "<kind>/<name>" -> status
+    failures: list[dict[str, Any]] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+
+@dataclass
+class _EvalJob:
+    job: Job
+    dir: Path
+    policy: Any
+    preset: Any
+    checkpoint: str | None
+    cells: list
+    stamp: str
+    extra: dict[str, Any]
+    todo: list
+    computed: int = 0
+    failed: list[str] = field(default_factory=list)
+
+
+def run_sweep(
+    spec: SweepSpec,
+    out_dir: str | Path,
+    executor: Any,
+    *,
+    progress: bool = True,
+    log: Callable[[str], None] | None = None,
+) -> SweepResult:
+    """Runs (or resumes) every job of ``spec`` into ``out_dir`` on ``executor``."""
+    out = Path(out_dir)
+    say = log or (lambda line: None)
+    make_output_dir(out)
+    with DirectoryLock(out, "sweep"):
+        remove_orphan_temporaries(out)
+        atomic_write_json(out / "sweep.json", {
+            "source": spec.source, "executor": executor.describe(), "threads": spec.threads,
+            "jobs": [job_record(j) for j in spec.jobs],
+        })
+        statuses: dict[str, dict[str, Any]] = {}
+        failures: list[dict[str, Any]] = []
+        with open(out / "sweep_log.jsonl", "a", encoding="utf-8") as task_log:
+            _run_training(spec, out, executor, statuses, failures, task_log, say)
+            summary = _run_evaluations(spec, out, executor, statuses, failures, task_log, progress, say)
+        if summary:
+            from socialnav.evaluate.report import write_reports
+
+            write_reports(out, summary, [], job_preset(spec.evaluate_jobs[0].params))
+        atomic_write_json(out / "jobs.json", statuses)
+        atomic_write_json(out / "failures.json", failures)
+    return SweepResult(out, summary, statuses, failures)
+
+
+def _log_task(task_log, task: Task, result: Any) -> None:
+    line = {"task": task.key, "time": round(time.time(), 3)}
+    if isinstance(result, TaskFailed):
+        line.update(error=result.message, attempts=result.attempts)
+    else:
+        line.update(where=result.get("where"), seconds=result.get("seconds"))
+    task_log.write(json.dumps(line) + "\n")
+    task_log.flush()
+
+
+def _run_training(spec, out, executor, statuses, failures, task_log, say) -> None:
+    tasks = []
+    for job in spec.train_jobs:
+        run_dir = out / "train" / job.name
+        run_dir.parent.mkdir(parents=True, exist_ok=True)
+        tasks.append(Task(f"train/{job.name}", train_job, (job.params, str(run_dir), spec.threads),
+                          meta={"job": job}))
+    if tasks:
+        say(f"training: {len(tasks)} job(s) on {executor.name}")
+    for task, result in executor.run(tasks):
+        _log_task(task_log, task, result)
+        job = task.meta["job"]
+        key = f"train/{job.name}"
+        if isinstance(result, TaskFailed):
+            statuses[key] = {"status": "failed", "dir": f"train/{job.name}", "error": result.message}
+            failures.append({"job": key, "task": task.key, "error": result.message, "attempts": result.attempts})
+            say(f"{key}: FAILED: {result.message}")
+        else:
+            statuses[key] = {"status": "done", "dir": f"train/{job.name}",
+                             **{k: result[k] for k in ("episodes", "best_val", "resumed", "seconds")}}
+            say(f"{key}: done ({result['episodes']} RL episodes, best validation {result['best_val']})")
+
+
+def _run_evaluations(spec, out, executor, statuses, failures, task_log, progress, say) -> list[dict[str, Any]]:
+    from socialnav.evaluate.runner import (
+        CHUNK_STAMP_KEY,
+        _reissue,
+        chunk_path,
+        trajectory_path,
+    )
+
+    jobs: list[_EvalJob] = []
+    tasks: list[Task] = []
+    with contextlib.ExitStack() as locks:
+        for job in spec.evaluate_jobs:
+            key = f"evaluate/{job.name}"
+            try:
+                ev = _prepare(job, out, locks)
+            except _JobRefused as err:
+                statuses[key] = {"status": "failed", "dir": f"evaluate/{job.name}", "error": str(err)}
+                failures.append({"job": key, "task": key, "error": str(err), "attempts": 0})
+                say(f"{key}: FAILED: {err}")
+                continue
+            jobs.append(ev)
+            tasks.extend(_chunk_tasks(ev, spec))
+        total = sum(t.meta["b"] - t.meta["a"] for t in tasks)
+        say(f"evaluation: {len(jobs)} job(s), {len(tasks)} chunk(s) ({total} episodes) to compute "
+            f"on {executor.name}")
+        bar = _progress(total, progress)
+        try:
+            for task, result in executor.run(tasks):
+                ev, cell, a, b = task.meta["ev"], task.meta["cell"], task.meta["a"], task.meta["b"]
+                if isinstance(result, TaskFailed):
+                    _log_task(task_log, task, result)
+                    ev.failed.append(task.key)
+                    failures.append({"job": f"evaluate/{ev.job.name}", "task": task.key,
+                                     "error": result.message, "attempts": result.attempts})
+                    say(f"{task.key}: FAILED: {result.message}")
+                    continue
+                _reissue(result["notes"])
+                if result["trajectories"] is not None:
+                    data = result["trajectories"]
+                    atomic_write(trajectory_path(ev.dir, cell, a, b), lambda tmp: Path(tmp).write_bytes(data))
+                atomic_write_rows_parquet(chunk_path(ev.dir, cell, a, b), result["rows"],
+                                          {CHUNK_STAMP_KEY: ev.stamp})
+                _log_task(task_log, task, result)  # after the chunk landed: a logged chunk is never redone
+                ev.computed += b - a
+                bar.update(b - a)
+        finally:
+            bar.close()
+    # The job directories are unlocked now: finishing a job is `run_protocol` on a complete directory,
+    # which only verifies the chunk files and writes the summary and tables.
+    summary: list[dict[str, Any]] = []
+    for ev in jobs:
+        key = f"evaluate/{ev.job.name}"
+        if ev.failed:
+            statuses[key] = {"status": "failed", "dir": f"evaluate/{ev.job.name}",
+                             "error": f"{len(ev.failed)} chunk(s) failed (failures.json); rerun to retry them",
+                             "episodes_computed": ev.computed}
+            continue
+        result = _finish(ev)
+        summary.extend(result.summary)
+        statuses[key] = {"status": "done", "dir": f"evaluate/{ev.job.name}", "episodes_computed": ev.computed,
+                         "episodes": len(result.rows)}
+    return summary
+
+
+class _JobRefused(Exception):
+    """An evaluation job that cannot start (its training failed, its checkpoint is refused …)."""
+
+
+def _prepare(job: Job, out: Path, locks: contextlib.ExitStack) -> _EvalJob:
+    """Builds the job's policy, writes or checks its manifest and lists the chunks still to compute."""
+    from socialnav.evaluate.multi import file_sha256
+    from socialnav.evaluate.plan import plan_cells
+    from socialnav.evaluate.runner import (
+        chunk_done,
+        chunk_path,
+        check_or_write_manifest,
+        manifest_stamp,
+        protocol_manifest,
+        refuse_foreign_chunks,
+        validate_cells,
+    )
+
+    checkpoint = job.get("checkpoint")
+    if checkpoint is not None and str(checkpoint).startswith(TRAIN_REFERENCE):
+        trained = out / "train" / str(checkpoint)[len(TRAIN_REFERENCE):] / "best.pt"
+        if not trained.is_file():
+            raise _JobRefused(f"its checkpoint {checkpoint} ({trained}) does not exist: the training job "
+                              "failed or has not finished")
+        checkpoint = str(trained)
+    preset = job_preset(job.params)
+    batch_size = int(job.get("batch_size", 256))
+    trajectories = bool(job.get("trajectories", True))
+    try:
+        policy = build_job_policy(job.params, preset, checkpoint)
+        cells = plan_cells(preset, job.get("scenarios"), job.get("episodes"), job.get("visibility"))
+        validate_cells(preset, cells, batch_size)
+    except (ValueError, KeyError, RuntimeError) as err:
+        raise _JobRefused(err.args[0] if err.args else str(err)) from None
+    extra: dict[str, Any] = {"checkpoint": checkpoint}
+    if checkpoint is not None:
+        extra["checkpoint_sha256"] = file_sha256(checkpoint)
+    manifest = protocol_manifest(policy, preset, cells, job.name, batch_size, trajectories, extra)
+    job_dir = out / "evaluate" / job.name
+    make_output_dir(job_dir)
+    locks.enter_context(DirectoryLock(job_dir, "evaluation"))
+    remove_orphan_temporaries(job_dir)
+    from socialnav.evaluate.runner import ResumeMismatchError
+
+    try:
+        check_or_write_manifest(job_dir, manifest)
+    except ResumeMismatchError as err:
+        raise _JobRefused(str(err)) from None
+    chunk = preset.evaluation.chunk_size
+    expected = {chunk_path(job_dir, c, a, b): (c, a, b) for c in cells for a, b in c.chunks(chunk)}
+    refuse_foreign_chunks(job_dir, expected)
+    todo = [(c, a, b) for (c, a, b) in expected.values() if not chunk_done(job_dir, c, a, b, trajectories)]
+    return _EvalJob(job, job_dir, policy, preset, checkpoint, cells, manifest_stamp(manifest), extra, todo)
+
+
+def _chunk_tasks(ev: _EvalJob, spec: SweepSpec) -> list[Task]:
+    try:
+        payload = pickle.dumps(ev.policy)
+    except Exception:
+        payload = None  # rebuilt in the worker from the job's settings
+    batch_size = int(ev.job.get("batch_size", 256))
+    trajectories = bool(ev.job.get("trajectories", True))
+    job_key = f"{ev.job.name}/{ev.stamp}"
+    return [
+        Task(
+            f"evaluate/{ev.job.name}/{cell.key}/{a}-{b}",
+            evaluate_chunk,
+            (job_key, ev.job.params, ev.checkpoint, cell, a, b, ev.job.name, batch_size, trajectories,
+             spec.threads),
+            payload,
+            meta={"ev": ev, "cell": cell, "a": a, "b": b},
+        )
+        for cell, a, b in ev.todo
+    ]
+
+
+def _finish(ev: _EvalJob):
+    from socialnav.evaluate.runner import run_protocol
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the chunks' warnings were re-issued when they landed
+        return run_protocol(
+            ev.policy, ev.preset, ev.dir, label=ev.job.name, scenarios=ev.job.get("scenarios"),
+            episodes=ev.job.get("episodes"), visibility=ev.job.get("visibility"), progress=False,
+            extra_manifest=ev.extra, batch_size=int(ev.job.get("batch_size", 256)), workers=0,
+            trajectories=bool(ev.job.get("trajectories", True)),
+        )
+
+
+def _progress(total: int, enabled: bool):
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, unit="ep", disable=not enabled, file=sys.stderr, leave=False, dynamic_ncols=True,
+                desc="sweep")

@@ -1,0 +1,200 @@
+"""Where a sweep's tasks run: worker processes on this machine, or a Ray cluster.
+
+Both take the same tasks and yield ``(task, result)`` as tasks finish, in any order; a task that
+could not be run yields a :class:`TaskFailed` instead of a result. A task whose *worker died*
+(killed, out of memory, its machine lost) is run again, up to ``retries`` times; a task that raised
+an error is not (the same inputs would raise it again) and is reported with its message.
+"""
+
+from __future__ import annotations
+
+import os
+from collections import Counter, deque
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Task:
+    """One unit of work: ``fn(payload, *args)``. ``payload`` is shared by many tasks (a pickled
+    policy): Ray stores it once in its object store."""
+
+    key: str
+    fn: Callable[..., Any]
+    args: tuple = ()
+    payload: bytes | None = None
+    meta: dict[str, Any] = field(default_factory=dict, compare=False)
+
+
+@dataclass(frozen=True)
+class TaskFailed:
+    message: str
+    attempts: int
+
+
+def _one_line(err: BaseException) -> str:
+    text = " ".join(str(err).split()) or type(err).__name__
+    return f"{type(err).__name__}: {text}"
+
+
+class LocalExecutor:
+    """Worker processes on this machine (forkserver; they die with the sweep, see evaluate/lifeline)."""
+
+    name = "local"
+
+    def __init__(self, workers: int | None = None, retries: int = 3) -> None:
+        self.workers = max(1, workers or (os.cpu_count() or 1))
+        self.retries = retries
+
+    def describe(self) -> dict[str, Any]:
+        return {"executor": self.name, "workers": self.workers, "retries": self.retries}
+
+    def run(self, tasks: Iterable[Task]) -> Iterator[tuple[Task, Any]]:
+        from concurrent.futures import FIRST_COMPLETED, wait
+        from concurrent.futures.process import BrokenProcessPool
+
+        queue = deque(tasks)
+        attempts: Counter[str] = Counter()
+        pending: dict[Any, Task] = {}
+        pool = _process_pool(self.workers)
+        try:
+            while queue or pending:
+                # A few tasks in flight per worker: a dying worker takes only those with it.
+                while queue and len(pending) < 2 * self.workers:
+                    task = queue.popleft()
+                    pending[pool.submit(task.fn, task.payload, *task.args)] = task
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                broken = False
+                for future in done:
+                    task = pending.pop(future)
+                    try:
+                        result = future.result()
+                    except BrokenProcessPool:
+                        broken = True
+                        attempts[task.key] += 1
+                        if attempts[task.key] > self.retries:
+                            yield task, TaskFailed(
+                                f"its worker process died {attempts[task.key]} times", attempts[task.key]
+                            )
+                        else:
+                            queue.appendleft(task)
+                    except Exception as err:
+                        yield task, TaskFailed(_one_line(err), attempts[task.key] + 1)
+                    else:
+                        yield task, result
+                if broken:
+                    # Every task still in the broken pool fails too: collect them, then start afresh.
+                    for future in list(pending):
+                        task = pending.pop(future)
+                        try:
+                            result = future.result()
+                        except BrokenProcessPool:
+                            attempts[task.key] += 1
+                            queue.appendleft(task)
+                        except Exception as err:
+                            yield task, TaskFailed(_one_line(err), attempts[task.key] + 1)
+                        else:
+                            yield task, result
+                    pool.shutdown(wait=True, cancel_futures=True)
+                    pool = _process_pool(self.workers)
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _process_pool(workers: int):
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from socialnav.evaluate import lifeline
+
+    lifeline.start_forkserver()
+    return ProcessPoolExecutor(
+        max_workers=workers, mp_context=multiprocessing.get_context("forkserver"), initializer=lifeline.worker_init
+    )
+
+
+class RayExecutor:
+    """Tasks on a Ray cluster (``address``), or on a Ray instance started here with ``workers`` CPUs.
+
+    Each task asks for ``cpus_per_task`` CPUs; Ray re-runs a task whose worker or node died up to
+    ``retries`` times (``max_retries``) and reports one that raised.
+    """
+
+    name = "ray"
+
+    def __init__(
+        self, address: str | None = None, workers: int | None = None, retries: int = 3, cpus_per_task: float = 1
+    ) -> None:
+        try:
+            import ray  # noqa: F401
+        except ImportError:
+            raise RuntimeError(
+                "the ray executor needs Ray: pip install 'socialnav[ray]' (Ray >= 2.9)"
+            ) from None
+        self.address = address
+        self.workers = workers
+        self.retries = retries
+        self.cpus_per_task = cpus_per_task
+
+    def describe(self) -> dict[str, Any]:
+        return {"executor": self.name, "address": self.address, "workers": self.workers,
+                "retries": self.retries, "cpus_per_task": self.cpus_per_task}
+
+    def run(self, tasks: Iterable[Task]) -> Iterator[tuple[Task, Any]]:
+        import ray
+
+        started_here = not ray.is_initialized()
+        if started_here:
+            kwargs: dict[str, Any] = {"include_dashboard": False, "logging_level": "ERROR",
+                                      "log_to_driver": False}
+            if self.address is None:
+                kwargs["num_cpus"] = self.workers or (os.cpu_count() or 1)
+            ray.init(address=self.address, **kwargs)
+        remote = ray.remote(_call).options(
+            num_cpus=self.cpus_per_task, max_retries=self.retries, retry_exceptions=False
+        )
+        stored: dict[int, Any] = {}
+        refs: dict[Any, Task] = {}
+        try:
+            for task in tasks:
+                payload = task.payload
+                if payload is not None:
+                    if id(payload) not in stored:
+                        stored[id(payload)] = ray.put(payload)
+                    payload = stored[id(payload)]
+                refs[remote.remote(task.fn, payload, *task.args)] = task
+            while refs:
+                ready, _ = ray.wait(list(refs), num_returns=1)
+                for ref in ready:
+                    task = refs.pop(ref)
+                    try:
+                        result = ray.get(ref)
+                    except ray.exceptions.RayTaskError as err:
+                        cause = err.cause if getattr(err, "cause", None) is not None else err
+                        yield task, TaskFailed(_one_line(cause), 1)
+                    except ray.exceptions.RayError as err:
+                        yield task, TaskFailed(
+                            f"{_one_line(err)} (after {self.retries} retries)", self.retries + 1
+                        )
+                    else:
+                        yield task, result
+        finally:
+            for ref in refs:
+                ray.cancel(ref, force=True)
+            if started_here:
+                ray.shutdown()
+
+
+def _call(fn: Callable[..., Any], payload: Any, *args: Any) -> Any:
+    return fn(payload, *args)
+
+
+def make_executor(name: str, *, workers: int | None = None, retries: int = 3, address: str | None = None):
+    if name == "local":
+        if address is not None:
+            raise ValueError("--address is for the ray executor (the local one runs on this machine)")
+        return LocalExecutor(workers, retries)
+    if name == "ray":
+        return RayExecutor(address, workers, retries)
+    raise ValueError(f"executor must be local or ray, got {name!r}")

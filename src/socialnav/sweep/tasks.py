@@ -1,0 +1,142 @@
+"""What a sweep's workers run: one evaluation chunk, or one training run.
+
+Both run in a worker process (local executor) or a Ray task, so their arguments and results are plain
+data. An evaluation chunk returns its scored rows and its trajectories as Parquet bytes; the driver
+alone writes result files, so a worker on another machine needs no shared file system, and a task run
+twice (a retry after its worker died) writes nothing twice.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import socket
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from socialnav.evaluate.plan import Cell
+from socialnav.presets import Preset
+
+#: Policies a worker has built, by job key: a worker runs many chunks of one job.
+_POLICIES: dict[str, Any] = {}
+
+
+def job_preset(params: dict[str, Any], threads: int | None = None) -> Preset:
+    """The job's preset with its ``human_model`` override (and, in a worker, ``threads`` native
+    threads per world: parallelism comes from the workers; results do not depend on it)."""
+    from socialnav.presets import load_preset
+
+    preset = load_preset(params["preset"])
+    world = preset.world
+    if params.get("human_model") is not None:
+        world = dataclasses.replace(world, human_model=params["human_model"])
+    if threads is not None:
+        world = dataclasses.replace(world, threads=threads)
+    return dataclasses.replace(preset, world=world)
+
+
+def policy_overrides(params: dict[str, Any]) -> dict[str, Any]:
+    """``socialnav evaluate``'s ``--policy-arg``, ``--information`` and ``--planning-*`` of a job."""
+    overrides = dict(params.get("policy_args") or {})
+    for key in ("information", "planning_depth", "planning_width"):
+        if params.get(key) is not None:
+            overrides[key] = params[key]
+    return overrides
+
+
+def build_job_policy(params: dict[str, Any], preset: Preset, checkpoint: str | None):
+    from socialnav.policies.loading import build_policy
+
+    return build_policy(
+        str(params["policy"]), preset, checkpoint,
+        allow_preset_mismatch=bool(params.get("allow_preset_mismatch", False)), **policy_overrides(params),
+    )
+
+
+def evaluate_chunk(
+    payload: bytes | None,
+    job_key: str,
+    params: dict[str, Any],
+    checkpoint: str | None,
+    cell: Cell,
+    start: int,
+    stop: int,
+    label: str,
+    batch_size: int,
+    trajectories: bool,
+    threads: int,
+) -> dict[str, Any]:
+    """Simulates and scores episodes [start, stop) of ``cell`` exactly as ``socialnav evaluate`` does.
+
+    ``payload`` is the pickled policy built by the driver (None for policies that do not pickle; they
+    are rebuilt here from ``params``).
+    """
+    from socialnav.evaluate.runner import simulate_chunk, store_and_score
+
+    t0 = time.perf_counter()
+    preset = job_preset(params, threads=threads)
+    policy = _POLICIES.get(job_key)
+    if policy is None:
+        if payload is not None:
+            import pickle
+
+            policy = pickle.loads(payload)
+        else:
+            policy = build_job_policy(params, preset, checkpoint)
+        _POLICIES.clear()  # one job's policy at a time: a worker's memory stays that of one network
+        _POLICIES[job_key] = policy
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(threads)
+    trajs = simulate_chunk(policy, preset, cell, start, stop, label, batch_size)
+    traj_bytes = None
+    if trajectories:
+        with tempfile.TemporaryDirectory(prefix="socialnav-sweep-") as tmp:
+            path = Path(tmp) / "chunk.parquet"
+            rows, notes = store_and_score(trajs, cell, label, path)
+            traj_bytes = path.read_bytes()
+    else:
+        rows, notes = store_and_score(trajs, cell, label, None)
+    return {
+        "rows": rows,
+        "notes": notes,
+        "trajectories": traj_bytes,
+        "where": where_am_i(),
+        "seconds": round(time.perf_counter() - t0, 4),
+    }
+
+
+def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int) -> dict[str, Any]:
+    """Runs (or resumes, from ``last.pt``) one training job of a sweep into ``out_dir`` (``_payload``:
+    unused, every task takes one)."""
+    from socialnav.train.config import resolve_train_settings
+    from socialnav.train.trainer import train
+
+    t0 = time.perf_counter()
+    settings = resolve_train_settings(
+        params.get("config"),
+        **{k: params.get(k) for k in ("seed", "device", "collection_batch", "information", "rl_episodes")},
+    )
+    settings = dataclasses.replace(settings, threads=threads)
+    result = train(str(params["policy"]), job_preset(params), out_dir, settings, progress=False)
+    best = {k: (None if isinstance(v, float) and v != v else v) for k, v in result.best_val.items()}
+    return {
+        "best_checkpoint": str(result.best_checkpoint),
+        "episodes": result.episodes,
+        "gradient_steps": result.gradient_steps,
+        "best_val": best,
+        "resumed": result.resumed,
+        "where": where_am_i(),
+        "seconds": round(time.perf_counter() - t0, 3),
+    }
+
+
+def where_am_i() -> dict[str, Any]:
+    """Host, process and (in a Ray task) node of the worker, recorded in the sweep's log."""
+    where: dict[str, Any] = {"host": socket.gethostname(), "pid": os.getpid()}
+    ray = sys.modules.get("ray")
+    if ray is not None and ray.is_initialized():
+        where["node"] = ray.get_runtime_context().get_node_id()
+    return where

@@ -1,0 +1,267 @@
+"""Sweeps: the sweep file, the local executor, resumption after a killed driver or worker, and equality
+with ``socialnav evaluate`` (the Ray executor is tested in test_ray.py)."""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+import yaml
+from tests._env import subprocess_env
+
+from socialnav.cli import main
+from socialnav.config import ConfigError
+from socialnav.evaluate.runner import run_protocol
+from socialnav.policies.loading import build_policy
+from socialnav.presets import load_preset
+from socialnav.sweep.driver import run_sweep
+from socialnav.sweep.executors import LocalExecutor
+from socialnav.sweep.spec import load_sweep, parse_sweep
+
+ROOT = Path(__file__).resolve().parents[2]
+POLICIES = "tests.sweep.fault_policy"
+
+
+def small_preset(tmp_path: Path, chunk_size: int = 4) -> str:
+    """wang2022 with small chunks, so that a few episodes make several tasks."""
+    data = load_preset("wang2022").to_dict()
+    data["evaluation"]["chunk_size"] = chunk_size
+    path = tmp_path / "small.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return str(path)
+
+
+def write_sweep(tmp_path: Path, data: dict, name: str = "sweep.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def episode_rows(directory: Path) -> list[dict]:
+    """Every episode row under a result directory, in a canonical order, NaN made comparable."""
+    rows = []
+    for f in sorted(directory.glob("episodes/*/*.parquet")):
+        rows.extend(pq.read_table(f).to_pylist())
+    for row in rows:
+        for k, v in row.items():
+            if isinstance(v, float) and math.isnan(v):
+                row[k] = "nan"
+    return sorted(rows, key=lambda r: (r["scenario"], r["visibility"], r["index"]))
+
+
+def trajectory_tables(directory: Path) -> dict[str, object]:
+    return {str(f.relative_to(directory)): pq.read_table(f) for f in sorted(directory.glob("trajectories/*/*"))}
+
+
+# --- the sweep file -----------------------------------------------------------------------------------
+
+
+def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
+    spec = parse_sweep({
+        "defaults": {"preset": "wang2022", "episodes": 5, "config": "smoke"},
+        "grid": [
+            {"kind": "evaluate", "policy": ["linear", "orca"], "human_model": ["orca", "social_force"]},
+            {"kind": "train", "policy": "sarl", "seed": [0, 1], "name": "sarl-s{seed}"},
+        ],
+        "jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": "train:sarl-s{seed}", "seed": [0, 1],
+                  "name": "sarl-s{seed}"}],
+    })
+    names = [(j.kind, j.name) for j in spec.jobs]
+    assert names == [
+        ("evaluate", "linear-human_model=orca"), ("evaluate", "linear-human_model=social_force"),
+        ("evaluate", "orca-human_model=orca"), ("evaluate", "orca-human_model=social_force"),
+        ("train", "sarl-s0"), ("train", "sarl-s1"), ("evaluate", "sarl-s0"), ("evaluate", "sarl-s1"),
+    ]
+    # defaults go only where the job's kind takes them
+    assert spec.jobs[0].params["episodes"] == 5 and "config" not in spec.jobs[0].params
+    assert spec.train_jobs[0].params["config"] == "smoke" and "episodes" not in spec.train_jobs[0].params
+    assert spec.evaluate_jobs[-1].params["checkpoint"] == "train:sarl-s1"
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"jobs": [{"kind": "evaluate", "policy": "orca", "episodez": 3}]}, r"jobs\[0\].*unknown key.*episodez"),
+        ({"jobs": [{"kind": "evaluate", "policy": "nope"}]}, r"jobs\[0\].*unknown policy 'nope'"),
+        ({"jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": "missing.pt"}]},
+         r"jobs\[0\].*checkpoint missing.pt does not exist"),
+        ({"jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": "train:x"}]},
+         r"jobs\[0\].*'train:x' names no training job"),
+        ({"grid": {"kind": "evaluate", "policy": ["orca", "orca"]}}, r"grid\[0\]\{policy=orca\}.*job name 'orca'"),
+        ({"jobs": [{"kind": "evaluate", "policy": "orca", "preset": "nope"}]}, r"jobs\[0\].*unknown preset"),
+        ({"jobs": [{"kind": "evaluate", "policy": "orca", "scenarios": ["nope"]}]}, r"jobs\[0\].*nope"),
+        ({"jobs": [{"kind": "evaluate", "policy": "orca", "human_model": "rvo"}]}, r"jobs\[0\]: human_model"),
+        ({"jobs": [{"kind": "evaluate", "policy": "orca", "episodes": 0}]}, r"jobs\[0\]: episodes must be"),
+        ({"jobs": [{"kind": "train", "policy": "orca"}]}, r"jobs\[0\]: policy 'orca' does not learn"),
+        ({"jobs": [{"kind": "train", "policy": "sarl", "config": "nope.yaml"}]}, r"jobs\[0\]: config"),
+        ({"jobs": [{"kind": "fly", "policy": "orca"}]}, r"jobs\[0\]: kind must be"),
+        ({"jobs": [{"kind": "evaluate", "policy": "orca", "name": "{nope}"}]}, r"name template"),
+        ({"jobs": [{"kind": "evaluate", "policy": "orca"}], "executor": "slurm"}, r"executor must be"),
+        ({"jobs": [{"kind": "evaluate", "policy": "orca"}], "wokers": 2}, r"unknown key.*wokers"),
+        ({"grid": {"kind": "evaluate", "policy": []}}, r"policy is an empty list"),
+        ({}, r"no jobs"),
+    ],
+)
+def test_bad_sweep_is_refused_naming_the_entry(data, message):
+    with pytest.raises(ConfigError, match=message):
+        parse_sweep(data, source="s.yaml")
+
+
+def test_bad_sweep_file_from_the_cli_is_one_line_and_starts_nothing(tmp_path, capsys):
+    path = write_sweep(tmp_path, {"jobs": [{"kind": "evaluate", "policy": "orca", "episodes": 2},
+                                           {"kind": "evaluate", "policy": "sarl", "checkpoint": "gone.pt"}]})
+    code = main(["sweep", str(path), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(err) == 1 and "jobs[1]" in err[0] and "gone.pt does not exist" in err[0]
+    assert not (tmp_path / "out").exists()  # the valid first job did not start either
+
+
+# --- running ------------------------------------------------------------------------------------------
+
+
+def test_local_sweep_equals_socialnav_evaluate_bit_for_bit(tmp_path):
+    preset = small_preset(tmp_path)
+    scenarios = ["circle_crossing", "passing"]
+    path = write_sweep(tmp_path, {
+        "defaults": {"preset": preset, "episodes": 10, "scenarios": scenarios},
+        "grid": {"kind": "evaluate", "policy": ["orca", f"{POLICIES}:StraightToGoal"],
+                 "human_model": ["orca", "social_force"]},
+    })
+    spec = load_sweep(path)
+    one = run_sweep(spec, tmp_path / "w1", LocalExecutor(1), progress=False)
+    two = run_sweep(spec, tmp_path / "w2", LocalExecutor(2), progress=False)
+    assert one.ok and two.ok and len(one.jobs) == 4
+    # one reference per job from the runner itself (what `socialnav evaluate` runs)
+    for job in spec.jobs:
+        p = load_preset(preset)
+        if job.get("human_model") == "social_force":
+            import dataclasses
+
+            p = dataclasses.replace(p, world=dataclasses.replace(p.world, human_model="social_force"))
+        ref = run_protocol(build_policy(job.get("policy"), p), p, tmp_path / "ref" / job.name, label=job.name,
+                           scenarios=scenarios, episodes=10, progress=False, workers=0)
+        for run in (one, two):
+            got = run.out_dir / "evaluate" / job.name
+            assert episode_rows(got) == episode_rows(ref.out_dir)
+            assert trajectory_tables(got).keys() == trajectory_tables(ref.out_dir).keys()
+            assert all(a.equals(b) for a, b in zip(trajectory_tables(got).values(),
+                                                    trajectory_tables(ref.out_dir).values()))
+            assert json.loads((got / "summary.json").read_text())["rows"] == \
+                json.loads((ref.out_dir / "summary.json").read_text())["rows"]
+    # one set of tables over every job, and every finished chunk logged once
+    summary = json.loads((one.out_dir / "summary.json").read_text())["rows"]
+    assert {r["policy"] for r in summary} == {j.name for j in spec.jobs}
+    assert "orca-human_model=social_force" in (one.out_dir / "table2.md").read_text()
+    log = [json.loads(x) for x in (one.out_dir / "sweep_log.jsonl").read_text().splitlines()]
+    assert len(log) == len({x["task"] for x in log}) == 4 * 3 * 3  # 3 cells of 10 episodes in chunks of 4
+    # a rerun computes nothing and changes nothing
+    before = (one.out_dir / "summary.json").read_text()
+    again = run_sweep(spec, tmp_path / "w1", LocalExecutor(2), progress=False)
+    assert all(s["episodes_computed"] == 0 for s in again.jobs.values())
+    assert (again.out_dir / "summary.json").read_text() == before
+
+
+def test_a_killed_worker_is_retried_and_results_equal_an_undisturbed_run(tmp_path):
+    preset = small_preset(tmp_path)
+    marker = tmp_path / "died"
+
+    def sweep(cls: str, out: str):
+        data = {"jobs": [{"kind": "evaluate", "policy": f"{POLICIES}:{cls}", "name": "straight",
+                          "preset": preset, "episodes": 12, "scenarios": ["circle_crossing"],
+                          "policy_args": {"marker": str(marker)}}]}
+        return run_sweep(parse_sweep(data), tmp_path / out, LocalExecutor(2, retries=2), progress=False)
+
+    faulty = sweep("DiesOnce", "faulty")
+    assert marker.exists(), "the worker did not die: the test tested nothing"
+    clean = sweep("StraightToGoal", "clean")
+    assert faulty.ok, faulty.failures
+    assert episode_rows(faulty.out_dir / "evaluate/straight") == episode_rows(clean.out_dir / "evaluate/straight")
+    episodes = [(r["visibility"], r["index"]) for r in episode_rows(faulty.out_dir / "evaluate/straight")]
+    assert len(set(episodes)) == len(episodes) == 24  # invisible + visible, no duplicates
+
+
+def test_a_task_that_keeps_failing_is_reported_not_dropped(tmp_path, capsys):
+    preset = small_preset(tmp_path)
+    path = write_sweep(tmp_path, {"retries": 1, "jobs": [
+        {"kind": "evaluate", "policy": "orca", "preset": preset, "episodes": 4, "scenarios": ["circle_crossing"]},
+        # a policy whose worker dies every time: marker path that can never be created
+        {"kind": "evaluate", "policy": f"{POLICIES}:DiesOnce", "name": "dies", "preset": preset, "episodes": 4,
+         "scenarios": ["circle_crossing"], "policy_args": {"marker": str(tmp_path / "no" / "such" / "dir")}},
+    ]})
+    code = main(["sweep", str(path), "--out", str(tmp_path / "out"), "--quiet", "--workers", "1"])
+    err = capsys.readouterr().err
+    assert code == 1
+    jobs = json.loads((tmp_path / "out/jobs.json").read_text())
+    failures = json.loads((tmp_path / "out/failures.json").read_text())
+    assert jobs["evaluate/orca"]["status"] == "done"
+    assert jobs["evaluate/dies"]["status"] == "failed"
+    assert failures and all(f["job"] == "evaluate/dies" for f in failures)
+    assert "error: evaluate/dies/" in err
+
+
+def test_a_killed_driver_resumes_without_recomputing_or_duplicating(tmp_path):
+    preset = small_preset(tmp_path, chunk_size=25)
+    path = write_sweep(tmp_path, {"workers": 1, "jobs": [
+        {"kind": "evaluate", "policy": "orca", "preset": preset, "episodes": 200,
+         "scenarios": ["circle_crossing", "random"], "visibility": "invisible"}]})
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "socialnav.cli", "sweep", str(path), "--out", str(out), "--quiet"]
+    env = subprocess_env(ROOT)
+    proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    chunks = out / "evaluate" / "orca" / "episodes"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and len(list(chunks.glob("*/*.parquet"))) < 2:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    before = {f: f.stat().st_mtime_ns for f in chunks.glob("*/*.parquet")}
+    assert 2 <= len(before) < 16, "the driver was not killed mid-run"
+    subprocess.run(cmd, env=env, cwd=ROOT, check=True, timeout=300)
+    after = {f: f.stat().st_mtime_ns for f in chunks.glob("*/*.parquet")}
+    assert len(after) == 16 and all(after[f] == t for f, t in before.items())  # nothing finished redone
+    log = [json.loads(x)["task"] for x in (out / "sweep_log.jsonl").read_text().splitlines()]
+    assert len(log) == len(set(log)), "a chunk that had landed was computed again"
+    reference = run_sweep(load_sweep(path), tmp_path / "ref", LocalExecutor(2), progress=False)
+    rows = episode_rows(out / "evaluate/orca")
+    assert rows == episode_rows(reference.out_dir / "evaluate/orca")
+    assert len({(r["scenario"], r["index"]) for r in rows}) == len(rows) == 400
+
+
+def test_training_then_evaluating_its_checkpoint(tmp_path):
+    preset = small_preset(tmp_path)
+    path = write_sweep(tmp_path, {"defaults": {"preset": preset}, "jobs": [
+        {"kind": "train", "policy": "sarl", "seed": 3, "config": "smoke", "rl_episodes": 8, "name": "sarl-s{seed}"},
+        {"kind": "evaluate", "policy": "sarl", "checkpoint": "train:sarl-s{seed}", "seed": 3, "name": "sarl-s{seed}",
+         "episodes": 4, "scenarios": ["circle_crossing"], "visibility": "invisible"},
+    ]})
+    result = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False)
+    assert result.ok, result.failures
+    assert result.jobs["train/sarl-s3"]["episodes"] == 8
+    manifest = json.loads((tmp_path / "out/evaluate/sarl-s3/manifest.json").read_text())
+    assert manifest["checkpoint"] == str(tmp_path / "out/train/sarl-s3/best.pt")
+    assert len(episode_rows(tmp_path / "out/evaluate/sarl-s3")) == 4
+
+
+def test_evaluation_of_a_failed_training_is_reported(tmp_path):
+    preset = small_preset(tmp_path)
+    bad_config = tmp_path / "bad_train.yaml"
+    bad_config.write_text("rl:\n  episodes: 4\n")
+    spec = parse_sweep({"defaults": {"preset": preset}, "jobs": [
+        {"kind": "train", "policy": "sarl", "config": str(bad_config), "device": "cuda", "name": "t"},
+        {"kind": "evaluate", "policy": "sarl", "checkpoint": "train:t", "episodes": 2, "name": "e"}]})
+    import torch
+
+    if torch.cuda.is_available():
+        pytest.skip("this test needs a machine without CUDA to make the training fail")
+    result = run_sweep(spec, tmp_path / "out", LocalExecutor(1), progress=False)
+    assert result.jobs["train/t"]["status"] == "failed"
+    assert result.jobs["evaluate/e"]["status"] == "failed"
+    assert "train:t" in result.jobs["evaluate/e"]["error"]
