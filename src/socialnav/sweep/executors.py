@@ -126,6 +126,8 @@ class RayExecutor:
     def __init__(
         self, address: str | None = None, workers: int | None = None, retries: int = 3, cpus_per_task: float = 1
     ) -> None:
+        # No usage report to Ray's servers from a research tool's sweep (set the variable to 1 to send one).
+        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
         try:
             import ray  # noqa: F401
         except ImportError:
@@ -149,7 +151,8 @@ class RayExecutor:
             kwargs: dict[str, Any] = {"include_dashboard": False, "logging_level": "ERROR",
                                       "log_to_driver": False}
             if self.address is None:
-                kwargs["num_cpus"] = self.workers or (os.cpu_count() or 1)
+                # An instance for this machine alone: on loopback, reachable from nowhere else.
+                kwargs.update(num_cpus=self.workers or (os.cpu_count() or 1), _node_ip_address="127.0.0.1")
             ray.init(address=self.address, **kwargs)
         remote = ray.remote(_call).options(
             num_cpus=self.cpus_per_task, max_retries=self.retries, retry_exceptions=False
