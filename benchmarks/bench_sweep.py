@@ -44,20 +44,33 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=2)
     args = parser.parse_args()
     warnings.simplefilter("ignore")
-    spec = parse_sweep({
-        "defaults": {"preset": "wang2022", "episodes": args.episodes},
-        "grid": {"kind": "evaluate", "policy": ["linear", "orca", "social_force"],
-                 "human_model": ["orca", "social_force"]},
-    })
+    spec = parse_sweep(
+        {
+            "defaults": {"preset": "wang2022", "episodes": args.episodes},
+            "grid": {
+                "kind": "evaluate",
+                "policy": ["linear", "orca", "social_force"],
+                "human_model": ["orca", "social_force"],
+            },
+        }
+    )
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
     import ray
 
     t0 = time.perf_counter()
-    ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR", log_to_driver=False,
-             _node_ip_address="127.0.0.1")
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        logging_level="ERROR",
+        log_to_driver=False,
+        _node_ip_address="127.0.0.1",
+    )
     ray_startup = time.perf_counter() - t0
-    executors = {"local_1": lambda: LocalExecutor(1), "local_2": lambda: LocalExecutor(2),
-                 "ray_2": lambda: RayExecutor()}
+    executors = {
+        "local_1": lambda: LocalExecutor(1),
+        "local_2": lambda: LocalExecutor(2),
+        "ray_2": lambda: RayExecutor(),
+    }
     times: dict[str, list[float]] = {k: [] for k in executors}
     reference = None
     try:
@@ -79,26 +92,33 @@ def main() -> None:
     episodes = len(reference)
     speedup = best["local_1"] / best["local_2"]
     overhead = best["ray_2"] / best["local_2"] - 1.0
-    print(f"{len(spec.jobs)} jobs, {episodes} episodes; best of {args.repeats}: local 1 worker "
-          f"{best['local_1']:.2f} s, 2 workers {best['local_2']:.2f} s (x{speedup:.2f}, goal >= {SPEEDUP_GOAL}); "
-          f"ray 2 CPUs {best['ray_2']:.2f} s (overhead {overhead:+.1%}, goal <= {RAY_OVERHEAD_GOAL:.0%}), "
-          f"ray start-up {ray_startup:.1f} s apart; load average {os.getloadavg()[0]:.2f}")
-    print(json.dumps({
-        "jobs": len(spec.jobs),
-        "episodes": episodes,
-        "local_1_worker_s": round(best["local_1"], 3),
-        "local_2_workers_s": round(best["local_2"], 3),
-        "ray_2_cpus_s": round(best["ray_2"], 3),
-        "ray_startup_s": round(ray_startup, 3),
-        "local_speedup_2_vs_1": round(speedup, 3),
-        "ray_overhead_fraction": round(overhead, 4),
-        "speedup_goal": SPEEDUP_GOAL,
-        "ray_overhead_goal": RAY_OVERHEAD_GOAL,
-        "identical_results": True,
-        "cpu_count": os.cpu_count(),
-        "load_average_1min": round(os.getloadavg()[0], 2),
-        "times_s": {k: [round(x, 3) for x in v] for k, v in times.items()},
-    }))
+    print(
+        f"{len(spec.jobs)} jobs, {episodes} episodes; best of {args.repeats}: local 1 worker "
+        f"{best['local_1']:.2f} s, 2 workers {best['local_2']:.2f} s "
+        f"(x{speedup:.2f}, goal >= {SPEEDUP_GOAL}); "
+        f"ray 2 CPUs {best['ray_2']:.2f} s (overhead {overhead:+.1%}, goal <= {RAY_OVERHEAD_GOAL:.0%}), "
+        f"ray start-up {ray_startup:.1f} s apart; load average {os.getloadavg()[0]:.2f}"
+    )
+    print(
+        json.dumps(
+            {
+                "jobs": len(spec.jobs),
+                "episodes": episodes,
+                "local_1_worker_s": round(best["local_1"], 3),
+                "local_2_workers_s": round(best["local_2"], 3),
+                "ray_2_cpus_s": round(best["ray_2"], 3),
+                "ray_startup_s": round(ray_startup, 3),
+                "local_speedup_2_vs_1": round(speedup, 3),
+                "ray_overhead_fraction": round(overhead, 4),
+                "speedup_goal": SPEEDUP_GOAL,
+                "ray_overhead_goal": RAY_OVERHEAD_GOAL,
+                "identical_results": True,
+                "cpu_count": os.cpu_count(),
+                "load_average_1min": round(os.getloadavg()[0], 2),
+                "times_s": {k: [round(x, 3) for x in v] for k, v in times.items()},
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

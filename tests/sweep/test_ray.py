@@ -12,12 +12,12 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from tests._env import subprocess_env
-from tests.sweep.test_sweep import POLICIES, episode_rows, small_preset, trajectory_tables
 
 from socialnav.sweep.driver import run_sweep
 from socialnav.sweep.executors import LocalExecutor, RayExecutor
 from socialnav.sweep.spec import parse_sweep
+from tests._env import subprocess_env
+from tests.sweep.test_sweep import POLICIES, episode_rows, small_preset, trajectory_tables
 
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no report to Ray's servers from the tests
 ray = pytest.importorskip("ray")
@@ -27,19 +27,29 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.fixture(scope="module")
 def local_ray():
     """One Ray instance (2 CPUs, loopback) for the module: starting Ray costs seconds."""
-    ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR", log_to_driver=False,
-             _node_ip_address="127.0.0.1")
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        logging_level="ERROR",
+        log_to_driver=False,
+        _node_ip_address="127.0.0.1",
+    )
     yield
     ray.shutdown()
 
 
 def test_ray_executor_gives_the_local_executors_results_bit_for_bit(tmp_path, local_ray):
     preset = small_preset(tmp_path)
-    spec = parse_sweep({
-        "defaults": {"preset": preset, "episodes": 10, "scenarios": ["circle_crossing", "passing"]},
-        "grid": {"kind": "evaluate", "policy": ["orca", f"{POLICIES}:StraightToGoal"],
-                 "human_model": ["orca", "social_force"]},
-    })
+    spec = parse_sweep(
+        {
+            "defaults": {"preset": preset, "episodes": 10, "scenarios": ["circle_crossing", "passing"]},
+            "grid": {
+                "kind": "evaluate",
+                "policy": ["orca", f"{POLICIES}:StraightToGoal"],
+                "human_model": ["orca", "social_force"],
+            },
+        }
+    )
     local = run_sweep(spec, tmp_path / "local", LocalExecutor(2), progress=False)
     remote = run_sweep(spec, tmp_path / "ray", RayExecutor(retries=1), progress=False)
     assert local.ok and remote.ok
@@ -58,9 +68,20 @@ def test_ray_retries_a_killed_worker_and_results_equal_an_undisturbed_run(tmp_pa
     marker = tmp_path / "died"
 
     def sweep(cls: str, out: str, executor):
-        data = {"jobs": [{"kind": "evaluate", "policy": f"{POLICIES}:{cls}", "name": "straight", "preset": preset,
-                          "episodes": 12, "scenarios": ["circle_crossing"], "visibility": "invisible",
-                          "policy_args": {"marker": str(marker)}}]}
+        data = {
+            "jobs": [
+                {
+                    "kind": "evaluate",
+                    "policy": f"{POLICIES}:{cls}",
+                    "name": "straight",
+                    "preset": preset,
+                    "episodes": 12,
+                    "scenarios": ["circle_crossing"],
+                    "visibility": "invisible",
+                    "policy_args": {"marker": str(marker)},
+                }
+            ]
+        }
         return run_sweep(parse_sweep(data), tmp_path / out, executor, progress=False)
 
     faulty = sweep("DiesOnce", "faulty", RayExecutor(retries=2))
@@ -74,9 +95,20 @@ def test_ray_retries_a_killed_worker_and_results_equal_an_undisturbed_run(tmp_pa
 
 def test_ray_reports_a_task_whose_worker_always_dies(tmp_path, local_ray):
     preset = small_preset(tmp_path)
-    data = {"jobs": [{"kind": "evaluate", "policy": f"{POLICIES}:DiesOnce", "name": "dies", "preset": preset,
-                      "episodes": 4, "scenarios": ["circle_crossing"], "visibility": "invisible",
-                      "policy_args": {"marker": str(tmp_path / "no" / "such" / "dir")}}]}
+    data = {
+        "jobs": [
+            {
+                "kind": "evaluate",
+                "policy": f"{POLICIES}:DiesOnce",
+                "name": "dies",
+                "preset": preset,
+                "episodes": 4,
+                "scenarios": ["circle_crossing"],
+                "visibility": "invisible",
+                "policy_args": {"marker": str(tmp_path / "no" / "such" / "dir")},
+            }
+        ]
+    }
     result = run_sweep(parse_sweep(data), tmp_path / "out", RayExecutor(retries=1), progress=False)
     assert not result.ok and result.jobs["evaluate/dies"]["status"] == "failed"
     assert result.failures[0]["task"] == "evaluate/dies/circle_crossing__invisible/0-4"
@@ -108,14 +140,33 @@ TWO_NODES = textwrap.dedent("""
 def test_jobs_run_on_a_head_and_a_worker_node(tmp_path):
     preset = small_preset(tmp_path, chunk_size=5)
     sweep = tmp_path / "sweep.yaml"
-    sweep.write_text(json.dumps({"jobs": [
-        {"kind": "evaluate", "policy": "orca", "preset": preset, "episodes": 40,
-         "scenarios": ["circle_crossing", "random"], "visibility": "invisible"}]}))
+    sweep.write_text(
+        json.dumps(
+            {
+                "jobs": [
+                    {
+                        "kind": "evaluate",
+                        "policy": "orca",
+                        "preset": preset,
+                        "episodes": 40,
+                        "scenarios": ["circle_crossing", "random"],
+                        "visibility": "invisible",
+                    }
+                ]
+            }
+        )
+    )
     script = tmp_path / "two_nodes.py"
     script.write_text(TWO_NODES)
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, str(script), str(sweep), str(out)], env=subprocess_env(ROOT),
-                          cwd=ROOT, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [sys.executable, str(script), str(sweep), str(out)],
+        env=subprocess_env(ROOT),
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert json.loads(proc.stdout.strip().splitlines()[-1]) == {"ok": True, "nodes": 2}
     nodes = {json.loads(x)["where"]["node"] for x in (out / "sweep_log.jsonl").read_text().splitlines()}

@@ -14,7 +14,6 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 import yaml
-from tests._env import subprocess_env
 
 from socialnav.cli import main
 from socialnav.config import ConfigError
@@ -24,6 +23,7 @@ from socialnav.presets import load_preset
 from socialnav.sweep.driver import run_sweep
 from socialnav.sweep.executors import LocalExecutor
 from socialnav.sweep.spec import load_sweep, parse_sweep
+from tests._env import subprocess_env
 
 ROOT = Path(__file__).resolve().parents[2]
 POLICIES = "tests.sweep.fault_policy"
@@ -57,27 +57,43 @@ def episode_rows(directory: Path) -> list[dict]:
 
 
 def trajectory_tables(directory: Path) -> dict[str, object]:
-    return {str(f.relative_to(directory)): pq.read_table(f) for f in sorted(directory.glob("trajectories/*/*"))}
+    return {
+        str(f.relative_to(directory)): pq.read_table(f) for f in sorted(directory.glob("trajectories/*/*"))
+    }
 
 
 # --- the sweep file -----------------------------------------------------------------------------------
 
 
 def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
-    spec = parse_sweep({
-        "defaults": {"preset": "wang2022", "episodes": 5, "config": "smoke"},
-        "grid": [
-            {"kind": "evaluate", "policy": ["linear", "orca"], "human_model": ["orca", "social_force"]},
-            {"kind": "train", "policy": "sarl", "seed": [0, 1], "name": "sarl-s{seed}"},
-        ],
-        "jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": "train:sarl-s{seed}", "seed": [0, 1],
-                  "name": "sarl-s{seed}"}],
-    })
+    spec = parse_sweep(
+        {
+            "defaults": {"preset": "wang2022", "episodes": 5, "config": "smoke"},
+            "grid": [
+                {"kind": "evaluate", "policy": ["linear", "orca"], "human_model": ["orca", "social_force"]},
+                {"kind": "train", "policy": "sarl", "seed": [0, 1], "name": "sarl-s{seed}"},
+            ],
+            "jobs": [
+                {
+                    "kind": "evaluate",
+                    "policy": "sarl",
+                    "checkpoint": "train:sarl-s{seed}",
+                    "seed": [0, 1],
+                    "name": "sarl-s{seed}",
+                }
+            ],
+        }
+    )
     names = [(j.kind, j.name) for j in spec.jobs]
     assert names == [
-        ("evaluate", "linear-human_model=orca"), ("evaluate", "linear-human_model=social_force"),
-        ("evaluate", "orca-human_model=orca"), ("evaluate", "orca-human_model=social_force"),
-        ("train", "sarl-s0"), ("train", "sarl-s1"), ("evaluate", "sarl-s0"), ("evaluate", "sarl-s1"),
+        ("evaluate", "linear-human_model=orca"),
+        ("evaluate", "linear-human_model=social_force"),
+        ("evaluate", "orca-human_model=orca"),
+        ("evaluate", "orca-human_model=social_force"),
+        ("train", "sarl-s0"),
+        ("train", "sarl-s1"),
+        ("evaluate", "sarl-s0"),
+        ("evaluate", "sarl-s1"),
     ]
     # defaults go only where the job's kind takes them
     assert spec.jobs[0].params["episodes"] == 5 and "config" not in spec.jobs[0].params
@@ -88,13 +104,23 @@ def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
 @pytest.mark.parametrize(
     ("data", "message"),
     [
-        ({"jobs": [{"kind": "evaluate", "policy": "orca", "episodez": 3}]}, r"jobs\[0\].*unknown key.*episodez"),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "orca", "episodez": 3}]},
+            r"jobs\[0\].*unknown key.*episodez",
+        ),
         ({"jobs": [{"kind": "evaluate", "policy": "nope"}]}, r"jobs\[0\].*unknown policy 'nope'"),
-        ({"jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": "missing.pt"}]},
-         r"jobs\[0\].*checkpoint missing.pt does not exist"),
-        ({"jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": "train:x"}]},
-         r"jobs\[0\].*'train:x' names no training job"),
-        ({"grid": {"kind": "evaluate", "policy": ["orca", "orca"]}}, r"grid\[0\]\{policy=orca\}.*job name 'orca'"),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": "missing.pt"}]},
+            r"jobs\[0\].*checkpoint missing.pt does not exist",
+        ),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": "train:x"}]},
+            r"jobs\[0\].*'train:x' names no training job",
+        ),
+        (
+            {"grid": {"kind": "evaluate", "policy": ["orca", "orca"]}},
+            r"grid\[0\]\{policy=orca\}.*job name 'orca'",
+        ),
         ({"jobs": [{"kind": "evaluate", "policy": "orca", "preset": "nope"}]}, r"jobs\[0\].*unknown preset"),
         ({"jobs": [{"kind": "evaluate", "policy": "orca", "scenarios": ["nope"]}]}, r"jobs\[0\].*nope"),
         ({"jobs": [{"kind": "evaluate", "policy": "orca", "human_model": "rvo"}]}, r"jobs\[0\]: human_model"),
@@ -115,8 +141,15 @@ def test_bad_sweep_is_refused_naming_the_entry(data, message):
 
 
 def test_bad_sweep_file_from_the_cli_is_one_line_and_starts_nothing(tmp_path, capsys):
-    path = write_sweep(tmp_path, {"jobs": [{"kind": "evaluate", "policy": "orca", "episodes": 2},
-                                           {"kind": "evaluate", "policy": "sarl", "checkpoint": "gone.pt"}]})
+    path = write_sweep(
+        tmp_path,
+        {
+            "jobs": [
+                {"kind": "evaluate", "policy": "orca", "episodes": 2},
+                {"kind": "evaluate", "policy": "sarl", "checkpoint": "gone.pt"},
+            ]
+        },
+    )
     code = main(["sweep", str(path), "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
@@ -130,11 +163,17 @@ def test_bad_sweep_file_from_the_cli_is_one_line_and_starts_nothing(tmp_path, ca
 def test_local_sweep_equals_socialnav_evaluate_bit_for_bit(tmp_path):
     preset = small_preset(tmp_path)
     scenarios = ["circle_crossing", "passing"]
-    path = write_sweep(tmp_path, {
-        "defaults": {"preset": preset, "episodes": 10, "scenarios": scenarios},
-        "grid": {"kind": "evaluate", "policy": ["orca", f"{POLICIES}:StraightToGoal"],
-                 "human_model": ["orca", "social_force"]},
-    })
+    path = write_sweep(
+        tmp_path,
+        {
+            "defaults": {"preset": preset, "episodes": 10, "scenarios": scenarios},
+            "grid": {
+                "kind": "evaluate",
+                "policy": ["orca", f"{POLICIES}:StraightToGoal"],
+                "human_model": ["orca", "social_force"],
+            },
+        },
+    )
     spec = load_sweep(path)
     one = run_sweep(spec, tmp_path / "w1", LocalExecutor(1), progress=False)
     two = run_sweep(spec, tmp_path / "w2", LocalExecutor(2), progress=False)
@@ -146,16 +185,29 @@ def test_local_sweep_equals_socialnav_evaluate_bit_for_bit(tmp_path):
             import dataclasses
 
             p = dataclasses.replace(p, world=dataclasses.replace(p.world, human_model="social_force"))
-        ref = run_protocol(build_policy(job.get("policy"), p), p, tmp_path / "ref" / job.name, label=job.name,
-                           scenarios=scenarios, episodes=10, progress=False, workers=0)
+        ref = run_protocol(
+            build_policy(job.get("policy"), p),
+            p,
+            tmp_path / "ref" / job.name,
+            label=job.name,
+            scenarios=scenarios,
+            episodes=10,
+            progress=False,
+            workers=0,
+        )
         for run in (one, two):
             got = run.out_dir / "evaluate" / job.name
             assert episode_rows(got) == episode_rows(ref.out_dir)
             assert trajectory_tables(got).keys() == trajectory_tables(ref.out_dir).keys()
-            assert all(a.equals(b) for a, b in zip(trajectory_tables(got).values(),
-                                                    trajectory_tables(ref.out_dir).values()))
-            assert json.loads((got / "summary.json").read_text())["rows"] == \
-                json.loads((ref.out_dir / "summary.json").read_text())["rows"]
+            assert all(
+                a.equals(b)
+                for a, b in zip(trajectory_tables(got).values(), trajectory_tables(ref.out_dir).values(),
+                                strict=True)
+            )
+            assert (
+                json.loads((got / "summary.json").read_text())["rows"]
+                == json.loads((ref.out_dir / "summary.json").read_text())["rows"]
+            )
     # one set of tables over every job, and every finished chunk logged once
     summary = json.loads((one.out_dir / "summary.json").read_text())["rows"]
     assert {r["policy"] for r in summary} == {j.name for j in spec.jobs}
@@ -174,28 +226,59 @@ def test_a_killed_worker_is_retried_and_results_equal_an_undisturbed_run(tmp_pat
     marker = tmp_path / "died"
 
     def sweep(cls: str, out: str):
-        data = {"jobs": [{"kind": "evaluate", "policy": f"{POLICIES}:{cls}", "name": "straight",
-                          "preset": preset, "episodes": 12, "scenarios": ["circle_crossing"],
-                          "policy_args": {"marker": str(marker)}}]}
+        data = {
+            "jobs": [
+                {
+                    "kind": "evaluate",
+                    "policy": f"{POLICIES}:{cls}",
+                    "name": "straight",
+                    "preset": preset,
+                    "episodes": 12,
+                    "scenarios": ["circle_crossing"],
+                    "policy_args": {"marker": str(marker)},
+                }
+            ]
+        }
         return run_sweep(parse_sweep(data), tmp_path / out, LocalExecutor(2, retries=2), progress=False)
 
     faulty = sweep("DiesOnce", "faulty")
     assert marker.exists(), "the worker did not die: the test tested nothing"
     clean = sweep("StraightToGoal", "clean")
     assert faulty.ok, faulty.failures
-    assert episode_rows(faulty.out_dir / "evaluate/straight") == episode_rows(clean.out_dir / "evaluate/straight")
+    assert episode_rows(faulty.out_dir / "evaluate/straight") == episode_rows(
+        clean.out_dir / "evaluate/straight"
+    )
     episodes = [(r["visibility"], r["index"]) for r in episode_rows(faulty.out_dir / "evaluate/straight")]
     assert len(set(episodes)) == len(episodes) == 24  # invisible + visible, no duplicates
 
 
 def test_a_task_that_keeps_failing_is_reported_not_dropped(tmp_path, capsys):
     preset = small_preset(tmp_path)
-    path = write_sweep(tmp_path, {"retries": 1, "jobs": [
-        {"kind": "evaluate", "policy": "orca", "preset": preset, "episodes": 4, "scenarios": ["circle_crossing"]},
-        # a policy whose worker dies every time: marker path that can never be created
-        {"kind": "evaluate", "policy": f"{POLICIES}:DiesOnce", "name": "dies", "preset": preset, "episodes": 4,
-         "scenarios": ["circle_crossing"], "policy_args": {"marker": str(tmp_path / "no" / "such" / "dir")}},
-    ]})
+    path = write_sweep(
+        tmp_path,
+        {
+            "retries": 1,
+            "jobs": [
+                {
+                    "kind": "evaluate",
+                    "policy": "orca",
+                    "preset": preset,
+                    "episodes": 4,
+                    "scenarios": ["circle_crossing"],
+                },
+                # a policy whose worker dies every time: marker path that can never be created
+                {
+                    "kind": "evaluate",
+                    "policy": f"{POLICIES}:DiesOnce",
+                    "name": "dies",
+                    "preset": preset,
+                    "episodes": 4,
+                    "scenarios": ["circle_crossing"],
+                    "policy_args": {"marker": str(tmp_path / "no" / "such" / "dir")},
+                },
+            ],
+        },
+    )
     code = main(["sweep", str(path), "--out", str(tmp_path / "out"), "--quiet", "--workers", "1"])
     err = capsys.readouterr().err
     assert code == 1
@@ -209,9 +292,22 @@ def test_a_task_that_keeps_failing_is_reported_not_dropped(tmp_path, capsys):
 
 def test_a_killed_driver_resumes_without_recomputing_or_duplicating(tmp_path):
     preset = small_preset(tmp_path, chunk_size=25)
-    path = write_sweep(tmp_path, {"workers": 1, "jobs": [
-        {"kind": "evaluate", "policy": "orca", "preset": preset, "episodes": 200,
-         "scenarios": ["circle_crossing", "random"], "visibility": "invisible"}]})
+    path = write_sweep(
+        tmp_path,
+        {
+            "workers": 1,
+            "jobs": [
+                {
+                    "kind": "evaluate",
+                    "policy": "orca",
+                    "preset": preset,
+                    "episodes": 200,
+                    "scenarios": ["circle_crossing", "random"],
+                    "visibility": "invisible",
+                }
+            ],
+        },
+    )
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "socialnav.cli", "sweep", str(path), "--out", str(out), "--quiet"]
     env = subprocess_env(ROOT)
@@ -237,11 +333,32 @@ def test_a_killed_driver_resumes_without_recomputing_or_duplicating(tmp_path):
 
 def test_training_then_evaluating_its_checkpoint(tmp_path):
     preset = small_preset(tmp_path)
-    path = write_sweep(tmp_path, {"defaults": {"preset": preset}, "jobs": [
-        {"kind": "train", "policy": "sarl", "seed": 3, "config": "smoke", "rl_episodes": 8, "name": "sarl-s{seed}"},
-        {"kind": "evaluate", "policy": "sarl", "checkpoint": "train:sarl-s{seed}", "seed": 3, "name": "sarl-s{seed}",
-         "episodes": 4, "scenarios": ["circle_crossing"], "visibility": "invisible"},
-    ]})
+    path = write_sweep(
+        tmp_path,
+        {
+            "defaults": {"preset": preset},
+            "jobs": [
+                {
+                    "kind": "train",
+                    "policy": "sarl",
+                    "seed": 3,
+                    "config": "smoke",
+                    "rl_episodes": 8,
+                    "name": "sarl-s{seed}",
+                },
+                {
+                    "kind": "evaluate",
+                    "policy": "sarl",
+                    "checkpoint": "train:sarl-s{seed}",
+                    "seed": 3,
+                    "name": "sarl-s{seed}",
+                    "episodes": 4,
+                    "scenarios": ["circle_crossing"],
+                    "visibility": "invisible",
+                },
+            ],
+        },
+    )
     result = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False)
     assert result.ok, result.failures
     assert result.jobs["train/sarl-s3"]["episodes"] == 8
@@ -254,9 +371,15 @@ def test_evaluation_of_a_failed_training_is_reported(tmp_path):
     preset = small_preset(tmp_path)
     bad_config = tmp_path / "bad_train.yaml"
     bad_config.write_text("rl:\n  episodes: 4\n")
-    spec = parse_sweep({"defaults": {"preset": preset}, "jobs": [
-        {"kind": "train", "policy": "sarl", "config": str(bad_config), "device": "cuda", "name": "t"},
-        {"kind": "evaluate", "policy": "sarl", "checkpoint": "train:t", "episodes": 2, "name": "e"}]})
+    spec = parse_sweep(
+        {
+            "defaults": {"preset": preset},
+            "jobs": [
+                {"kind": "train", "policy": "sarl", "config": str(bad_config), "device": "cuda", "name": "t"},
+                {"kind": "evaluate", "policy": "sarl", "checkpoint": "train:t", "episodes": 2, "name": "e"},
+            ],
+        }
+    )
     import torch
 
     if torch.cuda.is_available():

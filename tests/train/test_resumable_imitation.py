@@ -7,7 +7,7 @@ import pytest
 import torch
 import yaml
 
-import socialnav.train.trainer as trainer_mod
+import socialnav.train.imitation_phase as imitation_phase
 from socialnav.config import ConfigError
 from socialnav.policies.learned import load_checkpoint
 from socialnav.train.config import load_train_settings, shipped_train_configs
@@ -56,7 +56,7 @@ class Interrupt(BaseException):
 def _interrupt_fit_after(monkeypatch, epochs: int, collected: list):
     """Makes the imitation's progress bar raise after ``epochs`` epochs (the state of each epoch is
     saved before its bar ticks), as a kill at that moment would."""
-    real = trainer_mod._progress
+    real = imitation_phase.progress_bar
 
     def progress(total, initial, desc, enabled):
         bar = real(total, initial, desc, False)
@@ -72,7 +72,7 @@ def _interrupt_fit_after(monkeypatch, epochs: int, collected: list):
             bar.update = tick
         return bar
 
-    monkeypatch.setattr(trainer_mod, "_progress", progress)
+    monkeypatch.setattr(imitation_phase, "progress_bar", progress)
 
 
 def test_interrupted_imitation_resumes_at_the_next_epoch_with_the_same_result(

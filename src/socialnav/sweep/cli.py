@@ -20,7 +20,9 @@ def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
         "finished, 1 when some failed (failures.json names them), 2 for a bad sweep file.",
     )
     sw.add_argument("sweep", help="sweep YAML file")
-    sw.add_argument("--executor", choices=["local", "ray"], help="where jobs run (default: the file's, local)")
+    sw.add_argument(
+        "--executor", choices=["local", "ray"], help="where jobs run (default: the file's, local)"
+    )
     sw.add_argument("--address", help="Ray cluster address (ray executor; default: start Ray here)")
     sw.add_argument("--workers", type=int, help="worker processes or Ray CPUs here (default: one per core)")
     sw.add_argument("--retries", type=int, help="re-runs of a task whose worker died (default 3)")
@@ -54,8 +56,18 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     for note in sorted({str(w.message) for w in caught}):
         print(f"warning: {note}", file=sys.stderr)
     if args.json:
-        print(json.dumps(json_safe({"out": str(out), "jobs": result.jobs, "failures": result.failures,
-                                    "rows": result.summary})))
+        print(
+            json.dumps(
+                json_safe(
+                    {
+                        "out": str(out),
+                        "jobs": result.jobs,
+                        "failures": result.failures,
+                        "rows": result.summary,
+                    }
+                )
+            )
+        )
     elif not args.quiet:
         from socialnav.evaluate.report import table2, table3
 
@@ -63,8 +75,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             if table:
                 print(table)
         done = sum(1 for s in result.jobs.values() if s["status"] == "done")
-        print(f"{done} of {len(result.jobs)} jobs done; results in {out}/ (jobs.json, failures.json, "
-              "summary.json/csv, tables; evaluate/<job>/, train/<job>/)")
+        print(
+            f"{done} of {len(result.jobs)} jobs done; results in {out}/ (jobs.json, failures.json, "
+            "summary.json/csv, tables; evaluate/<job>/, train/<job>/)"
+        )
     for failure in result.failures:
         print(f"error: {failure['task']}: {failure['error']}", file=sys.stderr)
     return 0 if result.ok else 1

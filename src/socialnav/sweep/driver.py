@@ -85,10 +85,15 @@ def run_sweep(
     make_output_dir(out)
     with DirectoryLock(out, "sweep"):
         remove_orphan_temporaries(out)
-        atomic_write_json(out / "sweep.json", {
-            "source": spec.source, "executor": executor.describe(), "threads": spec.threads,
-            "jobs": [job_record(j) for j in spec.jobs],
-        })
+        atomic_write_json(
+            out / "sweep.json",
+            {
+                "source": spec.source,
+                "executor": executor.describe(),
+                "threads": spec.threads,
+                "jobs": [job_record(j) for j in spec.jobs],
+            },
+        )
         statuses: dict[str, dict[str, Any]] = {}
         failures: list[dict[str, Any]] = []
         with open(out / "sweep_log.jsonl", "a", encoding="utf-8") as task_log:
@@ -118,8 +123,9 @@ def _run_training(spec, out, executor, statuses, failures, task_log, say) -> Non
     for job in spec.train_jobs:
         run_dir = out / "train" / job.name
         run_dir.parent.mkdir(parents=True, exist_ok=True)
-        tasks.append(Task(f"train/{job.name}", train_job, (job.params, str(run_dir), spec.threads),
-                          meta={"job": job}))
+        tasks.append(
+            Task(f"train/{job.name}", train_job, (job.params, str(run_dir), spec.threads), meta={"job": job})
+        )
     if tasks:
         say(f"training: {len(tasks)} job(s) on {executor.name}")
     for task, result in executor.run(tasks):
@@ -128,15 +134,22 @@ def _run_training(spec, out, executor, statuses, failures, task_log, say) -> Non
         key = f"train/{job.name}"
         if isinstance(result, TaskFailed):
             statuses[key] = {"status": "failed", "dir": f"train/{job.name}", "error": result.message}
-            failures.append({"job": key, "task": task.key, "error": result.message, "attempts": result.attempts})
+            failures.append(
+                {"job": key, "task": task.key, "error": result.message, "attempts": result.attempts}
+            )
             say(f"{key}: FAILED: {result.message}")
         else:
-            statuses[key] = {"status": "done", "dir": f"train/{job.name}",
-                             **{k: result[k] for k in ("episodes", "best_val", "resumed", "seconds")}}
+            statuses[key] = {
+                "status": "done",
+                "dir": f"train/{job.name}",
+                **{k: result[k] for k in ("episodes", "best_val", "resumed", "seconds")},
+            }
             say(f"{key}: done ({result['episodes']} RL episodes, best validation {result['best_val']})")
 
 
-def _run_evaluations(spec, out, executor, statuses, failures, task_log, progress, say) -> list[dict[str, Any]]:
+def _run_evaluations(
+    spec, out, executor, statuses, failures, task_log, progress, say
+) -> list[dict[str, Any]]:
     from socialnav.evaluate.runner import (
         CHUNK_STAMP_KEY,
         _reissue,
@@ -159,8 +172,10 @@ def _run_evaluations(spec, out, executor, statuses, failures, task_log, progress
             jobs.append(ev)
             tasks.extend(_chunk_tasks(ev, spec))
         total = sum(t.meta["b"] - t.meta["a"] for t in tasks)
-        say(f"evaluation: {len(jobs)} job(s), {len(tasks)} chunk(s) ({total} episodes) to compute "
-            f"on {executor.name}")
+        say(
+            f"evaluation: {len(jobs)} job(s), {len(tasks)} chunk(s) ({total} episodes) to compute "
+            f"on {executor.name}"
+        )
         bar = _progress(total, progress)
         try:
             for task, result in executor.run(tasks):
@@ -168,16 +183,26 @@ def _run_evaluations(spec, out, executor, statuses, failures, task_log, progress
                 if isinstance(result, TaskFailed):
                     _log_task(task_log, task, result)
                     ev.failed.append(task.key)
-                    failures.append({"job": f"evaluate/{ev.job.name}", "task": task.key,
-                                     "error": result.message, "attempts": result.attempts})
+                    failures.append(
+                        {
+                            "job": f"evaluate/{ev.job.name}",
+                            "task": task.key,
+                            "error": result.message,
+                            "attempts": result.attempts,
+                        }
+                    )
                     say(f"{task.key}: FAILED: {result.message}")
                     continue
                 _reissue(result["notes"])
                 if result["trajectories"] is not None:
                     data = result["trajectories"]
-                    atomic_write(trajectory_path(ev.dir, cell, a, b), lambda tmp: Path(tmp).write_bytes(data))
-                atomic_write_rows_parquet(chunk_path(ev.dir, cell, a, b), result["rows"],
-                                          {CHUNK_STAMP_KEY: ev.stamp})
+                    atomic_write(
+                        trajectory_path(ev.dir, cell, a, b),
+                        lambda tmp, data=data: Path(tmp).write_bytes(data),
+                    )
+                atomic_write_rows_parquet(
+                    chunk_path(ev.dir, cell, a, b), result["rows"], {CHUNK_STAMP_KEY: ev.stamp}
+                )
                 _log_task(task_log, task, result)  # after the chunk landed: a logged chunk is never redone
                 ev.computed += b - a
                 bar.update(b - a)
@@ -189,14 +214,21 @@ def _run_evaluations(spec, out, executor, statuses, failures, task_log, progress
     for ev in jobs:
         key = f"evaluate/{ev.job.name}"
         if ev.failed:
-            statuses[key] = {"status": "failed", "dir": f"evaluate/{ev.job.name}",
-                             "error": f"{len(ev.failed)} chunk(s) failed (failures.json); rerun to retry them",
-                             "episodes_computed": ev.computed}
+            statuses[key] = {
+                "status": "failed",
+                "dir": f"evaluate/{ev.job.name}",
+                "error": f"{len(ev.failed)} chunk(s) failed (failures.json); rerun to retry them",
+                "episodes_computed": ev.computed,
+            }
             continue
         result = _finish(ev)
         summary.extend(result.summary)
-        statuses[key] = {"status": "done", "dir": f"evaluate/{ev.job.name}", "episodes_computed": ev.computed,
-                         "episodes": len(result.rows)}
+        statuses[key] = {
+            "status": "done",
+            "dir": f"evaluate/{ev.job.name}",
+            "episodes_computed": ev.computed,
+            "episodes": len(result.rows),
+        }
     return summary
 
 
@@ -209,9 +241,9 @@ def _prepare(job: Job, out: Path, locks: contextlib.ExitStack) -> _EvalJob:
     from socialnav.evaluate.multi import file_sha256
     from socialnav.evaluate.plan import plan_cells
     from socialnav.evaluate.runner import (
+        check_or_write_manifest,
         chunk_done,
         chunk_path,
-        check_or_write_manifest,
         manifest_stamp,
         protocol_manifest,
         refuse_foreign_chunks,
@@ -220,10 +252,12 @@ def _prepare(job: Job, out: Path, locks: contextlib.ExitStack) -> _EvalJob:
 
     checkpoint = job.get("checkpoint")
     if checkpoint is not None and str(checkpoint).startswith(TRAIN_REFERENCE):
-        trained = out / "train" / str(checkpoint)[len(TRAIN_REFERENCE):] / "best.pt"
+        trained = out / "train" / str(checkpoint)[len(TRAIN_REFERENCE) :] / "best.pt"
         if not trained.is_file():
-            raise _JobRefused(f"its checkpoint {checkpoint} ({trained}) does not exist: the training job "
-                              "failed or has not finished")
+            raise _JobRefused(
+                f"its checkpoint {checkpoint} ({trained}) does not exist: the training job "
+                "failed or has not finished"
+            )
         checkpoint = str(trained)
     preset = job_preset(job.params)
     batch_size = int(job.get("batch_size", 256))
@@ -267,8 +301,18 @@ def _chunk_tasks(ev: _EvalJob, spec: SweepSpec) -> list[Task]:
         Task(
             f"evaluate/{ev.job.name}/{cell.key}/{a}-{b}",
             evaluate_chunk,
-            (job_key, ev.job.params, ev.checkpoint, cell, a, b, ev.job.name, batch_size, trajectories,
-             spec.threads),
+            (
+                job_key,
+                ev.job.params,
+                ev.checkpoint,
+                cell,
+                a,
+                b,
+                ev.job.name,
+                batch_size,
+                trajectories,
+                spec.threads,
+            ),
             payload,
             meta={"ev": ev, "cell": cell, "a": a, "b": b},
         )
@@ -282,9 +326,17 @@ def _finish(ev: _EvalJob):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the chunks' warnings were re-issued when they landed
         return run_protocol(
-            ev.policy, ev.preset, ev.dir, label=ev.job.name, scenarios=ev.job.get("scenarios"),
-            episodes=ev.job.get("episodes"), visibility=ev.job.get("visibility"), progress=False,
-            extra_manifest=ev.extra, batch_size=int(ev.job.get("batch_size", 256)), workers=0,
+            ev.policy,
+            ev.preset,
+            ev.dir,
+            label=ev.job.name,
+            scenarios=ev.job.get("scenarios"),
+            episodes=ev.job.get("episodes"),
+            visibility=ev.job.get("visibility"),
+            progress=False,
+            extra_manifest=ev.extra,
+            batch_size=int(ev.job.get("batch_size", 256)),
+            workers=0,
             trajectories=bool(ev.job.get("trajectories", True)),
         )
 
@@ -292,5 +344,12 @@ def _finish(ev: _EvalJob):
 def _progress(total: int, enabled: bool):
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, unit="ep", disable=not enabled, file=sys.stderr, leave=False, dynamic_ncols=True,
-                desc="sweep")
+    return tqdm(
+        total=total,
+        unit="ep",
+        disable=not enabled,
+        file=sys.stderr,
+        leave=False,
+        dynamic_ncols=True,
+        desc="sweep",
+    )

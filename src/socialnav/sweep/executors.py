@@ -74,8 +74,11 @@ class LocalExecutor:
                         broken = True
                         attempts[task.key] += 1
                         if attempts[task.key] > self.retries:
-                            yield task, TaskFailed(
-                                f"its worker process died {attempts[task.key]} times", attempts[task.key]
+                            yield (
+                                task,
+                                TaskFailed(
+                                    f"its worker process died {attempts[task.key]} times", attempts[task.key]
+                                ),
                             )
                         else:
                             queue.appendleft(task)
@@ -110,7 +113,9 @@ def _process_pool(workers: int):
 
     lifeline.start_forkserver()
     return ProcessPoolExecutor(
-        max_workers=workers, mp_context=multiprocessing.get_context("forkserver"), initializer=lifeline.worker_init
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("forkserver"),
+        initializer=lifeline.worker_init,
     )
 
 
@@ -124,7 +129,11 @@ class RayExecutor:
     name = "ray"
 
     def __init__(
-        self, address: str | None = None, workers: int | None = None, retries: int = 3, cpus_per_task: float = 1
+        self,
+        address: str | None = None,
+        workers: int | None = None,
+        retries: int = 3,
+        cpus_per_task: float = 1,
     ) -> None:
         # No usage report to Ray's servers from a research tool's sweep (set the variable to 1 to send one).
         os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
@@ -140,16 +149,24 @@ class RayExecutor:
         self.cpus_per_task = cpus_per_task
 
     def describe(self) -> dict[str, Any]:
-        return {"executor": self.name, "address": self.address, "workers": self.workers,
-                "retries": self.retries, "cpus_per_task": self.cpus_per_task}
+        return {
+            "executor": self.name,
+            "address": self.address,
+            "workers": self.workers,
+            "retries": self.retries,
+            "cpus_per_task": self.cpus_per_task,
+        }
 
     def run(self, tasks: Iterable[Task]) -> Iterator[tuple[Task, Any]]:
         import ray
 
         started_here = not ray.is_initialized()
         if started_here:
-            kwargs: dict[str, Any] = {"include_dashboard": False, "logging_level": "ERROR",
-                                      "log_to_driver": False}
+            kwargs: dict[str, Any] = {
+                "include_dashboard": False,
+                "logging_level": "ERROR",
+                "log_to_driver": False,
+            }
             if self.address is None:
                 # An instance for this machine alone: on loopback, reachable from nowhere else.
                 kwargs.update(num_cpus=self.workers or (os.cpu_count() or 1), _node_ip_address="127.0.0.1")
@@ -177,8 +194,9 @@ class RayExecutor:
                         cause = err.cause if getattr(err, "cause", None) is not None else err
                         yield task, TaskFailed(_one_line(cause), 1)
                     except ray.exceptions.RayError as err:
-                        yield task, TaskFailed(
-                            f"{_one_line(err)} (after {self.retries} retries)", self.retries + 1
+                        yield (
+                            task,
+                            TaskFailed(f"{_one_line(err)} (after {self.retries} retries)", self.retries + 1),
                         )
                     else:
                         yield task, result

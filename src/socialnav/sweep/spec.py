@@ -43,14 +43,37 @@ EXECUTORS = ("local", "ray")
 
 #: Keys of an evaluation job and what each means (docs/sweeps.md).
 EVALUATE_KEYS = {
-    "kind", "name", "policy", "checkpoint", "preset", "scenarios", "episodes", "visibility", "human_model",
-    "information", "planning_depth", "planning_width", "policy_args", "batch_size", "trajectories", "seed",
+    "kind",
+    "name",
+    "policy",
+    "checkpoint",
+    "preset",
+    "scenarios",
+    "episodes",
+    "visibility",
+    "human_model",
+    "information",
+    "planning_depth",
+    "planning_width",
+    "policy_args",
+    "batch_size",
+    "trajectories",
+    "seed",
     "allow_preset_mismatch",
 }
 #: Keys of a training job (those of ``socialnav train``).
 TRAIN_KEYS = {
-    "kind", "name", "policy", "preset", "seed", "config", "device", "information", "rl_episodes",
-    "collection_batch", "human_model",
+    "kind",
+    "name",
+    "policy",
+    "preset",
+    "seed",
+    "config",
+    "device",
+    "information",
+    "rl_episodes",
+    "collection_batch",
+    "human_model",
 }
 TOP_KEYS = {"out", "executor", "workers", "retries", "address", "threads", "defaults", "grid", "jobs"}
 TRAIN_REFERENCE = "train:"
@@ -144,8 +167,10 @@ def parse_sweep(data: Any, source: str = "<sweep>", base: Path | None = None) ->
     for job in jobs:
         key = (job.kind, job.name)
         if key in names:
-            raise ConfigError(f"{job.where}: job name {job.name!r} is also the name of {names[key]}; "
-                              "give the jobs distinct name: templates")
+            raise ConfigError(
+                f"{job.where}: job name {job.name!r} is also the name of {names[key]}; "
+                "give the jobs distinct name: templates"
+            )
         names[key] = job.where
     spec = SweepSpec(
         jobs=jobs,
@@ -172,8 +197,12 @@ def _expand(entry: Any, where: str) -> list[tuple[str, dict[str, Any], list[str]
             raise ConfigError(f"{where}: {k} is an empty list")
     out = []
     for combo in itertools.product(*(entry[k] for k in axes)):
-        params = {**entry, **dict(zip(axes, combo))}
-        label = where if not axes else where + "{" + ", ".join(f"{k}={v}" for k, v in zip(axes, combo)) + "}"
+        params = {**entry, **dict(zip(axes, combo, strict=True))}
+        label = (
+            where
+            if not axes
+            else where + "{" + ", ".join(f"{k}={v}" for k, v in zip(axes, combo, strict=True)) + "}"
+        )
         out.append((label, params, axes))
     return out
 
@@ -239,8 +268,10 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
         _choice(params["human_model"], HUMAN_MODELS, f"{where}: human_model")
     if kind == "train":
         if not entry.learned:
-            raise ConfigError(f"{where}: policy {params['policy']!r} does not learn; train takes cadrl, "
-                              "lstm_rl, sarl, om_sarl, rgl or mp_rgl")
+            raise ConfigError(
+                f"{where}: policy {params['policy']!r} does not learn; train takes cadrl, "
+                "lstm_rl, sarl, om_sarl, rgl or mp_rgl"
+            )
         for key in ("seed", "rl_episodes", "collection_batch"):
             if params.get(key) is not None and (not isinstance(params[key], int) or params[key] < 0):
                 raise ConfigError(f"{where}: {key} must be a whole number >= 0, got {params[key]!r}")
@@ -275,15 +306,17 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
         from socialnav.policies.loading import shipped_checkpoint
 
         if shipped_checkpoint(str(params["policy"]), preset.name) is None:
-            raise ConfigError(f"{where}: policy {params['policy']!r} is learned and no checkpoint of it ships "
-                              f"for preset {preset.name!r}: give checkpoint: (a file or train:<job name>)")
+            raise ConfigError(
+                f"{where}: policy {params['policy']!r} is learned and no checkpoint of it ships "
+                f"for preset {preset.name!r}: give checkpoint: (a file or train:<job name>)"
+            )
 
 
 def _check_references(spec: SweepSpec) -> None:
     trained = {j.name for j in spec.train_jobs}
     for job in spec.evaluate_jobs:
         checkpoint = str(job.get("checkpoint") or "")
-        if checkpoint.startswith(TRAIN_REFERENCE) and checkpoint[len(TRAIN_REFERENCE):] not in trained:
+        if checkpoint.startswith(TRAIN_REFERENCE) and checkpoint[len(TRAIN_REFERENCE) :] not in trained:
             raise ConfigError(
                 f"{job.where}: checkpoint {checkpoint!r} names no training job of this sweep "
                 f"(training jobs: {', '.join(sorted(trained)) or 'none'})"

@@ -51,8 +51,11 @@ def build_job_policy(params: dict[str, Any], preset: Preset, checkpoint: str | N
     from socialnav.policies.loading import build_policy
 
     return build_policy(
-        str(params["policy"]), preset, checkpoint,
-        allow_preset_mismatch=bool(params.get("allow_preset_mismatch", False)), **policy_overrides(params),
+        str(params["policy"]),
+        preset,
+        checkpoint,
+        allow_preset_mismatch=bool(params.get("allow_preset_mismatch", False)),
+        **policy_overrides(params),
     )
 
 

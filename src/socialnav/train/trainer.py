@@ -18,7 +18,6 @@ any of them); its config holds ``value_policy`` so the evaluator scores actions 
 from __future__ import annotations
 
 import contextlib
-import csv
 import dataclasses
 import json
 import math
@@ -41,35 +40,21 @@ from socialnav.evaluate.files import (
     remove_orphan_temporaries,
 )
 from socialnav.presets import Preset, load_preset
-from socialnav.train.config import (
-    TrainSettings,
-    derive_seeds,
-    resolve_train_settings,
-    resume_diff,
+from socialnav.train.common import (
+    better,
+    check_same_run,
+    load_optimizer_state,
+    make_optimizer,
+    optimizer_state,
+    progress_bar,
 )
+from socialnav.train.config import TrainSettings, derive_seeds, resolve_train_settings
+from socialnav.train.curves import Curves
 from socialnav.train.envs import MultiWorld, training_n_humans
+from socialnav.train.imitation_phase import run_imitation
 from socialnav.train.memory import ReplayMemory
 from socialnav.train.rl import EpisodeStats, TrainingDiverged, epsilon_at, push_step, td_loss, validate
 
-CURVE_COLUMNS = (
-    "phase",
-    "episode",
-    "epsilon",
-    "train_episodes",
-    "train_success",
-    "train_collision",
-    "train_timeout",
-    "loss",
-    "val_success",
-    "val_collision",
-    "val_timeout",
-    "val_nav_time",
-    "predictor_loss",
-    "gradient_steps",
-    "transitions",
-    "wall_time",
-)
-#: Offset of the RL episode stream after the imitation episodes (same scenario_start).
 RL_STREAM_OFFSET = 5_000_000
 
 
@@ -124,240 +109,6 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
 
 def _plain(x: Any) -> Any:
     return json.loads(json.dumps(x, default=lambda v: list(v) if isinstance(v, tuple) else str(v)))
-
-
-def _make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optimizer:
-    params = list(params)
-    try:  # fused Adam: one kernel for all parameters (2-3x faster steps for these small networks)
-        return torch.optim.Adam(params, lr=lr, fused=True)
-    except (RuntimeError, TypeError, ValueError):
-        return torch.optim.Adam(params, lr=lr, foreach=True)
-
-
-def _optimizer_state(opt: torch.optim.Optimizer) -> dict[str, Any]:
-    sd = opt.state_dict()
-    return {"state": {str(k): v for k, v in sd["state"].items()}, "param_groups": sd["param_groups"]}
-
-
-def _load_optimizer_state(opt: torch.optim.Optimizer, data: dict[str, Any]) -> None:
-    groups = []
-    for g in data["param_groups"]:
-        g = dict(g)
-        if isinstance(g.get("betas"), list):
-            g["betas"] = tuple(g["betas"])
-        groups.append(g)
-    opt.load_state_dict({"state": {int(k): v for k, v in data["state"].items()}, "param_groups": groups})
-
-
-class _Curves:
-    """curves.csv (appended) and optional TensorBoard scalars."""
-
-    def __init__(self, path: Path, resume_episode: int | None) -> None:
-        self.path = path
-        self.dropped = 0  # damaged rows left out on resumption
-        if resume_episode is not None and path.exists():  # drop rows written after the resumed checkpoint
-            with open(path, newline="", encoding="utf-8", errors="replace") as f:
-                rows = []
-                for r in csv.DictReader(f):
-                    episode = _row_episode(r)
-                    if episode is None:
-                        self.dropped += 1  # a damaged row (e.g. cut short by a kill) is not fatal
-                    elif r["phase"] != "rl" or episode <= resume_episode:
-                        rows.append(r)
-            lines = [",".join(CURVE_COLUMNS)] + [",".join(r.get(c, "") for c in CURVE_COLUMNS) for r in rows]
-            atomic_write_text(path, "\n".join(lines) + "\n")
-        elif not path.exists() or resume_episode is None:
-            atomic_write_text(path, ",".join(CURVE_COLUMNS) + "\n")
-        self.tb = None
-        try:
-            from torch.utils.tensorboard import SummaryWriter
-
-            self.tb = SummaryWriter(str(path.parent / "tb"))
-        except Exception:  # tensorboard is optional
-            self.tb = None
-
-    def write(self, row: dict[str, Any]) -> None:
-        def fmt(v: Any) -> str:
-            if v is None or (isinstance(v, float) and math.isnan(v)):
-                return ""
-            return f"{v:.6g}" if isinstance(v, float) else str(v)
-
-        with open(self.path, "a", newline="") as f:
-            f.write(",".join(fmt(row.get(c)) for c in CURVE_COLUMNS) + "\n")
-        if self.tb is not None:
-            step = int(row.get("episode", 0))
-            for k, v in row.items():
-                if (
-                    k not in ("phase", "episode")
-                    and isinstance(v, (int, float))
-                    and not (isinstance(v, float) and math.isnan(v))
-                ):
-                    self.tb.add_scalar(k, v, step)
-            self.tb.flush()
-
-    def close(self) -> None:
-        if self.tb is not None:
-            self.tb.close()
-
-
-def _dotted(data: Any, key: str) -> Any:
-    for part in key.split("."):
-        data = data.get(part) if isinstance(data, dict) else None
-    return data
-
-
-def _row_episode(row: dict[str, Any]) -> int | None:
-    """The episode of a curves.csv row, or None when the row is damaged."""
-    if row.get("phase") not in ("il", "rl") or None in row or None in row.values():
-        return None
-    try:
-        return int(row["episode"])
-    except (TypeError, ValueError):
-        return None
-
-
-def _progress(total: int, initial: int, desc: str, enabled: bool):
-    from tqdm.auto import tqdm
-
-    return tqdm(
-        total=total,
-        initial=initial,
-        desc=desc,
-        file=sys.stderr,
-        disable=not enabled,
-        dynamic_ncols=True,
-        leave=True,
-    )
-
-
-def _better(a: dict[str, Any], b: dict[str, Any] | None) -> bool:
-    """Validation a better than b: higher success, then fewer collisions, then faster."""
-    if b is None:
-        return True
-
-    def key(m: dict[str, Any]) -> tuple:
-        nt = m.get("nav_time")
-        return (m["success"], -m["collision"], -(nt if nt is not None and not math.isnan(nt) else 1e9))
-
-    return key(a) > key(b)
-
-
-def _check_same_run(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:
-    """Refuses to resume a run directory written with other settings (naming keys and values)."""
-    diff = resume_diff(saved, config)
-    if diff:
-        changes = "; ".join(f"{k}: {_dotted(saved, k)!r} -> {_dotted(config, k)!r}" for k in diff[:6])
-        raise ConfigError(
-            f"{out} holds a run with other settings ({changes}{'; ...' if len(diff) > 6 else ''}); "
-            f"use another --out or the run's own settings (config.yaml)"
-        )
-
-
-def _imitation(
-    policy_name, preset, settings, config, out, policy, net, device, n_humans, seeds, success_reward,
-    progress, say, predictor=None, predictor_opt=None,
-) -> tuple[float, list[float]]:
-    """Imitation learning, resumable: the demonstrations are kept in ``il_demos.npz`` once collected,
-    and ``il_state.pt`` holds the network, optimizer and sampling generator after every epoch. A
-    complete ``il.pt`` is reused as it is. With a state predictor (information ``learned``), it is
-    fitted on the demonstrations' human transitions after the value network (as RGL does during
-    imitation), in one block: a kill during that block repeats only the predictor's fit.
-    Returns the last epoch's value loss and the predictor's losses per epoch."""
-    from socialnav.policies.learned import load_checkpoint, save_checkpoint
-    from socialnav.policies.learned.registry import canonical_name
-    from socialnav.policies.native import NativePolicy
-    from socialnav.train.imitation import (
-        collect_demonstrations,
-        fit_values,
-        load_demonstrations,
-        save_demonstrations,
-    )
-
-    il, rl = settings.imitation, settings.rl
-    il_path, state_path, demos_path = out / "il.pt", out / "il_state.pt", out / "il_demos.npz"
-    name = canonical_name(policy_name)
-    if il_path.exists():  # imitation finished before the interruption
-        ck = load_checkpoint(il_path, name, map_location=device)
-        _check_same_run(ck.config, config, out)
-        net.load_state_dict(ck.model.state_dict())
-        if predictor is not None and ck.predictor is not None:
-            predictor.load_state_dict(ck.predictor.state_dict())
-        losses = ck.extra.get("il_losses") or []
-        say(f"imitation: reusing {il_path}")
-        return (losses[-1] if losses else math.nan), list(ck.extra.get("predictor_losses") or [])
-    config_json = json.dumps(config, sort_keys=True)
-    if demos_path.exists():
-        demos, saved = load_demonstrations(demos_path)
-        _check_same_run(json.loads(saved), config, out)
-        say(f"imitation: reusing {demos.episodes} teacher episodes from {demos_path}, {len(demos)} states")
-    else:
-        teacher = NativePolicy(
-            "orca", safety_space=il.teacher_safety_space, orca=preset.world.orca, threads=preset.world.threads
-        )
-        world = MultiWorld(preset, n_humans, settings.collection_batch, "train", seeds["scenario_start"])
-        world.reset()
-        bar = _progress(il.episodes, 0, f"{policy_name} imitation: ORCA demos", progress)
-        demos = collect_demonstrations(
-            world, teacher, il.episodes, rl.gamma, success_reward,
-            progress=lambda k: bar.update(k) if k else None,
-        )
-        bar.close()
-        save_demonstrations(demos_path, demos, config_json)
-        say(f"imitation: {demos.episodes} teacher episodes {demos.outcomes}, {len(demos)} states")
-
-    generator = torch.Generator().manual_seed(seeds["sampling"] ^ 0x1A1A)
-    optimizer = _make_optimizer(net.parameters(), il.lr, device)
-    losses: list[float] = []
-    if state_path.exists():
-        ck = load_checkpoint(state_path, name, map_location=device)
-        _check_same_run(ck.config, config, out)
-        net.load_state_dict(ck.model.state_dict())
-        _load_optimizer_state(optimizer, ck.extra["optimizer"])
-        generator.set_state(ck.extra["generator"])
-        losses = list(ck.extra["il_losses"])
-        say(f"imitation: resuming at epoch {len(losses)} of {il.epochs}")
-    bar = _progress(il.epochs, len(losses), f"{policy_name} imitation: fit", progress)
-
-    def on_epoch(epoch: int, loss: float) -> None:
-        losses.append(loss)
-        extra = {
-            "phase": "imitation",
-            "il_losses": losses,
-            "optimizer": _optimizer_state(optimizer),
-            "generator": generator.get_state(),
-        }
-        save_checkpoint(state_path, policy_name, net, config=config, extra=extra)
-        bar.update(1)
-        bar.set_postfix(loss=f"{loss:.4g}")
-
-    try:
-        fit_values(policy, demos, il.epochs, il.batch_size, generator, optimizer, on_epoch, len(losses))
-    except FloatingPointError as err:
-        raise TrainingDiverged(f"{err}; {state_path} keeps the last good epoch") from None
-    finally:
-        bar.close()
-    predictor_losses: list[float] = []
-    if predictor is not None:
-        from socialnav.train.imitation import fit_predictor
-
-        predictor_losses = fit_predictor(
-            predictor,
-            predictor_opt,
-            demos,
-            il.epochs,
-            il.batch_size,
-            preset.world.dt,
-            torch.Generator().manual_seed(seeds["sampling"] ^ 0x9E3D),
-            device,
-        )
-        if predictor_losses:
-            say(f"imitation: state predictor position MSE {predictor_losses[-1]:.4g} m² ({il.epochs} epochs)")
-    extra = {"phase": "imitation", "il_losses": losses, "predictor_losses": predictor_losses}
-    save_checkpoint(il_path, policy_name, net, config=config, extra=extra, predictor=predictor)
-    # il.pt is complete: the intermediate files are no longer needed (the demonstrations are large).
-    state_path.unlink(missing_ok=True)
-    demos_path.unlink(missing_ok=True)
-    return (losses[-1] if losses else math.nan), predictor_losses
 
 
 def train(
@@ -513,7 +264,7 @@ def _train(
             raise ConfigError(
                 f"{last_path} is not a training state (no 'resume' record); move it away to restart"
             )
-        _check_same_run(ck.config, config, out)
+        check_same_run(ck.config, config, out)
         net.load_state_dict(ck.model.state_dict())
         if predictor is not None and ck.predictor is not None:
             predictor.load_state_dict(ck.predictor.state_dict())
@@ -523,7 +274,7 @@ def _train(
     import yaml
 
     atomic_write_text(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
-    curves = _Curves(curves_path, None if resume is None else int(resume["episode"]))
+    curves = Curves(curves_path, None if resume is None else int(resume["episode"]))
     if curves.dropped:
         say(f"{curves_path}: {curves.dropped} damaged row(s) left out")
 
@@ -533,7 +284,7 @@ def _train(
         return elapsed0 + time.perf_counter() - t_call
 
     if predictor is not None:
-        predictor_opt = _make_optimizer(predictor.parameters(), settings.predictor_lr, device)
+        predictor_opt = make_optimizer(predictor.parameters(), settings.predictor_lr, device)
 
     def save(path: Path, extra: dict[str, Any]) -> None:
         save_checkpoint(path, policy_name, net, config=config, extra=extra, predictor=predictor)
@@ -542,7 +293,7 @@ def _train(
     if resume is None:
         il = settings.imitation
         if il.episodes > 0 and il.epochs > 0:
-            il_loss, predictor_losses = _imitation(
+            il_loss, predictor_losses = run_imitation(
                 policy_name, preset, settings, config, out, policy, net, device, n_humans, seeds,
                 success_reward, progress, say, predictor, predictor_opt if predictor is not None else None,
             )
@@ -573,7 +324,7 @@ def _train(
         stop_now = bool(on_validation and on_validation(0, best_val, wall()))
         save(best_path, {"episode": 0, "val": best_val})
         target.load_state_dict(net.state_dict())
-        optimizer = _make_optimizer(net.parameters(), rl.lr, device)
+        optimizer = make_optimizer(net.parameters(), rl.lr, device)
         state = {
             "episode": 0,
             "gradient_steps": 0,
@@ -589,10 +340,10 @@ def _train(
         }
     else:
         target.load_state_dict(resume["target_state_dict"])
-        optimizer = _make_optimizer(net.parameters(), rl.lr, device)
-        _load_optimizer_state(optimizer, resume["optimizer"])
+        optimizer = make_optimizer(net.parameters(), rl.lr, device)
+        load_optimizer_state(optimizer, resume["optimizer"])
         if predictor is not None:
-            _load_optimizer_state(predictor_opt, resume["predictor_optimizer"])
+            load_optimizer_state(predictor_opt, resume["predictor_optimizer"])
         explore_gen.set_state(resume["explore_rng"])
         sample_gen.set_state(resume["sample_rng"])
         state = {
@@ -622,7 +373,7 @@ def _train(
             "resume": {
                 **state,
                 "target_state_dict": {k: v.detach().cpu().clone() for k, v in target.state_dict().items()},
-                "optimizer": _optimizer_state(optimizer),
+                "optimizer": optimizer_state(optimizer),
                 "explore_rng": explore_gen.get_state(),
                 "sample_rng": sample_gen.get_state(),
                 "stream_positions": world.stream_positions(),
@@ -630,7 +381,7 @@ def _train(
             },
         }
         if predictor is not None:
-            extra["resume"]["predictor_optimizer"] = _optimizer_state(predictor_opt)
+            extra["resume"]["predictor_optimizer"] = optimizer_state(predictor_opt)
         save(last_path, extra)
 
     # -- RL ------------------------------------------------------------------------------------
@@ -644,7 +395,7 @@ def _train(
         save_last()
     window = EpisodeStats()
     window_loss, window_steps, window_pred = 0.0, 0, 0.0
-    bar = _progress(rl.episodes, int(state["episode"]), f"{policy_name} RL", progress)
+    bar = progress_bar(rl.episodes, int(state["episode"]), f"{policy_name} RL", progress)
     episodes_this_call = 0
     stopped_early = stop_now
     obs = world.observe(oracle=oracle)
@@ -718,7 +469,7 @@ def _train(
                 state["last_val"] = val
                 while state["next_val"] <= ep:
                     state["next_val"] += rl.validate_every
-                if _better(val, state["best_val"]):
+                if better(val, state["best_val"]):
                     state["best_val"] = val
                     save(best_path, {"episode": ep, "val": val})
                 say(

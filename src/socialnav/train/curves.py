@@ -1,0 +1,92 @@
+"""``curves.csv`` of a training run (appended; trimmed to the resumed episode) and optional
+TensorBoard scalars."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+from typing import Any
+
+from socialnav.evaluate.files import atomic_write_text
+
+CURVE_COLUMNS = (
+    "phase",
+    "episode",
+    "epsilon",
+    "train_episodes",
+    "train_success",
+    "train_collision",
+    "train_timeout",
+    "loss",
+    "val_success",
+    "val_collision",
+    "val_timeout",
+    "val_nav_time",
+    "predictor_loss",
+    "gradient_steps",
+    "transitions",
+    "wall_time",
+)
+#: Offset of the RL episode stream after the imitation episodes (same scenario_start).
+
+
+class Curves:
+    """curves.csv (appended) and optional TensorBoard scalars."""
+
+    def __init__(self, path: Path, resume_episode: int | None) -> None:
+        self.path = path
+        self.dropped = 0  # damaged rows left out on resumption
+        if resume_episode is not None and path.exists():  # drop rows written after the resumed checkpoint
+            with open(path, newline="", encoding="utf-8", errors="replace") as f:
+                rows = []
+                for r in csv.DictReader(f):
+                    episode = row_episode(r)
+                    if episode is None:
+                        self.dropped += 1  # a damaged row (e.g. cut short by a kill) is not fatal
+                    elif r["phase"] != "rl" or episode <= resume_episode:
+                        rows.append(r)
+            lines = [",".join(CURVE_COLUMNS)] + [",".join(r.get(c, "") for c in CURVE_COLUMNS) for r in rows]
+            atomic_write_text(path, "\n".join(lines) + "\n")
+        elif not path.exists() or resume_episode is None:
+            atomic_write_text(path, ",".join(CURVE_COLUMNS) + "\n")
+        self.tb = None
+        try:
+            from torch.utils.tensorboard import SummaryWriter
+
+            self.tb = SummaryWriter(str(path.parent / "tb"))
+        except Exception:  # tensorboard is optional
+            self.tb = None
+
+    def write(self, row: dict[str, Any]) -> None:
+        def fmt(v: Any) -> str:
+            if v is None or (isinstance(v, float) and math.isnan(v)):
+                return ""
+            return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+        with open(self.path, "a", newline="") as f:
+            f.write(",".join(fmt(row.get(c)) for c in CURVE_COLUMNS) + "\n")
+        if self.tb is not None:
+            step = int(row.get("episode", 0))
+            for k, v in row.items():
+                if (
+                    k not in ("phase", "episode")
+                    and isinstance(v, (int, float))
+                    and not (isinstance(v, float) and math.isnan(v))
+                ):
+                    self.tb.add_scalar(k, v, step)
+            self.tb.flush()
+
+    def close(self) -> None:
+        if self.tb is not None:
+            self.tb.close()
+
+
+def row_episode(row: dict[str, Any]) -> int | None:
+    """The episode of a curves.csv row, or None when the row is damaged."""
+    if row.get("phase") not in ("il", "rl") or None in row or None in row.values():
+        return None
+    try:
+        return int(row["episode"])
+    except (TypeError, ValueError):
+        return None

@@ -1,0 +1,143 @@
+"""The imitation phase of a training run: ORCA demonstrations, the value fit and (information
+``learned``) the state predictor's fit, resumable per epoch."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import torch
+
+from socialnav.train.common import (
+    check_same_run,
+    load_optimizer_state,
+    make_optimizer,
+    optimizer_state,
+    progress_bar,
+)
+from socialnav.train.envs import MultiWorld
+from socialnav.train.rl import TrainingDiverged
+
+
+def run_imitation(
+    policy_name,
+    preset,
+    settings,
+    config,
+    out,
+    policy,
+    net,
+    device,
+    n_humans,
+    seeds,
+    success_reward,
+    progress,
+    say,
+    predictor=None,
+    predictor_opt=None,
+) -> tuple[float, list[float]]:
+    """Imitation learning, resumable: the demonstrations are kept in ``il_demos.npz`` once collected,
+    and ``il_state.pt`` holds the network, optimizer and sampling generator after every epoch. A
+    complete ``il.pt`` is reused as it is. With a state predictor (information ``learned``), it is
+    fitted on the demonstrations' human transitions after the value network (as RGL does during
+    imitation), in one block: a kill during that block repeats only the predictor's fit.
+    Returns the last epoch's value loss and the predictor's losses per epoch."""
+    from socialnav.policies.learned import load_checkpoint, save_checkpoint
+    from socialnav.policies.learned.registry import canonical_name
+    from socialnav.policies.native import NativePolicy
+    from socialnav.train.imitation import (
+        collect_demonstrations,
+        fit_values,
+        load_demonstrations,
+        save_demonstrations,
+    )
+
+    il, rl = settings.imitation, settings.rl
+    il_path, state_path, demos_path = out / "il.pt", out / "il_state.pt", out / "il_demos.npz"
+    name = canonical_name(policy_name)
+    if il_path.exists():  # imitation finished before the interruption
+        ck = load_checkpoint(il_path, name, map_location=device)
+        check_same_run(ck.config, config, out)
+        net.load_state_dict(ck.model.state_dict())
+        if predictor is not None and ck.predictor is not None:
+            predictor.load_state_dict(ck.predictor.state_dict())
+        losses = ck.extra.get("il_losses") or []
+        say(f"imitation: reusing {il_path}")
+        return (losses[-1] if losses else math.nan), list(ck.extra.get("predictor_losses") or [])
+    config_json = json.dumps(config, sort_keys=True)
+    if demos_path.exists():
+        demos, saved = load_demonstrations(demos_path)
+        check_same_run(json.loads(saved), config, out)
+        say(f"imitation: reusing {demos.episodes} teacher episodes from {demos_path}, {len(demos)} states")
+    else:
+        teacher = NativePolicy(
+            "orca", safety_space=il.teacher_safety_space, orca=preset.world.orca, threads=preset.world.threads
+        )
+        world = MultiWorld(preset, n_humans, settings.collection_batch, "train", seeds["scenario_start"])
+        world.reset()
+        bar = progress_bar(il.episodes, 0, f"{policy_name} imitation: ORCA demos", progress)
+        demos = collect_demonstrations(
+            world,
+            teacher,
+            il.episodes,
+            rl.gamma,
+            success_reward,
+            progress=lambda k: bar.update(k) if k else None,
+        )
+        bar.close()
+        save_demonstrations(demos_path, demos, config_json)
+        say(f"imitation: {demos.episodes} teacher episodes {demos.outcomes}, {len(demos)} states")
+
+    generator = torch.Generator().manual_seed(seeds["sampling"] ^ 0x1A1A)
+    optimizer = make_optimizer(net.parameters(), il.lr, device)
+    losses: list[float] = []
+    if state_path.exists():
+        ck = load_checkpoint(state_path, name, map_location=device)
+        check_same_run(ck.config, config, out)
+        net.load_state_dict(ck.model.state_dict())
+        load_optimizer_state(optimizer, ck.extra["optimizer"])
+        generator.set_state(ck.extra["generator"])
+        losses = list(ck.extra["il_losses"])
+        say(f"imitation: resuming at epoch {len(losses)} of {il.epochs}")
+    bar = progress_bar(il.epochs, len(losses), f"{policy_name} imitation: fit", progress)
+
+    def on_epoch(epoch: int, loss: float) -> None:
+        losses.append(loss)
+        extra = {
+            "phase": "imitation",
+            "il_losses": losses,
+            "optimizer": optimizer_state(optimizer),
+            "generator": generator.get_state(),
+        }
+        save_checkpoint(state_path, policy_name, net, config=config, extra=extra)
+        bar.update(1)
+        bar.set_postfix(loss=f"{loss:.4g}")
+
+    try:
+        fit_values(policy, demos, il.epochs, il.batch_size, generator, optimizer, on_epoch, len(losses))
+    except FloatingPointError as err:
+        raise TrainingDiverged(f"{err}; {state_path} keeps the last good epoch") from None
+    finally:
+        bar.close()
+    predictor_losses: list[float] = []
+    if predictor is not None:
+        from socialnav.train.imitation import fit_predictor
+
+        predictor_losses = fit_predictor(
+            predictor,
+            predictor_opt,
+            demos,
+            il.epochs,
+            il.batch_size,
+            preset.world.dt,
+            torch.Generator().manual_seed(seeds["sampling"] ^ 0x9E3D),
+            device,
+        )
+        if predictor_losses:
+            say(f"imitation: state predictor position MSE {predictor_losses[-1]:.4g} m² ({il.epochs} epochs)")
+    extra = {"phase": "imitation", "il_losses": losses, "predictor_losses": predictor_losses}
+    save_checkpoint(il_path, policy_name, net, config=config, extra=extra, predictor=predictor)
+    # il.pt is complete: the intermediate files are no longer needed (the demonstrations are large).
+    state_path.unlink(missing_ok=True)
+    demos_path.unlink(missing_ok=True)
+    return (losses[-1] if losses else math.nan), predictor_losses
