@@ -76,7 +76,7 @@ def error_line(err: BaseException) -> str:
 
 
 def _resume_hint(args: argparse.Namespace) -> str:
-    if args.command in ("evaluate", "train"):
+    if args.command in ("evaluate", "train", "sweep", "reproduce"):
         return "finished results are kept; re-run the same command to resume"
     return "nothing was written"
 

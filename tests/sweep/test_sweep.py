@@ -24,6 +24,7 @@ from socialnav.sweep.driver import run_sweep
 from socialnav.sweep.executors import LocalExecutor
 from socialnav.sweep.spec import load_sweep, parse_sweep
 from tests._env import subprocess_env
+from tests.cli.test_faults import alive, descendants
 
 ROOT = Path(__file__).resolve().parents[2]
 POLICIES = "tests.sweep.fault_policy"
@@ -290,7 +291,8 @@ def test_a_task_that_keeps_failing_is_reported_not_dropped(tmp_path, capsys):
     assert "error: evaluate/dies/" in err
 
 
-def test_a_killed_driver_resumes_without_recomputing_or_duplicating(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM], ids=["SIGKILL", "SIGTERM"])
+def test_a_killed_driver_resumes_without_recomputing_or_duplicating(tmp_path, sig):
     preset = small_preset(tmp_path, chunk_size=25)
     path = write_sweep(
         tmp_path,
@@ -316,8 +318,16 @@ def test_a_killed_driver_resumes_without_recomputing_or_duplicating(tmp_path):
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and len(list(chunks.glob("*/*.parquet"))) < 2:
         time.sleep(0.05)
-    proc.send_signal(signal.SIGKILL)
-    proc.wait(timeout=30)
+    tree = descendants(proc.pid)  # forkserver, resource tracker, worker
+    assert tree, "the sweep had no worker process"
+    proc.send_signal(sig)
+    _, stderr = proc.communicate(timeout=60)  # returns only once nobody holds its stderr
+    if sig == signal.SIGTERM:
+        assert proc.returncode == 143 and b"terminated (SIGTERM)" in stderr
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and any(alive(p) for p in tree):
+        time.sleep(0.1)
+    assert not [p for p in tree if alive(p)], "a process of the killed sweep is still running"
     before = {f: f.stat().st_mtime_ns for f in chunks.glob("*/*.parquet")}
     assert 2 <= len(before) < 16, "the driver was not killed mid-run"
     subprocess.run(cmd, env=env, cwd=ROOT, check=True, timeout=300)

@@ -101,8 +101,14 @@ class LocalExecutor:
                             yield task, result
                     pool.shutdown(wait=True, cancel_futures=True)
                     pool = _process_pool(self.workers)
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+        except BaseException:
+            # Interrupted (Ctrl-C, SIGTERM, an error in the caller): do not wait for running tasks (a
+            # training job takes hours); the workers die with this process (evaluate/lifeline.py) and
+            # a rerun resumes. A generator closed early (GeneratorExit) lands here too.
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        else:
+            pool.shutdown(wait=True)
 
 
 def _process_pool(workers: int):
