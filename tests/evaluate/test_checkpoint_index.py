@@ -35,8 +35,8 @@ def test_cadrl_circle_file_is_cadrl_original_for_wang2022(fake_dir):
     assert shipped_checkpoint("cadrl", "wang2022", "original") is None  # pending: not shipped yet
     (fake_dir / "cadrl_circle_wang2022.pt").write_bytes(b"x")
     (fake_dir / "cadrl_wang2022.pt").write_bytes(b"x")  # indexed
-    (fake_dir / "lstm_rl_wang2022.pt").write_bytes(b"x")  # not indexed: recognised by its name
-    entries = {e.file: e for e in shipped_checkpoints("wang2022")}
+    (fake_dir / "lstm_rl_crowdnav.pt").write_bytes(b"x")  # not indexed: recognised by its name
+    entries = {e.file: e for e in shipped_checkpoints("wang2022") + shipped_checkpoints("crowdnav")}
     original = entries["cadrl_circle_wang2022.pt"]
     assert (original.policy, original.preset, original.variant) == ("cadrl", "wang2022", "original")
     assert (original.name, original.label) == ("cadrl_original", "CADRL (original)")
@@ -48,24 +48,26 @@ def test_cadrl_circle_file_is_cadrl_original_for_wang2022(fake_dir):
     assert shipped_checkpoint("cadrl", "wang2022") == fake_dir / "cadrl_wang2022.pt"
     assert shipped_checkpoint("cadrl", "wang2022", "original") == fake_dir / "cadrl_circle_wang2022.pt"
     assert shipped_checkpoint("cadrl", "crowdnav") is None
-    unindexed = entries["lstm_rl_wang2022.pt"]
-    assert (unindexed.policy, unindexed.preset, unindexed.variant) == ("lstm_rl", "wang2022", "protocol")
-    assert unindexed_checkpoint_files() == ["lstm_rl_wang2022.pt"]
+    unindexed = entries["lstm_rl_crowdnav.pt"]
+    assert (unindexed.policy, unindexed.preset, unindexed.variant) == ("lstm_rl", "crowdnav", "protocol")
+    assert unindexed_checkpoint_files() == ["lstm_rl_crowdnav.pt"]
     specs = [s.name for s in default_specs("wang2022")]
     assert specs[-3:] == ["linear", "orca", "social_force"]
     assert {"cadrl_original", "cadrl"} <= set(specs)
 
 
 def test_lstm_rl_name_is_not_mistaken_for_another_policy(fake_dir):
-    (fake_dir / "lstm_rl_wang2022.pt").write_bytes(b"x")
-    (fake_dir / "om_sarl_wang2022.pt").write_bytes(b"x")
-    (fake_dir / "mp_rgl_wang2022.pt").write_bytes(b"x")
-    entries = {e.file: e for e in shipped_checkpoints("wang2022")}
-    assert entries["lstm_rl_wang2022.pt"].policy == "lstm_rl"
-    assert entries["om_sarl_wang2022.pt"].policy == "om_sarl"
-    assert entries["mp_rgl_wang2022.pt"].policy == "mp_rgl"
-    assert entries["om_sarl_wang2022.pt"].paper_row == "OM-SARL"
-    assert entries["mp_rgl_wang2022.pt"].paper_row is None
+    # crowdnav: no index entry for these, so policy and paper row come from the file name alone
+    (fake_dir / "lstm_rl_crowdnav.pt").write_bytes(b"x")
+    (fake_dir / "om_sarl_crowdnav.pt").write_bytes(b"x")
+    (fake_dir / "mp_rgl_crowdnav.pt").write_bytes(b"x")
+    entries = {e.file: e for e in shipped_checkpoints("crowdnav")}
+    assert entries["lstm_rl_crowdnav.pt"].policy == "lstm_rl"
+    assert entries["om_sarl_crowdnav.pt"].policy == "om_sarl"
+    assert entries["mp_rgl_crowdnav.pt"].policy == "mp_rgl"
+    assert entries["om_sarl_crowdnav.pt"].paper_row == "OM-SARL"
+    assert entries["mp_rgl_crowdnav.pt"].paper_row is None
+    assert entries["lstm_rl_crowdnav.pt"].paper_row == "GA3C-CADRL"
 
 
 @pytest.mark.parametrize(
