@@ -54,7 +54,9 @@ def main() -> None:
             },
         }
     )
+    # As RayExecutor does when it starts Ray itself: no usage report, workers at normal priority.
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    os.environ.setdefault("RAY_worker_niceness", "0")
     import ray
 
     t0 = time.perf_counter()

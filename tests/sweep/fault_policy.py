@@ -40,3 +40,10 @@ class DiesOnce(StraightToGoal):
                 pass  # a marker that cannot be written: the worker dies every time
             os._exit(137)
         return super().act(observation)
+
+
+def value_or_death(_payload, i: int, deadly: tuple[int, ...]) -> int:
+    """An executor task: returns ``i``, or kills its worker process when ``i`` is in ``deadly``."""
+    if i in deadly:
+        os._exit(137)
+    return i

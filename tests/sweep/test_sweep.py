@@ -253,6 +253,23 @@ def test_a_killed_worker_is_retried_and_results_equal_an_undisturbed_run(tmp_pat
     assert len(set(episodes)) == len(episodes) == 24  # invisible + visible, no duplicates
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_local_executor_charges_a_death_to_its_task_only_and_loses_nothing(workers):
+    from socialnav.sweep.executors import Task, TaskFailed
+    from tests.sweep.fault_policy import value_or_death
+
+    deadly = (2, 5)
+    tasks = [Task(f"t{i}", value_or_death, (i, deadly)) for i in range(8)]
+    got = {task.key: result for task, result in LocalExecutor(workers, retries=1).run(tasks)}
+    assert sorted(got) == sorted(t.key for t in tasks)  # every task comes back, once
+    for i in range(8):
+        if i in deadly:
+            assert isinstance(got[f"t{i}"], TaskFailed) and got[f"t{i}"].attempts == 2
+            assert "died 2 times, run alone" in got[f"t{i}"].message
+        else:  # shared the pool with a dying task, yet never charged for it
+            assert got[f"t{i}"] == i
+
+
 def test_a_task_that_keeps_failing_is_reported_not_dropped(tmp_path, capsys):
     preset = small_preset(tmp_path)
     path = write_sweep(

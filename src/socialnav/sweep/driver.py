@@ -20,7 +20,6 @@ because each chunk is simulated on its own exactly as ``socialnav evaluate`` sim
 
 from __future__ import annotations
 
-import contextlib
 import json
 import pickle
 import sys
@@ -67,8 +66,17 @@ class _EvalJob:
     stamp: str
     extra: dict[str, Any]
     todo: list
+    lock: Any = None  # the job directory's DirectoryLock, held while chunks land
     computed: int = 0
     failed: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.pending = len(self.todo)
+
+    def release(self) -> None:
+        if self.lock is not None:
+            self.lock.__exit__(None, None, None)
+            self.lock = None
 
 
 def run_sweep(
@@ -159,11 +167,12 @@ def _run_evaluations(
 
     jobs: list[_EvalJob] = []
     tasks: list[Task] = []
-    with contextlib.ExitStack() as locks:
+    summaries: dict[str, list[dict[str, Any]]] = {}
+    try:
         for job in spec.evaluate_jobs:
             key = f"evaluate/{job.name}"
             try:
-                ev = _prepare(job, out, locks)
+                ev = _prepare(job, out)
             except _JobRefused as err:
                 statuses[key] = {"status": "failed", "dir": f"evaluate/{job.name}", "error": str(err)}
                 failures.append({"job": key, "task": key, "error": str(err), "attempts": 0})
@@ -176,6 +185,9 @@ def _run_evaluations(
             f"evaluation: {len(jobs)} job(s), {len(tasks)} chunk(s) ({total} episodes) to compute "
             f"on {executor.name}"
         )
+        for ev in jobs:
+            if not ev.todo:  # resumed whole
+                summaries[ev.job.name] = _conclude(ev, statuses)
         bar = _progress(total, progress)
         try:
             for task, result in executor.run(tasks):
@@ -192,51 +204,60 @@ def _run_evaluations(
                         }
                     )
                     say(f"{task.key}: FAILED: {result.message}")
-                    continue
-                _reissue(result["notes"])
-                if result["trajectories"] is not None:
-                    data = result["trajectories"]
-                    atomic_write(
-                        trajectory_path(ev.dir, cell, a, b),
-                        lambda tmp, data=data: Path(tmp).write_bytes(data),
+                else:
+                    _reissue(result["notes"])
+                    if result["trajectories"] is not None:
+                        data = result["trajectories"]
+                        atomic_write(
+                            trajectory_path(ev.dir, cell, a, b),
+                            lambda tmp, data=data: Path(tmp).write_bytes(data),
+                        )
+                    atomic_write_rows_parquet(
+                        chunk_path(ev.dir, cell, a, b), result["rows"], {CHUNK_STAMP_KEY: ev.stamp}
                     )
-                atomic_write_rows_parquet(
-                    chunk_path(ev.dir, cell, a, b), result["rows"], {CHUNK_STAMP_KEY: ev.stamp}
-                )
-                _log_task(task_log, task, result)  # after the chunk landed: a logged chunk is never redone
-                ev.computed += b - a
-                bar.update(b - a)
+                    # logged after the chunk landed: a logged chunk is never computed again
+                    _log_task(task_log, task, result)
+                    ev.computed += b - a
+                    bar.update(b - a)
+                ev.pending -= 1
+                if ev.pending == 0:
+                    # The job's summary and tables are written while the workers go on with other jobs.
+                    summaries[ev.job.name] = _conclude(ev, statuses)
         finally:
             bar.close()
-    # The job directories are unlocked now: finishing a job is `run_protocol` on a complete directory,
-    # which only verifies the chunk files and writes the summary and tables.
-    summary: list[dict[str, Any]] = []
-    for ev in jobs:
-        key = f"evaluate/{ev.job.name}"
-        if ev.failed:
-            statuses[key] = {
-                "status": "failed",
-                "dir": f"evaluate/{ev.job.name}",
-                "error": f"{len(ev.failed)} chunk(s) failed (failures.json); rerun to retry them",
-                "episodes_computed": ev.computed,
-            }
-            continue
-        result = _finish(ev)
-        summary.extend(result.summary)
+    finally:
+        for ev in jobs:
+            ev.release()
+    return [row for ev in jobs for row in summaries.get(ev.job.name, [])]
+
+
+def _conclude(ev: _EvalJob, statuses: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """Marks a job whose chunks all came back done (its summary rows) or failed (none)."""
+    key = f"evaluate/{ev.job.name}"
+    ev.release()  # finishing is `run_protocol` on the directory, which takes the lock itself
+    if ev.failed:
         statuses[key] = {
-            "status": "done",
+            "status": "failed",
             "dir": f"evaluate/{ev.job.name}",
+            "error": f"{len(ev.failed)} chunk(s) failed (failures.json); rerun to retry them",
             "episodes_computed": ev.computed,
-            "episodes": len(result.rows),
         }
-    return summary
+        return []
+    result = _finish(ev)
+    statuses[key] = {
+        "status": "done",
+        "dir": f"evaluate/{ev.job.name}",
+        "episodes_computed": ev.computed,
+        "episodes": len(result.rows),
+    }
+    return result.summary
 
 
 class _JobRefused(Exception):
     """An evaluation job that cannot start (its training failed, its checkpoint is refused …)."""
 
 
-def _prepare(job: Job, out: Path, locks: contextlib.ExitStack) -> _EvalJob:
+def _prepare(job: Job, out: Path) -> _EvalJob:
     """Builds the job's policy, writes or checks its manifest and lists the chunks still to compute."""
     from socialnav.evaluate.multi import file_sha256
     from socialnav.evaluate.plan import plan_cells
@@ -274,19 +295,27 @@ def _prepare(job: Job, out: Path, locks: contextlib.ExitStack) -> _EvalJob:
     manifest = protocol_manifest(policy, preset, cells, job.name, batch_size, trajectories, extra)
     job_dir = out / "evaluate" / job.name
     make_output_dir(job_dir)
-    locks.enter_context(DirectoryLock(job_dir, "evaluation"))
-    remove_orphan_temporaries(job_dir)
-    from socialnav.evaluate.runner import ResumeMismatchError
-
+    lock = DirectoryLock(job_dir, "evaluation").__enter__()
     try:
-        check_or_write_manifest(job_dir, manifest)
-    except ResumeMismatchError as err:
-        raise _JobRefused(str(err)) from None
-    chunk = preset.evaluation.chunk_size
-    expected = {chunk_path(job_dir, c, a, b): (c, a, b) for c in cells for a, b in c.chunks(chunk)}
-    refuse_foreign_chunks(job_dir, expected)
-    todo = [(c, a, b) for (c, a, b) in expected.values() if not chunk_done(job_dir, c, a, b, trajectories)]
-    return _EvalJob(job, job_dir, policy, preset, checkpoint, cells, manifest_stamp(manifest), extra, todo)
+        remove_orphan_temporaries(job_dir)
+        from socialnav.evaluate.runner import ResumeMismatchError
+
+        try:
+            check_or_write_manifest(job_dir, manifest)
+        except ResumeMismatchError as err:
+            raise _JobRefused(str(err)) from None
+        chunk = preset.evaluation.chunk_size
+        expected = {chunk_path(job_dir, c, a, b): (c, a, b) for c in cells for a, b in c.chunks(chunk)}
+        refuse_foreign_chunks(job_dir, expected)
+        todo = [
+            (c, a, b) for (c, a, b) in expected.values() if not chunk_done(job_dir, c, a, b, trajectories)
+        ]
+    except BaseException:
+        lock.__exit__(None, None, None)
+        raise
+    return _EvalJob(
+        job, job_dir, policy, preset, checkpoint, cells, manifest_stamp(manifest), extra, todo, lock
+    )
 
 
 def _chunk_tasks(ev: _EvalJob, spec: SweepSpec) -> list[Task]:

@@ -51,50 +51,68 @@ class LocalExecutor:
         return {"executor": self.name, "workers": self.workers, "retries": self.retries}
 
     def run(self, tasks: Iterable[Task]) -> Iterator[tuple[Task, Any]]:
+        """Tasks in flight when a worker dies are *suspects*: each is run again alone, so that a death
+        is charged to the task that caused it, never to the ones that shared the pool with it."""
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
         queue = deque(tasks)
+        suspects: deque[Task] = deque()
         attempts: Counter[str] = Counter()
         pending: dict[Any, Task] = {}
+        solo: Task | None = None  # the suspect running alone, if any
         pool = _process_pool(self.workers)
         try:
-            while queue or pending:
-                # A few tasks in flight per worker: a dying worker takes only those with it.
-                while queue and len(pending) < 2 * self.workers:
-                    task = queue.popleft()
-                    pending[pool.submit(task.fn, task.payload, *task.args)] = task
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            while queue or suspects or pending:
                 broken = False
+                try:
+                    # A task leaves its queue only once submitted: submit raises on a broken pool.
+                    if suspects and not pending:
+                        solo = suspects[0]
+                        future = pool.submit(solo.fn, solo.payload, *solo.args)
+                        pending[future] = suspects.popleft()
+                    elif not suspects:
+                        # A few tasks in flight per worker: a dying worker takes only those with it.
+                        while queue and len(pending) < 2 * self.workers:
+                            task = queue[0]
+                            future = pool.submit(task.fn, task.payload, *task.args)
+                            pending[future] = queue.popleft()
+                except BrokenProcessPool:  # a worker died while tasks were being handed out
+                    broken = True
+                    solo = None
+                done, _ = wait(pending, return_when=FIRST_COMPLETED) if pending else (set(), set())
                 for future in done:
                     task = pending.pop(future)
                     try:
                         result = future.result()
                     except BrokenProcessPool:
                         broken = True
-                        attempts[task.key] += 1
-                        if attempts[task.key] > self.retries:
-                            yield (
-                                task,
-                                TaskFailed(
-                                    f"its worker process died {attempts[task.key]} times", attempts[task.key]
-                                ),
-                            )
+                        if task is solo:
+                            attempts[task.key] += 1
+                            if attempts[task.key] > self.retries:
+                                yield task, TaskFailed(
+                                    f"its worker process died {attempts[task.key]} times, run alone",
+                                    attempts[task.key],
+                                )
+                            else:
+                                suspects.appendleft(task)
                         else:
-                            queue.appendleft(task)
+                            suspects.append(task)
                     except Exception as err:
                         yield task, TaskFailed(_one_line(err), attempts[task.key] + 1)
                     else:
                         yield task, result
+                    if task is solo:
+                        solo = None
                 if broken:
-                    # Every task still in the broken pool fails too: collect them, then start afresh.
+                    # Every task still in the broken pool fails too: they become suspects, then the
+                    # pool starts afresh.
                     for future in list(pending):
                         task = pending.pop(future)
                         try:
                             result = future.result()
                         except BrokenProcessPool:
-                            attempts[task.key] += 1
-                            queue.appendleft(task)
+                            suspects.append(task)
                         except Exception as err:
                             yield task, TaskFailed(_one_line(err), attempts[task.key] + 1)
                         else:
@@ -174,8 +192,11 @@ class RayExecutor:
                 "log_to_driver": False,
             }
             if self.address is None:
-                # An instance for this machine alone: on loopback, reachable from nowhere else.
+                # An instance for this machine alone: on loopback, reachable from nowhere else; its
+                # workers at normal priority (Ray's default, nice 15, lets any other process, this
+                # driver included, starve the sweep's own work).
                 kwargs.update(num_cpus=self.workers or (os.cpu_count() or 1), _node_ip_address="127.0.0.1")
+                os.environ.setdefault("RAY_worker_niceness", "0")
             ray.init(address=self.address, **kwargs)
         remote = ray.remote(_call).options(
             num_cpus=self.cpus_per_task, max_retries=self.retries, retry_exceptions=False
