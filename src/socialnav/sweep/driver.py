@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import json
 import pickle
-import sys
 import time
 import warnings
 from collections.abc import Callable
@@ -160,6 +159,7 @@ def _run_evaluations(
 ) -> list[dict[str, Any]]:
     from socialnav.evaluate.runner import (
         CHUNK_STAMP_KEY,
+        _progress,
         _reissue,
         chunk_path,
         trajectory_path,
@@ -188,7 +188,8 @@ def _run_evaluations(
         for ev in jobs:
             if not ev.todo:  # resumed whole
                 summaries[ev.job.name] = _conclude(ev, statuses)
-        bar = _progress(total, progress)
+        bar = _progress(total, 0, progress)
+        bar.set_description("sweep")
         try:
             for task, result in executor.run(tasks):
                 ev, cell, a, b = task.meta["ev"], task.meta["cell"], task.meta["a"], task.meta["b"]
@@ -368,17 +369,3 @@ def _finish(ev: _EvalJob):
             workers=0,
             trajectories=bool(ev.job.get("trajectories", True)),
         )
-
-
-def _progress(total: int, enabled: bool):
-    from tqdm.auto import tqdm
-
-    return tqdm(
-        total=total,
-        unit="ep",
-        disable=not enabled,
-        file=sys.stderr,
-        leave=False,
-        dynamic_ncols=True,
-        desc="sweep",
-    )

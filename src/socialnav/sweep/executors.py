@@ -130,17 +130,10 @@ class LocalExecutor:
 
 
 def _process_pool(workers: int):
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+    # The evaluation runner's pool: forkserver workers that die with this process (evaluate/lifeline.py).
+    from socialnav.evaluate.runner import _scoring_pool
 
-    from socialnav.evaluate import lifeline
-
-    lifeline.start_forkserver()
-    return ProcessPoolExecutor(
-        max_workers=workers,
-        mp_context=multiprocessing.get_context("forkserver"),
-        initializer=lifeline.worker_init,
-    )
+    return _scoring_pool(workers)
 
 
 class RayExecutor:
