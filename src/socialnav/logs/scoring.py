@@ -252,6 +252,7 @@ def score_trajectories(
     goal_tolerance: float | None = None,
     params: Any = None,
     label: str | None = None,
+    summarize: bool = True,
 ) -> LogScores:
     """Score trajectories, check logged outcomes, summarise per scene and over all of them.
 
@@ -262,6 +263,8 @@ def score_trajectories(
         goal_tolerance: See :func:`outcome_problems`.
         params: Metric parameter overrides, as for ``score_episode``.
         label: Name of the scored agents in summaries (default ``human-as-robot`` or ``robot``).
+        summarize: False leaves ``summaries`` empty (a worker scoring part of a file: the caller
+            summarises all rows once).
     """
     from socialnav.metrics import score_episode, walking_speed_note
     from socialnav.metrics.score import UnknownOutcomeWarning
@@ -295,7 +298,8 @@ def score_trajectories(
         warnings.warn(problem, DataWarning, stacklevel=2)
     modes = {r["mode"] for r in rows}
     label = label or ("human-as-robot" if modes == {"human_as_robot"} else "robot")
-    return LogScores(rows=rows, summaries=summarize_scores(rows, label), notes=notes, warnings=problems)
+    summaries = summarize_scores(rows, label) if summarize else []
+    return LogScores(rows=rows, summaries=summaries, notes=notes, warnings=problems)
 
 
 def summarize_scores(rows: Sequence[dict[str, Any]], label: str) -> list[dict[str, Any]]:
@@ -388,7 +392,7 @@ def _score_chunk(path: str, keys: list[Any], require_success: bool, goal_toleran
         for tr in trajs:
             tr.settings.setdefault("source", path)
         scores = score_trajectories(trajs, require_success=require_success, goal_tolerance=goal_tolerance,
-                                    params=params)
+                                    params=params, summarize=False)
     notes = [str(w.message) for w in caught if not issubclass(w.category, DataWarning)]
     return scores.rows, notes, scores.warnings
 

@@ -124,14 +124,13 @@ def column_stats(
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = filled.sum(axis=0) / count
         var = (np.where(valid, values - mean, 0.0) ** 2).sum(axis=0) / (count - 1)
-        weights = (
-            rng.multinomial(n, np.full(n, 1.0 / n), size=n_boot).astype(float) if n else np.zeros((n_boot, 0))
-        )
-        boot = (weights @ filled) / (weights @ valid.astype(float))  # (n_boot, K): resampled means
     lo = np.full(k, np.nan)
     hi = np.full(k, np.nan)
     some = count > 1
-    if some.any():
+    if some.any():  # no resampling where no column has two values (e.g. the summary of one episode)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            weights = rng.multinomial(n, np.full(n, 1.0 / n), size=n_boot).astype(float)
+            boot = (weights @ filled) / (weights @ valid.astype(float))  # (n_boot, K): resampled means
         with np.errstate(invalid="ignore"):
             q = np.nanpercentile(boot[:, some], [50 * (1 - confidence), 50 * (1 + confidence)], axis=0)
         lo[some], hi[some] = q[0], q[1]
