@@ -15,7 +15,7 @@ after step K + m + 1, at time (K + m + 1)·dt, with the robot parked at its goal
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -71,7 +71,7 @@ def _frozen_array(value: Any, name: str, shape: tuple[int | None, ...]) -> np.nd
 
 
 def _require_finite(arr: np.ndarray, name: str) -> None:
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
         raise ValueError(f"Trajectory.{name}: non-finite value {arr[bad]!r} at index {bad}")
 
@@ -152,9 +152,9 @@ class Trajectory:
             arr = _frozen_array(getattr(self, name), name, (n_agents,))
             if name == "radii":
                 _require_finite(arr, name)
-            elif np.any(np.isinf(arr)):  # v_pref: NaN means unknown, inf is an error
+            elif np.isinf(arr).any():  # v_pref: NaN means unknown, inf is an error
                 _require_finite(arr[~np.isnan(arr)], name)
-            if np.any(arr < 0.0):
+            if (arr < 0.0).any():
                 raise ValueError(f"Trajectory.{name}: must be >= 0, got {arr.tolist()}")
             set_(self, name, arr)
         goals = _frozen_array(self.goals, "goals", (n_agents, 2))
@@ -172,7 +172,7 @@ class Trajectory:
             raise ValueError(f"Trajectory.outcome: must be one of {OUTCOMES}, got {self.outcome!r}")
         if self.min_clearance is not None:
             mc = _frozen_array(self.min_clearance, "min_clearance", (n_samples - 1,))
-            if np.any(np.isnan(mc)):
+            if np.isnan(mc).any():
                 raise ValueError("Trajectory.min_clearance: contains NaN")
             set_(self, "min_clearance", mc)
         if self.continuation is not None:
@@ -254,7 +254,21 @@ class Trajectory:
         Returns:
             [m/s], shape (K, A, 2); row k−1 holds v_k.
         """
-        return np.diff(self.positions, axis=0) / self.dt
+        return self.derived("executed_velocities", lambda: np.diff(self.positions, axis=0) / self.dt)
+
+    def derived(self, name: str, compute: Callable[[], Any]) -> Any:
+        """``compute()`` once per trajectory, then the stored result (read-only when an array).
+
+        Several metrics (and several settings of one) start from the same derived arrays; a
+        trajectory never changes after construction, so they are computed once.
+        """
+        cache = self.__dict__.setdefault("_derived", {})
+        if name not in cache:
+            value = compute()
+            if isinstance(value, np.ndarray):
+                value.setflags(write=False)
+            cache[name] = value
+        return cache[name]
 
     @classmethod
     def from_positions(

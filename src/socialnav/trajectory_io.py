@@ -257,6 +257,7 @@ class _Table:
                 f"{path}: missing required column(s) {missing}; columns present: {table.column_names}"
             )
         self.cols: dict[str, np.ndarray] = {}
+        self._codes: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         for name in table.column_names:
             if name not in REQUIRED_COLUMNS + OPTIONAL_COLUMNS:
                 continue  # extra columns are allowed and ignored
@@ -276,9 +277,40 @@ class _Table:
                 values = np.asarray(enc.dictionary.to_pylist() + [None], dtype=object)
                 idx = enc.indices.fill_null(len(values) - 1).to_numpy()
                 arr = values[idx]
+                self._codes[name] = (idx.astype(np.int64), values)
             else:
                 arr = np.asarray(col.to_pylist(), dtype=object)
             self.cols[name] = arr
+
+    def codes(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """An object column as (integer code per row, distinct values): equal codes are equal values.
+
+        Per-episode checks compare codes instead of Python objects, for every episode of the file.
+        Each distinct value gets one code (a NaN object only equals itself, as with ``==``).
+        """
+        if name not in self._codes:
+            lookup: dict[Any, int] = {}
+            values: list[Any] = []
+            codes = np.empty(len(self.cols[name]), dtype=np.int64)
+            for i, v in enumerate(self.cols[name]):
+                code = lookup.get(v)
+                if code is None:
+                    code = lookup[v] = len(values)
+                    values.append(v)
+                codes[i] = code
+            distinct = np.empty(len(values), dtype=object)
+            distinct[:] = values
+            self._codes[name] = (codes, distinct)
+        return self._codes[name]
+
+    def continuation_state(self) -> np.ndarray:
+        """Per row: 1 continuation, 0 main sample, -1 neither (not a boolean or 'true'/'false')."""
+        if "_continuation" not in self._codes:
+            codes, values = self.codes("continuation")
+            state = np.array([1 if (v == True or v == "true") else 0 if (v == False or v == "false")  # noqa: E712
+                              else -1 for v in values], dtype=np.int8)
+            self._codes["_continuation"] = (state[codes], values)
+        return self._codes["_continuation"][0]
 
     def fail(self, column: str, row_index: int | None, message: str) -> TrajectoryFormatError:
         if row_index is not None and self.row_map is not None:
@@ -373,48 +405,47 @@ def _fast_episode(tab: _Table, rows: np.ndarray, agents: np.ndarray, key: Any, d
     n_samples = len(rows) // n_agents
     grid_agents = ep_agents.reshape(n_samples, n_agents)
     ids = grid_agents[0]
-    if not (np.all(grid_agents == ids) and np.all(np.diff(ids) > 0)):
+    if not ((grid_agents == ids).all() and (ids[1:] > ids[:-1]).all()):
         return None
     t = cols["t"][rows].reshape(n_samples, n_agents)
-    if not np.all(t == t[:, :1]):
+    if not (t == t[:, :1]).all():
         return None
     cont = np.zeros(n_samples, dtype=bool)
     if "continuation" in cols:
-        raw = cols["continuation"][rows].reshape(n_samples, n_agents)
-        flags = (raw == True) | (raw == "true")  # noqa: E712 - object array of bools/strings
-        if not np.all((flags | (raw == False) | (raw == "false")) == True):  # noqa: E712
+        state = tab.continuation_state()[rows].reshape(n_samples, n_agents)
+        if (state < 0).any() or not (state == state[:, :1]).all():
             return None
-        if not np.all(flags == flags[:, :1]):
-            return None
-        cont = flags[:, 0].astype(bool)
+        cont = state[:, 0] == 1
     n_main = int(np.count_nonzero(~cont))
-    if n_main < 2 or np.any(cont[:n_main]):
+    if n_main < 2 or cont[:n_main].any():
         return None
     t_main = t[:n_main, 0]
     steps = np.diff(t_main)
     dt = float(dt_arg) if dt_arg is not None else float(f"{(t_main[-1] - t_main[0]) / steps.size:.12g}")
-    if not (dt > 0 and np.all(np.abs(steps - dt) <= _DT_RTOL * dt)):
+    if not (dt > 0 and (np.abs(steps - dt) <= _DT_RTOL * dt).all()):
         return None
     if n_main < n_samples:
         expected = t_main[-1] + dt * np.arange(1, n_samples - n_main + 1)
-        if np.any(np.abs(t[n_main:, 0] - expected) > _DT_RTOL * dt * np.arange(1, n_samples - n_main + 1)):
+        if (np.abs(t[n_main:, 0] - expected) > _DT_RTOL * dt * np.arange(1, n_samples - n_main + 1)).any():
             return None
     per_agent = {}
     for name in ("radius", "gx", "gy", "v_pref", "arrival_t"):
         if name not in cols:
             continue
         v = cols[name][rows].reshape(n_samples, n_agents)
-        if not np.all((v == v[:1]) | (np.isnan(v) & np.isnan(v[:1]))):
+        first = v[:1]
+        if not ((v == first) | (np.isnan(v) & np.isnan(first))).all():
             return None
         per_agent[name] = v[0]
     for name in ("role", "outcome", "human_overlaps"):
         if name in cols:
-            v = cols[name][rows].reshape(n_samples, n_agents)
-            if not np.all(v == v[:1]):
+            c = tab.codes(name)[0][rows].reshape(n_samples, n_agents)
+            if not (c == c[:1]).all():
                 return None
     if "role" in cols:
         want = np.array(["robot"] + ["human"] * (n_agents - 1), dtype=object)
-        if not np.all((cols["role"][rows[:n_agents]] == want) | (cols["role"][rows[:n_agents]] == None)):  # noqa: E711
+        first_roles = cols["role"][rows[:n_agents]]
+        if not ((first_roles == want) | (first_roles == None)).all():  # noqa: E711
             return None
     outcome = "unknown"
     if "outcome" in cols:
@@ -424,16 +455,17 @@ def _fast_episode(tab: _Table, rows: np.ndarray, agents: np.ndarray, key: Any, d
     pos = np.stack([cols["x"][rows], cols["y"][rows]], axis=1).reshape(n_samples, n_agents, 2)
     if "vx" in cols and "vy" in cols:
         vel = np.stack([cols["vx"][rows], cols["vy"][rows]], axis=1).reshape(n_samples, n_agents, 2)[:n_main]
-        if not np.all(np.isfinite(vel)):
+        if not np.isfinite(vel).all():
             return None
     else:
         vel = _velocities([{"vel": None}], pos[:n_main], dt)
     min_clearance = None
     if "min_clearance" in cols:
         mc = cols["min_clearance"][rows].reshape(n_samples, n_agents)[1:n_main, 0]
-        if np.any(np.isnan(mc)) and not np.all(np.isnan(mc)):
+        missing = np.isnan(mc)
+        if missing.any() and not missing.all():
             return None
-        min_clearance = None if np.all(np.isnan(mc)) else mc
+        min_clearance = None if missing.all() else mc
     overlaps = None
     if "human_overlaps" in cols:
         ho = cols["human_overlaps"][rows[0]]

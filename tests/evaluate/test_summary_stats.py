@@ -2,8 +2,10 @@
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from socialnav.evaluate.summary import summarize_episodes
+from socialnav.evaluate.summary import summarize_episodes, summarize_group
 from socialnav.metrics.aggregate import column_stats
 
 
@@ -48,3 +50,23 @@ def test_bootstrap_is_deterministic_and_order_independent():
         assert key[s]["success_rate_ci_low"] == key_b[s]["success_rate_ci_low"]
     assert key["pooled"]["episodes"] == 100
     assert key["pooled"]["success_rate"] == pytest.approx(2 / 3, abs=0.01)
+
+
+@given(st.lists(st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64), st.none()),
+                min_size=1, max_size=6))
+def test_one_episode_group_equals_column_stats(values):
+    """The one-row shortcut of summarize_group gives column_stats' numbers (scenes of one episode)."""
+    keys = [f"m{j}" for j in range(len(values))] + ["success", "navigation_time"]
+    row = {"policy": "p", "scenario": "s", "visibility": "-", "index": 0,
+           **dict(zip(keys, values + [1.0, values[0]], strict=False))}
+    out = summarize_group(("p", "s", "-"), [row])
+    column = np.array([[np.nan if row[k] is None else row[k] for k in keys]])
+    stats = column_stats(column, np.random.default_rng(0))
+    for j, k in enumerate(keys):
+        if k == "success":
+            assert out["success_rate"] == out["success_rate_ci_low"] == out["success_rate_ci_high"] == 1.0
+            continue
+        for name in ("mean", "std", "ci_low", "ci_high", "n"):
+            expected, got = stats[name][j], out[f"{k}.{name}"]
+            assert (np.isnan(expected) and np.isnan(got)) or expected == got, (k, name, expected, got)
+        assert isinstance(out[f"{k}.n"], int)

@@ -12,6 +12,8 @@ seeded by the group's name so that a result never depends on the order groups ar
 
 from __future__ import annotations
 
+import functools
+import math
 import zlib
 from collections.abc import Sequence
 from typing import Any
@@ -64,25 +66,52 @@ def summarize_group(
     if pooled_over:
         out["pooled_over"] = ",".join(pooled_over)
     metric_keys = [k for k in rows[0] if k not in ID_COLUMNS]
-    values = np.array([[_as_float(r.get(k)) for k in metric_keys] for r in rows]).reshape(n, len(metric_keys))
-    stats = column_stats(
-        values, np.random.default_rng(zlib.crc32("|".join(key).encode())), N_BOOT, CONFIDENCE
-    )
-    for j, k in enumerate(metric_keys):
-        col = {name: stat[j] for name, stat in stats.items()}
-        if k in RATE_KEYS:
-            name = RATE_KEYS[k]
-            out[name] = col["mean"]
-            out[f"{name}_ci_low"], out[f"{name}_ci_high"] = col["ci_low"], col["ci_high"]
-            continue
-        if k == NAV_TIME_KEY:
-            out["nav_time_s"], out["nav_time_s_std"] = col["mean"], col["std"]
-        for stat, value in col.items():
-            out[f"{k}.{stat}"] = int(value) if stat == "n" else float(value)
+    if n == 1:  # one episode (e.g. a scene of a log): the statistics need no arrays
+        columns = [_single_value_stats(_as_float(rows[0].get(k))) for k in metric_keys]
+    else:
+        values = np.array([[_as_float(r.get(k)) for k in metric_keys] for r in rows]).reshape(
+            n, len(metric_keys))
+        stats = column_stats(
+            values, np.random.default_rng(zlib.crc32("|".join(key).encode())), N_BOOT, CONFIDENCE
+        )
+        columns = list(zip(*(stats[name].tolist() for name in _STAT_NAMES), strict=True))
+    names, picks = _layout(tuple(metric_keys))
+    out.update(zip(names, [int(columns[j][i]) if i == 4 else columns[j][i] for j, i in picks], strict=True))
     if any("side" in r for r in rows):
         side = summarize_side_preference([r.get("side", "unlabelled") for r in rows], scenario)
         out.update({f"m6_{k}": v for k, v in side.items()})
     return out
+
+
+_STAT_NAMES = ("mean", "std", "ci_low", "ci_high", "n")  # the order of column_stats' outputs
+
+
+@functools.lru_cache(maxsize=256)
+def _layout(metric_keys: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[tuple[int, int], ...]]:
+    """Summary column names and, for each, (metric column, statistic) it takes: outcome rates as
+    ``success_rate`` with its CI, navigation time also as ``nav_time_s``/``nav_time_s_std``, every
+    other key as ``<key>.mean/.std/.ci_low/.ci_high/.n``. Built once per set of keys."""
+    names: list[str] = []
+    picks: list[tuple[int, int]] = []
+    for j, k in enumerate(metric_keys):
+        if k in RATE_KEYS:
+            name = RATE_KEYS[k]
+            names += [name, f"{name}_ci_low", f"{name}_ci_high"]
+            picks += [(j, 0), (j, 2), (j, 3)]
+            continue
+        if k == NAV_TIME_KEY:
+            names += ["nav_time_s", "nav_time_s_std"]
+            picks += [(j, 0), (j, 1)]
+        names += [f"{k}.{stat}" for stat in _STAT_NAMES]
+        picks += [(j, i) for i in range(len(_STAT_NAMES))]
+    return tuple(names), tuple(picks)
+
+
+def _single_value_stats(value: float) -> tuple[float, float, float, float, int]:
+    """What :func:`column_stats` gives for one value: itself, no spread, a point interval."""
+    if math.isfinite(value):
+        return value, math.nan, value, value, 1
+    return math.nan, math.nan, math.nan, math.nan, 0
 
 
 def _as_float(value: Any) -> float:

@@ -40,10 +40,15 @@ def robot_human_distance(traj: Trajectory, distance: str = "clearance") -> np.nd
         distance: "clearance" (|p^h − p^r| − r_h − r_r) or "centre" (|p^h − p^r|).
 
     Returns:
-        [m], shape (K, H) with H = number of humans (H = 0 gives shape (K, 0)).
+        [m], shape (K, H) with H = number of humans (H = 0 gives shape (K, 0)); read-only, computed
+        once per trajectory and setting.
     """
     if distance not in ("clearance", "centre"):
         raise ValueError(f"distance must be 'clearance' or 'centre', got {distance!r}")
+    return traj.derived(f"robot_human_distance:{distance}", lambda: _robot_human_distance(traj, distance))
+
+
+def _robot_human_distance(traj: Trajectory, distance: str) -> np.ndarray:
     pos = traj.positions[1:]
     d = np.linalg.norm(pos[:, 1:] - pos[:, :1], axis=-1)
     if distance == "clearance":

@@ -154,19 +154,31 @@ def rectangle_overlap_flags(pos_a: np.ndarray, vel_a: np.ndarray, r_a: np.ndarra
     """
     if anchor not in ("rear", "front"):
         raise ValueError(f"anchor must be 'rear' or 'front', got {anchor!r}")
+    return _frames_overlap(_motion_frame(pos_a, vel_a), np.asarray(r_a, dtype=float), _motion_frame(pos_b, vel_b),
+                           np.asarray(r_b, dtype=float), tau, anchor, tol)
 
-    def frame(p, v, r):
-        speed = np.sqrt(v[..., 0] ** 2 + v[..., 1] ** 2)
-        valid = speed > STOPPED_SPEED
-        safe = np.where(valid, speed, 1.0)
-        ux, uy = v[..., 0] / safe, v[..., 1] / safe
+
+def _motion_frame(p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(x, y, u_x, u_y, |v|, moving) of agents: what a velocity rectangle needs besides τ and r."""
+    speed = np.sqrt(v[..., 0] ** 2 + v[..., 1] ** 2)
+    valid = speed > STOPPED_SPEED
+    safe = np.where(valid, speed, 1.0)
+    return p[..., 0], p[..., 1], v[..., 0] / safe, v[..., 1] / safe, speed, valid
+
+
+def _frames_overlap(fa: tuple[np.ndarray, ...], ra: np.ndarray, fb: tuple[np.ndarray, ...], rb: np.ndarray,
+                    tau: float, anchor: str, tol: float) -> np.ndarray:
+    """The separating-axis test of :func:`rectangle_overlap_flags` on precomputed motion frames."""
+    def centre(f, r):
+        px, py, ux, uy, speed, _ = f
         half = 0.5 * tau * speed
         offset = half + (r if anchor == "front" else 0.0)  # rear edge -> centre along u
-        return p[..., 0] + offset * ux, p[..., 1] + offset * uy, ux, uy, half, valid
+        return px + offset * ux, py + offset * uy, half
 
-    ax, ay, aux, auy, ah, a_ok = frame(pos_a, vel_a, np.asarray(r_a, dtype=float))
-    bx, by, bux, buy, bh, b_ok = frame(pos_b, vel_b, np.asarray(r_b, dtype=float))
-    ra, rb = np.asarray(r_a, dtype=float), np.asarray(r_b, dtype=float)
+    ax, ay, ah = centre(fa, ra)
+    bx, by, bh = centre(fb, rb)
+    aux, auy, a_ok = fa[2], fa[3], fa[5]
+    bux, buy, b_ok = fb[2], fb[3], fb[5]
     dx, dy = bx - ax, by - ay
     c = np.abs(aux * bux + auy * buy)  # |u_a·u_b| = |n_a·n_b|
     s = np.abs(aux * buy - auy * bux)  # |u_a·n_b| = |n_a·u_b|
@@ -189,10 +201,14 @@ def projected_path_flags(traj: Trajectory, tau: float = 1.0, anchor: str = "rear
     """
     if traj.n_humans == 0:
         return np.zeros(traj.n_steps, dtype=bool)
-    pos = traj.positions[1:]
-    vel = traj.executed_velocities()
-    hit = rectangle_overlap_flags(pos[:, :1], vel[:, :1], traj.radii[0], pos[:, 1:], vel[:, 1:],
-                                  traj.radii[1:], tau, anchor)  # (K, H)
+    if anchor not in ("rear", "front"):
+        raise ValueError(f"anchor must be 'rear' or 'front', got {anchor!r}")
+    # The frames do not depend on tau: computed once for the three default settings.
+    px, py, ux, uy, speed, valid = traj.derived(
+        "m2_motion_frame", lambda: np.stack(_motion_frame(traj.positions[1:], traj.executed_velocities())))
+    robot = (px[:, :1], py[:, :1], ux[:, :1], uy[:, :1], speed[:, :1], valid[:, :1] > 0)
+    humans = (px[:, 1:], py[:, 1:], ux[:, 1:], uy[:, 1:], speed[:, 1:], valid[:, 1:] > 0)
+    hit = _frames_overlap(robot, traj.radii[0], humans, traj.radii[1:], tau, anchor, TOUCH_TOL)  # (K, H)
     return hit.any(axis=1)
 
 
