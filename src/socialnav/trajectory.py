@@ -379,9 +379,10 @@ def write_trajectories(path: Any, trajs: Any) -> None:
 
 
 def read_trajectories(
-    path: Any, *, resample: bool = False, dt: float | None = None, episodes: list[Any] | None = None
+    path: Any, *, resample: bool = False, dt: float | None = None, episodes: list[Any] | None = None,
+    rows: tuple[int, int] | None = None,
 ) -> list[Trajectory]:
     """Read trajectories from ``path`` (``.parquet`` or ``.csv``); see trajectory_io."""
     from socialnav.trajectory_io import read_trajectories as _read
 
-    return _read(path, resample=resample, dt=dt, episodes=episodes)
+    return _read(path, resample=resample, dt=dt, episodes=episodes, rows=rows)

@@ -200,7 +200,8 @@ def _atomic_write(path: Path, table: Any, suffix: str) -> None:
 class _Table:
     """Columns of the file as NumPy arrays, plus helpers that raise errors naming file/column/row."""
 
-    def __init__(self, path: Path, episodes: list[Any] | None = None) -> None:
+    def __init__(self, path: Path, episodes: list[Any] | None = None,
+                 rows: tuple[int, int] | None = None) -> None:
         import pyarrow as pa
 
         self.path = path
@@ -215,7 +216,9 @@ class _Table:
             from socialnav.evaluate.files import CorruptFileError, read_parquet_verified
 
             try:  # page checksums verified, where the writer stored them
-                if episodes is not None:  # read only the row groups that can hold them (statistics)
+                if rows is not None:  # a block of rows (parallel scoring of a file with contiguous episodes)
+                    table = read_parquet_verified(path)
+                elif episodes is not None:  # read only the row groups that can hold them (statistics)
                     import pyarrow.parquet as pq
 
                     schema = pq.read_schema(path)
@@ -240,7 +243,13 @@ class _Table:
                 raise TrajectoryFormatError(f"{path}: not a readable CSV file ({text[:200]})") from None
         self.meta_settings = meta_settings
         self.row_map = None
-        if episodes is not None and "episode" in table.column_names:
+        if rows is not None:
+            start, stop = rows
+            if not 0 <= start <= stop <= table.num_rows:
+                raise ValueError(f"{path}: rows {rows} outside the file's {table.num_rows} rows")
+            self.row_map = np.arange(start, stop)  # messages keep the file's row numbers
+            table = table.slice(start, stop - start)
+        elif episodes is not None and "episode" in table.column_names:
             # a subset of episodes (parallel scoring); messages keep the file's row numbers
             import pyarrow.compute as pc
 
@@ -269,15 +278,16 @@ class _Table:
                     raise TrajectoryFormatError(f"{path}: column '{name}': not numeric ({exc})") from exc
             elif name in ("agent", "episode") and pa.types.is_integer(col.type) and col.null_count == 0:
                 arr = col.to_numpy()
-            elif name == "continuation" and pa.types.is_boolean(col.type):
-                arr = np.asarray(col.to_numpy(zero_copy_only=False), dtype=object)
-            elif pa.types.is_string(col.type) or pa.types.is_large_string(col.type):
-                # through a dictionary: a few distinct strings repeated over many rows
+            elif (pa.types.is_string(col.type) or pa.types.is_large_string(col.type)
+                  or pa.types.is_boolean(col.type) or pa.types.is_integer(col.type)):
+                # through a dictionary: a few distinct values repeated over many rows; the codes
+                # serve the per-episode equality checks (equal codes are equal values, nulls None)
                 enc = col.combine_chunks().dictionary_encode()
-                values = np.asarray(enc.dictionary.to_pylist() + [None], dtype=object)
-                idx = enc.indices.fill_null(len(values) - 1).to_numpy()
+                values = np.empty(len(enc.dictionary) + 1, dtype=object)
+                values[:] = enc.dictionary.to_pylist() + [None]
+                idx = enc.indices.fill_null(len(values) - 1).to_numpy().astype(np.int64)
                 arr = values[idx]
-                self._codes[name] = (idx.astype(np.int64), values)
+                self._codes[name] = (idx, values)
             else:
                 arr = np.asarray(col.to_pylist(), dtype=object)
             self.cols[name] = arr
@@ -342,7 +352,7 @@ class _Table:
 
 def read_trajectories(
     path: str | os.PathLike[str], *, resample: bool = False, dt: float | None = None,
-    episodes: list[Any] | None = None,
+    episodes: list[Any] | None = None, rows: tuple[int, int] | None = None,
 ) -> list[Trajectory]:
     """Read trajectories from a Parquet or CSV file in the long format.
 
@@ -361,6 +371,8 @@ def read_trajectories(
             on a regular grid, the median of the robot's steps when resampling (both rounded to 12
             significant digits, which recovers a dt written as text exactly).
         episodes: Read only these episode keys (rows keep their file numbers in messages).
+        rows: Read only the file's rows [start, stop) (0-based; whole episodes, as parallel scoring
+            splits a file whose episodes are contiguous); messages keep the file's row numbers.
 
     Returns:
         One Trajectory per episode.
@@ -368,7 +380,7 @@ def read_trajectories(
     Raises:
         TrajectoryFormatError: The file breaks the schema; the message names file, column and row.
     """
-    tab = _Table(Path(path), episodes)
+    tab = _Table(Path(path), episodes, rows)
     for name in ("t", "x", "y", "radius", "gx", "gy"):
         tab.require_finite(name)
     vp = tab.cols["v_pref"]
@@ -397,7 +409,9 @@ def _fast_episode(tab: _Table, rows: np.ndarray, agents: np.ndarray, key: Any, d
     sample-major (as :func:`write_trajectories` does). None means "not that case": the general
     reader then handles it and reports any error precisely."""
     cols = tab.cols
-    ep_agents = agents[rows]
+    # an episode's rows are usually one block of the file: views instead of copies
+    sel = slice(int(rows[0]), int(rows[-1]) + 1) if rows[-1] - rows[0] + 1 == len(rows) else rows
+    ep_agents = agents[sel]
     n_agents = int(np.count_nonzero(ep_agents == ep_agents[0]))
     n_agents = len(rows) // max(n_agents, 1)
     if n_agents < 1 or len(rows) % n_agents or ep_agents[0] != 0:
@@ -407,12 +421,12 @@ def _fast_episode(tab: _Table, rows: np.ndarray, agents: np.ndarray, key: Any, d
     ids = grid_agents[0]
     if not ((grid_agents == ids).all() and (ids[1:] > ids[:-1]).all()):
         return None
-    t = cols["t"][rows].reshape(n_samples, n_agents)
+    t = cols["t"][sel].reshape(n_samples, n_agents)
     if not (t == t[:, :1]).all():
         return None
     cont = np.zeros(n_samples, dtype=bool)
     if "continuation" in cols:
-        state = tab.continuation_state()[rows].reshape(n_samples, n_agents)
+        state = tab.continuation_state()[sel].reshape(n_samples, n_agents)
         if (state < 0).any() or not (state == state[:, :1]).all():
             return None
         cont = state[:, 0] == 1
@@ -432,14 +446,14 @@ def _fast_episode(tab: _Table, rows: np.ndarray, agents: np.ndarray, key: Any, d
     for name in ("radius", "gx", "gy", "v_pref", "arrival_t"):
         if name not in cols:
             continue
-        v = cols[name][rows].reshape(n_samples, n_agents)
+        v = cols[name][sel].reshape(n_samples, n_agents)
         first = v[:1]
         if not ((v == first) | (np.isnan(v) & np.isnan(first))).all():
             return None
         per_agent[name] = v[0]
     for name in ("role", "outcome", "human_overlaps"):
         if name in cols:
-            c = tab.codes(name)[0][rows].reshape(n_samples, n_agents)
+            c = tab.codes(name)[0][sel].reshape(n_samples, n_agents)
             if not (c == c[:1]).all():
                 return None
     if "role" in cols:
@@ -452,16 +466,16 @@ def _fast_episode(tab: _Table, rows: np.ndarray, agents: np.ndarray, key: Any, d
         outcome = cols["outcome"][rows[0]] or "unknown"
         if outcome not in OUTCOMES:
             return None
-    pos = np.stack([cols["x"][rows], cols["y"][rows]], axis=1).reshape(n_samples, n_agents, 2)
+    pos = np.stack([cols["x"][sel], cols["y"][sel]], axis=1).reshape(n_samples, n_agents, 2)
     if "vx" in cols and "vy" in cols:
-        vel = np.stack([cols["vx"][rows], cols["vy"][rows]], axis=1).reshape(n_samples, n_agents, 2)[:n_main]
+        vel = np.stack([cols["vx"][sel], cols["vy"][sel]], axis=1).reshape(n_samples, n_agents, 2)[:n_main]
         if not np.isfinite(vel).all():
             return None
     else:
         vel = _velocities([{"vel": None}], pos[:n_main], dt)
     min_clearance = None
     if "min_clearance" in cols:
-        mc = cols["min_clearance"][rows].reshape(n_samples, n_agents)[1:n_main, 0]
+        mc = cols["min_clearance"][sel].reshape(n_samples, n_agents)[1:n_main, 0]
         missing = np.isnan(mc)
         if missing.any() and not missing.all():
             return None

@@ -362,7 +362,9 @@ def score_file(
     return scores
 
 
-def _episode_keys(path: Path) -> list[Any]:
+def _episode_keys(path: Path) -> tuple[list[Any], np.ndarray | None]:
+    """The file's episode keys in order of first appearance, and where each one's rows start when
+    every episode is one block of rows (then ``starts`` has one more entry, the row count)."""
     import pyarrow as pa
 
     if path.suffix.lower() == ".parquet":
@@ -378,17 +380,24 @@ def _episode_keys(path: Path) -> list[Any]:
         col = col.cast(pa.string())
     values = col.to_numpy(zero_copy_only=False)
     _, first = np.unique(values, return_index=True)
-    return [v.item() if hasattr(v, "item") else v for v in values[np.sort(first)]]
+    first = np.sort(first)
+    keys = [v.item() if hasattr(v, "item") else v for v in values[first]]
+    changes = np.flatnonzero(values[1:] != values[:-1]) + 1 if len(values) else np.zeros(0, dtype=int)
+    contiguous = len(changes) + 1 == len(first) if len(values) else False
+    starts = np.concatenate([[0], changes, [len(values)]]) if contiguous else None
+    return keys, starts
 
 
-def _score_chunk(path: str, keys: list[Any], require_success: bool, goal_tolerance: float | None,
-                 params: Any, load_kwargs: dict[str, Any]) -> tuple[list[dict], list[str], list[str]]:
+def _score_chunk(path: str, keys: list[Any], rows: tuple[int, int] | None, require_success: bool,
+                 goal_tolerance: float | None, params: Any, load_kwargs: dict[str, Any]
+                 ) -> tuple[list[dict], list[str], list[str]]:
     from socialnav.trajectory_io import read_trajectories
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        # a block of rows when the file's episodes are contiguous (a slice), else the keys (a mask)
         trajs = read_trajectories(path, resample=load_kwargs.get("resample", False), dt=load_kwargs.get("dt"),
-                                  episodes=keys)
+                                  episodes=None if rows is not None else keys, rows=rows)
         for tr in trajs:
             tr.settings.setdefault("source", path)
         scores = score_trajectories(trajs, require_success=require_success, goal_tolerance=goal_tolerance,
@@ -402,12 +411,17 @@ def _score_parallel(path: Path, workers: int, require_success: bool, goal_tolera
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    keys = _episode_keys(path)
-    chunks = [list(c) for c in np.array_split(np.array(keys, dtype=object), workers) if len(c)]
+    keys, starts = _episode_keys(path)
+    if not keys:  # nothing to share out: the reader in this process reports the empty file
+        return score_trajectories(load_trajectories(path, **load_kwargs), require_success=require_success,
+                                  goal_tolerance=goal_tolerance, params=params)
+    bounds = [int(b[0]) for b in np.array_split(np.arange(len(keys)), workers) if len(b)] + [len(keys)]
+    chunks = [(keys[a:b], None if starts is None else (int(starts[a]), int(starts[b])))
+              for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
     ctx = multiprocessing.get_context("forkserver")  # pyarrow's threads make a plain fork unsafe
     with ProcessPoolExecutor(max_workers=len(chunks), mp_context=ctx) as pool:
-        futures = [pool.submit(_score_chunk, str(path), c, require_success, goal_tolerance, params,
-                               load_kwargs) for c in chunks]
+        futures = [pool.submit(_score_chunk, str(path), c, rows, require_success, goal_tolerance, params,
+                               load_kwargs) for c, rows in chunks]
         try:
             results = [f.result() for f in futures]
         except (ValueError, KeyError):
