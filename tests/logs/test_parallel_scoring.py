@@ -58,6 +58,26 @@ def test_contiguous_episodes_split_by_rows(episodes_file: Path, workers: int) ->
     assert len(serial.rows) == 7
     assert [r["episode"] for r in parallel.rows] == [r["episode"] for r in serial.rows]
     _same_rows(parallel.rows, serial.rows)
+    _same_rows(parallel.summaries, serial.summaries)  # scenes summarised by the workers
+    assert [s["scope"] for s in serial.summaries] == ["scene"] * 7 + ["dataset"]
+
+
+def test_scenes_across_shares_are_summarised_whole(episodes_file: Path, tmp_path: Path) -> None:
+    """Scenes of three episodes: with two workers the middle scene is split between them, and its
+    summary must still pool all three episodes (as one process does)."""
+    from socialnav.trajectory import read_trajectories as read
+
+    trajs = read(episodes_file)
+    for tr in trajs:
+        tr.settings["scene"] = f"scene-{tr.settings['episode'] // 3}"
+    path = tmp_path / "scenes.parquet"
+    write_trajectories(path, trajs)
+    serial = _score(path, 0)
+    parallel = _score(path, 2)
+    _same_rows(parallel.rows, serial.rows)
+    _same_rows(parallel.summaries, serial.summaries)
+    assert [(s["scenario"], s["episodes"]) for s in parallel.summaries] == [
+        ("scene-0", 3), ("scene-1", 3), ("scene-2", 1), ("dataset", 7)]
 
 
 def test_interleaved_episodes_split_by_keys(episodes_file: Path, tmp_path: Path) -> None:
@@ -79,6 +99,7 @@ def test_interleaved_episodes_split_by_keys(episodes_file: Path, tmp_path: Path)
     parallel = _score(shuffled, 2)
     assert [r["episode"] for r in parallel.rows] == [r["episode"] for r in serial.rows]
     _same_rows(parallel.rows, serial.rows)
+    _same_rows(parallel.summaries, serial.summaries)
     # and the episodes score as they did before the rows were moved
     before = {r["episode"]: {**r, "source": None} for r in _score(episodes_file, 0).rows}
     _same_rows([{**r, "source": None} for r in parallel.rows], [before[r["episode"]] for r in parallel.rows])

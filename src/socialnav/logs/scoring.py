@@ -296,29 +296,41 @@ def score_trajectories(
         warnings.warn(note, AssumedValueWarning if "v_pref" not in note else UserWarning, stacklevel=2)
     for problem in problems:
         warnings.warn(problem, DataWarning, stacklevel=2)
-    modes = {r["mode"] for r in rows}
-    label = label or ("human-as-robot" if modes == {"human_as_robot"} else "robot")
+    label = label or _rows_label(rows)
     summaries = summarize_scores(rows, label) if summarize else []
     return LogScores(rows=rows, summaries=summaries, notes=notes, warnings=problems)
 
 
-def summarize_scores(rows: Sequence[dict[str, Any]], label: str) -> list[dict[str, Any]]:
-    """Per-scene summaries, plus one over the dataset when there are several scenes."""
+def summarize_scores(rows: Sequence[dict[str, Any]], label: str,
+                     scene_summaries: dict[str, dict[str, Any]] | None = None) -> list[dict[str, Any]]:
+    """Per-scene summaries, plus one over the dataset when there are several scenes.
+
+    ``scene_summaries`` holds scenes already summarised (by a worker that had all their rows, with
+    this label); the others are summarised here."""
     from socialnav.evaluate.summary import summarize_group
 
-    by_scene: dict[str, list[dict[str, Any]]] = {}
-    for i, row in enumerate(rows):
-        metric_row = {"policy": label, "scenario": row["scene"], "visibility": "-", "index": i,
-                      "outcome": row["outcome"], **{k: v for k, v in row.items() if k not in ID_KEYS}}
-        by_scene.setdefault(row["scene"], []).append(metric_row)
-    out = []
-    for scene, members in by_scene.items():
-        out.append({"scope": "scene", **summarize_group((label, scene, "-"), members)})
+    by_scene = _metric_rows_by_scene(rows, label)
+    done = scene_summaries or {}
+    out = [done.get(scene) or {"scope": "scene", **summarize_group((label, scene, "-"), members)}
+           for scene, members in by_scene.items()]
     if len(by_scene) > 1:
         everything = [m for members in by_scene.values() for m in members]
         out.append({"scope": "dataset", **summarize_group((label, "dataset", "-"), everything,
                                                           pooled_over=sorted(by_scene))})
     return out
+
+
+def _metric_rows_by_scene(rows: Sequence[dict[str, Any]], label: str) -> dict[str, list[dict[str, Any]]]:
+    by_scene: dict[str, list[dict[str, Any]]] = {}
+    for i, row in enumerate(rows):
+        metric_row = {"policy": label, "scenario": row["scene"], "visibility": "-", "index": i,
+                      "outcome": row["outcome"], **{k: v for k, v in row.items() if k not in ID_KEYS}}
+        by_scene.setdefault(row["scene"], []).append(metric_row)
+    return by_scene
+
+
+def _rows_label(rows: Sequence[dict[str, Any]]) -> str:
+    return "human-as-robot" if {r["mode"] for r in rows} == {"human_as_robot"} else "robot"
 
 
 def score_file(
@@ -390,7 +402,10 @@ def _episode_keys(path: Path) -> tuple[list[Any], np.ndarray | None]:
 
 def _score_chunk(path: str, keys: list[Any], rows: tuple[int, int] | None, require_success: bool,
                  goal_tolerance: float | None, params: Any, load_kwargs: dict[str, Any]
-                 ) -> tuple[list[dict], list[str], list[str]]:
+                 ) -> tuple[list[dict], list[str], list[str], str, dict[str, dict[str, Any]]]:
+    """Score one share of a file; also summarise its scenes (under the label its own rows give),
+    which the caller keeps for every scene that lies wholly in this share."""
+    from socialnav.evaluate.summary import summarize_group
     from socialnav.trajectory_io import read_trajectories
 
     with warnings.catch_warnings(record=True) as caught:
@@ -403,7 +418,10 @@ def _score_chunk(path: str, keys: list[Any], rows: tuple[int, int] | None, requi
         scores = score_trajectories(trajs, require_success=require_success, goal_tolerance=goal_tolerance,
                                     params=params, summarize=False)
     notes = [str(w.message) for w in caught if not issubclass(w.category, DataWarning)]
-    return scores.rows, notes, scores.warnings
+    label = _rows_label(scores.rows) if scores.rows else "robot"
+    summaries = {scene: {"scope": "scene", **summarize_group((label, scene, "-"), members)}
+                 for scene, members in _metric_rows_by_scene(scores.rows, label).items()}
+    return scores.rows, notes, scores.warnings, label, summaries
 
 
 def _score_parallel(path: Path, workers: int, require_success: bool, goal_tolerance: float | None,
@@ -436,6 +454,12 @@ def _score_parallel(path: Path, workers: int, require_success: bool, goal_tolera
         warnings.warn(note, UserWarning, stacklevel=3)
     for problem in problems:
         warnings.warn(problem, DataWarning, stacklevel=3)
-    modes = {r["mode"] for r in rows}
-    label = "human-as-robot" if modes == {"human_as_robot"} else "robot"
-    return LogScores(rows=rows, summaries=summarize_scores(rows, label), notes=notes, warnings=problems)
+    label = _rows_label(rows)
+    # a scene's summary from a worker holds when the worker had all its rows and the same label
+    shares: dict[str, int] = {}
+    for res in results:
+        for scene in res[4]:
+            shares[scene] = shares.get(scene, 0) + 1
+    done = {scene: summary for res in results if res[3] == label
+            for scene, summary in res[4].items() if shares[scene] == 1}
+    return LogScores(rows=rows, summaries=summarize_scores(rows, label, done), notes=notes, warnings=problems)
