@@ -134,12 +134,11 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
     for name, parts in cols.items():
         values = np.concatenate(parts) if parts else np.zeros(0)
         if name == "episode":
-            arrays[name] = pa.array(values.astype(np.int64) if all_int else [str(v) for v in values],
-                                    type=pa.int64() if all_int else pa.string())
+            arrays[name] = (pa.array(values.astype(np.int64)) if all_int else _string_array(values))
         elif name in ("role", "outcome", "settings"):
             if name == "settings" and suffix == ".parquet":
                 continue  # Parquet keeps settings in the file metadata instead
-            arrays[name] = pa.array([str(v) for v in values], type=pa.string())
+            arrays[name] = _string_array(values)
         elif name == "agent":
             arrays[name] = pa.array(values.astype(np.int64))
         elif name == "continuation":
@@ -159,6 +158,19 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
         meta = {"format_version": _FORMAT_VERSION, "settings": settings_json}
         table = table.replace_schema_metadata({_METADATA_KEY: json.dumps(meta).encode()})
     _atomic_write(path, table, suffix)
+
+
+def _string_array(values: np.ndarray) -> Any:
+    """A string column: Arrow converts an object array of str in C; other objects go through str()."""
+    import pyarrow as pa
+
+    try:
+        arr = pa.array(values, type=pa.string())
+        if arr.null_count == 0:  # None is written as the text "None", as str() does
+            return arr
+    except (pa.ArrowTypeError, pa.ArrowInvalid):
+        pass
+    return pa.array([str(v) for v in values], type=pa.string())
 
 
 def _atomic_write(path: Path, table: Any, suffix: str) -> None:

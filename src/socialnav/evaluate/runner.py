@@ -210,16 +210,18 @@ def run_protocol(
         }
         refuse_foreign_chunks(out, expected)
         todo = []
+        verified: dict[Path, list[dict[str, Any]]] = {}  # rows of finished chunks, read once
         for path, (cell, a, b) in expected.items():
             if chunk_done(out, cell, a, b, trajectories):
-                _read_chunk(path, cell, a, b, label, stamp)  # damaged or foreign files are refused now
+                # damaged or foreign files are refused now, before anything is computed
+                verified[path] = _read_chunk(path, cell, a, b, label, stamp)
             else:
                 todo.append((cell, a, b))
         computed = _simulate_and_score(
             policy, preset, out, todo, label, stamp, sum(c.episodes for c in cells), progress, batch_size,
             workers, trajectories, simulate_in_workers,
         )
-        rows = read_episode_rows(out, cells, chunk, label, stamp)
+        rows = read_episode_rows(out, cells, chunk, label, stamp, verified)
         summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
         write_reports(out, summary, rows, preset)
     return ProtocolResult(out, rows, summary, computed)
@@ -333,13 +335,17 @@ def _simulate_and_score(
 
 
 def read_episode_rows(
-    out: Path, cells: list[Cell], chunk: int, label: str | None = None, stamp: str | None = None
+    out: Path, cells: list[Cell], chunk: int, label: str | None = None, stamp: str | None = None,
+    verified: dict[Path, list[dict[str, Any]]] | None = None,
 ) -> list[dict[str, Any]]:
-    """Every episode row of a run, in cell and index order; damaged or foreign chunk files are refused."""
+    """Every episode row of a run, in cell and index order; damaged or foreign chunk files are refused.
+    ``verified`` holds chunks already read and checked in this run (by path), not read again."""
     rows: list[dict[str, Any]] = []
+    known = verified or {}
     for cell in cells:
         for a, b in cell.chunks(chunk):
-            rows.extend(_read_chunk(chunk_path(out, cell, a, b), cell, a, b, label, stamp))
+            path = chunk_path(out, cell, a, b)
+            rows.extend(known[path] if path in known else _read_chunk(path, cell, a, b, label, stamp))
     return rows
 
 

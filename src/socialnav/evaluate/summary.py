@@ -69,8 +69,10 @@ def summarize_group(
     if n == 1:  # one episode (e.g. a scene of a log): the statistics need no arrays
         columns = [_single_value_stats(_as_float(rows[0].get(k))) for k in metric_keys]
     else:
-        values = np.array([[_as_float(r.get(k)) for k in metric_keys] for r in rows]).reshape(
-            n, len(metric_keys))
+        # column by column: NumPy turns None into NaN under dtype=float
+        values = np.empty((n, len(metric_keys)))
+        for j, k in enumerate(metric_keys):
+            values[:, j] = np.array([r.get(k) for r in rows], dtype=float)
         stats = column_stats(
             values, np.random.default_rng(zlib.crc32("|".join(key).encode())), N_BOOT, CONFIDENCE
         )

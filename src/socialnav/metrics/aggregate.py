@@ -100,13 +100,23 @@ def _population(key: str, require_success: bool) -> str:
     return metric.population
 
 
+def _resampling_counts(rng: np.random.Generator, n: int, n_boot: int) -> np.ndarray:
+    """(n_boot, n) float counts: row b says how often each of n items is drawn in n draws with
+    replacement (the bootstrap's resampling weights)."""
+    draws = rng.integers(0, n, size=(n_boot, n))
+    draws += np.arange(n_boot)[:, None] * n  # each row counts into its own block
+    return np.bincount(draws.ravel(), minlength=n_boot * n).reshape(n_boot, n).astype(float)
+
+
 def column_stats(
     values: np.ndarray, rng: np.random.Generator, n_boot: int = 1000, confidence: float = 0.95
 ) -> dict[str, np.ndarray]:
     """Mean, std (ddof 1), percentile-bootstrap CI of the mean and count per column, NaNs ignored.
 
-    One set of (n_boot, n) multinomial resampling weights W serves every column: a resampled mean
-    is ``W @ v / W @ valid``, so K columns cost two matrix products instead of K bootstraps.
+    One set of (n_boot, n) resampling weights W serves every column: a resampled mean is
+    ``W @ v / W @ valid``, so K columns cost two matrix products instead of K bootstraps. Row b of W
+    counts how often each episode is drawn in n uniform draws with replacement (multinomial(n, 1/n),
+    drawn as n integers and counted, which is 10-20x faster than NumPy's multinomial sampler).
 
     Args:
         values: (n, K) per-episode values of K columns.
@@ -129,10 +139,18 @@ def column_stats(
     some = count > 1
     if some.any():  # no resampling where no column has two values (e.g. the summary of one episode)
         with np.errstate(invalid="ignore", divide="ignore"):
-            weights = rng.multinomial(n, np.full(n, 1.0 / n), size=n_boot).astype(float)
+            weights = _resampling_counts(rng, n, n_boot)
             boot = (weights @ filled) / (weights @ valid.astype(float))  # (n_boot, K): resampled means
-        with np.errstate(invalid="ignore"):
-            q = np.nanpercentile(boot[:, some], [50 * (1 - confidence), 50 * (1 + confidence)], axis=0)
+        levels = [50 * (1 - confidence), 50 * (1 + confidence)]
+        cols = np.flatnonzero(some)
+        # a resample without one valid value gives NaN; only such columns need nanpercentile
+        holes = np.isnan(boot[:, cols]).any(axis=0)
+        q = np.empty((2, len(cols)))
+        if (~holes).any():
+            q[:, ~holes] = np.percentile(boot[:, cols[~holes]], levels, axis=0)
+        if holes.any():
+            with np.errstate(invalid="ignore"):
+                q[:, holes] = np.nanpercentile(boot[:, cols[holes]], levels, axis=0)
         lo[some], hi[some] = q[0], q[1]
     single = count == 1
     lo[single] = hi[single] = mean[single]

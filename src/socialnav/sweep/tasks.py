@@ -24,12 +24,22 @@ from socialnav.presets import Preset
 _POLICIES: dict[str, Any] = {}
 
 
+#: Presets a worker has parsed, by name or path (a sweep's files do not change while it runs).
+_PRESETS: dict[str, Preset] = {}
+
+
+def _load_preset_once(name: str) -> Preset:
+    from socialnav.presets import load_preset
+
+    if name not in _PRESETS:
+        _PRESETS[name] = load_preset(name)
+    return _PRESETS[name]
+
+
 def job_preset(params: dict[str, Any], threads: int | None = None) -> Preset:
     """The job's preset with its ``human_model`` override (and, in a worker, ``threads`` native
     threads per world: parallelism comes from the workers; results do not depend on it)."""
-    from socialnav.presets import load_preset
-
-    preset = load_preset(params["preset"])
+    preset = _load_preset_once(str(params["preset"]))
     world = preset.world
     if params.get("human_model") is not None:
         world = dataclasses.replace(world, human_model=params["human_model"])
