@@ -108,6 +108,20 @@ def atomic_write_rows_parquet(
     atomic_write(path, lambda tmp: pq.write_table(table, tmp, write_page_checksum=True))
 
 
+def rows_parquet_bytes(rows: list[dict[str, Any]], metadata: dict[str, str] | None = None) -> bytes:
+    """What :func:`atomic_write_rows_parquet` would write, as bytes (a worker builds a chunk's file
+    and the driver, which alone writes results, stores it)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.Table.from_pylist(rows)
+    if metadata:
+        table = table.replace_schema_metadata({**(table.schema.metadata or {}), **metadata})
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink, write_page_checksum=True)
+    return sink.getvalue().to_pybytes()
+
+
 def read_parquet_verified(path: Path, filters: Any = None):
     """Reads a Parquet file verifying its page checksums; a damaged file is an error naming it.
 

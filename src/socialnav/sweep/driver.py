@@ -213,9 +213,16 @@ def _run_evaluations(
                             trajectory_path(ev.dir, cell, a, b),
                             lambda tmp, data=data: Path(tmp).write_bytes(data),
                         )
-                    atomic_write_rows_parquet(
-                        chunk_path(ev.dir, cell, a, b), result["rows"], {CHUNK_STAMP_KEY: ev.stamp}
-                    )
+                    if result.get("rows_parquet") is not None:  # built by the worker
+                        data = result["rows_parquet"]
+                        atomic_write(
+                            chunk_path(ev.dir, cell, a, b),
+                            lambda tmp, data=data: Path(tmp).write_bytes(data),
+                        )
+                    else:
+                        atomic_write_rows_parquet(
+                            chunk_path(ev.dir, cell, a, b), result["rows"], {CHUNK_STAMP_KEY: ev.stamp}
+                        )
                     # logged after the chunk landed: a logged chunk is never computed again
                     _log_task(task_log, task, result)
                     ev.computed += b - a
@@ -342,6 +349,7 @@ def _chunk_tasks(ev: _EvalJob, spec: SweepSpec) -> list[Task]:
                 batch_size,
                 trajectories,
                 spec.threads,
+                ev.stamp,
             ),
             payload,
             meta={"ev": ev, "cell": cell, "a": a, "b": b},

@@ -81,13 +81,16 @@ def evaluate_chunk(
     batch_size: int,
     trajectories: bool,
     threads: int,
+    stamp: str | None = None,
 ) -> dict[str, Any]:
     """Simulates and scores episodes [start, stop) of ``cell`` exactly as ``socialnav evaluate`` does.
 
     ``payload`` is the pickled policy built by the driver (None for policies that do not pickle; they
-    are rebuilt here from ``params``).
+    are rebuilt here from ``params``). With the run's ``stamp``, the chunk's rows also come back as
+    the bytes of its Parquet file (``rows_parquet``), so that the driver only stores them.
     """
-    from socialnav.evaluate.runner import simulate_chunk, store_and_score
+    from socialnav.evaluate.files import rows_parquet_bytes
+    from socialnav.evaluate.runner import CHUNK_STAMP_KEY, simulate_chunk, store_and_score
 
     t0 = time.perf_counter()
     preset = job_preset(params, threads=threads)
@@ -112,8 +115,10 @@ def evaluate_chunk(
             traj_bytes = path.read_bytes()
     else:
         rows, notes = store_and_score(trajs, cell, label, None)
+    packed = None if stamp is None else rows_parquet_bytes(rows, {CHUNK_STAMP_KEY: stamp})
     return {
-        "rows": rows,
+        "rows": rows if packed is None else None,  # sent once: as dicts or inside the file's bytes
+        "rows_parquet": packed,
         "notes": notes,
         "trajectories": traj_bytes,
         "where": where_am_i(),
