@@ -24,16 +24,22 @@ from socialnav.presets import Preset
 _POLICIES: dict[str, Any] = {}
 
 
-#: Presets a worker has parsed, by name or path (a sweep's files do not change while it runs).
-_PRESETS: dict[str, Preset] = {}
+#: Presets a worker has parsed, by name or path and the file's modification time (a Ray worker
+#: outlives one sweep: an edited preset file is parsed again).
+_PRESETS: dict[tuple[str, int], Preset] = {}
 
 
 def _load_preset_once(name: str) -> Preset:
     from socialnav.presets import load_preset
 
-    if name not in _PRESETS:
-        _PRESETS[name] = load_preset(name)
-    return _PRESETS[name]
+    try:
+        stamp = os.stat(name).st_mtime_ns if os.path.isfile(name) else 0
+    except OSError:
+        stamp = 0
+    key = (name, stamp)
+    if key not in _PRESETS:
+        _PRESETS[key] = load_preset(name)
+    return _PRESETS[key]
 
 
 def job_preset(params: dict[str, Any], threads: int | None = None) -> Preset:
