@@ -191,8 +191,12 @@ class RayExecutor:
                 kwargs.update(num_cpus=self.workers or (os.cpu_count() or 1), _node_ip_address="127.0.0.1")
                 os.environ.setdefault("RAY_worker_niceness", "0")
             ray.init(address=self.address, **kwargs)
+        # SPREAD: chunks go to every node from the start, rather than filling the driver's node first
+        # (Ray's default prefers the local node, so short chunks may all finish there while the other
+        # nodes are still starting their workers)
         remote = ray.remote(_call).options(
-            num_cpus=self.cpus_per_task, max_retries=self.retries, retry_exceptions=False
+            num_cpus=self.cpus_per_task, max_retries=self.retries, retry_exceptions=False,
+            scheduling_strategy="SPREAD",
         )
         stored: dict[int, Any] = {}
         refs: dict[Any, Task] = {}
