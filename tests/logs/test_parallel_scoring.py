@@ -65,9 +65,7 @@ def test_contiguous_episodes_split_by_rows(episodes_file: Path, workers: int) ->
 def test_scenes_across_shares_are_summarised_whole(episodes_file: Path, tmp_path: Path) -> None:
     """Scenes of three episodes: with two workers the middle scene is split between them, and its
     summary must still pool all three episodes (as one process does)."""
-    from socialnav.trajectory import read_trajectories as read
-
-    trajs = read(episodes_file)
+    trajs = read_trajectories(episodes_file)
     for tr in trajs:
         tr.settings["scene"] = f"scene-{tr.settings['episode'] // 3}"
     path = tmp_path / "scenes.parquet"
@@ -109,7 +107,8 @@ def test_row_range_outside_the_file_is_an_error(episodes_file: Path) -> None:
     import pyarrow.parquet as pq
 
     n = pq.read_metadata(episodes_file).num_rows
-    with pytest.raises(ValueError, match=rf"episodes.parquet.*rows \(0, {n + 1}\) outside the file's {n} rows"):
+    expected = rf"episodes.parquet.*rows \(0, {n + 1}\) outside the file's {n} rows"
+    with pytest.raises(ValueError, match=expected):
         read_trajectories(episodes_file, rows=(0, n + 1))
 
 

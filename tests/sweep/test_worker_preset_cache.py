@@ -28,5 +28,6 @@ def test_edited_preset_file_is_parsed_again(tmp_path: Path) -> None:
 
 def test_builtin_preset_is_parsed_once() -> None:
     assert _load_preset_once("wang2022") is _load_preset_once("wang2022")
-    assert job_preset({"preset": "wang2022", "human_model": "social_force"}).world.human_model == "social_force"
+    swapped = job_preset({"preset": "wang2022", "human_model": "social_force"})
+    assert swapped.world.human_model == "social_force"
     assert _load_preset_once("wang2022").world.human_model == "orca"  # the cached one is not changed

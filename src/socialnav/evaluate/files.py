@@ -99,18 +99,16 @@ def atomic_write_rows_parquet(
     path: Path, rows: list[dict[str, Any]], metadata: dict[str, str] | None = None
 ) -> None:
     """Writes ``rows`` as Parquet with page checksums; ``metadata`` goes in the file's key-value metadata."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+    atomic_write_bytes(path, rows_parquet_bytes(rows, metadata))
 
-    table = pa.Table.from_pylist(rows)
-    if metadata:
-        table = table.replace_schema_metadata({**(table.schema.metadata or {}), **metadata})
-    atomic_write(path, lambda tmp: pq.write_table(table, tmp, write_page_checksum=True))
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    atomic_write(path, lambda tmp: Path(tmp).write_bytes(data))
 
 
 def rows_parquet_bytes(rows: list[dict[str, Any]], metadata: dict[str, str] | None = None) -> bytes:
-    """What :func:`atomic_write_rows_parquet` would write, as bytes (a worker builds a chunk's file
-    and the driver, which alone writes results, stores it)."""
+    """``rows`` as the bytes of a Parquet file with page checksums (a sweep's worker builds a chunk's
+    file and the driver, which alone writes results, stores it)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 

@@ -154,8 +154,8 @@ def rectangle_overlap_flags(pos_a: np.ndarray, vel_a: np.ndarray, r_a: np.ndarra
     """
     if anchor not in ("rear", "front"):
         raise ValueError(f"anchor must be 'rear' or 'front', got {anchor!r}")
-    return _frames_overlap(_motion_frame(pos_a, vel_a), np.asarray(r_a, dtype=float), _motion_frame(pos_b, vel_b),
-                           np.asarray(r_b, dtype=float), tau, anchor, tol)
+    return _frames_overlap(_motion_frame(pos_a, vel_a), np.asarray(r_a, dtype=float),
+                           _motion_frame(pos_b, vel_b), np.asarray(r_b, dtype=float), tau, anchor, tol)
 
 
 def _motion_frame(p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -31,9 +31,8 @@ from typing import Any
 
 from socialnav.evaluate.files import (
     DirectoryLock,
-    atomic_write,
+    atomic_write_bytes,
     atomic_write_json,
-    atomic_write_rows_parquet,
     make_output_dir,
     remove_orphan_temporaries,
 )
@@ -158,7 +157,6 @@ def _run_evaluations(
     spec, out, executor, statuses, failures, task_log, progress, say
 ) -> list[dict[str, Any]]:
     from socialnav.evaluate.runner import (
-        CHUNK_STAMP_KEY,
         _progress,
         _reissue,
         chunk_path,
@@ -208,21 +206,8 @@ def _run_evaluations(
                 else:
                     _reissue(result["notes"])
                     if result["trajectories"] is not None:
-                        data = result["trajectories"]
-                        atomic_write(
-                            trajectory_path(ev.dir, cell, a, b),
-                            lambda tmp, data=data: Path(tmp).write_bytes(data),
-                        )
-                    if result.get("rows_parquet") is not None:  # built by the worker
-                        data = result["rows_parquet"]
-                        atomic_write(
-                            chunk_path(ev.dir, cell, a, b),
-                            lambda tmp, data=data: Path(tmp).write_bytes(data),
-                        )
-                    else:
-                        atomic_write_rows_parquet(
-                            chunk_path(ev.dir, cell, a, b), result["rows"], {CHUNK_STAMP_KEY: ev.stamp}
-                        )
+                        atomic_write_bytes(trajectory_path(ev.dir, cell, a, b), result["trajectories"])
+                    atomic_write_bytes(chunk_path(ev.dir, cell, a, b), result["rows_parquet"])
                     # logged after the chunk landed: a logged chunk is never computed again
                     _log_task(task_log, task, result)
                     ev.computed += b - a

@@ -87,13 +87,13 @@ def evaluate_chunk(
     batch_size: int,
     trajectories: bool,
     threads: int,
-    stamp: str | None = None,
+    stamp: str,
 ) -> dict[str, Any]:
     """Simulates and scores episodes [start, stop) of ``cell`` exactly as ``socialnav evaluate`` does.
 
     ``payload`` is the pickled policy built by the driver (None for policies that do not pickle; they
-    are rebuilt here from ``params``). With the run's ``stamp``, the chunk's rows also come back as
-    the bytes of its Parquet file (``rows_parquet``), so that the driver only stores them.
+    are rebuilt here from ``params``). The chunk's rows come back as the bytes of its Parquet file,
+    stamped with the run's ``stamp`` (``rows_parquet``), so that the driver only stores them.
     """
     from socialnav.evaluate.files import rows_parquet_bytes
     from socialnav.evaluate.runner import CHUNK_STAMP_KEY, simulate_chunk, store_and_score
@@ -121,10 +121,8 @@ def evaluate_chunk(
             traj_bytes = path.read_bytes()
     else:
         rows, notes = store_and_score(trajs, cell, label, None)
-    packed = None if stamp is None else rows_parquet_bytes(rows, {CHUNK_STAMP_KEY: stamp})
     return {
-        "rows": rows if packed is None else None,  # sent once: as dicts or inside the file's bytes
-        "rows_parquet": packed,
+        "rows_parquet": rows_parquet_bytes(rows, {CHUNK_STAMP_KEY: stamp}),
         "notes": notes,
         "trajectories": traj_bytes,
         "where": where_am_i(),
