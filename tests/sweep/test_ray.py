@@ -128,6 +128,7 @@ TWO_NODES = textwrap.dedent("""
     cluster = Cluster(initialize_head=True, head_node_args={"num_cpus": 1, "node_ip_address": "127.0.0.1",
                                                             "include_dashboard": False})
     cluster.add_node(num_cpus=1, node_ip_address="127.0.0.1")
+    cluster.wait_for_nodes()  # both nodes registered before the first task is placed
     try:
         result = run_sweep(load_sweep(sys.argv[1]), Path(sys.argv[2]), RayExecutor(address=cluster.address),
                            progress=False)
@@ -148,7 +149,8 @@ def test_jobs_run_on_a_head_and_a_worker_node(tmp_path):
                         "kind": "evaluate",
                         "policy": "orca",
                         "preset": preset,
-                        "episodes": 40,
+                        # 64 chunks: the sweep outlasts the second node's worker start-up
+                        "episodes": 160,
                         "scenarios": ["circle_crossing", "random"],
                         "visibility": "invisible",
                     }
@@ -171,4 +173,4 @@ def test_jobs_run_on_a_head_and_a_worker_node(tmp_path):
     assert json.loads(proc.stdout.strip().splitlines()[-1]) == {"ok": True, "nodes": 2}
     nodes = {json.loads(x)["where"]["node"] for x in (out / "sweep_log.jsonl").read_text().splitlines()}
     assert len(nodes) == 2, "every chunk ran on one node"
-    assert len(episode_rows(out / "evaluate/orca")) == 80
+    assert len(episode_rows(out / "evaluate/orca")) == 320
