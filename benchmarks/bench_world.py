@@ -4,7 +4,12 @@ Measures env-steps/s (one env-step = one episode advanced by dt, robot policy in
 batched world, and in the same run the same workload on navground's simulator (6 ORCA agents,
 all active), if navground is installed. Prints human-readable lines, then one JSON object last.
 
+Thread scaling (issue #13): the world is also measured at 1 and 2 threads (``--scaling-threads``),
+alternating, ``--scaling-repeats`` times each for ``--scaling-seconds``; the best of each is kept (other
+processes only ever slow a measurement down) and ``speedup_2_threads_vs_1`` is their ratio (goal 1.9).
+
     python benchmarks/bench_world.py [--batch 4096] [--seconds 5] [--threads 0]
+        [--scaling-threads 1 2] [--scaling-repeats 3] [--scaling-seconds 2]
 """
 
 from __future__ import annotations
@@ -59,11 +64,13 @@ def measure_socialnav(batch: int, seconds: float, threads: int) -> dict:
         world.arrival,
         world.end_step,
     ]
+    state_bytes = sum(a.nbytes for a in state_arrays) / batch
+    world.close()
     return {
         "env_steps_per_s": env_steps / elapsed,
         "agent_steps_per_s": 6 * env_steps / elapsed,
         "batch_calls_per_s": calls / elapsed,
-        "state_bytes_per_episode": sum(a.nbytes for a in state_arrays) / batch,
+        "state_bytes_per_episode": state_bytes,
         "peak_rss_growth_mb": (rss_after - rss_before) / 1024,
         "threads": settings.resolved_threads,
     }
@@ -74,6 +81,9 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=4096)
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--threads", type=int, default=0)
+    parser.add_argument("--scaling-threads", type=int, nargs="*", default=[1, 2])
+    parser.add_argument("--scaling-repeats", type=int, default=3)
+    parser.add_argument("--scaling-seconds", type=float, default=2.0)
     args = parser.parse_args()
 
     ours = measure_socialnav(args.batch, args.seconds, args.threads)
@@ -82,6 +92,19 @@ def main() -> None:
         f"{os.cpu_count()} cores)"
     )
     result = {"batch": args.batch, "cpu_count": os.cpu_count(), **ours}
+    if args.scaling_threads:
+        best = {t: 0.0 for t in args.scaling_threads}
+        for _ in range(args.scaling_repeats):
+            for t in args.scaling_threads:
+                best[t] = max(
+                    best[t], measure_socialnav(args.batch, args.scaling_seconds, t)["env_steps_per_s"]
+                )
+        result["env_steps_per_s_by_threads"] = {str(t): round(v) for t, v in best.items()}
+        line = ", ".join(f"{t} threads {v:,.0f}" for t, v in best.items())
+        if 1 in best and 2 in best:
+            result["speedup_2_threads_vs_1"] = best[2] / best[1]
+            line += f"; 2 vs 1 threads: {best[2] / best[1]:.2f}x (goal 1.9x)"
+        print(f"scaling (best of {args.scaling_repeats}): {line}")
     try:
         sys.path.insert(0, os.path.dirname(__file__))
         from _navground_workload import navground_env_steps_per_s
@@ -103,6 +126,7 @@ def main() -> None:
         ours["env_steps_per_s"] >= 100 * CROWDNAV_ENV_STEPS_PER_S
         and (result["ratio_vs_navground"] or 0) >= 2.0
     )
+    result["load_average_1min"] = os.getloadavg()[0]
     print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in result.items()}))
 
 

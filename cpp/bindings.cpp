@@ -10,6 +10,7 @@
 
 #include "orca.hpp"
 #include "robot_policies.hpp"
+#include "scenario_gen.hpp"
 #include "social_force.hpp"
 #include "world.hpp"
 
@@ -170,7 +171,44 @@ NB_MODULE(_core, m) {
             nb::gil_scoped_release release;
             self.world->preview_humans(o);
           },
-          "out"_a.noconvert(), "The humans' exact next states (B, N, 5) without stepping.");
+          "out"_a.noconvert(), "The humans' exact next states (B, N, 5) without stepping.")
+      .def(
+          "load_generated",
+          [](PyWorld& self, const socialnav::ScenarioConfig& scenario, Array<int64_t> slots, Array<int64_t> seeds,
+             Array<int32_t> failure) {
+            const auto& c = self.world->config();
+            if (scenario.n_humans != c.agents - 1)
+              throw std::invalid_argument("scenario n_humans " + std::to_string(scenario.n_humans) +
+                                          " does not match the world's " + std::to_string(c.agents - 1) +
+                                          " human slots");
+            const size_t k = slots.size();
+            checked(seeds, "seeds", k);
+            int32_t* f = checked(failure, "failure", k);
+            for (size_t i = 0; i < k; ++i)
+              if (slots.data()[i] < 0 || slots.data()[i] >= c.batch)
+                throw std::invalid_argument("slot " + std::to_string(slots.data()[i]) + " out of range");
+            nb::gil_scoped_release release;
+            self.world->load_generated(scenario, slots.data(), seeds.data(), static_cast<int>(k), f);
+          },
+          "scenario"_a, "slots"_a, "seeds"_a, "failure"_a.noconvert(),
+          "Generates the episodes of seeds (a built-in scenario) straight into slots and starts them; "
+          "failure[i] as generate_humans (a failed slot is left idle).")
+      .def(
+          "observe",
+          [](PyWorld& self, Array<double> robot, Array<double> humans, Array<bool> human_mask, Array<bool> active,
+             Array<double> time) {
+            const auto& c = self.world->config();
+            const size_t B = static_cast<size_t>(c.batch), N = static_cast<size_t>(c.agents - 1);
+            double* r = checked(robot, "robot", B * 9);
+            double* h = checked(humans, "humans", B * N * 5);
+            auto* m = reinterpret_cast<uint8_t*>(checked(human_mask, "human_mask", B * N));
+            auto* a = reinterpret_cast<uint8_t*>(checked(active, "active", B));
+            double* t = checked(time, "time", B);
+            nb::gil_scoped_release release;
+            self.world->observe(r, h, m, a, t);
+          },
+          "robot"_a.noconvert(), "humans"_a.noconvert(), "human_mask"_a.noconvert(), "active"_a.noconvert(),
+          "time"_a.noconvert(), "The observation of every slot, written into the given arrays.");
 
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
       .def(nb::init<int>(), "threads"_a)
@@ -210,6 +248,58 @@ NB_MODULE(_core, m) {
       "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a,
       "orca"_a, "radius_margin"_a, "safety_space"_a, "social_force"_a, "pool"_a, "out"_a.noconvert(),
       "Batched actions of a native robot policy, written into out (B, 2).");
+
+  using SC = socialnav::ScenarioConfig;
+  nb::class_<SC>(m, "ScenarioConfig")
+      .def(nb::init<>())
+      .def_rw("kind", &SC::kind)
+      .def_rw("n_humans", &SC::n_humans)
+      .def_rw("salt_prefix", &SC::salt_prefix)
+      .def_rw("robot_radius", &SC::robot_radius)
+      .def_rw("robot_v_pref", &SC::robot_v_pref)
+      .def_rw("human_radius", &SC::human_radius)
+      .def_rw("human_v_pref", &SC::human_v_pref)
+      .def_rw("randomize_attributes", &SC::randomize_attributes)
+      .def_rw("v_pref_low", &SC::v_pref_low)
+      .def_rw("v_pref_high", &SC::v_pref_high)
+      .def_rw("radius_low", &SC::radius_low)
+      .def_rw("radius_high", &SC::radius_high)
+      .def_rw("discomfort_dist", &SC::discomfort_dist)
+      .def_rw("circle_radius", &SC::circle_radius)
+      .def_rw("max_attempts", &SC::max_attempts)
+      .def_rw("start_noise", &SC::start_noise)
+      .def_rw("square_width", &SC::square_width)
+      .def_rw("flow_axis", &SC::flow_axis)
+      .def_rw("band", &SC::band)
+      .def_rw("band_width", &SC::band_width);
+  m.attr("SCENARIO_CIRCLE") = static_cast<int>(socialnav::SCENARIO_CIRCLE);
+  m.attr("SCENARIO_RANDOM") = static_cast<int>(socialnav::SCENARIO_RANDOM);
+  m.attr("SCENARIO_TRAFFIC") = static_cast<int>(socialnav::SCENARIO_TRAFFIC);
+  m.attr("SCENARIO_SQUARE_CROSSING") = static_cast<int>(socialnav::SCENARIO_SQUARE_CROSSING);
+
+  m.def(
+      "generate_humans",
+      [](const SC& config, Array<int64_t> seeds, Array<double> start, Array<double> goal, Array<double> radius,
+         Array<double> v_pref, Array<int32_t> failure) {
+        if (config.kind < socialnav::SCENARIO_CIRCLE || config.kind > socialnav::SCENARIO_SQUARE_CROSSING)
+          throw std::invalid_argument("unknown scenario kind " + std::to_string(config.kind));
+        if (config.n_humans < 0 || config.max_attempts < 1 || (config.flow_axis != 0 && config.flow_axis != 1))
+          throw std::invalid_argument("invalid scenario config (n_humans, max_attempts or flow_axis)");
+        const size_t B = seeds.size(), N = static_cast<size_t>(config.n_humans);
+        double* s = checked(start, "start", B * N * 2);
+        double* g = checked(goal, "goal", B * N * 2);
+        double* r = checked(radius, "radius", B * N);
+        double* v = checked(v_pref, "v_pref", B * N);
+        int32_t* f = checked(failure, "failure", B);
+        const int64_t* sd = seeds.data();
+        nb::gil_scoped_release release;
+        for (size_t b = 0; b < B; ++b)
+          f[b] = socialnav::generate_humans(config, sd[b], s + 2 * N * b, g + 2 * N * b, r + N * b, v + N * b);
+      },
+      "config"_a, "seeds"_a, "start"_a.noconvert(), "goal"_a.noconvert(), "radius"_a.noconvert(),
+      "v_pref"_a.noconvert(), "failure"_a.noconvert(),
+      "Humans of B episodes of a built-in scenario, bit-identical to its Python generator; failure[b] is "
+      "0, or 1 + 2j / 2 + 2j when the start / goal of human j found no clear position.");
 
   m.def(
       "orca_velocity",

@@ -1,8 +1,10 @@
 #include "thread_pool.hpp"
 
+#include <chrono>
+
 namespace socialnav {
 
-ThreadPool::ThreadPool(int threads) {
+ThreadPool::ThreadPool(int threads) : shares_(threads > 1 ? threads : 1) {
   for (int w = 1; w < threads; ++w) workers_.emplace_back([this, w] { worker_loop(w); });
 }
 
@@ -16,11 +18,38 @@ ThreadPool::~ThreadPool() {
 }
 
 namespace {
-inline void chunk(int n, int parts, int part, int& begin, int& end) {
-  begin = static_cast<int>(static_cast<long>(n) * part / parts);
-  end = static_cast<int>(static_cast<long>(n) * (part + 1) / parts);
+
+// The caller of parallel_for, once out of chunks, usually waits only for the workers' last chunks:
+// it spins briefly before blocking, since being woken costs tens of microseconds per call (a batched
+// step makes several). Idle workers do not spin: between two jobs of this pool the caller runs other
+// work (a policy's own pool, Python), which a spinning worker would slow down on a small machine.
+// Measured on 2 cores (benchmarks/bench_world.py): caller spin 50 us and no worker spin gave the
+// best 2-thread speed-up; worker spins of 50 and 200 us made it worse.
+constexpr auto kCallerSpin = std::chrono::microseconds(50);
+
+template <typename Ready>
+bool spin_until(Ready ready) {
+  const auto until = std::chrono::steady_clock::now() + kCallerSpin;
+  for (;;) {
+    for (int i = 0; i < 64; ++i)
+      if (ready()) return true;
+    if (std::chrono::steady_clock::now() >= until) return false;
+  }
 }
+
 }  // namespace
+
+void ThreadPool::drain(void* ctx, Trampoline call, int, int chunk, int worker) {
+  const int parts = size();
+  for (int k = 0; k < parts; ++k) {  // its own share first, then the others'
+    Share& share = shares_[(worker + k) % parts];
+    for (;;) {
+      const int begin = share.next.fetch_add(chunk, std::memory_order_relaxed);
+      if (begin >= share.end) break;
+      call(ctx, begin, begin + chunk < share.end ? begin + chunk : share.end, worker);
+    }
+  }
+}
 
 void ThreadPool::run(int n, void* ctx, Trampoline call) {
   const int parts = size();
@@ -28,22 +57,27 @@ void ThreadPool::run(int n, void* ctx, Trampoline call) {
     call(ctx, 0, n, 0);
     return;
   }
+  const int chunk = n / (8 * parts) > 1 ? n / (8 * parts) : 1;
+  std::lock_guard<std::mutex> one_job(run_mutex_);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     job_ctx_ = ctx;
     job_call_ = call;
     job_n_ = n;
-    pending_ = parts - 1;
-    ++generation_;
+    job_chunk_ = chunk;
+    for (int p = 0; p < parts; ++p) {
+      shares_[p].next.store(static_cast<int>(static_cast<long>(n) * p / parts), std::memory_order_relaxed);
+      shares_[p].end = static_cast<int>(static_cast<long>(n) * (p + 1) / parts);
+    }
+    pending_.store(parts - 1);
+    generation_.fetch_add(1);
   }
   start_cv_.notify_all();
-  int begin, end;
-  chunk(n, parts, 0, begin, end);
-  call(ctx, begin, end, 0);
-  std::unique_lock<std::mutex> lock(mutex_);
-  done_cv_.wait(lock, [this] { return pending_ == 0; });
-  job_ctx_ = nullptr;
-  job_call_ = nullptr;
+  drain(ctx, call, n, chunk, 0);
+  if (!spin_until([this] { return pending_.load(std::memory_order_acquire) == 0; })) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_cv_.wait(lock, [this] { return pending_.load() == 0; });
+  }
 }
 
 void ThreadPool::worker_loop(int worker) {
@@ -51,22 +85,22 @@ void ThreadPool::worker_loop(int worker) {
   for (;;) {
     void* ctx;
     Trampoline call;
-    int n;
+    int n, chunk;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      start_cv_.wait(lock, [&] { return stop_ || generation_ != seen; });
+      start_cv_.wait(lock, [&] { return stop_ || generation_.load() != seen; });
       if (stop_) return;
-      seen = generation_;
+      seen = generation_.load();
       ctx = job_ctx_;
       call = job_call_;
       n = job_n_;
+      chunk = job_chunk_;
     }
-    int begin, end;
-    chunk(n, size(), worker, begin, end);
-    call(ctx, begin, end, worker);
-    {
+    drain(ctx, call, n, chunk, worker);
+    if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
+      // Taking the mutex orders this notify after a caller that found pending_ > 0 started waiting.
       std::lock_guard<std::mutex> lock(mutex_);
-      if (--pending_ == 0) done_cv_.notify_one();
+      done_cv_.notify_one();
     }
   }
 }

@@ -267,6 +267,99 @@ void World::preview_humans(double* out) {
   });
 }
 
+void World::observe(double* robot, double* humans, uint8_t* human_mask, uint8_t* active, double* time) {
+  const int A = config_.agents;
+  const int N = A - 1;
+  pool_->parallel_for(config_.batch, [&](int begin, int end, int) {
+    for (int b = begin; b < end; ++b) {
+      const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+      const double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
+      const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
+      const double* radius = buf_.radius + static_cast<size_t>(b) * A;
+      const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+      double* r = robot + static_cast<size_t>(b) * 9;
+      r[0] = pos[0];
+      r[1] = pos[1];
+      r[2] = vel[0];
+      r[3] = vel[1];
+      r[4] = radius[0];
+      r[5] = goal[0];
+      r[6] = goal[1];
+      r[7] = buf_.v_pref[static_cast<size_t>(b) * A];
+      r[8] = buf_.theta[b];
+      for (int i = 1; i < A; ++i) {
+        double* h = humans + (static_cast<size_t>(b) * N + (i - 1)) * 5;
+        const bool real = mask[i] != 0;
+        human_mask[static_cast<size_t>(b) * N + (i - 1)] = real;
+        if (!real) {
+          h[0] = h[1] = h[2] = h[3] = h[4] = 0.0;
+          continue;
+        }
+        h[0] = pos[2 * i];
+        h[1] = pos[2 * i + 1];
+        h[2] = vel[2 * i];
+        h[3] = vel[2 * i + 1];
+        h[4] = radius[i];
+      }
+      active[b] = buf_.status[b] == kRunning;
+      time[b] = static_cast<double>(buf_.steps[b]) * config_.dt;
+    }
+  });
+}
+
+void World::load_generated(const ScenarioConfig& scenario, const int64_t* slots, const int64_t* seeds, int k,
+                           int32_t* failure) {
+  const int A = config_.agents;
+  const int N = A - 1;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double r = scenario.circle_radius;
+  pool_->parallel_for(k, [&](int begin, int end, int) {
+    std::vector<double> start(2 * N), goal(2 * N), radius(N), v_pref(N);
+    for (int i = begin; i < end; ++i) {
+      const int64_t b = slots[i];
+      failure[i] = generate_humans(scenario, seeds[i], start.data(), goal.data(), radius.data(), v_pref.data());
+      if (failure[i] != 0) {
+        buf_.status[b] = kIdle;
+        continue;
+      }
+      double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+      double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
+      double* gl = buf_.goal + static_cast<size_t>(b) * A * 2;
+      double* rad = buf_.radius + static_cast<size_t>(b) * A;
+      double* vp = buf_.v_pref + static_cast<size_t>(b) * A;
+      uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+      double* arrival = buf_.arrival + static_cast<size_t>(b) * A;
+      // Scenario.generate: the robot starts at (0, -R) facing +y with goal (0, R).
+      pos[0] = 0.0;
+      pos[1] = -r;
+      gl[0] = 0.0;
+      gl[1] = r;
+      rad[0] = scenario.robot_radius;
+      vp[0] = scenario.robot_v_pref;
+      mask[0] = 1;
+      for (int j = 0; j < N; ++j) {
+        pos[2 * (j + 1)] = start[2 * j];
+        pos[2 * (j + 1) + 1] = start[2 * j + 1];
+        gl[2 * (j + 1)] = goal[2 * j];
+        gl[2 * (j + 1) + 1] = goal[2 * j + 1];
+        rad[j + 1] = radius[j];
+        vp[j + 1] = v_pref[j];
+        mask[j + 1] = 1;
+      }
+      for (int a = 0; a < 2 * A; ++a) vel[a] = 0.0;
+      for (int a = 0; a < A; ++a) arrival[a] = nan;
+      buf_.theta[b] = M_PI / 2;
+      buf_.steps[b] = 0;
+      buf_.reward[b] = 0.0;
+      buf_.dmin[b] = std::numeric_limits<double>::infinity();
+      buf_.done[b] = 0;
+      buf_.overlaps[b] = 0;
+      buf_.end_step[b] = -1;
+      buf_.status[b] = kRunning;
+    }
+  });
+}
+
 void World::step(const double* actions) {
   const int B = config_.batch;
   for (int b = 0; b < B; ++b) {

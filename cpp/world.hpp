@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "orca.hpp"
+#include "scenario_gen.hpp"
 #include "social_force.hpp"
 #include "thread_pool.hpp"
 
@@ -87,6 +88,17 @@ class World {
   // the "oracle" information some policies are given. Human motion depends on the robot only
   // through its current state (when visible), never on the robot's next action.
   void preview_humans(double* out);
+
+  // The policies' observation of every slot (socialnav/sim/observation.py, build_observation):
+  // robot (B, 9) px, py, vx, vy, radius, gx, gy, v_pref, theta; humans (B, N, 5) px, py, vx, vy,
+  // radius, zero in empty slots; human_mask (B, N); active (B,) running; time (B,) steps * dt.
+  void observe(double* robot, double* humans, uint8_t* human_mask, uint8_t* active, double* time);
+
+  // Generates episode i of `seeds` (a built-in scenario, scenario_gen.hpp) into slot slots[i] and
+  // starts it, as socialnav/sim/world.py's World._load does with a generated EpisodeBatch, in the
+  // worker threads. failure[i] is generate_humans' code; a failed slot is left idle.
+  void load_generated(const ScenarioConfig& scenario, const int64_t* slots, const int64_t* seeds, int k,
+                      int32_t* failure);
 
  private:
   void step_episode(int b, const double* actions, int worker);

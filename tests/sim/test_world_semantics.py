@@ -237,12 +237,14 @@ def test_nan_in_scenario_state_is_refused():
     assert isinstance(w.stream, EpisodeStream)
 
 
-def test_idle_slots_once_the_stream_is_exhausted():
+@pytest.mark.parametrize("native", [True, False])
+def test_idle_slots_once_the_stream_is_exhausted(native):
+    from socialnav.sim.world import EpisodeStream
+
     w = hand_world(n_humans=2, batch=4)
-    w.restart(0)
-    w.stream.stop = 6  # six episodes for four slots
-    w.stream._generated = min(w.stream._generated, 6)
-    w.stream._buffer = w.stream._buffer.take(slice(0, 2))
+    if not native:
+        w._native_scenario = None  # the Python generator's path (custom scenarios)
+    w.use_stream(EpisodeStream(w.scenario, "test", 0, 6))  # six episodes for four slots
     done = []
     for _ in range(200):
         done += w.step(np.zeros((4, 2))).finished
@@ -289,3 +291,29 @@ def test_stream_over_a_finite_scenario_ends_with_it():
     batch = stream.take(100)
     assert batch.indices.tolist() == [15, 16, 17, 18, 19]
     assert stream.take(1) is None
+
+
+@pytest.mark.parametrize("scenario", ["circle_crossing", "passing"])
+def test_native_observation_equals_the_python_reference(scenario):
+    """World.observe is filled by the core; build_observation stays the reference, bit for bit, on
+    running, finished, refilled and idle slots."""
+    from socialnav.policies import make_policy
+    from socialnav.scenarios import make_scenario
+    from socialnav.sim.observation import build_observation
+    from socialnav.sim.world import World
+
+    w = World(WorldSettings(threads=2), make_scenario(scenario), 64, split="test", count=100, record=False)
+    policy = make_policy("orca", threads=2)
+    w.reset()
+    steps = 0
+    while w.busy:
+        obs = w.observe()
+        ref = build_observation(w.position, w.velocity, w.goal, w.radius, w.v_pref, w.mask, w.theta,
+                                w.active, w.steps * w.settings.dt, w.settings.dt, w.settings.kinematics)
+        for field in ("robot", "humans", "human_mask", "active", "time"):
+            a, b = getattr(obs, field), getattr(ref, field)
+            assert a.dtype == b.dtype and a.shape == b.shape, field
+            assert np.array_equal(a.view(np.uint8), b.view(np.uint8)), field
+        w.step(policy.act(obs))
+        steps += 1
+    assert steps > 20

@@ -79,10 +79,14 @@ def rejection_sample(
         rows = rows[~ok]
     if rows.size == 0:
         return out
-    seeds = rng.seeds[rows]
+    raise ScenarioGenerationError(failure_message(what, max_attempts, rng.seeds[rows]))
+
+
+def failure_message(what: str, max_attempts: int, seeds: np.ndarray) -> str:
+    """The error of a placement that failed in the episodes of ``seeds`` (Python and native paths)."""
     shown = ", ".join(str(s) for s in seeds[:5]) + (", ..." if seeds.size > 5 else "")
-    raise ScenarioGenerationError(
+    return (
         f"{what}: no position clear of the other agents after {max_attempts} attempts in "
-        f"{rows.size} episode(s) (seeds {shown}); the scene is too crowded for the space, "
+        f"{seeds.size} episode(s) (seeds {shown}); the scene is too crowded for the space, "
         "radii and discomfort_dist (reduce n_humans or enlarge the area)"
     )

@@ -370,13 +370,20 @@ class Scenario(abc.ABC):
         return EpisodeRandom(seeds, self.name)
 
     def generate(
-        self, indices: np.ndarray | Sequence[int], seeds: np.ndarray | Sequence[int]
+        self,
+        indices: np.ndarray | Sequence[int],
+        seeds: np.ndarray | Sequence[int],
+        *,
+        native: bool = True,
     ) -> EpisodeBatch:
         """Generate the initial states of a batch of episodes.
 
         Args:
             indices: Episode indices within their split [(B,) int].
             seeds: Episode seeds [(B,) int64], usually ``episode_seeds(split, indices)``.
+            native: Use the native generator where this exact scenario class has one (circle crossing
+                and the square family; bit-identical to ``sample_humans``, ~20x faster); False always
+                runs ``sample_humans``.
 
         Returns:
             A validated `EpisodeBatch` with N = `n_humans` slots, all real.
@@ -393,7 +400,13 @@ class Scenario(abc.ABC):
         if idx.size and idx.min() < 0:
             raise ValueError(f"episode indices must be >= 0, got {int(idx.min())}")
         b, r = idx.shape[0], self.circle_radius
-        humans = self.sample_humans(self.rng(sd), idx)
+        from socialnav.scenarios.native import native_config, sample_humans_native
+
+        config = native_config(self) if native else None
+        if config is not None:
+            humans = sample_humans_native(self, config, sd)
+        else:
+            humans = self.sample_humans(self.rng(sd), idx)
         n = self.n_humans
         shapes = {"start": (b, n, 2), "goal": (b, n, 2), "radius": (b, n), "v_pref": (b, n)}
         for key, shape in shapes.items():

@@ -9,6 +9,7 @@ antipodes, also keeps the goal clear of every other start and goal.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -27,6 +28,9 @@ class CircleCrossing(Scenario):
 
     Each attempt at human j draws (θ, noise_x, noise_y) with key (STREAM_START, j, attempt).
     """
+
+    #: The native generator computing this class's sample_humans (socialnav.scenarios.native).
+    _native_kind: ClassVar[str] = "SCENARIO_CIRCLE"
 
     start_noise: float = param(
         0.5,

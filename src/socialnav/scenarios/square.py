@@ -121,6 +121,9 @@ class _SquareScenario(Scenario):
 class RandomPlacement(_SquareScenario):
     """Start and goal each uniform in the square [−W/2, W/2]² (spec scenario 2)."""
 
+    #: The native generator computing this class's sample_humans (socialnav.scenarios.native).
+    _native_kind: ClassVar[str] = "SCENARIO_RANDOM"
+
     def _draw_start(self, u: np.ndarray, side: np.ndarray | None) -> np.ndarray:
         return (u - 0.5) * self.square_width
 
@@ -173,6 +176,9 @@ class _TwoSidedTraffic(_SquareScenario):
 class ParallelTraffic(_TwoSidedTraffic):
     """Crowd flowing along ±y, with or against the robot (spec scenario 3)."""
 
+    #: The native generator computing this class's sample_humans (socialnav.scenarios.native).
+    _native_kind: ClassVar[str] = "SCENARIO_TRAFFIC"
+
     flow_axis: ClassVar[int] = 1
 
 
@@ -184,6 +190,9 @@ class PerpendicularTraffic(_TwoSidedTraffic):
     In `half_square` mode this is CrowdSim's square crossing at W = 12 m.
     """
 
+    #: The native generator computing this class's sample_humans (socialnav.scenarios.native).
+    _native_kind: ClassVar[str] = "SCENARIO_TRAFFIC"
+
     flow_axis: ClassVar[int] = 0
 
 
@@ -194,6 +203,9 @@ class SquareCrossing(_SquareScenario):
 
     px = U(0,1)·W/2·σ, py = (U(0,1) − 0.5)·W; gx = U(0,1)·W/2·(−σ), gy = (U(0,1) − 0.5)·W.
     """
+
+    #: The native generator computing this class's sample_humans (socialnav.scenarios.native).
+    _native_kind: ClassVar[str] = "SCENARIO_SQUARE_CROSSING"
 
     square_width: float = param(10.0, "W: side of the square (CrowdNav: 10 m)", unit="m", gt=0)
 
