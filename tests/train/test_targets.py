@@ -92,3 +92,56 @@ def test_epsilon_schedule():
     assert epsilon_at(9000, rl) == pytest.approx(0.1)
     assert math.isclose(epsilon_at(5, RLSettings(epsilon_decay_episodes=0)), 0.1)
     assert np.isfinite(epsilon_at(1, rl))
+
+
+def test_rgl_repo_rule_drops_last_transitions_and_timeouts_and_fixes_targets():
+    """rl.td_targets: rgl_repo stores an ended episode without its last transition, nothing of a
+    timed-out one, and each stored transition with r + γ̄·V_target(s') computed when it is stored."""
+    from types import SimpleNamespace
+
+    from socialnav.train.memory import ReplayMemory
+    from socialnav.train.rl import RGLRepoEpisodes
+
+    def robot_row(dg):
+        r = np.zeros(9)
+        r[5], r[7], r[4] = dg, 1.0, 0.3
+        return r
+
+    humans, mask = np.zeros((2, 1, 5)), np.ones((2, 1), dtype=bool)
+    target = _ConstNet(3.0)
+    memory = ReplayMemory(100, 1)
+    buf = RGLRepoEpisodes(2)
+    dgs = [4.0, 3.0, 2.0, 1.0]  # slot 0 walks to its goal in 3 steps; slot 1 times out at step 3
+    rewards = [[-0.01, 0.0], [-0.02, 0.0], [1.0, 0.0]]
+    for t in range(3):
+        obs = SimpleNamespace(
+            robot=np.stack([robot_row(dgs[t])] * 2),
+            humans=humans,
+            human_mask=mask,
+            active=np.array([True, True]),
+        )
+        last = t == 2
+        res = SimpleNamespace(
+            reward=np.array(rewards[t]),
+            final_robot=np.stack([robot_row(dgs[t + 1])] * 2),
+            final_humans=humans,
+            final_mask=mask,
+            terminated=np.array([last, False]),
+            truncated=np.array([False, last]),
+        )
+        buf.add_step(obs, res)
+        stored = buf.finish(memory, res, _Policy(None), target, 0.9, 0.25)
+        assert stored == (2 if last else 0)
+    assert len(memory) == 2  # the success transition (reward 1) and the whole timeout are dropped
+    g = 0.9**0.25
+    expected = [-0.01 + g * 3.0 * 3.0, -0.02 + g * 3.0 * 2.0]  # r + γ̄ · V_target(s'), V_target = 3·dg
+    assert memory.target[:2].tolist() == pytest.approx(expected)
+    assert memory.reward[:2].tolist() == pytest.approx([-0.01, -0.02])
+    assert buf.rows == [[], []]  # both slots start their next episode empty
+
+    # td_loss with fixed targets regresses on the stored target, whatever the target network says now
+    batch = memory.take(torch.arange(2))
+    online = _ConstNet(0.5)
+    loss = td_loss(_Policy(online), _ConstNet(100.0), batch, 0.9, 0.25, fixed_targets=True)
+    v = 0.5 * torch.tensor([4.0, 3.0])
+    assert loss.item() == pytest.approx(((v - torch.tensor(expected)) ** 2).mean().item(), rel=1e-5)

@@ -22,6 +22,12 @@ from socialnav.config import ConfigError, check, from_dict
 
 INFORMATION = ("constant_velocity", "oracle", "learned")
 REWARD_RULES = ("end", "swept")
+#: How RL's value targets are formed (docs/training.md, "TD targets"): ``recomputed`` (ours: every
+#: transition kept, the target r + γ̄·V_target(s')·(1 − terminal) computed at each gradient step) or
+#: ``rgl_repo`` (the RGL/CrowdNav repositories' explorer: a finished episode's last transition and every
+#: timed-out episode are dropped; the target r + γ̄·V_target(s') is computed once, when the episode is
+#: stored, with the target network of that moment).
+TD_TARGETS = ("recomputed", "rgl_repo")
 #: Policies that plan with the learned state predictor and their defaults (information, depth, width,
 #: reward rule); every other policy defaults to a constant-velocity one-step lookahead with CrowdNav's
 #: end-of-step reward estimate.
@@ -44,6 +50,7 @@ ADDED_SETTINGS: dict[str, Any] = {
     "value_policy.planning_depth": 1,
     "value_policy.planning_width": 1,
     "value_policy.reward_rule": "end",
+    "train.rl.td_targets": "recomputed",
 }
 DEVICES = ("cpu", "cuda", "auto")
 
@@ -91,9 +98,16 @@ class RLSettings:
     validate_every: int = 1000  # [episodes]
     val_episodes: int = 100  # split over the scenarios of the training mix
     gamma: float = 0.9  # discount per second of travel at v_pref: γ^(dt·v_pref) per step
+    td_targets: str = "recomputed"  # or "rgl_repo" (TD_TARGETS)
 
     def __post_init__(self) -> None:
         check(self.episodes >= 0, "rl.episodes", self.episodes, "must be >= 0")
+        check(
+            self.td_targets in TD_TARGETS,
+            "rl.td_targets",
+            self.td_targets,
+            f"must be one of {', '.join(TD_TARGETS)}",
+        )
         for name in ("epsilon_start", "epsilon_end"):
             v = getattr(self, name)
             check(0 <= v <= 1, f"rl.{name}", v, "must be in [0, 1]")

@@ -30,6 +30,9 @@ class Transitions:
     next_humans: torch.Tensor  # (M, N, 5)
     next_mask: torch.Tensor  # (M, N) bool
     done: torch.Tensor  # (M,) bool, terminal (success/collision) only
+    target: torch.Tensor | None = (
+        None  # (M,) value target fixed when stored (rl.td_targets: rgl_repo), else NaN
+    )
 
 
 class ReplayMemory:
@@ -64,6 +67,7 @@ class ReplayMemory:
         self.next_humans = torch.zeros(c, n, HUMAN_DIM, dtype=dtype, **kw)
         self.next_mask = torch.zeros(c, n, dtype=torch.bool, **kw)
         self.done = torch.zeros(c, dtype=torch.bool, **kw)
+        self.target = torch.full((c,), float("nan"), dtype=dtype, **kw)
         self.position = 0  # next slot written
         self.size = 0
         self.pushed = 0  # transitions ever pushed
@@ -71,11 +75,16 @@ class ReplayMemory:
     def __len__(self) -> int:
         return self.size
 
-    def push(self, robot, humans, mask, reward, next_robot, next_humans, next_mask, done) -> None:
-        """Appends k transitions (arrays with a leading dimension k; NumPy or torch)."""
+    def push(
+        self, robot, humans, mask, reward, next_robot, next_humans, next_mask, done, target=None
+    ) -> None:
+        """Appends k transitions (arrays with a leading dimension k; NumPy or torch); ``target``: value
+        targets fixed now (the RGL repository's rule), or None (computed at each gradient step)."""
+        if target is None:
+            target = torch.full((int(np.shape(reward)[0]),), float("nan"))
         arrays = [
             torch.as_tensor(np.asarray(x) if not torch.is_tensor(x) else x)
-            for x in (robot, humans, mask, reward, next_robot, next_humans, next_mask, done)
+            for x in (robot, humans, mask, reward, next_robot, next_humans, next_mask, done, target)
         ]
         k = int(arrays[0].shape[0])
         if any(int(a.shape[0]) != k for a in arrays):
@@ -105,6 +114,7 @@ class ReplayMemory:
                 self.next_humans,
                 self.next_mask,
                 self.done,
+                self.target,
             ),
             arrays,
             strict=True,
@@ -132,4 +142,5 @@ class ReplayMemory:
             self.next_humans[idx],
             self.next_mask[idx],
             self.done[idx],
+            self.target[idx],
         )

@@ -56,11 +56,22 @@ def state_values(
     return network.value(policy.transform(robot, humans, mask), mask)
 
 
-def td_loss(policy, target_net: torch.nn.Module, batch: Transitions, gamma: float, dt: float) -> torch.Tensor:
-    """MSE between V(s) and the TD target computed now with the target network."""
-    with torch.no_grad():
-        next_v = state_values(policy, target_net, batch.next_robot, batch.next_humans, batch.next_mask)
-        y = td_targets(batch.reward, batch.done, next_v, gamma, dt, batch.robot[:, 7])
+def td_loss(
+    policy,
+    target_net: torch.nn.Module,
+    batch: Transitions,
+    gamma: float,
+    dt: float,
+    fixed_targets: bool = False,
+) -> torch.Tensor:
+    """MSE between V(s) and the TD target computed now with the target network, or, with
+    ``fixed_targets`` (rl.td_targets: rgl_repo), the target stored with the transition."""
+    if fixed_targets:
+        y = batch.target
+    else:
+        with torch.no_grad():
+            next_v = state_values(policy, target_net, batch.next_robot, batch.next_humans, batch.next_mask)
+            y = td_targets(batch.reward, batch.done, next_v, gamma, dt, batch.robot[:, 7])
     v = state_values(policy, policy.network, batch.robot, batch.humans, batch.mask)
     return torch.nn.functional.mse_loss(v, y.to(v.dtype))
 
@@ -135,3 +146,70 @@ def push_step(memory: ReplayMemory, obs, res) -> None:
         res.final_mask[a],
         res.terminated[a],
     )
+
+
+class RGLRepoEpisodes:
+    """The RGL repository's storage rule (``rl.td_targets: rgl_repo``), for lockstep collection.
+
+    Its explorer (``crowd_nav/utils/explorer.py``, Chen et al., "Relational Graph Learning for Crowd
+    Navigation", IROS 2020) keeps an episode's transitions until it ends, stores nothing of an episode
+    that timed out, drops the last transition of the others (its loop runs over ``states[:-1]``, so the
+    success or collision reward never enters a target) and stores each remaining transition with the
+    value target r + γ̄·V_target(s') computed at that moment, which later gradient steps reuse as is.
+    Here every slot of the lockstep batch keeps its episode's rows until the episode ends.
+    """
+
+    def __init__(self, n_slots: int) -> None:
+        self.rows: list[list[tuple]] = [[] for _ in range(int(n_slots))]
+
+    def add_step(self, obs, res) -> None:
+        """Keeps the transitions of one lockstep step (every active slot)."""
+        for b in np.flatnonzero(obs.active):
+            self.rows[b].append(
+                (
+                    obs.robot[b],
+                    obs.humans[b],
+                    obs.human_mask[b],
+                    res.reward[b],
+                    res.final_robot[b],
+                    res.final_humans[b],
+                    res.final_mask[b],
+                )
+            )
+
+    def finish(self, memory: ReplayMemory, res, policy, target_net, gamma: float, dt: float) -> int:
+        """Stores the episodes that ended in this step by the rule above; returns transitions stored."""
+        stored = 0
+        for b in np.flatnonzero(res.terminated | res.truncated):
+            rows, self.rows[b] = self.rows[b], []
+            if res.truncated[b] or len(rows) < 2:
+                continue
+            robot, humans, mask, reward, next_robot, next_humans, next_mask = (
+                torch.as_tensor(np.stack(col)).to(memory.device) for col in zip(*rows[:-1], strict=True)
+            )
+            dtype = memory.robot.dtype
+            with torch.no_grad():
+                next_v = state_values(
+                    policy, target_net, next_robot.to(dtype), next_humans.to(dtype), next_mask
+                )
+                y = td_targets(
+                    reward.to(dtype),
+                    torch.zeros(len(reward), dtype=torch.bool, device=memory.device),
+                    next_v,
+                    gamma,
+                    dt,
+                    robot[:, 7].to(dtype),
+                )
+            memory.push(
+                robot,
+                humans,
+                mask,
+                reward,
+                next_robot,
+                next_humans,
+                next_mask,
+                torch.zeros(len(reward), dtype=torch.bool),
+                target=y,
+            )
+            stored += len(reward)
+        return stored

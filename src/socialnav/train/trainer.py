@@ -53,7 +53,15 @@ from socialnav.train.curves import Curves
 from socialnav.train.envs import MultiWorld, training_n_humans
 from socialnav.train.imitation_phase import run_imitation
 from socialnav.train.memory import ReplayMemory
-from socialnav.train.rl import EpisodeStats, TrainingDiverged, epsilon_at, push_step, td_loss, validate
+from socialnav.train.rl import (
+    EpisodeStats,
+    RGLRepoEpisodes,
+    TrainingDiverged,
+    epsilon_at,
+    push_step,
+    td_loss,
+    validate,
+)
 
 RL_STREAM_OFFSET = 5_000_000
 
@@ -391,6 +399,8 @@ def _train(
     stack.callback(world.close)
     world.reset(state["stream_positions"])
     memory = ReplayMemory(rl.capacity, n_humans, device=device)
+    fixed_targets = rl.td_targets == "rgl_repo"
+    rgl_repo_episodes = RGLRepoEpisodes(world.batch_size) if fixed_targets else None
     if resume is None:
         save_last()
     window = EpisodeStats()
@@ -408,7 +418,11 @@ def _train(
                 obs, epsilon=eps, generator=explore_gen, next_humans=obs.next_humans if oracle else None
             )
             res = world.step(np.asarray(actions, dtype=np.float64))
-            push_step(memory, obs, res)
+            if rgl_repo_episodes is not None:
+                rgl_repo_episodes.add_step(obs, res)
+                rgl_repo_episodes.finish(memory, res, policy, target, rl.gamma, dt)
+            else:
+                push_step(memory, obs, res)
             state["transitions"] += int(obs.active.sum())
             # Training stops at exactly rl.episodes: when more episodes end in the last lockstep step
             # than are still needed (untrained policies often time out together), only the first ones
@@ -432,7 +446,7 @@ def _train(
                     net.train()
                     for _ in range(n_steps):
                         batch = memory.sample(rl.batch_size, sample_gen)
-                        loss = td_loss(policy, target, batch, rl.gamma, dt)
+                        loss = td_loss(policy, target, batch, rl.gamma, dt, fixed_targets)
                         lv = float(loss.detach())
                         if not math.isfinite(lv):
                             raise TrainingDiverged(
