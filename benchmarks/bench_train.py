@@ -14,6 +14,11 @@ isolation. The last output line is one JSON object with (among others):
     PYTHONPATH=src python benchmarks/bench_train.py --max-minutes 30
     PYTHONPATH=src python benchmarks/bench_train.py --gradient-steps-per-episode 2 \
         --rl-episodes 2000 --max-minutes 10
+    PYTHONPATH=src python benchmarks/bench_train.py --host-overhead-only --threads 1
+
+``host_overhead_ms_per_gradient_step`` (issue #13, goal 0.5 ms) is the time of the same gradient step
+with every hidden layer one unit wide: every operation, dispatch, replay sampling and state transform
+is still done, next to none of the arithmetic; ``host_overhead_fraction`` is its share of the real step.
 """
 
 from __future__ import annotations
@@ -37,10 +42,36 @@ from socialnav.train.memory import ReplayMemory
 from socialnav.train.rl import td_loss
 from socialnav.train.trainer import train
 
+#: Every hidden layer 1 unit wide: the same operations as the real network with next to no arithmetic.
+_NO_ARITHMETIC: dict[str, dict] = {
+    "sarl": {
+        "mlp1_dims": (1, 1),
+        "mlp2_dims": (1, 1),
+        "attention_dims": (1, 1, 1),
+        "mlp3_dims": (1, 1, 1, 1),
+    },
+    "om_sarl": {
+        "mlp1_dims": (1, 1),
+        "mlp2_dims": (1, 1),
+        "attention_dims": (1, 1, 1),
+        "mlp3_dims": (1, 1, 1, 1),
+    },
+    "cadrl": {"mlp_dims": (1, 1, 1, 1)},
+}
 
-def time_gradient_step(policy_name: str, batch_size: int, n_humans: int = 5, steps: int = 200) -> float:
-    """Seconds per TD gradient step (sample, transform, target forward, forward, backward, Adam)."""
-    net, target = build(policy_name), build(policy_name)
+
+def time_gradient_step(
+    policy_name: str,
+    batch_size: int,
+    n_humans: int = 5,
+    steps: int = 200,
+    repeats: int = 1,
+    network_kwargs: dict | None = None,
+) -> float:
+    """Seconds per TD gradient step (sample, transform, target forward, forward, backward, Adam); the
+    best of ``repeats`` timings of ``steps`` steps. ``network_kwargs`` changes the layer sizes."""
+    kw = network_kwargs or {}
+    net, target = build(policy_name, **kw), build(policy_name, **kw)
     policy = ValuePolicy(net)
     opt = torch.optim.Adam(net.parameters(), lr=1e-3, fused=True)
     mem = ReplayMemory(10_000, n_humans)
@@ -61,10 +92,31 @@ def time_gradient_step(policy_name: str, batch_size: int, n_humans: int = 5, ste
 
     for _ in range(20):
         step()
-    t = time.perf_counter()
-    for _ in range(steps):
-        step()
-    return (time.perf_counter() - t) / steps
+    best = math.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        for _ in range(steps):
+            step()
+        best = min(best, (time.perf_counter() - t) / steps)
+    return best
+
+
+def host_overhead(policy_name: str, batch_size: int, repeats: int = 3) -> dict[str, float]:
+    """Host overhead of one gradient step: the same step with the network's arithmetic removed (every
+    hidden layer one unit wide: the same operations, dispatches, sampling and state transforms, next
+    to no FLOPs), measured against the real step in the same run (issue #13)."""
+    if policy_name not in _NO_ARITHMETIC:
+        raise SystemExit(f"--host-overhead knows {', '.join(_NO_ARITHMETIC)}, not {policy_name!r}")
+    full = time_gradient_step(policy_name, batch_size, steps=300, repeats=repeats)
+    bare = time_gradient_step(
+        policy_name, batch_size, steps=300, repeats=repeats, network_kwargs=_NO_ARITHMETIC[policy_name]
+    )
+    return {
+        "ms_per_gradient_step": full * 1e3,
+        "gradient_steps_per_s": 1.0 / full,
+        "host_overhead_ms_per_gradient_step": bare * 1e3,
+        "host_overhead_fraction": bare / full,
+    }
 
 
 def main() -> None:
@@ -85,7 +137,33 @@ def main() -> None:
     ap.add_argument("--threads", type=int)
     ap.add_argument("--out", help="run directory (default: a temporary one, removed afterwards)")
     ap.add_argument("--progress", action="store_true")
+    ap.add_argument(
+        "--host-overhead-only",
+        action="store_true",
+        help="only time a gradient step with and without the network's arithmetic (no training run)",
+    )
     args = ap.parse_args()
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    batch = args.batch_size or 100
+    if args.host_overhead_only:
+        report = {
+            "benchmark": "train_step",
+            "policy": args.policy,
+            "batch_size": batch,
+            "threads": torch.get_num_threads(),
+            "cpu_count": os.cpu_count(),
+            **{k: round(v, 4) for k, v in host_overhead(args.policy, batch).items()},
+            "host_overhead_goal_ms": 0.5,
+        }
+        print(
+            f"{args.policy}: {report['ms_per_gradient_step']:.3f} ms per gradient step "
+            f"({report['gradient_steps_per_s']:.0f}/s), "
+            f"{report['host_overhead_ms_per_gradient_step']:.3f} ms of it without the arithmetic "
+            "(goal <= 0.5 ms)"
+        )
+        print(json.dumps(report))
+        return
 
     s = load_train_settings(
         args.config, seed=args.seed, threads=args.threads, collection_batch=args.collection_batch
@@ -142,6 +220,7 @@ def main() -> None:
     rl_eps = int(rl_rows[-1]["episode"]) if rl_rows else 0
     rl_wall = (float(rl_rows[-1]["wall_time"]) - il_wall) if rl_rows else 0.0
     sec_step = time_gradient_step(args.policy, s.rl.batch_size)
+    overhead = host_overhead(args.policy, s.rl.batch_size) if args.policy in _NO_ARITHMETIC else {}
     report = {
         "benchmark": "train",
         "policy": args.policy,
@@ -160,6 +239,7 @@ def main() -> None:
         "gradient_steps": result.gradient_steps,
         "episodes_per_s": round(rl_eps / rl_wall, 3) if rl_wall > 0 else None,
         "seconds_per_gradient_step": round(sec_step, 5),
+        **{k: round(v, 4) for k, v in overhead.items()},
         "seconds_to_quality": round(reached["wall_time"], 1) if reached else None,
         "episode_at_quality": reached.get("episode"),
         "target": args.target,
