@@ -7,6 +7,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "orca.hpp"
 #include "robot_policies.hpp"
@@ -184,9 +185,14 @@ NB_MODULE(_core, m) {
             const size_t k = slots.size();
             checked(seeds, "seeds", k);
             int32_t* f = checked(failure, "failure", k);
-            for (size_t i = 0; i < k; ++i)
-              if (slots.data()[i] < 0 || slots.data()[i] >= c.batch)
-                throw std::invalid_argument("slot " + std::to_string(slots.data()[i]) + " out of range");
+            std::vector<bool> seen(static_cast<size_t>(c.batch), false);
+            for (size_t i = 0; i < k; ++i) {
+              const int64_t b = slots.data()[i];
+              if (b < 0 || b >= c.batch) throw std::invalid_argument("slot " + std::to_string(b) + " out of range");
+              if (seen[static_cast<size_t>(b)])  // two threads would write the same slot
+                throw std::invalid_argument("slot " + std::to_string(b) + " given twice");
+              seen[static_cast<size_t>(b)] = true;
+            }
             nb::gil_scoped_release release;
             self.world->load_generated(scenario, slots.data(), seeds.data(), static_cast<int>(k), f);
           },

@@ -317,3 +317,22 @@ def test_native_observation_equals_the_python_reference(scenario):
         w.step(policy.act(obs))
         steps += 1
     assert steps > 20
+
+
+def test_native_refill_refuses_bad_slots():
+    from socialnav.scenarios import episode_seeds, make_scenario
+    from socialnav.sim.world import World
+
+    scenario = make_scenario("circle_crossing")
+    w = World(WorldSettings(threads=2), scenario, 8, split="test", count=8, record=False)
+    w.reset()
+    seeds, failure = episode_seeds("test", np.arange(2)), np.zeros(2, dtype=np.int32)
+    with pytest.raises(ValueError, match="slot 1 given twice"):
+        w._core.load_generated(w._native_scenario, np.array([1, 1]), seeds, failure)
+    with pytest.raises(ValueError, match="slot 9 out of range"):
+        w._core.load_generated(w._native_scenario, np.array([1, 9]), seeds, failure)
+    other = make_scenario("circle_crossing", n_humans=3)
+    from socialnav.scenarios.native import native_config
+
+    with pytest.raises(ValueError, match="does not match"):
+        w._core.load_generated(native_config(other), np.array([1, 2]), seeds, failure)
