@@ -48,6 +48,9 @@ def worker_init() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if FORKSERVER_PID is not None:
         die_with_parent(FORKSERVER_PID)
+    from socialnav.evaluate.blas import one_blas_thread_for_good
+
+    one_blas_thread_for_good()  # the workers are the parallelism
 
 
 def start_forkserver() -> None:

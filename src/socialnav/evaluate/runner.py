@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from socialnav.evaluate.blas import one_blas_thread
 from socialnav.evaluate.files import (
     DirectoryLock,
     atomic_write_json,
@@ -202,7 +203,9 @@ def run_protocol(
     manifest = protocol_manifest(policy, preset, cells, label, batch_size, trajectories, extra_manifest)
     stamp = manifest_stamp(manifest)
     make_output_dir(out)
-    with DirectoryLock(out, "evaluation"):
+    # Worker processes are the parallelism; the bootstrap's small products need one BLAS thread
+    # (evaluate/blas.py), and spinning BLAS threads would take CPU from the workers.
+    with DirectoryLock(out, "evaluation"), one_blas_thread():
         remove_orphan_temporaries(out)
         check_or_write_manifest(out, manifest)
         expected = {

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from socialnav.evaluate.blas import one_blas_thread
 from socialnav.evaluate.files import (
     DirectoryLock,
     atomic_write_bytes,
@@ -102,7 +103,8 @@ def run_sweep(
         )
         statuses: dict[str, dict[str, Any]] = {}
         failures: list[dict[str, Any]] = []
-        with open(out / "sweep_log.jsonl", "a", encoding="utf-8") as task_log:
+        # the workers are the parallelism: the driver's summaries get one BLAS thread (evaluate/blas.py)
+        with open(out / "sweep_log.jsonl", "a", encoding="utf-8") as task_log, one_blas_thread():
             _run_training(spec, out, executor, statuses, failures, task_log, say)
             summary = _run_evaluations(spec, out, executor, statuses, failures, task_log, progress, say)
         if summary:

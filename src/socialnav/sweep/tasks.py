@@ -95,9 +95,11 @@ def evaluate_chunk(
     are rebuilt here from ``params``). The chunk's rows come back as the bytes of its Parquet file,
     stamped with the run's ``stamp`` (``rows_parquet``), so that the driver only stores them.
     """
+    from socialnav.evaluate.blas import one_blas_thread_for_good
     from socialnav.evaluate.files import rows_parquet_bytes
     from socialnav.evaluate.runner import CHUNK_STAMP_KEY, simulate_chunk, store_and_score
 
+    one_blas_thread_for_good()  # a worker (local or Ray): processes are the parallelism
     t0 = time.perf_counter()
     preset = job_preset(params, threads=threads)
     policy = _POLICIES.get(job_key)
