@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import signal
 import subprocess
 import sys
@@ -209,12 +210,22 @@ def test_local_sweep_equals_socialnav_evaluate_bit_for_bit(tmp_path):
                 json.loads((got / "summary.json").read_text())["rows"]
                 == json.loads((ref.out_dir / "summary.json").read_text())["rows"]
             )
+            # the conclusion computed by a worker writes the very files the runner writes
+            for name in ("summary.json", "summary.csv", "table2.md", "table2.tex", "table3.md", "table3.tex"):
+                assert (got / name).read_text() == (ref.out_dir / name).read_text(), name
     # one set of tables over every job, and every finished chunk logged once
     summary = json.loads((one.out_dir / "summary.json").read_text())["rows"]
     assert {r["policy"] for r in summary} == {j.name for j in spec.jobs}
     assert "orca-human_model=social_force" in (one.out_dir / "table2.md").read_text()
     log = [json.loads(x) for x in (one.out_dir / "sweep_log.jsonl").read_text().splitlines()]
-    assert len(log) == len({x["task"] for x in log}) == 4 * 3 * 3  # 3 cells of 10 episodes in chunks of 4
+    assert len(log) == len({x["task"] for x in log}) == 4 * 3 * 3 + 4  # 3 cells x 3 chunks, 1 conclusion
+    # each job's conclusion (summary, CIs, tables) ran in a worker process, after the job's chunks
+    conclusions = [x for x in log if x["task"].endswith("/conclusion")]
+    assert {x["task"] for x in conclusions} == {f"evaluate/{j.name}/conclusion" for j in spec.jobs}
+    assert all(x["where"]["pid"] != os.getpid() for x in conclusions)
+    for x in conclusions:
+        job = x["task"][: -len("/conclusion")]
+        assert max(y["time"] for y in log if y["task"].startswith(job + "/") and y is not x) <= x["time"]
     # a rerun computes nothing and changes nothing
     before = (one.out_dir / "summary.json").read_text()
     again = run_sweep(spec, tmp_path / "w1", LocalExecutor(2), progress=False)
@@ -306,6 +317,30 @@ def test_a_task_that_keeps_failing_is_reported_not_dropped(tmp_path, capsys):
     assert jobs["evaluate/dies"]["status"] == "failed"
     assert failures and all(f["job"] == "evaluate/dies" for f in failures)
     assert "error: evaluate/dies/" in err
+
+
+def test_a_damaged_chunk_fails_its_job_by_name_and_the_other_jobs_conclude(tmp_path):
+    preset = small_preset(tmp_path)
+    spec = parse_sweep(
+        {
+            "defaults": {"preset": preset, "episodes": 8, "scenarios": ["circle_crossing"]},
+            "grid": {"kind": "evaluate", "policy": ["linear", "orca"]},
+        }
+    )
+    first = run_sweep(spec, tmp_path / "out", LocalExecutor(2), progress=False)
+    assert first.ok
+    damaged = sorted((tmp_path / "out/evaluate/orca/episodes").glob("*/*.parquet"))[0]
+    damaged.write_bytes(damaged.read_bytes()[:100])  # truncated after it landed
+    again = run_sweep(spec, tmp_path / "out", LocalExecutor(2), progress=False)
+    assert not again.ok
+    assert again.jobs["evaluate/linear"]["status"] == "done"
+    failed = again.jobs["evaluate/orca"]
+    assert failed["status"] == "failed" and str(damaged) in failed["error"]
+    assert [f["task"] for f in again.failures] == ["evaluate/orca/conclusion"]
+    assert str(damaged) in again.failures[0]["error"] and "damaged" in again.failures[0]["error"]
+    # the other job's summary is still there, the damaged file is kept for the user to look at
+    assert {r["policy"] for r in again.summary} == {"linear"}
+    assert damaged.stat().st_size == 100
 
 
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM], ids=["SIGKILL", "SIGTERM"])

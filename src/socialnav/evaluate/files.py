@@ -91,8 +91,13 @@ def atomic_write_text(path: Path, text: str) -> None:
 
 
 def atomic_write_json(path: Path, data: Any) -> None:
+    atomic_write_text(path, json_text(data))
+
+
+def json_text(data: Any) -> str:
+    """The text :func:`atomic_write_json` writes (NaN and infinities as null, numpy values as numbers)."""
     text = json.dumps(json_safe(data), indent=2, sort_keys=False, default=_json_default, allow_nan=False)
-    atomic_write_text(path, text + "\n")
+    return text + "\n"
 
 
 def atomic_write_rows_parquet(
@@ -120,8 +125,9 @@ def rows_parquet_bytes(rows: list[dict[str, Any]], metadata: dict[str, str] | No
     return sink.getvalue().to_pybytes()
 
 
-def read_parquet_verified(path: Path, filters: Any = None):
+def read_parquet_verified(path: Path, filters: Any = None, data: bytes | None = None):
     """Reads a Parquet file verifying its page checksums; a damaged file is an error naming it.
+    With ``data``, the file's bytes are read from memory (``path`` names them in errors).
 
     Raises:
         CorruptFileError: The file is truncated, not Parquet, or a page fails its checksum.
@@ -130,7 +136,8 @@ def read_parquet_verified(path: Path, filters: Any = None):
     import pyarrow.parquet as pq
 
     try:
-        return pq.read_table(path, page_checksum_verification=True, filters=filters)
+        source = path if data is None else pa.BufferReader(data)
+        return pq.read_table(source, page_checksum_verification=True, filters=filters)
     except (OSError, pa.ArrowException) as err:
         if isinstance(err, FileNotFoundError | IsADirectoryError | PermissionError):
             raise

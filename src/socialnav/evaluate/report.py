@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.files import atomic_write_json, atomic_write_text
+from socialnav.evaluate.files import atomic_write_text, json_text
 from socialnav.metrics import get_metric, list_metrics, walking_speed_note
 from socialnav.presets import Preset
 
@@ -35,6 +35,13 @@ def write_reports(
     out: Path, summary: list[dict[str, Any]], rows: list[dict[str, Any]], preset: Preset
 ) -> None:
     """Writes summary.json/csv and the Table II/III layouts into ``out`` (all atomic)."""
+    for name, text in render_reports(summary, preset).items():
+        atomic_write_text(out / name, text)
+
+
+def render_reports(summary: list[dict[str, Any]], preset: Preset) -> dict[str, str]:
+    """The text of every result file :func:`write_reports` writes, by file name (a sweep's worker
+    renders them and the driver, which alone writes results, stores them)."""
     metrics = [
         {
             "name": m.name,
@@ -48,16 +55,18 @@ def write_reports(
         for m in list_metrics()
     ]
     notes = table_notes(preset)
-    atomic_write_json(
-        out / "summary.json", {"preset": preset.name, "rows": summary, "metrics": metrics, "notes": notes}
-    )
-    atomic_write_text(out / "summary.csv", to_csv(summary))
+    document = {"preset": preset.name, "rows": summary, "metrics": metrics, "notes": notes}
+    files = {
+        "summary.json": json_text(document),
+        "summary.csv": to_csv(summary),
+    }
     for name, make, missing in (
         ("table2", lambda s, f: table2(s, f, notes), "no multi-human scenario was evaluated"),
         ("table3", table3, "no single-human scenario (passing, overtaking, crossing) was evaluated"),
     ):
         for fmt, comment in (("md", "<!-- {} -->\n"), ("tex", "% {}\n")):
-            atomic_write_text(out / f"{name}.{fmt}", make(summary, fmt) or comment.format(missing))
+            files[f"{name}.{fmt}"] = make(summary, fmt) or comment.format(missing)
+    return files
 
 
 def table_notes(preset: Preset) -> list[str]:

@@ -45,7 +45,7 @@ from socialnav.evaluate.files import (
 )
 from socialnav.evaluate.mainguard import main_module_reruns_call
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, plan_cells
-from socialnav.evaluate.report import write_reports
+from socialnav.evaluate.report import render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
 from socialnav.metrics import score_episode, side_case_of_row
 from socialnav.policies.base import Policy
@@ -352,14 +352,38 @@ def read_episode_rows(
     return rows
 
 
+def conclude_chunks(
+    chunks: Sequence[tuple[Cell, int, int, str, bytes]],
+    label: str | None,
+    stamp: str | None,
+    preset: Preset,
+) -> tuple[int, list[dict[str, Any]], dict[str, str]]:
+    """A finished run's conclusion from its chunk files' bytes, given in cell and index order as
+    ``(cell, start, stop, path, bytes)`` (``path`` names a chunk in errors): the number of episodes,
+    the summary rows and the text of every result file by name, exactly what :func:`run_protocol`
+    writes. A sweep computes it in a worker, which may have no access to the result directory.
+
+    Raises:
+        ResumeMismatchError, CorruptFileError: A chunk is damaged or belongs to another run.
+    """
+    rows: list[dict[str, Any]] = []
+    for cell, a, b, path, data in chunks:
+        rows.extend(_read_chunk(Path(path), cell, a, b, label, stamp, data))
+    summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
+    return len(rows), summary, render_reports(summary, preset)
+
+
 def manifest_stamp(manifest: dict) -> str:
     """Fingerprint of a run's manifest, stored in each of its chunk files."""
     text = json.dumps(manifest, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def _read_chunk(path: Path, cell: Cell, a: int, b: int, label: str | None, stamp: str | None) -> list[dict]:
-    table = read_parquet_verified(path)
+def _read_chunk(
+    path: Path, cell: Cell, a: int, b: int, label: str | None, stamp: str | None, data: bytes | None = None
+) -> list[dict]:
+    """The rows of a chunk file (or of its bytes, ``data``), refused if damaged or not this run's."""
+    table = read_parquet_verified(path, data=data)
     fix = "delete it to recompute those episodes"
     if stamp is not None:
         got = (table.schema.metadata or {}).get(CHUNK_STAMP_KEY.encode(), b"").decode(errors="replace")

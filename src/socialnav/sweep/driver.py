@@ -12,10 +12,12 @@ Result directory::
     sweep_log.jsonl               one line per finished task: where it ran, how long it took
 
 Only this process writes result files; each chunk lands atomically, stamped with its job's manifest,
-exactly as ``socialnav evaluate`` writes it. Rerunning the same command after a kill recomputes no
-finished chunk and duplicates none: a chunk is a file named by its episode range. Results are the
-same, bit for bit, whatever the executor, the number of workers or the order chunks finish in,
-because each chunk is simulated on its own exactly as ``socialnav evaluate`` simulates it.
+exactly as ``socialnav evaluate`` writes it. When a job's last chunk has landed, its conclusion (summary,
+confidence intervals, tables) is computed by a worker from the chunks' bytes and stored here, so the
+driver's serial share stays small however many workers run. Rerunning the same command after a kill
+recomputes no finished chunk and duplicates none: a chunk is a file named by its episode range.
+Results are the same, bit for bit, whatever the executor, the number of workers or the order chunks
+finish in, because each chunk is simulated on its own exactly as ``socialnav evaluate`` simulates it.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from __future__ import annotations
 import json
 import pickle
 import time
-import warnings
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,12 +36,13 @@ from socialnav.evaluate.files import (
     DirectoryLock,
     atomic_write_bytes,
     atomic_write_json,
+    atomic_write_text,
     make_output_dir,
     remove_orphan_temporaries,
 )
 from socialnav.sweep.executors import Task, TaskFailed
 from socialnav.sweep.spec import TRAIN_REFERENCE, Job, SweepSpec, job_record
-from socialnav.sweep.tasks import build_job_policy, evaluate_chunk, job_preset, train_job
+from socialnav.sweep.tasks import build_job_policy, conclude_job, evaluate_chunk, job_preset, train_job
 
 
 @dataclass
@@ -65,9 +68,11 @@ class _EvalJob:
     stamp: str
     extra: dict[str, Any]
     todo: list
-    lock: Any = None  # the job directory's DirectoryLock, held while chunks land
+    lock: Any = None  # the job directory's DirectoryLock, held while chunks and the conclusion land
     computed: int = 0
     failed: list[str] = field(default_factory=list)
+    # the chunk files this run computed, by (cell key, first episode): the conclusion's input
+    chunk_bytes: dict[tuple[str, int], bytes] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.pending = len(self.todo)
@@ -166,7 +171,7 @@ def _run_evaluations(
     )
 
     jobs: list[_EvalJob] = []
-    tasks: list[Task] = []
+    tasks: deque[Task] = deque()  # the executor takes tasks from it as it goes: conclusions join later
     summaries: dict[str, list[dict[str, Any]]] = {}
     try:
         for job in spec.evaluate_jobs:
@@ -186,13 +191,18 @@ def _run_evaluations(
             f"on {executor.name}"
         )
         for ev in jobs:
-            if not ev.todo:  # resumed whole
-                summaries[ev.job.name] = _conclude(ev, statuses)
+            if not ev.todo:  # resumed whole: only its conclusion is left
+                _queue_conclusion(ev, tasks, statuses, failures, say)
         bar = _progress(total, 0, progress)
         bar.set_description("sweep")
         try:
             for task, result in executor.run(tasks):
-                ev, cell, a, b = task.meta["ev"], task.meta["cell"], task.meta["a"], task.meta["b"]
+                ev = task.meta["ev"]
+                if task.meta.get("conclusion"):
+                    _log_task(task_log, task, result)
+                    summaries[ev.job.name] = _store_conclusion(ev, task, result, statuses, failures, say)
+                    continue
+                cell, a, b = task.meta["cell"], task.meta["a"], task.meta["b"]
                 if isinstance(result, TaskFailed):
                     _log_task(task_log, task, result)
                     ev.failed.append(task.key)
@@ -210,14 +220,15 @@ def _run_evaluations(
                     if result["trajectories"] is not None:
                         atomic_write_bytes(trajectory_path(ev.dir, cell, a, b), result["trajectories"])
                     atomic_write_bytes(chunk_path(ev.dir, cell, a, b), result["rows_parquet"])
+                    ev.chunk_bytes[(cell.key, a)] = result["rows_parquet"]
                     # logged after the chunk landed: a logged chunk is never computed again
                     _log_task(task_log, task, result)
                     ev.computed += b - a
                     bar.update(b - a)
                 ev.pending -= 1
                 if ev.pending == 0:
-                    # The job's summary and tables are written while the workers go on with other jobs.
-                    summaries[ev.job.name] = _conclude(ev, statuses)
+                    # The job's conclusion runs next on a worker while the others go on with other jobs.
+                    _queue_conclusion(ev, tasks, statuses, failures, say)
         finally:
             bar.close()
     finally:
@@ -226,26 +237,67 @@ def _run_evaluations(
     return [row for ev in jobs for row in summaries.get(ev.job.name, [])]
 
 
-def _conclude(ev: _EvalJob, statuses: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
-    """Marks a job whose chunks all came back done (its summary rows) or failed (none)."""
+def _queue_conclusion(ev: _EvalJob, tasks: deque[Task], statuses, failures, say) -> None:
+    """Queues the conclusion of a job whose chunks all came back, at the front; a job with a failed
+    chunk has none (it is marked failed)."""
     key = f"evaluate/{ev.job.name}"
-    ev.release()  # finishing is `run_protocol` on the directory, which takes the lock itself
     if ev.failed:
-        statuses[key] = {
-            "status": "failed",
-            "dir": f"evaluate/{ev.job.name}",
-            "error": f"{len(ev.failed)} chunk(s) failed (failures.json); rerun to retry them",
-            "episodes_computed": ev.computed,
-        }
+        _mark_failed(ev, f"{len(ev.failed)} chunk(s) failed (failures.json); rerun to retry them", statuses)
+        return
+    from socialnav.evaluate.runner import chunk_path
+
+    chunks = []
+    try:
+        for cell in ev.cells:
+            for a, b in cell.chunks(ev.preset.evaluation.chunk_size):
+                path = chunk_path(ev.dir, cell, a, b)
+                data = ev.chunk_bytes.get((cell.key, a))
+                chunks.append((cell, a, b, str(path), data if data is not None else path.read_bytes()))
+    except OSError as err:  # a finished chunk file vanished or cannot be read since the job started
+        message = f"cannot read {err.filename}: {err.strerror}"
+        _mark_failed(ev, message, statuses)
+        failures.append({"job": key, "task": f"{key}/conclusion", "error": message, "attempts": 0})
+        say(f"{key}: FAILED: {message}")
+        return
+    ev.chunk_bytes.clear()
+    tasks.appendleft(
+        Task(
+            f"{key}/conclusion",
+            conclude_job,
+            (ev.job.params, chunks, ev.job.name, ev.stamp),
+            meta={"ev": ev, "conclusion": True},
+        )
+    )
+
+
+def _store_conclusion(ev: _EvalJob, task: Task, result: Any, statuses, failures, say) -> list[dict[str, Any]]:
+    """Writes a job's summary and tables computed by a worker; its summary rows (none if it failed)."""
+    key = f"evaluate/{ev.job.name}"
+    if isinstance(result, TaskFailed):
+        _mark_failed(ev, f"its conclusion failed: {result.message}", statuses)
+        failures.append({"job": key, "task": task.key, "error": result.message, "attempts": result.attempts})
+        say(f"{task.key}: FAILED: {result.message}")
         return []
-    result = _finish(ev)
+    for name, text in result["files"].items():
+        atomic_write_text(ev.dir / name, text)
+    ev.release()
     statuses[key] = {
         "status": "done",
         "dir": f"evaluate/{ev.job.name}",
         "episodes_computed": ev.computed,
-        "episodes": len(result.rows),
+        "episodes": result["episodes"],
     }
-    return result.summary
+    return result["summary"]
+
+
+def _mark_failed(ev: _EvalJob, error: str, statuses: dict[str, dict[str, Any]]) -> None:
+    ev.release()
+    statuses[f"evaluate/{ev.job.name}"] = {
+        "status": "failed",
+        "dir": f"evaluate/{ev.job.name}",
+        "error": error,
+        "episodes_computed": ev.computed,
+    }
 
 
 class _JobRefused(Exception):
@@ -343,24 +395,3 @@ def _chunk_tasks(ev: _EvalJob, spec: SweepSpec) -> list[Task]:
         )
         for cell, a, b in ev.todo
     ]
-
-
-def _finish(ev: _EvalJob):
-    from socialnav.evaluate.runner import run_protocol
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the chunks' warnings were re-issued when they landed
-        return run_protocol(
-            ev.policy,
-            ev.preset,
-            ev.dir,
-            label=ev.job.name,
-            scenarios=ev.job.get("scenarios"),
-            episodes=ev.job.get("episodes"),
-            visibility=ev.job.get("visibility"),
-            progress=False,
-            extra_manifest=ev.extra,
-            batch_size=int(ev.job.get("batch_size", 256)),
-            workers=0,
-            trajectories=bool(ev.job.get("trajectories", True)),
-        )

@@ -1,9 +1,12 @@
 """Where a sweep's tasks run: worker processes on this machine, or a Ray cluster.
 
 Both take the same tasks and yield ``(task, result)`` as tasks finish, in any order; a task that
-could not be run yields a :class:`TaskFailed` instead of a result. A task whose *worker died*
-(killed, out of memory, its machine lost) is run again, up to ``retries`` times; a task that raised
-an error is not (the same inputs would raise it again) and is reported with its message.
+could not be run yields a :class:`TaskFailed` instead of a result. Given a ``deque``, an executor takes
+its tasks from it as it goes, so the caller may add tasks while it iterates (a sweep's driver adds an
+evaluation job's conclusion when the job's last chunk has come back; added on the left, it runs next).
+A task whose *worker died* (killed, out of memory, its machine lost) is run again, up to ``retries``
+times; a task that raised an error is not (the same inputs would raise it again) and is reported with
+its message.
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ class LocalExecutor:
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
-        queue = deque(tasks)
+        queue = tasks if isinstance(tasks, deque) else deque(tasks)
         suspects: deque[Task] = deque()
         attempts: Counter[str] = Counter()
         pending: dict[Any, Task] = {}
@@ -200,15 +203,17 @@ class RayExecutor:
         )
         stored: dict[int, Any] = {}
         refs: dict[Any, Task] = {}
+        queue = tasks if isinstance(tasks, deque) else deque(tasks)
         try:
-            for task in tasks:
-                payload = task.payload
-                if payload is not None:
-                    if id(payload) not in stored:
-                        stored[id(payload)] = ray.put(payload)
-                    payload = stored[id(payload)]
-                refs[remote.remote(task.fn, payload, *task.args)] = task
-            while refs:
+            while queue or refs:
+                while queue:  # everything queued is submitted: Ray schedules it
+                    task = queue.popleft()
+                    payload = task.payload
+                    if payload is not None:
+                        if id(payload) not in stored:
+                            stored[id(payload)] = ray.put(payload)
+                        payload = stored[id(payload)]
+                    refs[remote.remote(task.fn, payload, *task.args)] = task
                 ready, _ = ray.wait(list(refs), num_returns=1)
                 for ref in ready:
                     task = refs.pop(ref)

@@ -1,4 +1,4 @@
-"""What a sweep's workers run: one evaluation chunk, or one training run.
+"""What a sweep's workers run: one evaluation chunk, an evaluation job's conclusion, or one training run.
 
 Both run in a worker process (local executor) or a Ray task, so their arguments and results are plain
 data. An evaluation chunk returns its scored rows and its trajectories as Parquet bytes; the driver
@@ -127,6 +127,35 @@ def evaluate_chunk(
         "rows_parquet": rows_parquet_bytes(rows, {CHUNK_STAMP_KEY: stamp}),
         "notes": notes,
         "trajectories": traj_bytes,
+        "where": where_am_i(),
+        "seconds": round(time.perf_counter() - t0, 4),
+    }
+
+
+def conclude_job(
+    _payload: None,
+    params: dict[str, Any],
+    chunks: list[tuple[Cell, int, int, str, bytes]],
+    label: str,
+    stamp: str,
+) -> dict[str, Any]:
+    """An evaluation job's conclusion (summary rows, tables) from its chunk files' bytes, in cell and
+    index order: what ``socialnav evaluate`` writes when a run ends, computed here so that the driver
+    only stores the files (its serial share stays small however many workers there are)."""
+    import warnings
+
+    from socialnav.evaluate.blas import one_blas_thread_for_good
+    from socialnav.evaluate.runner import conclude_chunks
+
+    one_blas_thread_for_good()
+    t0 = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the chunks' warnings were re-issued when they landed
+        episodes, summary, files = conclude_chunks(chunks, label, stamp, job_preset(params))
+    return {
+        "episodes": episodes,
+        "summary": summary,
+        "files": files,
         "where": where_am_i(),
         "seconds": round(time.perf_counter() - t0, 4),
     }
