@@ -145,3 +145,55 @@ def test_rgl_repo_rule_drops_last_transitions_and_timeouts_and_fixes_targets():
     loss = td_loss(_Policy(online), _ConstNet(100.0), batch, 0.9, 0.25, fixed_targets=True)
     v = 0.5 * torch.tensor([4.0, 3.0])
     assert loss.item() == pytest.approx(((v - torch.tensor(expected)) ** 2).mean().item(), rel=1e-5)
+
+
+def test_rgl_repo_final_rule_stores_the_same_transitions_and_recomputes_targets():
+    """rl.td_targets: rgl_repo_final keeps the repository's storage rule (no last transition, no
+    timed-out episode) and forms r + γ̄·V_target(s') at each gradient step with the target network of
+    that moment (the repository's final trainer), so a new target network changes the loss."""
+    from types import SimpleNamespace
+
+    from socialnav.train.memory import ReplayMemory
+    from socialnav.train.rl import RGLRepoEpisodes
+
+    def robot_row(dg):
+        r = np.zeros(9)
+        r[5], r[7], r[4] = dg, 1.0, 0.3
+        return r
+
+    humans, mask = np.zeros((2, 1, 5)), np.ones((2, 1), dtype=bool)
+    memory = ReplayMemory(100, 1)
+    buf = RGLRepoEpisodes(2, fixed=False)
+    dgs = [4.0, 3.0, 2.0, 1.0]
+    rewards = [[-0.01, 0.0], [-0.02, 0.0], [1.0, 0.0]]
+    for t in range(3):
+        last = t == 2
+        obs = SimpleNamespace(
+            robot=np.stack([robot_row(dgs[t])] * 2),
+            humans=humans,
+            human_mask=mask,
+            active=np.array([True, True]),
+        )
+        res = SimpleNamespace(
+            reward=np.array(rewards[t]),
+            final_robot=np.stack([robot_row(dgs[t + 1])] * 2),
+            final_humans=humans,
+            final_mask=mask,
+            terminated=np.array([last, False]),
+            truncated=np.array([False, last]),
+        )
+        buf.add_step(obs, res)
+        # the target network passed here must not matter: nothing is computed when storing
+        buf.finish(memory, res, _Policy(None), None, 0.9, 0.25)
+    assert len(memory) == 2
+    assert memory.reward[:2].tolist() == pytest.approx([-0.01, -0.02])
+    assert not memory.done[:2].any()  # every stored transition is non-terminal
+    assert torch.isnan(memory.target[:2]).all()  # no fixed target
+    batch = memory.take(torch.arange(2))
+    online = _ConstNet(0.5)
+    v = 0.5 * torch.tensor([4.0, 3.0])
+    g = 0.9**0.25
+    for w in (3.0, 7.0):  # the target network of the gradient step decides the target
+        y = torch.tensor([-0.01 + g * w * 3.0, -0.02 + g * w * 2.0])
+        loss = td_loss(_Policy(online), _ConstNet(w), batch, 0.9, 0.25, fixed_targets=False)
+        assert loss.item() == pytest.approx(((v - y) ** 2).mean().item(), rel=1e-5)

@@ -14,7 +14,8 @@ Result directory::
 Only this process writes result files; each chunk lands atomically, stamped with its job's manifest,
 exactly as ``socialnav evaluate`` writes it. When a job's last chunk has landed, its conclusion (summary,
 confidence intervals, tables) is computed by a worker from the chunks' bytes and stored here, so the
-driver's serial share stays small however many workers run. Rerunning the same command after a kill
+driver's serial share stays small however many workers run. Chunks are handed out longest first
+(episodes x agents), so the workers finish together. Rerunning the same command after a kill
 recomputes no finished chunk and duplicates none: a chunk is a file named by its episode range.
 Results are the same, bit for bit, whatever the executor, the number of workers or the order chunks
 finish in, because each chunk is simulated on its own exactly as ``socialnav evaluate`` simulates it.
@@ -185,6 +186,9 @@ def _run_evaluations(
                 continue
             jobs.append(ev)
             tasks.extend(_chunk_tasks(ev, spec))
+        # Longest first (episodes x agents): the last chunks to finish are short ones, so the workers
+        # end together instead of one finishing a long chunk alone (stable: job order among equals).
+        tasks = deque(sorted(tasks, key=lambda t: -t.meta["cost"]))
         total = sum(t.meta["b"] - t.meta["a"] for t in tasks)
         say(
             f"evaluation: {len(jobs)} job(s), {len(tasks)} chunk(s) ({total} episodes) to compute "
@@ -373,6 +377,10 @@ def _chunk_tasks(ev: _EvalJob, spec: SweepSpec) -> list[Task]:
     batch_size = int(ev.job.get("batch_size", 256))
     trajectories = bool(ev.job.get("trajectories", True))
     job_key = f"{ev.job.name}/{ev.stamp}"
+
+    def humans(cell) -> int:
+        return 1 if cell.single_human else ev.preset.evaluation.n_humans
+
     return [
         Task(
             f"evaluate/{ev.job.name}/{cell.key}/{a}-{b}",
@@ -391,7 +399,7 @@ def _chunk_tasks(ev: _EvalJob, spec: SweepSpec) -> list[Task]:
                 ev.stamp,
             ),
             payload,
-            meta={"ev": ev, "cell": cell, "a": a, "b": b},
+            meta={"ev": ev, "cell": cell, "a": a, "b": b, "cost": (b - a) * (1 + humans(cell))},
         )
         for cell, a, b in ev.todo
     ]

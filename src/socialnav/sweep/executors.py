@@ -64,6 +64,8 @@ class LocalExecutor:
         attempts: Counter[str] = Counter()
         pending: dict[Any, Task] = {}
         solo: Task | None = None  # the suspect running alone, if any
+        if not queue:
+            return  # nothing to run: no pool to start
         pool = _process_pool(self.workers)
         try:
             while queue or suspects or pending:

@@ -24,10 +24,12 @@ INFORMATION = ("constant_velocity", "oracle", "learned")
 REWARD_RULES = ("end", "swept")
 #: How RL's value targets are formed (docs/training.md, "TD targets"): ``recomputed`` (ours: every
 #: transition kept, the target r + γ̄·V_target(s')·(1 − terminal) computed at each gradient step) or
-#: ``rgl_repo`` (the RGL/CrowdNav repositories' explorer: a finished episode's last transition and every
-#: timed-out episode are dropped; the target r + γ̄·V_target(s') is computed once, when the episode is
-#: stored, with the target network of that moment).
-TD_TARGETS = ("recomputed", "rgl_repo")
+#: ``rgl_repo`` (the RGL repository's explorer as first published, commit 012e4af: a finished episode's
+#: last transition and every timed-out episode are dropped; the target r + γ̄·V_target(s') is computed
+#: once, when the episode is stored, with the target network of that moment) or ``rgl_repo_final`` (the
+#: repository's final version, commit 8dcd445: the same storage rule, the target r + γ̄·V_target(s')
+#: computed at each gradient step).
+TD_TARGETS = ("recomputed", "rgl_repo", "rgl_repo_final")
 #: Policies that plan with the learned state predictor and their defaults (information, depth, width,
 #: reward rule); every other policy defaults to a constant-velocity one-step lookahead with CrowdNav's
 #: end-of-step reward estimate.
@@ -98,7 +100,7 @@ class RLSettings:
     validate_every: int = 1000  # [episodes]
     val_episodes: int = 100  # split over the scenarios of the training mix
     gamma: float = 0.9  # discount per second of travel at v_pref: γ^(dt·v_pref) per step
-    td_targets: str = "recomputed"  # or "rgl_repo" (TD_TARGETS)
+    td_targets: str = "recomputed"  # or "rgl_repo", "rgl_repo_final" (TD_TARGETS)
 
     def __post_init__(self) -> None:
         check(self.episodes >= 0, "rl.episodes", self.episodes, "must be >= 0")

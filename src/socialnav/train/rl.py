@@ -149,18 +149,23 @@ def push_step(memory: ReplayMemory, obs, res) -> None:
 
 
 class RGLRepoEpisodes:
-    """The RGL repository's storage rule (``rl.td_targets: rgl_repo``), for lockstep collection.
+    """The RGL repository's storage rule (``rl.td_targets: rgl_repo`` and ``rgl_repo_final``), for
+    lockstep collection.
 
     Its explorer (``crowd_nav/utils/explorer.py``, Chen et al., "Relational Graph Learning for Crowd
     Navigation", IROS 2020) keeps an episode's transitions until it ends, stores nothing of an episode
-    that timed out, drops the last transition of the others (its loop runs over ``states[:-1]``, so the
-    success or collision reward never enters a target) and stores each remaining transition with the
-    value target r + γ̄·V_target(s') computed at that moment, which later gradient steps reuse as is.
-    Here every slot of the lockstep batch keeps its episode's rows until the episode ends.
+    that timed out and drops the last transition of the others (its loop runs over ``states[:-1]``, so
+    the success or collision reward never enters a target). As first published (``rgl_repo``) it
+    stores each remaining transition with the value target r + γ̄·V_target(s') computed at that moment,
+    which later gradient steps reuse as is (``fixed``); its final version (``rgl_repo_final``) stores
+    the reward and next state and computes r + γ̄·V_target(s') at each gradient step (every stored
+    transition is then non-terminal). Here every slot of the lockstep batch keeps its episode's rows
+    until the episode ends.
     """
 
-    def __init__(self, n_slots: int) -> None:
+    def __init__(self, n_slots: int, fixed: bool = True) -> None:
         self.rows: list[list[tuple]] = [[] for _ in range(int(n_slots))]
+        self.fixed = fixed
 
     def add_step(self, obs, res) -> None:
         """Keeps the transitions of one lockstep step (every active slot)."""
@@ -188,18 +193,20 @@ class RGLRepoEpisodes:
                 torch.as_tensor(np.stack(col)).to(memory.device) for col in zip(*rows[:-1], strict=True)
             )
             dtype = memory.robot.dtype
-            with torch.no_grad():
-                next_v = state_values(
-                    policy, target_net, next_robot.to(dtype), next_humans.to(dtype), next_mask
-                )
-                y = td_targets(
-                    reward.to(dtype),
-                    torch.zeros(len(reward), dtype=torch.bool, device=memory.device),
-                    next_v,
-                    gamma,
-                    dt,
-                    robot[:, 7].to(dtype),
-                )
+            y = None
+            if self.fixed:
+                with torch.no_grad():
+                    next_v = state_values(
+                        policy, target_net, next_robot.to(dtype), next_humans.to(dtype), next_mask
+                    )
+                    y = td_targets(
+                        reward.to(dtype),
+                        torch.zeros(len(reward), dtype=torch.bool, device=memory.device),
+                        next_v,
+                        gamma,
+                        dt,
+                        robot[:, 7].to(dtype),
+                    )
             memory.push(
                 robot,
                 humans,

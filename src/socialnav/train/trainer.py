@@ -400,7 +400,9 @@ def _train(
     world.reset(state["stream_positions"])
     memory = ReplayMemory(rl.capacity, n_humans, device=device)
     fixed_targets = rl.td_targets == "rgl_repo"
-    rgl_repo_episodes = RGLRepoEpisodes(world.batch_size) if fixed_targets else None
+    rgl_repo_episodes = (
+        RGLRepoEpisodes(world.batch_size, fixed=fixed_targets) if rl.td_targets != "recomputed" else None
+    )
     if resume is None:
         save_last()
     window = EpisodeStats()
