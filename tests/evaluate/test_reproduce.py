@@ -195,3 +195,17 @@ def test_reproduce_modules_do_not_import_torch():
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
+
+
+def test_table3_keeps_a_policy_that_never_succeeded_on_the_single_human_scenarios(tmp_path):
+    specs = [PolicySpec("orca", "orca", "ORCA"), PolicySpec("stuck", "linear", "Stuck"),
+             PolicySpec("multi", "linear", "MultiOnly")]
+    run = _fake_run({"orca": 0.99, "stuck": 0.0}, {"orca": 3.0, "stuck": 1.0})
+    for row in run.summary:
+        if row["policy"] == "stuck" and row["scenario"] == "passing":
+            row.update(m6_left_pct=math.nan, m6_right_pct=math.nan, m6_n_labelled=0)
+    run.summary.append(_summary_row("multi", success_rate=1.0))
+    write_reproduction(tmp_path, {"orca": run}, specs)
+    t3 = (tmp_path / "table3.md").read_text()
+    assert "| Stuck (ours) | – n=0 | – n=0 |" in t3  # run, no labelled success: kept, not dropped
+    assert "MultiOnly" not in t3  # never run on a single-human scenario: no row

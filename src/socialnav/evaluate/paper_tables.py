@@ -257,8 +257,8 @@ def table3(summary, specs, paper, comparison, notes) -> tuple[str, str]:
                 pct = _f(row.get(f"m6_{side}_pct")) if row else math.nan
                 low, high = wilson_interval(pct / 100 * n, n) if math.isfinite(pct) else (math.nan, math.nan)
                 ours.append(Value(pct, math.nan, 100 * low, 100 * high, n))
-        if all(not math.isfinite(v.mean) for v in ours):
-            continue
+        if all(_row(summary, spec.name, s, "invisible") is None for s in SIDE_SCENARIOS):
+            continue  # not evaluated on the single-human scenarios (evaluated with no success: "–")
         paper_row = (spec.shipped or {}).get("paper_row")
         entry = paper["table3"].get(paper_row) if paper_row and (spec.shipped or {}).get(
             "variant") != "original" else None
@@ -269,7 +269,7 @@ def table3(summary, specs, paper, comparison, notes) -> tuple[str, str]:
                 col = Column(f"{SIDE_SCENARIOS[j // 2]}_{'LR'[j % 2]}", header[1 + j], "side", "")
                 _record(comparison, "III", spec.name, spec.label, paper_row, col, o, pv)
         cells = [f"{fmt(v.mean, 0)} [{fmt(v.low, 0)}, {fmt(v.high, 0)}] n={v.n}" if math.isfinite(v.mean)
-                 else "–" for v in ours]
+                 else f"– n={v.n}" for v in ours]
         rows.append([f"{spec.label} (ours)", *cells])
         if p is not None:
             rows.append([f"{spec.label} (paper)", *[fmt(v.mean, 0) for v in p]])

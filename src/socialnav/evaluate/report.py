@@ -186,7 +186,9 @@ def table3_rows(summary: Sequence[dict[str, Any]]) -> list[list[str]]:
             left = row.get("m6_left_pct") if row else None
             right = row.get("m6_right_pct") if row else None
             cells += [_num(left), _num(right)]
-        if any(c != "–" for c in cells[1:]):
+        # A policy evaluated on the single-human scenarios keeps its row even when none of its cases
+        # succeeded ("–" throughout): dropping it would read as "not evaluated".
+        if any((p, s, "invisible") in idx for s in SIDE_SCENARIOS):
             out.append(cells)
     return out
 
@@ -208,7 +210,14 @@ def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
     rows = table3_rows(summary)
     if not rows:
         return ""  # no single-human scenario in the run: no table, not an empty header
-    return _render("Table III: M_VI side preference (successful single-human cases)", header, rows, fmt)
+    text = _render("Table III: M_VI side preference (successful single-human cases)", header, rows, fmt)
+    if any("–" in r[1:] for r in rows):
+        text += ("% " if fmt == "tex" else "\n") + TABLE3_DASH_NOTE + "\n"
+    return text
+
+
+#: Under Table III when a cell is empty.
+TABLE3_DASH_NOTE = "Note: – : no successful case of that policy in that scenario (or the scenario was not run)."
 
 
 def _render(title: str, header: list[str], rows: list[list[str]], fmt: str) -> str:
