@@ -10,7 +10,8 @@ SIDE = ("passing", "overtaking", "crossing")
 
 def side_rows(policy, left, right):
     return [
-        {"policy": policy, "scenario": s, "visibility": "invisible", "m6_left_pct": left, "m6_right_pct": right}
+        {"policy": policy, "scenario": s, "visibility": "invisible",
+         "m6_left_pct": left, "m6_right_pct": right}
         for s in SIDE
     ]
 

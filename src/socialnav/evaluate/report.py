@@ -217,7 +217,9 @@ def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
 
 
 #: Under Table III when a cell is empty.
-TABLE3_DASH_NOTE = "Note: – : no successful case of that policy in that scenario (or the scenario was not run)."
+TABLE3_DASH_NOTE = (
+    "Note: – : no successful case of that policy in that scenario (or the scenario was not run)."
+)
 
 
 def _render(title: str, header: list[str], rows: list[list[str]], fmt: str) -> str:
