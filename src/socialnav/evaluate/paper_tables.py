@@ -250,15 +250,17 @@ def table3(summary, specs, paper, comparison, notes) -> tuple[str, str]:
     rows: list[list[str]] = []
     for spec in specs:
         ours: list[Value] = []
+        was_run = False  # on any single-human scenario (run with no success: a row of "–")
         for scenario in SIDE_SCENARIOS:
             row = _row(summary, spec.name, scenario, "invisible")
+            was_run = was_run or row is not None
             n = int(row.get("m6_n_labelled") or 0) if row else 0
             for side in ("left", "right"):
                 pct = _f(row.get(f"m6_{side}_pct")) if row else math.nan
                 low, high = wilson_interval(pct / 100 * n, n) if math.isfinite(pct) else (math.nan, math.nan)
                 ours.append(Value(pct, math.nan, 100 * low, 100 * high, n))
-        if all(_row(summary, spec.name, s, "invisible") is None for s in SIDE_SCENARIOS):
-            continue  # not evaluated on the single-human scenarios (evaluated with no success: "–")
+        if not was_run:
+            continue
         paper_row = (spec.shipped or {}).get("paper_row")
         entry = paper["table3"].get(paper_row) if paper_row and (spec.shipped or {}).get(
             "variant") != "original" else None

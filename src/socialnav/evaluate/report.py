@@ -181,14 +181,16 @@ def table3_rows(summary: Sequence[dict[str, Any]]) -> list[list[str]]:
     out = []
     for p in policies:
         cells = [p]
+        was_run = False
         for s in SIDE_SCENARIOS:
             row = idx.get((p, s, "invisible"))
+            was_run = was_run or row is not None
             left = row.get("m6_left_pct") if row else None
             right = row.get("m6_right_pct") if row else None
             cells += [_num(left), _num(right)]
-        # A policy evaluated on the single-human scenarios keeps its row even when none of its cases
+        # A policy run on the single-human scenarios keeps its row even when none of its cases
         # succeeded ("–" throughout): dropping it would read as "not evaluated".
-        if any((p, s, "invisible") in idx for s in SIDE_SCENARIOS):
+        if was_run:
             out.append(cells)
     return out
 

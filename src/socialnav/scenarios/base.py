@@ -21,13 +21,6 @@ import numpy as np
 from socialnav.scenarios._params import ParamSpec, check_value, param, type_name
 from socialnav.scenarios.random import EpisodeRandom
 
-
-@functools.cache
-def _type_hints(cls: type) -> dict[str, Any]:
-    """A settings class's resolved annotations, computed once per class (resolving them costs ≈ 0.5 ms,
-    and settings are built for every chunk of a sweep and every episode stream)."""
-    return typing.get_type_hints(cls)
-
 __all__ = [
     "SPLIT_BASES",
     "SPLIT_SIZE",
@@ -38,6 +31,14 @@ __all__ = [
     "episode_seeds",
     "param",
 ]
+
+
+@functools.cache
+def _type_hints(cls: type) -> dict[str, Any]:
+    """A settings class's resolved annotations, computed once per class (resolving them costs ≈ 0.5 ms,
+    and settings are built for every chunk of a sweep and every episode stream)."""
+    return typing.get_type_hints(cls)
+
 
 #: First seed of each split (CrowdNav's scheme: val 0 + i, test 1000 + i, train from 2000 on).
 SPLIT_BASES: dict[str, int] = {"val": 0, "test": 1000, "train": 2000}
