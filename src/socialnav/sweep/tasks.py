@@ -63,15 +63,26 @@ def policy_overrides(params: dict[str, Any]) -> dict[str, Any]:
     return overrides
 
 
-def build_job_policy(params: dict[str, Any], preset: Preset, checkpoint: str | None):
+def build_job_policy(
+    params: dict[str, Any], preset: Preset, checkpoint: str | None, threads: int | None = None
+):
+    """The job's policy. ``threads`` (in a worker): the native threads of a policy that has them
+    (linear, ORCA, social force), unless the job sets them. Without it such a policy would start a
+    thread per core in every worker, and on a machine whose cores the workers already fill, each of
+    its calls would wake a thread that has no core to run on (results do not depend on it)."""
+    from socialnav.policies.base import get_policy_entry
     from socialnav.policies.loading import build_policy
 
+    name = str(params["policy"])
+    overrides = policy_overrides(params)
+    if threads is not None and "threads" not in overrides and "threads" in get_policy_entry(name).parameters:
+        overrides["threads"] = threads
     return build_policy(
-        str(params["policy"]),
+        name,
         preset,
         checkpoint,
         allow_preset_mismatch=bool(params.get("allow_preset_mismatch", False)),
-        **policy_overrides(params),
+        **overrides,
     )
 
 
@@ -109,7 +120,7 @@ def evaluate_chunk(
 
             policy = pickle.loads(payload)
         else:
-            policy = build_job_policy(params, preset, checkpoint)
+            policy = build_job_policy(params, preset, checkpoint, threads=threads)
         _POLICIES.clear()  # one job's policy at a time: a worker's memory stays that of one network
         _POLICIES[job_key] = policy
     if "torch" in sys.modules:
