@@ -73,7 +73,10 @@ def episode_seeds(split: str, indices: np.ndarray | Sequence[int] | int) -> np.n
     if split not in SPLIT_BASES:
         valid = ", ".join(repr(s) for s in SPLIT_BASES)
         raise ValueError(f"unknown split {split!r}; valid splits: {valid}")
-    idx = _as_indices(indices)
+    if isinstance(indices, np.ndarray) and indices.ndim == 1 and indices.dtype == np.int64:
+        idx = indices  # a world's refill, every step: only read here, so no checked copy
+    else:
+        idx = _as_indices(indices)
     if idx.size and idx.min() < 0:
         raise ValueError(f"episode indices must be >= 0, got {int(idx.min())}")
     if split != "train" and idx.size and idx.max() >= SPLIT_SIZE:
