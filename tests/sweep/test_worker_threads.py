@@ -46,7 +46,10 @@ def test_driver_side_build_keeps_the_policys_default() -> None:
     assert build_job_policy(PARAMS, preset, None, threads=1)._pool.size == 1
 
 
-def test_learned_policies_take_no_threads_argument() -> None:
-    # The override only goes to factories that declare `threads`, so a learned policy's factory
-    # is never handed an argument it would refuse.
+def test_a_learned_policy_is_built_in_a_worker_without_a_threads_argument() -> None:
+    # Learned policies take no `threads` (torch's threads are set apart): the override only goes to
+    # factories that declare it, so a worker still builds them.
+    params = {"policy": "sarl", "preset": "wang2022"}
     assert "threads" not in get_policy_entry("sarl").parameters
+    policy = build_job_policy(params, job_preset(params, threads=1), None, threads=1)
+    assert policy.name == "sarl"
