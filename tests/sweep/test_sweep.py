@@ -450,3 +450,21 @@ def test_evaluation_of_a_failed_training_is_reported(tmp_path):
     assert result.jobs["train/t"]["status"] == "failed"
     assert result.jobs["evaluate/e"]["status"] == "failed"
     assert "train:t" in result.jobs["evaluate/e"]["error"]
+
+
+def test_the_html_report_reads_a_sweeps_job_directories(tmp_path):
+    pytest.importorskip("matplotlib")
+    path = write_sweep(
+        tmp_path,
+        {
+            "defaults": {"preset": small_preset(tmp_path), "episodes": 4, "scenarios": ["circle_crossing"]},
+            "grid": {"kind": "evaluate", "policy": ["orca", "linear"]},
+        },
+    )
+    result = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False)
+    assert result.ok
+    html = tmp_path / "report.html"
+    jobs = sorted((tmp_path / "out" / "evaluate").iterdir())
+    assert main(["report", *map(str, jobs), "--out", str(html), "--quiet"]) in (0, None)
+    table = html.read_text().split("<h3>Table II, circle_crossing")[1].split("</table>")[0]
+    assert "<td>orca</td>" in table and "<td>linear</td>" in table
