@@ -73,10 +73,7 @@ def episode_seeds(split: str, indices: np.ndarray | Sequence[int] | int) -> np.n
     if split not in SPLIT_BASES:
         valid = ", ".join(repr(s) for s in SPLIT_BASES)
         raise ValueError(f"unknown split {split!r}; valid splits: {valid}")
-    if isinstance(indices, np.ndarray) and indices.ndim == 1 and indices.dtype == np.int64:
-        idx = indices  # a world's refill, every step: only read here, so no checked copy
-    else:
-        idx = _as_indices(indices)
+    idx = _as_indices(indices, copy=False)  # only read here (a world's refill calls this every step)
     if idx.size and idx.min() < 0:
         raise ValueError(f"episode indices must be >= 0, got {int(idx.min())}")
     if split != "train" and idx.size and idx.max() >= SPLIT_SIZE:
@@ -87,15 +84,17 @@ def episode_seeds(split: str, indices: np.ndarray | Sequence[int] | int) -> np.n
     return SPLIT_BASES[split] + idx
 
 
-def _as_indices(indices: np.ndarray | Sequence[int] | int) -> np.ndarray:
+def _as_indices(indices: np.ndarray | Sequence[int] | int, copy: bool = True) -> np.ndarray:
+    """``indices`` checked as a 1-D int64 array; ``copy=False`` returns an int64 input itself (for
+    callers that only read it)."""
     arr = np.atleast_1d(np.asarray(indices))
     if arr.ndim != 1:
         raise ValueError(f"indices must be 1-D, got shape {arr.shape}")
     if arr.size == 0:
-        return arr.astype(np.int64)
+        return arr.astype(np.int64, copy=copy)
     if not np.issubdtype(arr.dtype, np.integer):
         raise TypeError(f"indices must be integers, got dtype {arr.dtype}")
-    return arr.astype(np.int64)
+    return arr.astype(np.int64, copy=copy)
 
 
 # --------------------------------------------------------------------------------------------
