@@ -14,11 +14,15 @@ isolation. The last output line is one JSON object with (among others):
     PYTHONPATH=src python benchmarks/bench_train.py --max-minutes 30
     PYTHONPATH=src python benchmarks/bench_train.py --gradient-steps-per-episode 2 \
         --rl-episodes 2000 --max-minutes 10
-    PYTHONPATH=src python benchmarks/bench_train.py --host-overhead-only --threads 1
+    PYTHONPATH=src python benchmarks/bench_train.py --host-overhead-only --threads 1 [--compile]
 
 ``host_overhead_ms_per_gradient_step`` (issue #13, goal 0.5 ms) is the time of the same gradient step
 with every hidden layer one unit wide: every operation, dispatch, replay sampling and state transform
 is still done, next to none of the arithmetic; ``host_overhead_fraction`` is its share of the real step.
+``--host-overhead-only`` measures the step both ways in one run, eager (the default training path) and
+with the loss compiled (``compile: true`` / ``socialnav train --compile``): keys ``eager`` and
+``compiled``; the top-level keys are those of the path ``--compile`` selects (default: eager). A
+training run with ``--compile`` trains with the compiled loss and times its step compiled.
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ import torch
 from socialnav.policies.learned import ValuePolicy, build
 from socialnav.train.config import load_train_settings
 from socialnav.train.memory import ReplayMemory
-from socialnav.train.rl import td_loss
+from socialnav.train.rl import replay_td_loss
 from socialnav.train.trainer import train
 
 #: Every hidden layer 1 unit wide: the same operations as the real network with next to no arithmetic.
@@ -67,11 +71,15 @@ def time_gradient_step(
     steps: int = 200,
     repeats: int = 1,
     network_kwargs: dict | None = None,
+    compiled: bool = False,
 ) -> float:
-    """Seconds per TD gradient step (sample, transform, target forward, forward, backward, Adam); the
-    best of ``repeats`` timings of ``steps`` steps. ``network_kwargs`` changes the layer sizes."""
+    """Seconds per TD gradient step, the trainer's own (sample, gather, transform, target forward,
+    forward, the divergence check, backward, Adam); the best of ``repeats`` timings of ``steps`` steps.
+    ``network_kwargs`` changes the layer sizes; ``compiled`` compiles the loss as ``compile: true``
+    does (the compilation happens in the warm-up, outside the timing)."""
     kw = network_kwargs or {}
     net, target = build(policy_name, **kw), build(policy_name, **kw)
+    target.eval().requires_grad_(False)
     policy = ValuePolicy(net)
     opt = torch.optim.Adam(net.parameters(), lr=1e-3, fused=True)
     mem = ReplayMemory(10_000, n_humans)
@@ -83,9 +91,13 @@ def time_gradient_step(
     humans[..., 4] = 0.3
     mask = torch.ones(k, n_humans, dtype=torch.bool)
     mem.push(robot, humans, mask, torch.zeros(k), robot, humans, mask, torch.zeros(k, dtype=torch.bool))
+    loss_at = replay_td_loss(policy, target, mem, 0.9, 0.25, compiled=compiled)
+    net.train()
 
     def step() -> None:
-        loss = td_loss(policy, target, mem.sample(batch_size, g), 0.9, 0.25)
+        loss = loss_at(mem.sample_indices(batch_size, g))
+        if not math.isfinite(float(loss.detach())):  # the trainer checks every loss
+            raise RuntimeError("the benchmark's loss diverged")
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
@@ -101,15 +113,22 @@ def time_gradient_step(
     return best
 
 
-def host_overhead(policy_name: str, batch_size: int, repeats: int = 3) -> dict[str, float]:
+def host_overhead(
+    policy_name: str, batch_size: int, repeats: int = 3, compiled: bool = False
+) -> dict[str, float]:
     """Host overhead of one gradient step: the same step with the network's arithmetic removed (every
     hidden layer one unit wide: the same operations, dispatches, sampling and state transforms, next
     to no FLOPs), measured against the real step in the same run (issue #13)."""
     if policy_name not in _NO_ARITHMETIC:
         raise SystemExit(f"--host-overhead knows {', '.join(_NO_ARITHMETIC)}, not {policy_name!r}")
-    full = time_gradient_step(policy_name, batch_size, steps=300, repeats=repeats)
+    full = time_gradient_step(policy_name, batch_size, steps=300, repeats=repeats, compiled=compiled)
     bare = time_gradient_step(
-        policy_name, batch_size, steps=300, repeats=repeats, network_kwargs=_NO_ARITHMETIC[policy_name]
+        policy_name,
+        batch_size,
+        steps=300,
+        repeats=repeats,
+        network_kwargs=_NO_ARITHMETIC[policy_name],
+        compiled=compiled,
     )
     return {
         "ms_per_gradient_step": full * 1e3,
@@ -137,6 +156,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int)
     ap.add_argument("--out", help="run directory (default: a temporary one, removed afterwards)")
     ap.add_argument("--progress", action="store_true")
+    ap.add_argument("--compile", action="store_true", help="compile the RL loss (compile: true)")
     ap.add_argument(
         "--host-overhead-only",
         action="store_true",
@@ -147,21 +167,30 @@ def main() -> None:
         torch.set_num_threads(args.threads)
     batch = args.batch_size or 100
     if args.host_overhead_only:
+        modes = {
+            mode: {k: round(v, 4) for k, v in host_overhead(args.policy, batch, compiled=compiled).items()}
+            for mode, compiled in (("eager", False), ("compiled", True))
+        }
+        chosen = "compiled" if args.compile else "eager"
         report = {
             "benchmark": "train_step",
             "policy": args.policy,
             "batch_size": batch,
             "threads": torch.get_num_threads(),
             "cpu_count": os.cpu_count(),
-            **{k: round(v, 4) for k, v in host_overhead(args.policy, batch).items()},
+            "mode": chosen,
+            **modes[chosen],
             "host_overhead_goal_ms": 0.5,
+            **modes,
+            "compiled_speedup": round(modes["eager"]["ms_per_gradient_step"]
+                                      / modes["compiled"]["ms_per_gradient_step"], 3),
         }
-        print(
-            f"{args.policy}: {report['ms_per_gradient_step']:.3f} ms per gradient step "
-            f"({report['gradient_steps_per_s']:.0f}/s), "
-            f"{report['host_overhead_ms_per_gradient_step']:.3f} ms of it without the arithmetic "
-            "(goal <= 0.5 ms)"
-        )
+        for mode, m in modes.items():
+            print(
+                f"{args.policy} ({mode}): {m['ms_per_gradient_step']:.3f} ms per gradient step "
+                f"({m['gradient_steps_per_s']:.0f}/s), {m['host_overhead_ms_per_gradient_step']:.3f} ms "
+                "of it without the arithmetic (goal <= 0.5 ms)"
+            )
         print(json.dumps(report))
         return
 
@@ -182,7 +211,10 @@ def main() -> None:
         k: v for k, v in {"episodes": args.il_episodes, "epochs": args.il_epochs}.items() if v is not None
     }
     s = dataclasses.replace(
-        s, rl=dataclasses.replace(s.rl, **rl_over), imitation=dataclasses.replace(s.imitation, **il_over)
+        s,
+        compile=s.compile or args.compile,
+        rl=dataclasses.replace(s.rl, **rl_over),
+        imitation=dataclasses.replace(s.imitation, **il_over),
     )
     out = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_train_"))
     budget = args.max_minutes * 60.0
@@ -219,8 +251,10 @@ def main() -> None:
     rl_rows = [r for r in rows if r["phase"] == "rl"]
     rl_eps = int(rl_rows[-1]["episode"]) if rl_rows else 0
     rl_wall = (float(rl_rows[-1]["wall_time"]) - il_wall) if rl_rows else 0.0
-    sec_step = time_gradient_step(args.policy, s.rl.batch_size)
-    overhead = host_overhead(args.policy, s.rl.batch_size) if args.policy in _NO_ARITHMETIC else {}
+    sec_step = time_gradient_step(args.policy, s.rl.batch_size, compiled=s.compile)
+    overhead = {}
+    if args.policy in _NO_ARITHMETIC:
+        overhead = host_overhead(args.policy, s.rl.batch_size, compiled=s.compile)
     report = {
         "benchmark": "train",
         "policy": args.policy,
@@ -228,6 +262,7 @@ def main() -> None:
         "seed": args.seed,
         "threads": torch.get_num_threads(),
         "cpu_count": os.cpu_count(),
+        "compile": s.compile,
         "gradient_steps_per_episode": s.rl.gradient_steps_per_episode,
         "batch_size": s.rl.batch_size,
         "collection_batch": s.collection_batch,

@@ -158,15 +158,20 @@ def test_resume_continues_counters(tmp_path, tiny, quick_preset):
 def test_nan_loss_stops_and_keeps_last_good_checkpoint(tmp_path, tiny, quick_preset, monkeypatch):
     out = tmp_path / "run"
     settings = load_train_settings(tiny)
-    real = trainer_mod.td_loss
+    real = trainer_mod.replay_td_loss
     calls = {"n": 0}
 
     def flaky(*args, **kwargs):
-        calls["n"] += 1
-        loss = real(*args, **kwargs)
-        return loss * float("nan") if calls["n"] > 10 else loss
+        loss_at = real(*args, **kwargs)
 
-    monkeypatch.setattr(trainer_mod, "td_loss", flaky)
+        def loss(idx):
+            calls["n"] += 1
+            value = loss_at(idx)
+            return value * float("nan") if calls["n"] > 10 else value
+
+        return loss
+
+    monkeypatch.setattr(trainer_mod, "replay_td_loss", flaky)
     with pytest.raises(TrainingDiverged, match="nan"):
         train("sarl", quick_preset, out, settings, progress=False)
     ck = load_checkpoint(out / "last.pt", "sarl")
@@ -174,7 +179,9 @@ def test_nan_loss_stops_and_keeps_last_good_checkpoint(tmp_path, tiny, quick_pre
     assert ck.extra["resume"]["gradient_steps"] <= 10
     assert load_checkpoint(out / "best.pt", "sarl")
     # through the CLI: one clear error line, exit status 2
-    monkeypatch.setattr(trainer_mod, "td_loss", lambda *a, **k: real(*a, **k) * float("nan"))
+    monkeypatch.setattr(
+        trainer_mod, "replay_td_loss", lambda *a, **k: lambda idx, f=real(*a, **k): f(idx) * float("nan")
+    )
     rc = main(
         [
             "train",

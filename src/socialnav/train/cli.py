@@ -35,6 +35,13 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         help="episodes stepped in lockstep while collecting (default 128)",
     )
     tr.add_argument("--rl-episodes", type=int, dest="rl_episodes", help="RL episodes (default 10000)")
+    tr.add_argument(
+        "--compile",
+        action="store_true",
+        default=None,
+        help="compile the RL loss with torch.compile (faster gradient steps; needs a C++ compiler; "
+        "a compiled run's floating-point results differ from an eager one's, see docs/training.md)",
+    )
     tr.add_argument("--no-progress", action="store_true")
     tr.add_argument("--quiet", action="store_true", dest="no_progress", help="same as --no-progress")
     tr.set_defaults(run=_run)

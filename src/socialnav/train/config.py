@@ -53,11 +53,14 @@ ADDED_SETTINGS: dict[str, Any] = {
     "value_policy.planning_width": 1,
     "value_policy.reward_rule": "end",
     "train.rl.td_targets": "recomputed",
+    "train.compile": False,
 }
 DEVICES = ("cpu", "cuda", "auto")
 
 #: Train-setting keys that may change between a run and its resumption (everything else must match).
-RESUMABLE_CHANGES = ("device", "threads", "checkpoint_every", "log_every", "rl.episodes", "progress")
+RESUMABLE_CHANGES = (
+    "device", "threads", "compile", "checkpoint_every", "log_every", "rl.episodes", "progress"
+)
 
 
 @dataclass(frozen=True)
@@ -157,6 +160,11 @@ class TrainSettings:
             replay sampling use separate seeds derived from it (see :func:`derive_seeds`).
         device: "cpu", "cuda" or "auto" (cuda when available).
         threads: torch intra-op threads (0: all cores, at most 8).
+        compile: compile the RL loss (agent-centric transform, target and online forward passes and
+            their backward) with ``torch.compile``: 1.5-2.5x fewer seconds per gradient step on CPU,
+            after a compilation of ≈ 5-20 s at the first step; needs a C++ compiler at run time. Off
+            by default: a compiled run is reproducible for its seed but its floating-point results
+            differ from the eager run's (the shipped checkpoints come from eager runs).
         checkpoint_every: write last.pt every this many RL episodes (and at the end).
         log_every: one curves.csv row every this many RL episodes.
         cadrl_one_human: train CADRL with one human (its authors' setting) in every scenario of the mix.
@@ -168,6 +176,7 @@ class TrainSettings:
     seed: int = 0
     device: str = "cpu"
     threads: int = 0
+    compile: bool = False
     checkpoint_every: int = 500
     log_every: int = 100
     cadrl_one_human: bool = True
@@ -198,6 +207,7 @@ class TrainSettings:
         check(self.seed >= 0, "seed", self.seed, "must be >= 0")
         check(self.device in DEVICES, "device", self.device, f"must be one of {', '.join(DEVICES)}")
         check(self.threads >= 0, "threads", self.threads, "must be >= 0")
+        check(isinstance(self.compile, bool), "compile", self.compile, "must be true or false")
         check(self.checkpoint_every >= 1, "checkpoint_every", self.checkpoint_every, "must be >= 1")
         check(self.log_every >= 1, "log_every", self.log_every, "must be >= 1")
 
@@ -270,11 +280,14 @@ def resolve_train_settings(
     collection_batch: int | None = None,
     information: str | None = None,
     rl_episodes: int | None = None,
+    compile: bool | None = None,
 ) -> TrainSettings:
     """The settings of ``socialnav train`` (and of a sweep's training job): the config file, then the
     command-line options that override it (None: not given)."""
     settings = load_train_settings(config, seed=seed, device=device)
-    for key, value in (("collection_batch", collection_batch), ("information", information)):
+    for key, value in (
+        ("collection_batch", collection_batch), ("information", information), ("compile", compile)
+    ):
         if value is not None:
             settings = dataclasses.replace(settings, **{key: value})
     if rl_episodes is not None:

@@ -125,12 +125,16 @@ class ReplayMemory:
 
     def sample(self, batch_size: int, generator: torch.Generator) -> Transitions:
         """``batch_size`` transitions drawn uniformly with replacement using ``generator`` (CPU)."""
+        return self.take(self.sample_indices(batch_size, generator))
+
+    def sample_indices(self, batch_size: int, generator: torch.Generator) -> torch.Tensor:
+        """The slots :meth:`sample` would take (on the memory's device): the same draw, so that a
+        caller may gather the transitions itself (e.g. inside a compiled loss)."""
         if self.size == 0:
             raise ValueError("cannot sample from an empty replay memory")
         if generator is None:
             raise ValueError("sampling needs an explicit torch.Generator")
-        idx = torch.randint(0, self.size, (int(batch_size),), generator=generator).to(self.device)
-        return self.take(idx)
+        return torch.randint(0, self.size, (int(batch_size),), generator=generator).to(self.device)
 
     def take(self, idx: torch.Tensor) -> Transitions:
         return Transitions(

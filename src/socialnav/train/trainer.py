@@ -59,7 +59,7 @@ from socialnav.train.rl import (
     TrainingDiverged,
     epsilon_at,
     push_step,
-    td_loss,
+    replay_td_loss,
     validate,
 )
 
@@ -400,6 +400,9 @@ def _train(
     world.reset(state["stream_positions"])
     memory = ReplayMemory(rl.capacity, n_humans, device=device)
     fixed_targets = rl.td_targets == "rgl_repo"
+    loss_at = replay_td_loss(
+        policy, target, memory, rl.gamma, preset.world.dt, fixed_targets, compiled=settings.compile
+    )
     rgl_repo_episodes = (
         RGLRepoEpisodes(world.batch_size, fixed=fixed_targets) if rl.td_targets != "recomputed" else None
     )
@@ -447,8 +450,8 @@ def _train(
                     state["credit"] -= n_steps
                     net.train()
                     for _ in range(n_steps):
-                        batch = memory.sample(rl.batch_size, sample_gen)
-                        loss = td_loss(policy, target, batch, rl.gamma, dt, fixed_targets)
+                        idx = memory.sample_indices(rl.batch_size, sample_gen)
+                        loss = loss_at(idx)
                         lv = float(loss.detach())
                         if not math.isfinite(lv):
                             raise TrainingDiverged(
@@ -461,6 +464,7 @@ def _train(
                         optimizer.step()
                         if predictor is not None:
                             predictor.train()
+                            batch = memory.take(idx)
                             pl = predictor.loss(
                                 batch.robot, batch.humans, batch.mask, batch.next_humans, batch.next_mask, dt
                             )
@@ -565,7 +569,7 @@ def train_from_args(args) -> int:
     settings = resolve_train_settings(
         getattr(args, "config", None),
         **{key: getattr(args, key, None)
-           for key in ("seed", "device", "collection_batch", "information", "rl_episodes")},
+           for key in ("seed", "device", "collection_batch", "information", "rl_episodes", "compile")},
     )
     preset = load_preset(args.preset)
     out = Path(args.out or f"runs/train/{preset.name}-{args.policy}-s{settings.seed}")
