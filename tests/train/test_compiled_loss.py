@@ -53,6 +53,18 @@ def test_compiled_loss_and_gradients_match_eager(name):
         torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-6)
     # the target network takes no gradient, compiled or not
     assert all(p.grad is None for p in target.parameters())
+    # another run's networks and memory (same shapes) reuse the graph: it must read them, not the
+    # first run's parameters or transitions
+    torch.manual_seed(1)
+    net2, target2 = build(name), build(name)
+    target2.eval().requires_grad_(False)
+    mem2 = _memory()
+    mem2.reward.mul_(-3.0)
+    policy2 = ValuePolicy(net2)
+    again = replay_td_loss(policy2, target2, mem2, 0.9, 0.25, compiled=True)(idx)
+    expected = replay_td_loss(policy2, target2, mem2, 0.9, 0.25)(idx)
+    assert float(again) == pytest.approx(float(expected), rel=1e-5)
+    assert float(again) != pytest.approx(float(ref_loss), rel=1e-3)
 
 
 def test_a_compiled_run_is_reproducible_and_recorded(tmp_path, quick_preset):
