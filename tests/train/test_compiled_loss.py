@@ -14,7 +14,7 @@ from socialnav.train.memory import ReplayMemory
 from socialnav.train.rl import replay_td_loss
 from socialnav.train.trainer import train
 
-from .test_trainer import TINY, quick_preset  # noqa: F401  (fixture)
+from .test_trainer import TINY
 
 
 def _memory(n_humans=4, k=500):

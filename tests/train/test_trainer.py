@@ -6,7 +6,6 @@ import json
 
 import pytest
 import torch
-import yaml
 
 import socialnav.train.trainer as trainer_mod
 from socialnav.cli import main
@@ -31,20 +30,6 @@ def tiny(tmp_path):
     p = tmp_path / "tiny.yaml"
     p.write_text(TINY)
     return p
-
-
-@pytest.fixture()
-def quick_preset(tmp_path):
-    """crowdnav with a 6 s time limit and 3 humans: untrained policies time out quickly."""
-    from importlib import resources
-
-    data = yaml.safe_load((resources.files("socialnav.configs") / "crowdnav.yaml").read_text())
-    data["name"] = "crowdnav_quick"
-    data["world"]["time_limit"] = 6.0
-    data["training"]["n_humans"] = 3
-    p = tmp_path / "crowdnav_quick.yaml"
-    p.write_text(yaml.safe_dump(data))
-    return str(p)
 
 
 def _rows(path):
@@ -179,9 +164,11 @@ def test_nan_loss_stops_and_keeps_last_good_checkpoint(tmp_path, tiny, quick_pre
     assert ck.extra["resume"]["gradient_steps"] <= 10
     assert load_checkpoint(out / "best.pt", "sarl")
     # through the CLI: one clear error line, exit status 2
-    monkeypatch.setattr(
-        trainer_mod, "replay_td_loss", lambda *a, **k: lambda idx, f=real(*a, **k): f(idx) * float("nan")
-    )
+    def always_nan(*args, **kwargs):
+        loss_at = real(*args, **kwargs)
+        return lambda idx: loss_at(idx) * float("nan")
+
+    monkeypatch.setattr(trainer_mod, "replay_td_loss", always_nan)
     rc = main(
         [
             "train",
