@@ -41,6 +41,7 @@ from pathlib import Path
 import torch
 
 from socialnav.policies.learned import ValuePolicy, build
+from socialnav.train.common import AdamSteps, make_optimizer
 from socialnav.train.config import load_train_settings
 from socialnav.train.memory import ReplayMemory
 from socialnav.train.rl import replay_td_loss
@@ -74,14 +75,14 @@ def time_gradient_step(
     compiled: bool = False,
 ) -> float:
     """Seconds per TD gradient step, the trainer's own (sample, gather, transform, target forward,
-    forward, the divergence check, backward, Adam); the best of ``repeats`` timings of ``steps`` steps.
-    ``network_kwargs`` changes the layer sizes; ``compiled`` compiles the loss as ``compile: true``
-    does (the compilation happens in the warm-up, outside the timing)."""
+    forward, the divergence check, backward, fused Adam through AdamSteps); the best of ``repeats``
+    timings of ``steps`` steps. ``network_kwargs`` changes the layer sizes; ``compiled`` compiles the
+    loss as ``compile: true`` does (the compilation happens in the warm-up, outside the timing)."""
     kw = network_kwargs or {}
     net, target = build(policy_name, **kw), build(policy_name, **kw)
     target.eval().requires_grad_(False)
     policy = ValuePolicy(net)
-    opt = torch.optim.Adam(net.parameters(), lr=1e-3, fused=True)
+    adam = AdamSteps(make_optimizer(net.parameters(), 1e-3, torch.device("cpu")))
     mem = ReplayMemory(10_000, n_humans)
     g = torch.Generator().manual_seed(0)
     k = 10_000
@@ -98,9 +99,9 @@ def time_gradient_step(
         loss = loss_at(mem.sample_indices(batch_size, g))
         if not math.isfinite(float(loss.detach())):  # the trainer checks every loss
             raise RuntimeError("the benchmark's loss diverged")
-        opt.zero_grad(set_to_none=True)
+        adam.zero_grad()
         loss.backward()
-        opt.step()
+        adam.step()
 
     for _ in range(20):
         step()

@@ -22,6 +22,97 @@ def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optim
         return torch.optim.Adam(params, lr=lr, foreach=True)
 
 
+class AdamSteps:
+    """``zero_grad()`` and ``step()`` of a fused Adam without the optimizer's per-call Python.
+
+    ``torch.optim.Adam(fused=True).step()`` spends most of its time, for networks of a few small
+    tensors, in Python around two kernels: bookkeeping per parameter, grouping by device and dtype,
+    hooks. This increments the step counters and calls the same fused kernel (``_fused_adam_``) with
+    the same arguments, on the optimizer's own state, so the parameters and the saved optimizer state
+    are bit-identical to ``optimizer.step()``; the counters are kept as views of one tensor, so one add
+    replaces Adam's one add per parameter. Measured on the 2-core VM, SARL: 96–105 µs per step against
+    287–304 µs for ``optimizer.step()``
+    (``tests/train/test_adam_steps.py``). Anything else — a first step (which creates the state), a
+    parameter without a gradient, several parameter groups, amsgrad, weight decay, maximize, a
+    non-fused optimizer — goes through ``optimizer.step()``. ``zero_grad()`` is
+    ``zero_grad(set_to_none=True)``.
+    """
+
+    def __init__(self, optimizer: torch.optim.Optimizer) -> None:
+        self.optimizer = optimizer
+        groups = optimizer.param_groups
+        g = groups[0]
+        self.params: list[torch.Tensor] = list(g["params"])
+        self.fast = (
+            isinstance(optimizer, torch.optim.Adam)
+            and len(groups) == 1
+            and bool(g.get("fused"))
+            and not g.get("amsgrad")
+            and not g.get("maximize")
+            and not g.get("capturable")
+            and not g.get("differentiable")
+            and not g.get("decoupled_weight_decay", False)
+            and g.get("weight_decay", 0) == 0
+            and not isinstance(g.get("lr"), torch.Tensor)
+            and not optimizer._optimizer_step_pre_hooks
+            and not optimizer._optimizer_step_post_hooks
+            and hasattr(torch, "_fused_adam_")
+        )
+
+        # Cached per-parameter state; the step counters become 0-d views of one tensor, so that one
+        # add per step replaces one per parameter (the same values). Rebuilt whenever the optimizer's
+        # state object is replaced (load_state_dict, e.g. on resume).
+        self._state: Any = None
+        self._steps_buffer = torch.zeros(0)
+        self._steps: list[torch.Tensor] = []
+        self._exp_avgs: list[torch.Tensor] = []
+        self._exp_avg_sqs: list[torch.Tensor] = []
+
+    def zero_grad(self) -> None:
+        for p in self.params:
+            p.grad = None
+
+    def _cache(self, state: Any) -> None:
+        per_param = [state[p] for p in self.params]
+        self._steps_buffer = torch.stack([s["step"].detach() for s in per_param])
+        self._steps = [self._steps_buffer[i] for i in range(len(per_param))]
+        for s, view in zip(per_param, self._steps, strict=True):
+            s["step"] = view
+        self._exp_avgs = [s["exp_avg"] for s in per_param]
+        self._exp_avg_sqs = [s["exp_avg_sq"] for s in per_param]
+        self._state = state
+
+    def step(self) -> None:
+        state = self.optimizer.state
+        grads = [p.grad for p in self.params]
+        if not self.fast or len(state) < len(self.params) or any(g is None for g in grads):
+            self.optimizer.step()  # also the first step, which creates the state
+            return
+        if state is not self._state:
+            self._cache(state)
+        group = self.optimizer.param_groups[0]
+        beta1, beta2 = group["betas"]
+        with torch.no_grad():
+            self._steps_buffer.add_(1)
+            torch._fused_adam_(
+                self.params,
+                grads,
+                self._exp_avgs,
+                self._exp_avg_sqs,
+                [],
+                self._steps,
+                amsgrad=False,
+                lr=group["lr"],
+                beta1=beta1,
+                beta2=beta2,
+                weight_decay=group["weight_decay"],
+                eps=group["eps"],
+                maximize=False,
+                grad_scale=None,
+                found_inf=None,
+            )
+
+
 def optimizer_state(opt: torch.optim.Optimizer) -> dict[str, Any]:
     sd = opt.state_dict()
     return {"state": {str(k): v for k, v in sd["state"].items()}, "param_groups": sd["param_groups"]}

@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from socialnav.policies.native import NativePolicy
+from socialnav.train.common import AdamSteps
 from socialnav.train.envs import MultiWorld
 
 
@@ -256,6 +257,7 @@ def _epochs(
     optimizer step per ``batch_loss(indices)``; returns the mean loss per epoch. A non-finite loss
     raises FloatingPointError naming ``what`` and the epoch."""
     losses = []
+    adam = AdamSteps(optimizer)  # optimizer.step() without its per-call Python, bit-identical
     for epoch in epochs:
         perm = torch.randperm(m, generator=generator).to(device)
         total, count = 0.0, 0
@@ -264,9 +266,9 @@ def _epochs(
             loss = batch_loss(idx)
             if not torch.isfinite(loss):
                 raise FloatingPointError(f"{what} loss became {loss.item()} in epoch {epoch}")
-            optimizer.zero_grad(set_to_none=True)
+            adam.zero_grad()
             loss.backward()
-            optimizer.step()
+            adam.step()
             total += float(loss.detach()) * len(idx)
             count += len(idx)
         losses.append(total / count)

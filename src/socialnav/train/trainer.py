@@ -41,6 +41,7 @@ from socialnav.evaluate.files import (
 )
 from socialnav.presets import Preset, load_preset
 from socialnav.train.common import (
+    AdamSteps,
     better,
     check_same_run,
     load_optimizer_state,
@@ -403,6 +404,9 @@ def _train(
     loss_at = replay_td_loss(
         policy, target, memory, rl.gamma, preset.world.dt, fixed_targets, compiled=settings.compile
     )
+    # optimizer.step() without its per-call Python, bit-identical (train/common.py: AdamSteps)
+    adam = AdamSteps(optimizer)
+    predictor_adam = AdamSteps(predictor_opt) if predictor is not None else None
     rgl_repo_episodes = (
         RGLRepoEpisodes(world.batch_size, fixed=fixed_targets) if rl.td_targets != "recomputed" else None
     )
@@ -459,18 +463,18 @@ def _train(
                                 f"{state['gradient_steps']}); training stopped; {last_path} and {best_path} "
                                 f"keep the last good state"
                             )
-                        optimizer.zero_grad(set_to_none=True)
+                        adam.zero_grad()
                         loss.backward()
-                        optimizer.step()
+                        adam.step()
                         if predictor is not None:
                             predictor.train()
                             batch = memory.take(idx)
                             pl = predictor.loss(
                                 batch.robot, batch.humans, batch.mask, batch.next_humans, batch.next_mask, dt
                             )
-                            predictor_opt.zero_grad(set_to_none=True)
+                            predictor_adam.zero_grad()
                             pl.backward()
-                            predictor_opt.step()
+                            predictor_adam.step()
                             predictor.eval()
                             window_pred += float(pl.detach())
                         state["gradient_steps"] += 1
