@@ -160,11 +160,12 @@ class TrainSettings:
             replay sampling use separate seeds derived from it (see :func:`derive_seeds`).
         device: "cpu", "cuda" or "auto" (cuda when available).
         threads: torch intra-op threads (0: all cores, at most 8).
-        compile: compile the RL loss (agent-centric transform, target and online forward passes and
-            their backward) with ``torch.compile``: 1.5-2.5x fewer seconds per gradient step on CPU,
-            after a compilation of ≈ 5-20 s at the first step; needs a C++ compiler at run time. Off
-            by default: a compiled run is reproducible for its seed but its floating-point results
-            differ from the eager run's (the shipped checkpoints come from eager runs).
+        compile: compile the RL loss (agent-centric transforms, target and online forward passes
+            and their backward) with ``torch.compile``: SARL's gradient step ≈ 1.9x faster on the
+            2-core VM, after a compilation at the first step (≈ 45 s cold, seconds with Inductor's
+            cache); needs a C++ compiler at run time. Off by default: a compiled run is reproducible
+            for its seed, but its floating-point results differ from the eager run's (the shipped
+            checkpoints come from eager runs). See docs/training.md, "Compiled loss".
         checkpoint_every: write last.pt every this many RL episodes (and at the end).
         log_every: one curves.csv row every this many RL episodes.
         cadrl_one_human: train CADRL with one human (its authors' setting) in every scenario of the mix.
