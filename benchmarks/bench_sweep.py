@@ -12,6 +12,8 @@ both with warm worker start-up (the local pool forks from a preloaded forkserver
 worker processes from the second round on): `ray_overhead_fraction` = Ray sweep time / local
 2-worker sweep time − 1. Ray's start-up is timed apart. Every run's per-episode results are checked
 identical before anything is reported. Prints one JSON object last.
+
+    python benchmarks/bench_sweep.py [--episodes 200] [--repeats 2]
 """
 
 from __future__ import annotations
