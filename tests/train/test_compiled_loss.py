@@ -96,3 +96,27 @@ def test_cli_compile_flag():
     args = build_parser().parse_args(["train", "--policy", "sarl", "--compile"])
     assert args.compile is True
     assert build_parser().parse_args(["train", "--policy", "sarl"]).compile is None
+
+
+def test_compiled_imitation_fit_matches_eager():
+    import numpy as np
+
+    from socialnav.train.imitation import Demonstrations, fit_values
+
+    rng = np.random.default_rng(0)
+    m, n = 250, 4  # 250 = 2 full minibatches of 100 and a last one of 50: two graph shapes
+    robot = rng.uniform(-4, 4, (m, 9))
+    robot[:, 4], robot[:, 7] = 0.3, 1.0
+    humans = rng.uniform(-4, 4, (m, n, 5))
+    humans[..., 4] = 0.3
+    demos = Demonstrations(robot, humans, rng.random((m, n)) > 0.3, rng.random(m), 10, {})
+    losses = {}
+    for compiled in (False, True):
+        torch.manual_seed(0)
+        policy = ValuePolicy(build("sarl"))
+        opt = torch.optim.Adam(policy.network.parameters(), lr=1e-3, fused=True)
+        losses[compiled] = fit_values(
+            policy, demos, 3, 100, torch.Generator().manual_seed(1), opt, compiled=compiled
+        )
+    assert len(losses[True]) == 3 and losses[True][-1] < losses[True][0]
+    np.testing.assert_allclose(losses[True], losses[False], rtol=1e-4)

@@ -39,7 +39,7 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         "--compile",
         action="store_true",
         default=None,
-        help="compile the RL loss with torch.compile (faster gradient steps; needs a C++ compiler; "
+        help="compile the training losses with torch.compile (faster gradient steps; needs a C++ compiler; "
         "a compiled run's floating-point results differ from an eager one's, see docs/training.md)",
     )
     tr.add_argument("--no-progress", action="store_true")

@@ -160,8 +160,9 @@ class TrainSettings:
             replay sampling use separate seeds derived from it (see :func:`derive_seeds`).
         device: "cpu", "cuda" or "auto" (cuda when available).
         threads: torch intra-op threads (0: all cores, at most 8).
-        compile: compile the RL loss (agent-centric transforms, target and online forward passes
-            and their backward) with ``torch.compile``: SARL's gradient step ≈ 1.9x faster on the
+        compile: compile the training losses with ``torch.compile`` (RL: the agent-centric
+            transforms, target and online forward passes and their backward; imitation: the
+            value regression): SARL's gradient step ≈ 1.9x faster on the
             2-core VM, after a compilation at the first step (≈ 45 s cold, seconds with Inductor's
             cache); needs a C++ compiler at run time. Off by default: a compiled run is reproducible
             for its seed, but its floating-point results differ from the eager run's (the shipped

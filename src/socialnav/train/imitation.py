@@ -165,12 +165,16 @@ def fit_values(
     optimizer: torch.optim.Optimizer,
     on_epoch: Callable[[int, float], None] | None = None,
     start_epoch: int = 0,
+    compiled: bool = False,
 ) -> list[float]:
     """Supervised regression (MSE) of the policy's network onto the demonstrations' values.
 
     Epochs ``start_epoch .. epochs-1`` are run; ``on_epoch(epoch, loss)`` is called after each one
     (the trainer saves the network, ``optimizer`` and ``generator`` there, so that an interrupted
-    imitation resumes at the next epoch with the same result as an uninterrupted one).
+    imitation resumes at the next epoch with the same result as an uninterrupted one). ``compiled``
+    (training setting ``compile``) compiles the minibatch loss with ``torch.compile``, as the RL
+    loss (``train/rl.py: replay_td_loss``): one graph per minibatch size (the full one and an
+    epoch's last, shorter one).
 
     Returns:
         Mean loss per epoch run.
@@ -186,6 +190,13 @@ def fit_values(
     with torch.no_grad():
         joint = policy.transform(robot, humans, mask)  # the transform does not depend on the weights
     net.train()
+
+    def batch_loss(idx: torch.Tensor) -> torch.Tensor:
+        return torch.nn.functional.mse_loss(net.value(joint[idx], mask[idx]), value[idx])
+
+    if compiled:
+        options = {"cpp_wrapper": True} if joint.device.type == "cpu" else {}
+        batch_loss = torch.compile(batch_loss, dynamic=False, options=options)
     try:
         return _epochs(
             len(value),
@@ -194,7 +205,7 @@ def fit_values(
             generator,
             dev,
             optimizer,
-            lambda idx: torch.nn.functional.mse_loss(net.value(joint[idx], mask[idx]), value[idx]),
+            batch_loss,
             "imitation",
             on_epoch,
         )

@@ -114,7 +114,10 @@ def run_imitation(
         bar.set_postfix(loss=f"{loss:.4g}")
 
     try:
-        fit_values(policy, demos, il.epochs, il.batch_size, generator, optimizer, on_epoch, len(losses))
+        fit_values(
+            policy, demos, il.epochs, il.batch_size, generator, optimizer, on_epoch, len(losses),
+            compiled=settings.compile,
+        )
     except FloatingPointError as err:
         raise TrainingDiverged(f"{err}; {state_path} keeps the last good epoch") from None
     finally:
