@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,15 @@ def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optim
         return torch.optim.Adam(params, lr=lr, fused=True)
     except (RuntimeError, TypeError, ValueError):
         return torch.optim.Adam(params, lr=lr, foreach=True)
+
+
+def compile_loss(loss: Callable[[torch.Tensor], torch.Tensor], device: torch.device):
+    """``torch.compile`` of a minibatch loss of index tensors (training setting ``compile``): static
+    shapes (one graph per minibatch size) and, on CPU, Inductor's C++ wrapper, which calls the graph's
+    kernels from C++ instead of Python: ≈ 30 % less time per call on the 2-core VM, at no extra
+    compile time (docs/training.md, "Compiled loss")."""
+    options = {"cpp_wrapper": True} if device.type == "cpu" else {}
+    return torch.compile(loss, dynamic=False, options=options)
 
 
 class AdamSteps:

@@ -19,7 +19,7 @@ import numpy as np
 import torch
 
 from socialnav.policies.native import NativePolicy
-from socialnav.train.common import AdamSteps
+from socialnav.train.common import AdamSteps, compile_loss
 from socialnav.train.envs import MultiWorld
 
 
@@ -195,8 +195,7 @@ def fit_values(
         return torch.nn.functional.mse_loss(net.value(joint[idx], mask[idx]), value[idx])
 
     if compiled:
-        options = {"cpp_wrapper": True} if joint.device.type == "cpu" else {}
-        batch_loss = torch.compile(batch_loss, dynamic=False, options=options)
+        batch_loss = compile_loss(batch_loss, joint.device)
     try:
         return _epochs(
             len(value),
