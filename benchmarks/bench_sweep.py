@@ -29,7 +29,7 @@ from pathlib import Path
 import pyarrow.parquet as pq
 
 from socialnav.sweep.driver import run_sweep
-from socialnav.sweep.executors import LocalExecutor, RayExecutor
+from socialnav.sweep.executors import LocalExecutor, RayExecutor, init_ray
 from socialnav.sweep.spec import parse_sweep
 
 SPEEDUP_GOAL = 1.8
@@ -59,9 +59,6 @@ def main() -> None:
             },
         }
     )
-    # As RayExecutor does when it starts Ray itself: no usage report, workers at normal priority.
-    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-    os.environ.setdefault("RAY_worker_niceness", "0")
     import ray
 
     executors = {
@@ -88,13 +85,7 @@ def main() -> None:
             for name in ("local_1", "local_2"):
                 timed(name, name, Path(tmp) / f"{name}-{r}")
         t0 = time.perf_counter()
-        ray.init(
-            num_cpus=2,
-            include_dashboard=False,
-            logging_level="ERROR",
-            log_to_driver=False,
-            _node_ip_address="127.0.0.1",
-        )
+        init_ray(cpus=2)  # as the Ray executor starts Ray itself
         ray_startup = time.perf_counter() - t0
         try:
             for r in range(args.repeats):  # phase 2: Ray running, as on a cluster

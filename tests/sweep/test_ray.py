@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from socialnav.sweep.driver import run_sweep
-from socialnav.sweep.executors import LocalExecutor, RayExecutor
+from socialnav.sweep.executors import LocalExecutor, RayExecutor, init_ray
 from socialnav.sweep.spec import parse_sweep
 from tests._env import subprocess_env
 from tests.sweep.test_sweep import POLICIES, episode_rows, small_preset, trajectory_tables
@@ -26,14 +26,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 @pytest.fixture(scope="module")
 def local_ray():
-    """One Ray instance (2 CPUs, loopback) for the module: starting Ray costs seconds."""
-    ray.init(
-        num_cpus=2,
-        include_dashboard=False,
-        logging_level="ERROR",
-        log_to_driver=False,
-        _node_ip_address="127.0.0.1",
-    )
+    """One Ray instance (2 CPUs, loopback) for the module, started as the Ray executor starts one:
+    starting Ray costs seconds."""
+    init_ray(cpus=2)
     yield
     ray.shutdown()
 

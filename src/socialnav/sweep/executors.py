@@ -184,18 +184,7 @@ class RayExecutor:
 
         started_here = not ray.is_initialized()
         if started_here:
-            kwargs: dict[str, Any] = {
-                "include_dashboard": False,
-                "logging_level": "ERROR",
-                "log_to_driver": False,
-            }
-            if self.address is None:
-                # An instance for this machine alone: on loopback, reachable from nowhere else; its
-                # workers at normal priority (Ray's default, nice 15, lets any other process, this
-                # driver included, starve the sweep's own work).
-                kwargs.update(num_cpus=self.workers or (os.cpu_count() or 1), _node_ip_address="127.0.0.1")
-                os.environ.setdefault("RAY_worker_niceness", "0")
-            ray.init(address=self.address, **kwargs)
+            init_ray(self.address, self.workers)
         # SPREAD: chunks go to every node from the start, rather than filling the driver's node first
         # (Ray's default prefers the local node, so short chunks may all finish there while the other
         # nodes are still starting their workers)
@@ -236,6 +225,22 @@ class RayExecutor:
                 ray.cancel(ref, force=True)
             if started_here:
                 ray.shutdown()
+
+
+def init_ray(address: str | None = None, cpus: int | None = None) -> None:
+    """Connects this process to the Ray cluster at ``address`` or, without one, starts a Ray instance
+    for this machine alone with ``cpus`` CPUs (default: all): on loopback, reachable from nowhere
+    else, its workers at normal priority (Ray's default, nice 15, lets any other process, this driver
+    included, starve the sweep's own work). No dashboard, no usage report to Ray's servers (set
+    ``RAY_USAGE_STATS_ENABLED=1`` to send one), no worker logs echoed to the driver."""
+    import ray
+
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    kwargs: dict[str, Any] = {"include_dashboard": False, "logging_level": "ERROR", "log_to_driver": False}
+    if address is None:
+        kwargs.update(num_cpus=cpus or (os.cpu_count() or 1), _node_ip_address="127.0.0.1")
+        os.environ.setdefault("RAY_worker_niceness", "0")
+    ray.init(address=address, **kwargs)
 
 
 def _call(fn: Callable[..., Any], payload: Any, *args: Any) -> Any:
