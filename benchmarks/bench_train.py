@@ -43,6 +43,7 @@ import torch
 from socialnav.policies.learned import ValuePolicy, build
 from socialnav.train.common import AdamSteps, make_optimizer
 from socialnav.train.config import load_train_settings
+from socialnav.train.fused_step import FusedTDStep
 from socialnav.train.memory import ReplayMemory
 from socialnav.train.rl import replay_td_loss
 from socialnav.train.trainer import train
@@ -76,13 +77,16 @@ def time_gradient_step(
 ) -> float:
     """Seconds per TD gradient step, the trainer's own (sample, gather, transform, target forward,
     forward, the divergence check, backward, fused Adam through AdamSteps); the best of ``repeats``
-    timings of ``steps`` steps. ``network_kwargs`` changes the layer sizes; ``compiled`` compiles the
-    loss as ``compile: true`` does (the compilation happens in the warm-up, outside the timing)."""
+    timings of ``steps`` steps. ``network_kwargs`` changes the layer sizes; ``compiled`` compiles as
+    ``compile: true`` does — the whole step as one graph (train/fused_step.py) where the network
+    traces into one, else the loss — with the compilation outside the timing. Every step's loss is
+    read and checked here (the trainer checks a fused step's losses once per burst of steps)."""
     kw = network_kwargs or {}
     net, target = build(policy_name, **kw), build(policy_name, **kw)
     target.eval().requires_grad_(False)
     policy = ValuePolicy(net)
-    adam = AdamSteps(make_optimizer(net.parameters(), 1e-3, torch.device("cpu")))
+    optimizer = make_optimizer(net.parameters(), 1e-3, torch.device("cpu"))
+    adam = AdamSteps(optimizer)
     mem = ReplayMemory(10_000, n_humans)
     g = torch.Generator().manual_seed(0)
     k = 10_000
@@ -92,11 +96,17 @@ def time_gradient_step(
     humans[..., 4] = 0.3
     mask = torch.ones(k, n_humans, dtype=torch.bool)
     mem.push(robot, humans, mask, torch.zeros(k), robot, humans, mask, torch.zeros(k, dtype=torch.bool))
-    loss_at = replay_td_loss(policy, target, mem, 0.9, 0.25, compiled=compiled)
+    fused = FusedTDStep.build(policy, target, mem, optimizer, 0.9, 0.25, batch_size)[0] if compiled else None
+    loss_at = replay_td_loss(policy, target, mem, 0.9, 0.25, compiled=compiled and fused is None)
     net.train()
 
     def step() -> None:
-        loss = loss_at(mem.sample_indices(batch_size, g))
+        idx = mem.sample_indices(batch_size, g)
+        if fused is not None:
+            if not math.isfinite(float(fused(idx))):
+                raise RuntimeError("the benchmark's loss diverged")
+            return
+        loss = loss_at(idx)
         if not math.isfinite(float(loss.detach())):  # the trainer checks every loss
             raise RuntimeError("the benchmark's loss diverged")
         adam.zero_grad()

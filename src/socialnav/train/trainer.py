@@ -52,6 +52,7 @@ from socialnav.train.common import (
 from socialnav.train.config import TrainSettings, derive_seeds, resolve_train_settings
 from socialnav.train.curves import Curves
 from socialnav.train.envs import MultiWorld, training_n_humans
+from socialnav.train.fused_step import FusedTDStep
 from socialnav.train.imitation_phase import run_imitation
 from socialnav.train.memory import ReplayMemory
 from socialnav.train.rl import (
@@ -401,8 +402,19 @@ def _train(
     world.reset(state["stream_positions"])
     memory = ReplayMemory(rl.capacity, n_humans, device=device)
     fixed_targets = rl.td_targets == "rgl_repo"
+    # compile: the whole gradient step as one compiled graph where the network traces into one
+    # (train/fused_step.py), else the loss alone compiled
+    fused_step = None
+    if settings.compile:
+        fused_step, refusal = FusedTDStep.build(
+            policy, target, memory, optimizer, rl.gamma, preset.world.dt, rl.batch_size, fixed_targets
+        )
+        if fused_step is None:
+            say(f"compile: {policy_name}'s gradient step does not trace into one graph ({refusal}); "
+                "its loss is compiled instead")
     loss_at = replay_td_loss(
-        policy, target, memory, rl.gamma, preset.world.dt, fixed_targets, compiled=settings.compile
+        policy, target, memory, rl.gamma, preset.world.dt, fixed_targets,
+        compiled=settings.compile and fused_step is None,
     )
     # optimizer.step() without its per-call Python, bit-identical (train/common.py: AdamSteps)
     adam = AdamSteps(optimizer)
@@ -419,6 +431,13 @@ def _train(
     stopped_early = stop_now
     obs = world.observe(oracle=oracle)
     dt = preset.world.dt
+
+    def check_loss(value: float, gradient_step: int) -> None:
+        if not math.isfinite(value):
+            raise TrainingDiverged(
+                f"RL loss became {value} at episode {state['episode']} (gradient step {gradient_step}); "
+                f"training stopped; {last_path} and {best_path} keep the last good state"
+            )
     net.eval()
     try:
         while state["episode"] < rl.episodes and not stopped_early:
@@ -453,19 +472,19 @@ def _train(
                 if n_steps:
                     state["credit"] -= n_steps
                     net.train()
+                    fused_losses = []  # checked once per burst: no synchronisation per step
                     for _ in range(n_steps):
                         idx = memory.sample_indices(rl.batch_size, sample_gen)
-                        loss = loss_at(idx)
-                        lv = float(loss.detach())
-                        if not math.isfinite(lv):
-                            raise TrainingDiverged(
-                                f"RL loss became {lv} at episode {state['episode']} (gradient step "
-                                f"{state['gradient_steps']}); training stopped; {last_path} and {best_path} "
-                                f"keep the last good state"
-                            )
-                        adam.zero_grad()
-                        loss.backward()
-                        adam.step()
+                        if fused_step is not None:
+                            fused_losses.append(fused_step(idx))
+                        else:
+                            loss = loss_at(idx)
+                            lv = float(loss.detach())
+                            check_loss(lv, state["gradient_steps"])
+                            adam.zero_grad()
+                            loss.backward()
+                            adam.step()
+                            window_loss += lv
                         if predictor is not None:
                             predictor.train()
                             batch = memory.take(idx)
@@ -478,8 +497,12 @@ def _train(
                             predictor.eval()
                             window_pred += float(pl.detach())
                         state["gradient_steps"] += 1
-                        window_loss += lv
                         window_steps += 1
+                    if fused_losses:
+                        first = state["gradient_steps"] - len(fused_losses)
+                        for j, lv in enumerate(torch.stack(fused_losses).tolist()):
+                            check_loss(lv, first + j)
+                            window_loss += lv
                     net.eval()
             ep = int(state["episode"])
             if ep >= state["next_target"]:
