@@ -171,3 +171,33 @@ def test_fused_step_implements_only_plain_adam():
             DT,
             BATCH,
         )
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
+def test_fused_step_on_cuda_matches_the_eager_step():
+    torch.manual_seed(0)
+    net, target = build("sarl").cuda(), build("sarl").cuda()
+    ref_net, ref_target = build("sarl").cuda(), build("sarl").cuda()
+    ref_net.load_state_dict(net.state_dict())
+    ref_target.load_state_dict(target.state_dict())
+    for t in (target, ref_target):
+        t.eval().requires_grad_(False)
+    mem = ReplayMemory(K, N_HUMANS, device="cuda")
+    *fields, fixed = _transitions(1)
+    mem.push(*fields, target=fixed)
+    opt = make_optimizer(net.parameters(), 1e-3, torch.device("cuda"))
+    ref_opt = make_optimizer(ref_net.parameters(), 1e-3, torch.device("cuda"))
+    step, refusal = FusedTDStep.build(ValuePolicy(net, device="cuda"), target, mem, opt, GAMMA, DT, BATCH)
+    assert step is not None, refusal
+    ref_policy = ValuePolicy(ref_net, device="cuda")
+    g = torch.Generator().manual_seed(3)
+    for _ in range(5):
+        idx = mem.sample_indices(BATCH, g)
+        fused = float(step(idx))
+        loss = td_loss(ref_policy, ref_target, mem.take(idx), GAMMA, DT)
+        ref_opt.zero_grad()
+        loss.backward()
+        ref_opt.step()
+        assert fused == pytest.approx(float(loss.detach()), rel=1e-4, abs=1e-7)
+    for a, b in zip(net.parameters(), ref_net.parameters(), strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-4)
