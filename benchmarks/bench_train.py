@@ -63,6 +63,7 @@ _NO_ARITHMETIC: dict[str, dict] = {
         "mlp3_dims": (1, 1, 1, 1),
     },
     "cadrl": {"mlp_dims": (1, 1, 1, 1)},
+    "rgl": {"robot_dims": (1, 1), "human_dims": (1, 1), "value_dims": (1, 1, 1, 1)},
 }
 
 
