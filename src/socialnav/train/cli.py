@@ -39,8 +39,9 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         "--compile",
         action="store_true",
         default=None,
-        help="compile the training losses with torch.compile (faster gradient steps; needs a C++ compiler; "
-        "a compiled run's floating-point results differ from an eager one's, see docs/training.md)",
+        help="compile the training steps (RL: one compiled graph per gradient step where the network allows; "
+        "faster; needs a C++ compiler; a compiled run's floating-point results differ from an eager "
+        "one's, see docs/training.md)",
     )
     tr.add_argument("--no-progress", action="store_true")
     tr.add_argument("--quiet", action="store_true", dest="no_progress", help="same as --no-progress")

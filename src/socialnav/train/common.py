@@ -27,7 +27,7 @@ def compile_loss(loss: Callable[[torch.Tensor], torch.Tensor], device: torch.dev
     """``torch.compile`` of a minibatch loss of index tensors (training setting ``compile``): static
     shapes (one graph per minibatch size) and, on CPU, Inductor's C++ wrapper, which calls the graph's
     kernels from C++ instead of Python: ≈ 30 % less time per call on the 2-core VM, at no extra
-    compile time (docs/training.md, "Compiled loss")."""
+    compile time (docs/training.md, "Compiled training")."""
     options = {"cpp_wrapper": True} if device.type == "cpu" else {}
     return torch.compile(loss, dynamic=False, options=options)
 

@@ -160,13 +160,14 @@ class TrainSettings:
             replay sampling use separate seeds derived from it (see :func:`derive_seeds`).
         device: "cpu", "cuda" or "auto" (cuda when available).
         threads: torch intra-op threads (0: all cores, at most 8).
-        compile: compile the training losses with ``torch.compile`` (RL: the agent-centric
-            transforms, target and online forward passes and their backward; imitation: the
-            value regression): SARL's gradient step ≈ 1.9x faster on the
-            2-core VM, after a compilation at the first step (≈ 45 s cold, seconds with Inductor's
-            cache); needs a C++ compiler at run time. Off by default: a compiled run is reproducible
-            for its seed, but its floating-point results differ from the eager run's (the shipped
-            checkpoints come from eager runs). See docs/training.md, "Compiled loss".
+        compile: compile the training steps. RL: the whole gradient step as one graph
+            (train/fused_step.py) for networks that trace into one (SARL, OM-SARL, RGL, MP-RGL),
+            the loss alone with ``torch.compile`` for the others (CADRL, LSTM-RL); imitation: the
+            value regression's loss. SARL's gradient step ≈ 2.2x faster at 2 threads on the 2-core
+            VM, after a compilation at the start of RL (≈ 35 s cold, seconds with Inductor's cache);
+            needs a C++ compiler at run time. Off by default: a compiled run is reproducible for its
+            seed, but its floating-point results differ from the eager run's (the shipped
+            checkpoints come from eager runs). See docs/training.md, "Compiled training".
         checkpoint_every: write last.pt every this many RL episodes (and at the end).
         log_every: one curves.csv row every this many RL episodes.
         cadrl_one_human: train CADRL with one human (its authors' setting) in every scenario of the mix.
