@@ -83,10 +83,8 @@ class AdamSteps:
 
     def _cache(self, state: Any) -> None:
         per_param = [state[p] for p in self.params]
-        self._steps_buffer = torch.stack([s["step"].detach() for s in per_param])
-        self._steps = [self._steps_buffer[i] for i in range(len(per_param))]
-        for s, view in zip(per_param, self._steps, strict=True):
-            s["step"] = view
+        self._steps_buffer = shared_step_counters(per_param)
+        self._steps = [s["step"] for s in per_param]
         self._exp_avgs = [s["exp_avg"] for s in per_param]
         self._exp_avg_sqs = [s["exp_avg_sq"] for s in per_param]
         self._state = state
@@ -120,6 +118,16 @@ class AdamSteps:
                 grad_scale=None,
                 found_inf=None,
             )
+
+
+def shared_step_counters(per_param: list[dict[str, Any]]) -> torch.Tensor:
+    """Replaces each parameter's Adam ``step`` counter (a 0-d tensor) by a 0-d view of one stacked
+    tensor with the same values, and returns that tensor: one add advances every counter, and the
+    optimizer's state (saved, loaded, stepped by ``optimizer.step()``) holds the views as before."""
+    steps = torch.stack([s["step"].detach() for s in per_param])
+    for i, s in enumerate(per_param):
+        s["step"] = steps[i]
+    return steps
 
 
 def optimizer_state(opt: torch.optim.Optimizer) -> dict[str, Any]:

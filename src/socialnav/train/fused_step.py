@@ -28,6 +28,7 @@ import torch
 from torch import nn
 from torch.fx.experimental.proxy_tensor import make_fx
 
+from socialnav.train.common import shared_step_counters
 from socialnav.train.memory import ReplayMemory, Transitions
 from socialnav.train.rl import td_targets
 
@@ -127,8 +128,8 @@ class FusedTDStep:
     def _ensure_state(self) -> None:
         """Creates Adam's state as ``torch.optim.Adam(fused=True)`` does on its first step (zero
         moments, a float32 step counter per parameter), if it has none yet, and gathers the graph's
-        inputs. The step counters become 0-d views of one tensor, so the graph updates them with one
-        add (as ``train/common.py: AdamSteps`` does)."""
+        inputs. The step counters become 0-d views of one tensor (``shared_step_counters``, as for
+        ``AdamSteps``), so the graph updates them with one add."""
         state = self.optimizer.state
         for p in self._params:
             if p not in state or not state[p]:
@@ -138,9 +139,9 @@ class FusedTDStep:
                     "exp_avg_sq": torch.zeros_like(p, memory_format=torch.preserve_format),
                 }
         per_param = [state[p] for p in self._params]
-        steps = torch.stack([s["step"].detach().to(torch.float32) for s in per_param])
-        for i, s in enumerate(per_param):
-            s["step"] = steps[i]
+        for s in per_param:  # the graph is compiled for float32 counters, whatever a loaded state holds
+            s["step"] = s["step"].to(torch.float32)
+        steps = shared_step_counters(per_param)
         self._inputs = [
             *(p.detach() for p in self._params),
             *(b.detach() for b in self.network.buffers()),
