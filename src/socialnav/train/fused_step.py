@@ -97,16 +97,16 @@ class FusedTDStep:
         self._gamma, self._dt = float(gamma), float(dt)
         self._lr, (self._beta1, self._beta2), self._eps = float(g["lr"]), g["betas"], float(g["eps"])
         self._params: list[torch.Tensor] = list(g["params"])
-        online = dict(self.network.named_parameters())
+        self._value, self._target_value = _Value(self.network), _Value(target_net)
+        online = dict(self._value.named_parameters())
         if [id(p) for p in online.values()] != [id(p) for p in self._params]:
             raise ValueError("the optimizer must hold exactly the policy network's parameters, in order")
-        self._param_names = [f"network.{n}" for n in online]
-        self._buffer_names = [f"network.{n}" for n, _ in self.network.named_buffers()]
-        self._target_names = [f"network.{n}" for n, _ in target_net.named_parameters()] + [
-            f"network.{n}" for n, _ in target_net.named_buffers()
+        # the names functional_call takes, in the order of the graph's inputs (_ensure_state)
+        self._param_names = list(online)
+        self._buffer_names = [n for n, _ in self._value.named_buffers()]
+        self._target_names = [n for n, _ in self._target_value.named_parameters()] + [
+            n for n, _ in self._target_value.named_buffers()
         ]
-        self._value = _Value(self.network)
-        self._target_value = _Value(target_net)
         self._state_seen: object = None
         self._inputs: list[torch.Tensor] = []
         self._compiled = None
