@@ -113,7 +113,7 @@ NB_MODULE(_core, m) {
              Array<double> theta, Array<int32_t> steps, Array<int8_t> status, Array<double> reward,
              Array<double> dmin, Array<uint8_t> done, Array<int32_t> overlaps, Array<double> arrival,
              Array<int32_t> end_step, nb::object hist_position, nb::object hist_velocity,
-             nb::object hist_dmin) {
+             nb::object hist_dmin, nb::object pool) {
             const size_t B = static_cast<size_t>(config.batch);
             const size_t A = static_cast<size_t>(config.agents);
             const size_t T = static_cast<size_t>(config.history_len);
@@ -138,8 +138,9 @@ NB_MODULE(_core, m) {
             buf.hist_dmin = optional_checked<double>(hist_dmin, "hist_dmin", B * T);
             if (T > 0 && (!buf.hist_position || !buf.hist_velocity || !buf.hist_dmin))
               throw std::invalid_argument("history_len > 0 needs hist_position, hist_velocity and hist_dmin");
+            socialnav::ThreadPool* shared = pool.is_none() ? nullptr : nb::cast<socialnav::ThreadPool*>(pool);
             new (self) PyWorld();
-            self->world = std::make_unique<socialnav::World>(config, buf);
+            self->world = std::make_unique<socialnav::World>(config, buf, shared);
             for (nb::handle h : {nb::cast(position), nb::cast(velocity), nb::cast(goal), nb::cast(radius),
                                  nb::cast(v_pref), nb::cast(mask), nb::cast(theta), nb::cast(steps),
                                  nb::cast(status), nb::cast(reward), nb::cast(dmin), nb::cast(done),
@@ -148,13 +149,14 @@ NB_MODULE(_core, m) {
             self->keep_alive.append(hist_position);
             self->keep_alive.append(hist_velocity);
             self->keep_alive.append(hist_dmin);
+            self->keep_alive.append(pool);  // a shared pool outlives the worlds that run on it
           },
           // State buffers are shared with Python: a converted copy would silently decouple them.
           "config"_a, "position"_a.noconvert(), "velocity"_a.noconvert(), "goal"_a.noconvert(),
           "radius"_a.noconvert(), "v_pref"_a.noconvert(), "mask"_a.noconvert(), "theta"_a.noconvert(),
           "steps"_a.noconvert(), "status"_a.noconvert(), "reward"_a.noconvert(), "dmin"_a.noconvert(),
           "done"_a.noconvert(), "overlaps"_a.noconvert(), "arrival"_a.noconvert(), "end_step"_a.noconvert(),
-          "hist_position"_a.none(), "hist_velocity"_a.none(), "hist_dmin"_a.none())
+          "hist_position"_a.none(), "hist_velocity"_a.none(), "hist_dmin"_a.none(), "pool"_a.none() = nb::none())
       .def(
           "step",
           [](PyWorld& self, Array<double> actions) {
@@ -164,6 +166,68 @@ NB_MODULE(_core, m) {
             self.world->step(a);
           },
           "actions"_a, "Advance every running episode by one step (GIL released).")
+      .def(
+          "step",
+          [](PyWorld& self, Array<double> actions, Array<double> reward, Array<bool> terminated,
+             Array<bool> truncated, Array<int8_t> outcome, Array<double> final_dmin, Array<int64_t> final_episode,
+             Array<int64_t> episode_index) {
+            const auto& c = self.world->config();
+            const size_t B = static_cast<size_t>(c.batch);
+            const double* a = checked(actions, "actions", B * 2);
+            socialnav::StepOutputs out{};
+            out.reward = checked(reward, "reward", B);
+            out.terminated = reinterpret_cast<uint8_t*>(checked(terminated, "terminated", B));
+            out.truncated = reinterpret_cast<uint8_t*>(checked(truncated, "truncated", B));
+            out.outcome = checked(outcome, "outcome", B);
+            out.final_dmin = checked(final_dmin, "final_dmin", B);
+            out.final_episode = checked(final_episode, "final_episode", B);
+            out.episode_index = checked(episode_index, "episode_index", B);
+            nb::gil_scoped_release release;
+            return self.world->step(a, &out);
+          },
+          "actions"_a, "reward"_a.noconvert(), "terminated"_a.noconvert(), "truncated"_a.noconvert(),
+          "outcome"_a.noconvert(), "final_dmin"_a.noconvert(), "final_episode"_a.noconvert(),
+          "episode_index"_a.noconvert(),
+          "Advance every running episode by one step and write its per-slot report (reward; terminated, "
+          "truncated, final status, dmin and episode index where an episode ended); returns the number of "
+          "episodes that ended.")
+      .def(
+          "refill_done",
+          [](PyWorld& self, const socialnav::ScenarioConfig& scenario, int64_t first_index, int count,
+             int64_t seed_base, Array<int64_t> episode_index, Array<int64_t> episode_seed, Array<int32_t> failure,
+             nb::object robot, nb::object humans, nb::object human_mask, nb::object active, nb::object time) {
+            const auto& c = self.world->config();
+            if (scenario.n_humans != c.agents - 1)
+              throw std::invalid_argument("scenario n_humans " + std::to_string(scenario.n_humans) +
+                                          " does not match the world's " + std::to_string(c.agents - 1) +
+                                          " human slots");
+            if (first_index < 0 || count < 0)
+              throw std::invalid_argument("first_index and count must be >= 0");
+            const size_t B = static_cast<size_t>(c.batch), N = static_cast<size_t>(c.agents - 1);
+            int64_t* index = checked(episode_index, "episode_index", B);
+            int64_t* seed = checked(episode_seed, "episode_seed", B);
+            int32_t* f = checked(failure, "failure", B);
+            socialnav::ObservationBuffers obs{
+                optional_checked<double>(robot, "robot", B * 9),
+                optional_checked<double>(humans, "humans", B * N * 5),
+                reinterpret_cast<uint8_t*>(optional_checked<bool>(human_mask, "human_mask", B * N)),
+                reinterpret_cast<uint8_t*>(optional_checked<bool>(active, "active", B)),
+                optional_checked<double>(time, "time", B)};
+            const bool observe = obs.robot || obs.humans || obs.human_mask || obs.active || obs.time;
+            if (observe && !(obs.robot && obs.humans && obs.human_mask && obs.active && obs.time))
+              throw std::invalid_argument("refill_done: give all five observation arrays or none");
+            nb::gil_scoped_release release;
+            return self.world->refill_done(scenario, first_index, count, seed_base, index, seed, f,
+                                           observe ? &obs : nullptr);
+          },
+          "scenario"_a, "first_index"_a, "count"_a, "seed_base"_a, "episode_index"_a.noconvert(),
+          "episode_seed"_a.noconvert(), "failure"_a.noconvert(), "robot"_a.none() = nb::none(),
+          "humans"_a.none() = nb::none(), "human_mask"_a.none() = nb::none(), "active"_a.none() = nb::none(),
+          "time"_a.none() = nb::none(),
+          "Refills the slots whose episode ended in the last step, in slot order, with episodes first_index, "
+          "first_index + 1, ... (at most count; seed = seed_base + index) of a built-in scenario; the other "
+          "ended slots go idle. failure (B,) holds the codes of the first refilled ones; returns how many failed. "
+          "With the five observation arrays, also writes observe's result afterwards, in the same pass.")
       .def(
           "preview_humans",
           [](PyWorld& self, Array<double> out) {
@@ -211,7 +275,7 @@ NB_MODULE(_core, m) {
             auto* a = reinterpret_cast<uint8_t*>(checked(active, "active", B));
             double* t = checked(time, "time", B);
             nb::gil_scoped_release release;
-            self.world->observe(r, h, m, a, t);
+            self.world->observe(socialnav::ObservationBuffers{r, h, m, a, t});
           },
           "robot"_a.noconvert(), "humans"_a.noconvert(), "human_mask"_a.noconvert(), "active"_a.noconvert(),
           "time"_a.noconvert(), "The observation of every slot, written into the given arrays.");

@@ -21,15 +21,21 @@ namespace {
 
 // The caller of parallel_for, once out of chunks, usually waits only for the workers' last chunks:
 // it spins briefly before blocking, since being woken costs tens of microseconds per call (a batched
-// step makes several). Idle workers do not spin: between two jobs of this pool the caller runs other
-// work (a policy's own pool, Python), which a spinning worker would slow down on a small machine.
-// Measured on 2 cores (benchmarks/bench_world.py): caller spin 50 us and no worker spin gave the
-// best 2-thread speed-up; worker spins of 50 and 200 us made it worse.
+// step makes several). Measured on 2 cores (benchmarks/bench_world.py): caller spin 50 us.
 constexpr auto kCallerSpin = std::chrono::microseconds(50);
 
+// A worker that finished a job spins this long for the next one before it sleeps. A batched step is
+// a few jobs (a policy's actions, the world's step, its refill and observation) with some Python
+// between them; a sleeping worker takes long to wake where idle CPUs halt (a virtual machine without
+// guest halt-polling). Measured on the 2-core VM, a 256-slot observe job after a 20-200 us gap: 55-81 us
+// with no worker spin, 14-24 us with this one. Spinning workers only pay on one pool: every World and
+// native policy shares the process's pool (socialnav/sim/pool.py); workers of two pools would spin
+// against each other's busy ones (measured worse, with one pool per World, in an earlier version).
+constexpr auto kWorkerSpin = std::chrono::microseconds(300);
+
 template <typename Ready>
-bool spin_until(Ready ready) {
-  const auto until = std::chrono::steady_clock::now() + kCallerSpin;
+bool spin_for(Ready ready, std::chrono::microseconds spin) {
+  const auto until = std::chrono::steady_clock::now() + spin;
   for (;;) {
     for (int i = 0; i < 64; ++i)
       if (ready()) return true;
@@ -57,7 +63,7 @@ void ThreadPool::run(int n, void* ctx, Trampoline call) {
     call(ctx, 0, n, 0);
     return;
   }
-  const int chunk = n / (8 * parts) > 1 ? n / (8 * parts) : 1;
+  const int chunk = n / (64 * parts) > 1 ? n / (64 * parts) : 1;
   std::lock_guard<std::mutex> one_job(run_mutex_);
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -74,7 +80,7 @@ void ThreadPool::run(int n, void* ctx, Trampoline call) {
   }
   start_cv_.notify_all();
   drain(ctx, call, n, chunk, 0);
-  if (!spin_until([this] { return pending_.load(std::memory_order_acquire) == 0; })) {
+  if (!spin_for([this] { return pending_.load(std::memory_order_acquire) == 0; }, kCallerSpin)) {
     std::unique_lock<std::mutex> lock(mutex_);
     done_cv_.wait(lock, [this] { return pending_.load() == 0; });
   }
@@ -86,6 +92,7 @@ void ThreadPool::worker_loop(int worker) {
     void* ctx;
     Trampoline call;
     int n, chunk;
+    spin_for([&] { return generation_.load(std::memory_order_acquire) != seen; }, kWorkerSpin);
     {
       std::unique_lock<std::mutex> lock(mutex_);
       start_cv_.wait(lock, [&] { return stop_ || generation_.load() != seen; });

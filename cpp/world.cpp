@@ -1,5 +1,6 @@
 #include "world.hpp"
 
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -28,7 +29,7 @@ inline double swept_centre_distance(Vec2 d0, Vec2 dv, double dt) {
 
 }  // namespace
 
-World::World(const WorldConfig& config, const WorldBuffers& buffers)
+World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool* pool)
     : config_(config), buf_(buffers) {
   if (config.batch < 1) throw std::invalid_argument("batch must be >= 1, got " + std::to_string(config.batch));
   if (config.agents < 1) throw std::invalid_argument("agents must be >= 1");
@@ -40,7 +41,21 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers)
   orca_scratch_.resize(threads);
   neighbor_scratch_.assign(threads, std::vector<OrcaNeighbor>(config.agents));
   sf_scratch_.assign(threads, std::vector<SocialForceOther>(config.agents));
-  pool_ = std::make_unique<ThreadPool>(threads);
+  if (pool && pool->size() != threads)
+    throw std::invalid_argument("the pool has " + std::to_string(pool->size()) + " threads, the world " +
+                                std::to_string(threads));
+  if (!pool) own_pool_ = std::make_unique<ThreadPool>(threads);
+  pool_ = pool ? pool : own_pool_.get();
+  refill_slots_.reserve(static_cast<size_t>(config.batch));
+  refill_of_slot_.assign(static_cast<size_t>(config.batch), -1);
+  gen_scratch_.resize(threads);
+  for (GenerationScratch& g : gen_scratch_) {
+    g.start.resize(2 * (config.agents - 1));
+    g.goal.resize(2 * (config.agents - 1));
+    g.radius.resize(config.agents - 1);
+    g.v_pref.resize(config.agents - 1);
+  }
+  refill_seeds_.reserve(static_cast<size_t>(config.batch));
 }
 
 void World::record(int b, int sample) {
@@ -267,109 +282,169 @@ void World::preview_humans(double* out) {
   });
 }
 
-void World::observe(double* robot, double* humans, uint8_t* human_mask, uint8_t* active, double* time) {
+void World::observe_one(int b, const ObservationBuffers& o) const {
   const int A = config_.agents;
   const int N = A - 1;
-  pool_->parallel_for(config_.batch, [&](int begin, int end, int) {
-    for (int b = begin; b < end; ++b) {
-      const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
-      const double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
-      const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
-      const double* radius = buf_.radius + static_cast<size_t>(b) * A;
-      const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
-      double* r = robot + static_cast<size_t>(b) * 9;
-      r[0] = pos[0];
-      r[1] = pos[1];
-      r[2] = vel[0];
-      r[3] = vel[1];
-      r[4] = radius[0];
-      r[5] = goal[0];
-      r[6] = goal[1];
-      r[7] = buf_.v_pref[static_cast<size_t>(b) * A];
-      r[8] = buf_.theta[b];
-      for (int i = 1; i < A; ++i) {
-        double* h = humans + (static_cast<size_t>(b) * N + (i - 1)) * 5;
-        const bool real = mask[i] != 0;
-        human_mask[static_cast<size_t>(b) * N + (i - 1)] = real;
-        if (!real) {
-          h[0] = h[1] = h[2] = h[3] = h[4] = 0.0;
-          continue;
-        }
-        h[0] = pos[2 * i];
-        h[1] = pos[2 * i + 1];
-        h[2] = vel[2 * i];
-        h[3] = vel[2 * i + 1];
-        h[4] = radius[i];
-      }
-      active[b] = buf_.status[b] == kRunning;
-      time[b] = static_cast<double>(buf_.steps[b]) * config_.dt;
+  const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+  const double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
+  const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
+  const double* radius = buf_.radius + static_cast<size_t>(b) * A;
+  const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+  double* r = o.robot + static_cast<size_t>(b) * 9;
+  r[0] = pos[0];
+  r[1] = pos[1];
+  r[2] = vel[0];
+  r[3] = vel[1];
+  r[4] = radius[0];
+  r[5] = goal[0];
+  r[6] = goal[1];
+  r[7] = buf_.v_pref[static_cast<size_t>(b) * A];
+  r[8] = buf_.theta[b];
+  for (int i = 1; i < A; ++i) {
+    double* h = o.humans + (static_cast<size_t>(b) * N + (i - 1)) * 5;
+    const bool real = mask[i] != 0;
+    o.human_mask[static_cast<size_t>(b) * N + (i - 1)] = real;
+    if (!real) {
+      h[0] = h[1] = h[2] = h[3] = h[4] = 0.0;
+      continue;
     }
+    h[0] = pos[2 * i];
+    h[1] = pos[2 * i + 1];
+    h[2] = vel[2 * i];
+    h[3] = vel[2 * i + 1];
+    h[4] = radius[i];
+  }
+  o.active[b] = buf_.status[b] == kRunning;
+  o.time[b] = static_cast<double>(buf_.steps[b]) * config_.dt;
+}
+
+void World::observe(const ObservationBuffers& o) {
+  pool_->parallel_for(config_.batch, [&](int begin, int end, int) {
+    for (int b = begin; b < end; ++b) observe_one(b, o);
   });
+}
+
+void World::load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, int32_t* failure,
+                     GenerationScratch& scratch) {
+  const int A = config_.agents;
+  const double r = scenario.circle_radius;
+  *failure = generate_humans(scenario, seed, scratch.start.data(), scratch.goal.data(), scratch.radius.data(),
+                             scratch.v_pref.data());
+  if (*failure != 0) {
+    buf_.status[b] = kIdle;
+    return;
+  }
+  double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+  double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
+  double* gl = buf_.goal + static_cast<size_t>(b) * A * 2;
+  double* rad = buf_.radius + static_cast<size_t>(b) * A;
+  double* vp = buf_.v_pref + static_cast<size_t>(b) * A;
+  uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+  double* arrival = buf_.arrival + static_cast<size_t>(b) * A;
+  // Scenario.generate: the robot starts at (0, -R) facing +y with goal (0, R).
+  pos[0] = 0.0;
+  pos[1] = -r;
+  gl[0] = 0.0;
+  gl[1] = r;
+  rad[0] = scenario.robot_radius;
+  vp[0] = scenario.robot_v_pref;
+  mask[0] = 1;
+  for (int j = 0; j < A - 1; ++j) {
+    pos[2 * (j + 1)] = scratch.start[2 * j];
+    pos[2 * (j + 1) + 1] = scratch.start[2 * j + 1];
+    gl[2 * (j + 1)] = scratch.goal[2 * j];
+    gl[2 * (j + 1) + 1] = scratch.goal[2 * j + 1];
+    rad[j + 1] = scratch.radius[j];
+    vp[j + 1] = scratch.v_pref[j];
+    mask[j + 1] = 1;
+  }
+  for (int a = 0; a < 2 * A; ++a) vel[a] = 0.0;
+  for (int a = 0; a < A; ++a) arrival[a] = std::numeric_limits<double>::quiet_NaN();
+  buf_.theta[b] = M_PI / 2;
+  buf_.steps[b] = 0;
+  buf_.reward[b] = 0.0;
+  buf_.dmin[b] = std::numeric_limits<double>::infinity();
+  buf_.done[b] = 0;
+  buf_.overlaps[b] = 0;
+  buf_.end_step[b] = -1;
+  buf_.status[b] = kRunning;
 }
 
 void World::load_generated(const ScenarioConfig& scenario, const int64_t* slots, const int64_t* seeds, int k,
                            int32_t* failure) {
-  const int A = config_.agents;
-  const int N = A - 1;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const double r = scenario.circle_radius;
-  pool_->parallel_for(k, [&](int begin, int end, int) {
-    std::vector<double> start(2 * N), goal(2 * N), radius(N), v_pref(N);
-    for (int i = begin; i < end; ++i) {
-      const int64_t b = slots[i];
-      failure[i] = generate_humans(scenario, seeds[i], start.data(), goal.data(), radius.data(), v_pref.data());
-      if (failure[i] != 0) {
-        buf_.status[b] = kIdle;
-        continue;
-      }
-      double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
-      double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
-      double* gl = buf_.goal + static_cast<size_t>(b) * A * 2;
-      double* rad = buf_.radius + static_cast<size_t>(b) * A;
-      double* vp = buf_.v_pref + static_cast<size_t>(b) * A;
-      uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
-      double* arrival = buf_.arrival + static_cast<size_t>(b) * A;
-      // Scenario.generate: the robot starts at (0, -R) facing +y with goal (0, R).
-      pos[0] = 0.0;
-      pos[1] = -r;
-      gl[0] = 0.0;
-      gl[1] = r;
-      rad[0] = scenario.robot_radius;
-      vp[0] = scenario.robot_v_pref;
-      mask[0] = 1;
-      for (int j = 0; j < N; ++j) {
-        pos[2 * (j + 1)] = start[2 * j];
-        pos[2 * (j + 1) + 1] = start[2 * j + 1];
-        gl[2 * (j + 1)] = goal[2 * j];
-        gl[2 * (j + 1) + 1] = goal[2 * j + 1];
-        rad[j + 1] = radius[j];
-        vp[j + 1] = v_pref[j];
-        mask[j + 1] = 1;
-      }
-      for (int a = 0; a < 2 * A; ++a) vel[a] = 0.0;
-      for (int a = 0; a < A; ++a) arrival[a] = nan;
-      buf_.theta[b] = M_PI / 2;
-      buf_.steps[b] = 0;
-      buf_.reward[b] = 0.0;
-      buf_.dmin[b] = std::numeric_limits<double>::infinity();
-      buf_.done[b] = 0;
-      buf_.overlaps[b] = 0;
-      buf_.end_step[b] = -1;
-      buf_.status[b] = kRunning;
-    }
+  pool_->parallel_for(k, [&](int begin, int end, int worker) {
+    for (int i = begin; i < end; ++i) load_one(scenario, slots[i], seeds[i], failure + i, gen_scratch_[worker]);
   });
 }
 
-void World::step(const double* actions) {
+int World::step(const double* actions, const StepOutputs* out) {
   const int B = config_.batch;
   for (int b = 0; b < B; ++b) {
     if (buf_.status[b] != kRunning) continue;
     if (!std::isfinite(actions[2 * b]) || !std::isfinite(actions[2 * b + 1]))
       throw std::invalid_argument("action of episode slot " + std::to_string(b) + " is not finite");
   }
+  std::atomic<int> done_count{0};
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   pool_->parallel_for(B, [&](int begin, int end, int worker) {
-    for (int b = begin; b < end; ++b) step_episode(b, actions, worker);
+    int done = 0;
+    for (int b = begin; b < end; ++b) {
+      step_episode(b, actions, worker);
+      done += buf_.done[b];
+      if (!out) continue;
+      const bool ended = buf_.done[b] != 0;
+      const int8_t status = buf_.status[b];
+      out->reward[b] = buf_.reward[b];
+      out->terminated[b] = ended && status != kTimeout;
+      out->truncated[b] = ended && status == kTimeout;
+      out->outcome[b] = ended ? status : static_cast<int8_t>(kRunning);
+      out->final_dmin[b] = ended ? buf_.dmin[b] : nan;
+      out->final_episode[b] = ended ? out->episode_index[b] : -1;
+    }
+    done_count.fetch_add(done, std::memory_order_relaxed);
   });
+  return done_count.load();
+}
+
+int World::refill_done(const ScenarioConfig& scenario, int64_t first_index, int count, int64_t seed_base,
+                       int64_t* episode_index, int64_t* episode_seed, int32_t* failure,
+                       const ObservationBuffers* obs) {
+  const int B = config_.batch;
+  refill_slots_.clear();
+  refill_seeds_.clear();
+  for (int b = 0; b < B; ++b) {
+    refill_of_slot_[b] = -1;
+    if (!buf_.done[b]) continue;
+    if (static_cast<int>(refill_slots_.size()) < count) {
+      refill_of_slot_[b] = static_cast<int>(refill_slots_.size());
+      refill_slots_.push_back(b);
+      refill_seeds_.push_back(seed_base + first_index + static_cast<int64_t>(refill_seeds_.size()));
+    } else {  // the stream is exhausted
+      buf_.status[b] = kIdle;
+      episode_index[b] = -1;
+    }
+  }
+  const int k = static_cast<int>(refill_slots_.size());
+  if (obs) {
+    // One pass over the batch: a refilled slot is generated, then every slot is observed while its
+    // state is in this thread's cache (one job and one pass over memory instead of two).
+    pool_->parallel_for(B, [&](int begin, int end, int worker) {
+      for (int b = begin; b < end; ++b) {
+        const int j = refill_of_slot_[b];
+        if (j >= 0) load_one(scenario, b, refill_seeds_[j], failure + j, gen_scratch_[worker]);
+        observe_one(b, *obs);
+      }
+    });
+  } else {
+    load_generated(scenario, refill_slots_.data(), refill_seeds_.data(), k, failure);
+  }
+  int failed = 0;
+  for (int j = 0; j < k; ++j) {
+    failed += failure[j] != 0;
+    episode_index[refill_slots_[j]] = first_index + j;
+    episode_seed[refill_slots_[j]] = refill_seeds_[j];
+  }
+  return failed;
 }
 
 }  // namespace socialnav

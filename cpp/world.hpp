@@ -74,15 +74,39 @@ struct WorldBuffers {
   double* hist_dmin;     // (B, T) or null (entry k: clearance during step k; entry 0 unused)
 };
 
+// The policies' observation arrays (see World::observe).
+struct ObservationBuffers {
+  double* robot;        // (B, 9)
+  double* humans;       // (B, N, 5)
+  uint8_t* human_mask;  // (B, N)
+  uint8_t* active;      // (B,)
+  double* time;         // (B,)
+};
+
+// What one step reports per slot, for the caller (each (B,), written for every slot).
+struct StepOutputs {
+  double* reward;                // the step's reward (0 for idle slots)
+  uint8_t* terminated;           // the episode ended by success or collision in this step
+  uint8_t* truncated;            // the episode ended by the time limit in this step
+  int8_t* outcome;               // its final Status where an episode ended in this step, kRunning elsewhere
+  double* final_dmin;            // dmin where an episode ended in this step, NaN elsewhere
+  int64_t* final_episode;        // episode_index where an episode ended in this step, -1 elsewhere
+  const int64_t* episode_index;  // input: the slots' episode indices
+};
+
 class World {
  public:
-  World(const WorldConfig& config, const WorldBuffers& buffers);
+  // `pool`: the worker pool to run on (config.threads threads; not owned, it must outlive the world),
+  // or null for a pool of the world's own.
+  World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool* pool = nullptr);
 
   const WorldConfig& config() const { return config_; }
 
   // Advances every running episode by one step; actions (B, 2) are (vx, vy) for a holonomic
   // robot or (v, d theta) for a unicycle. Throws std::invalid_argument on non-finite actions.
-  void step(const double* actions);
+  // With `out`, also writes the per-slot report (same parallel pass: no Python over B afterwards).
+  // Returns the number of episodes that ended in this step (done == 1).
+  int step(const double* actions, const StepOutputs* out = nullptr);
 
   // The humans' exact next states (B, N, 5: px, py, vx, vy, radius) without advancing anything:
   // the "oracle" information some policies are given. Human motion depends on the robot only
@@ -92,7 +116,7 @@ class World {
   // The policies' observation of every slot (socialnav/sim/observation.py, build_observation):
   // robot (B, 9) px, py, vx, vy, radius, gx, gy, v_pref, theta; humans (B, N, 5) px, py, vx, vy,
   // radius, zero in empty slots; human_mask (B, N); active (B,) running; time (B,) steps * dt.
-  void observe(double* robot, double* humans, uint8_t* human_mask, uint8_t* active, double* time);
+  void observe(const ObservationBuffers& obs);
 
   // Generates episode i of `seeds` (a built-in scenario, scenario_gen.hpp) into slot slots[i] and
   // starts it, as socialnav/sim/world.py's World._load does with a generated EpisodeBatch, in the
@@ -100,10 +124,28 @@ class World {
   void load_generated(const ScenarioConfig& scenario, const int64_t* slots, const int64_t* seeds, int k,
                       int32_t* failure);
 
+  // Refills the slots whose episode ended in the last step (done == 1), in slot order, with the
+  // episodes first_index, first_index + 1, ... (seed = seed_base + index; at most `count` of them),
+  // through load_generated; done slots beyond `count` are left idle with episode index -1. This is
+  // socialnav/sim/world.py's World._fill_native over done.nonzero() for a stream of consecutive
+  // indices, without the Python. Writes episode_index/episode_seed (B,) of the refilled slots;
+  // failure[j] is load_generated's code for the j-th. Returns the number of failed generations.
+  // With `obs`, also writes the observation of every slot afterwards (observe's result), in the
+  // same parallel pass.
+  int refill_done(const ScenarioConfig& scenario, int64_t first_index, int count, int64_t seed_base,
+                  int64_t* episode_index, int64_t* episode_seed, int32_t* failure,
+                  const ObservationBuffers* obs = nullptr);
+
  private:
   void step_episode(int b, const double* actions, int worker);
   void human_velocities(int b, int worker);
   void record(int b, int sample);
+  struct GenerationScratch {
+    std::vector<double> start, goal, radius, v_pref;
+  };
+  void load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, int32_t* failure,
+                GenerationScratch& scratch);
+  void observe_one(int b, const ObservationBuffers& obs) const;
 
   WorldConfig config_;
   WorldBuffers buf_;
@@ -111,7 +153,11 @@ class World {
   std::vector<OrcaScratch> orca_scratch_;
   std::vector<std::vector<OrcaNeighbor>> neighbor_scratch_;
   std::vector<std::vector<SocialForceOther>> sf_scratch_;
-  std::unique_ptr<ThreadPool> pool_;
+  std::unique_ptr<ThreadPool> own_pool_;  // when no pool was given
+  ThreadPool* pool_;
+  std::vector<int64_t> refill_slots_, refill_seeds_;  // refill_done's scratch, (B,) reserved
+  std::vector<int> refill_of_slot_;                   // (B,) j of the slot's new episode, or -1
+  std::vector<GenerationScratch> gen_scratch_;        // one per thread
 };
 
 }  // namespace socialnav

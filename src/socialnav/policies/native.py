@@ -9,17 +9,9 @@ import numpy as np
 from socialnav import _core
 from socialnav.policies.base import register_policy
 from socialnav.sim.observation import Observation
+from socialnav.sim.pool import shared_pool
 from socialnav.sim.settings import OrcaSettings, SocialForceSettings, WorldSettings
 from socialnav.sim.world import orca_params, social_force_params
-
-_POOLS: dict[int, Any] = {}
-
-
-def _pool(threads: int) -> Any:
-    # One worker pool per thread count, created on first use and reused for every step.
-    if threads not in _POOLS:
-        _POOLS[threads] = _core.ThreadPool(threads)
-    return _POOLS[threads]
 
 
 class NativePolicy:
@@ -54,7 +46,7 @@ class NativePolicy:
         self._orca_settings = settings.orca
         self._orca = orca_params(settings)
         self._social_force = social_force_params(settings)
-        self._pool = _pool(settings.resolved_threads)
+        self._pool = shared_pool(settings.resolved_threads)  # the worlds' pool (sim/pool.py)
         self._out: np.ndarray | None = None
 
     def act(self, observation: Observation) -> np.ndarray:

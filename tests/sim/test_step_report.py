@@ -1,0 +1,173 @@
+"""The native per-step report, refill and observation (issue #13) against the Python bookkeeping they
+replace: the same StepResult, the same refilled episodes and the same observation, bit for bit."""
+
+import multiprocessing
+
+import numpy as np
+import pytest
+
+from socialnav import _core
+from socialnav.policies import make_policy
+from socialnav.scenarios import ScenarioGenerationError, episode_seeds, make_scenario
+from socialnav.sim.observation import Observation
+from socialnav.sim.pool import shared_pool
+from socialnav.sim.recorder import OUTCOME_NAMES
+from socialnav.sim.settings import WorldSettings
+from socialnav.sim.world import World
+
+FIELDS = ("robot", "humans", "human_mask", "active", "time")
+
+
+def reference_step(world: World, actions: np.ndarray) -> dict:
+    """World.step as the Python code before the native report computed it: the core's plain step,
+    then the report read off the state arrays, then the Python refill (`World._fill`)."""
+    world._core.step(np.ascontiguousarray(actions, dtype=np.float64))
+    done = world.done.view(bool).nonzero()[0]
+    status = world.status[done]
+    report = {
+        "reward": world.reward.copy(),
+        "terminated": np.zeros(world.batch_size, dtype=bool),
+        "truncated": np.zeros(world.batch_size, dtype=bool),
+        "final_dmin": np.full(world.batch_size, np.nan),
+        "final_episode": np.full(world.batch_size, -1, dtype=np.int64),
+        "outcome": np.full(world.batch_size, "", dtype=object),
+    }
+    report["terminated"][done] = status != _core.STATUS_TIMEOUT
+    report["truncated"][done] = status == _core.STATUS_TIMEOUT
+    report["final_dmin"][done] = world.dmin[done]
+    report["final_episode"][done] = world.episode_index[done]
+    report["outcome"][done] = [OUTCOME_NAMES[int(c)] for c in status]
+    if done.size:
+        world._fill(done)
+    return report
+
+
+def assert_same_observation(a: Observation, b: Observation) -> None:
+    for field in FIELDS:
+        x, y = getattr(a, field), getattr(b, field)
+        assert x.dtype == y.dtype and x.shape == y.shape, field
+        assert np.array_equal(x.view(np.uint8), y.view(np.uint8)), field
+
+
+def assert_same_state(a: World, b: World) -> None:
+    for name in ("position", "velocity", "goal", "radius", "v_pref", "mask", "theta", "steps", "status",
+                 "arrival", "end_step", "episode_index", "episode_seed"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert np.array_equal(x.view(np.uint8), y.view(np.uint8)), name
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize(
+    "settings", [{}, {"kinematics": "unicycle", "crowdsim_compat": True, "time_limit": 8.0}]
+)
+def test_step_report_refill_and_observation_equal_the_python_bookkeeping(threads, settings):
+    """Run to exhaustion (refills, then idle slots): the native path and the Python reference agree on
+    every field of every step, and the world states stay equal."""
+    def make():
+        return World(WorldSettings(threads=threads, **settings), make_scenario("circle_crossing", n_humans=5),
+                     48, split="test", count=150, record=False)
+
+    native, python = make(), make()
+    policy = make_policy("orca", safety_space=0.05, threads=threads)
+    obs = native.reset()
+    python.reset()
+    steps = ended = 0
+    while native.busy:
+        actions = policy.act(obs)
+        got = native.step(actions, observe=True)
+        want = reference_step(python, actions)
+        for name in ("reward", "terminated", "truncated", "final_dmin", "final_episode"):
+            x, y = getattr(got, name), want[name]
+            assert x.dtype == y.dtype, name
+            np.testing.assert_array_equal(x, y, err_msg=f"{name} at step {steps}")
+        assert got.outcome.tolist() == want["outcome"].tolist()
+        assert_same_state(native, python)
+        assert_same_observation(got.observation, python.observe())
+        assert_same_observation(got.observation, native.observe())
+        obs = got.observation
+        ended += int((got.terminated | got.truncated).sum())
+        steps += 1
+    assert ended == 150 and not python.busy
+    assert (native.status == _core.STATUS_IDLE).all() and (native.episode_index == -1).all()
+
+
+def test_step_observe_on_the_python_refill_path_equals_observe():
+    """Worlds that refill in Python (custom scenarios, recording) return the same observation."""
+    scenario = make_scenario("circle_crossing", n_humans=3)
+    w = World(WorldSettings(threads=2), scenario, 16, split="test", count=40)
+    w._native_scenario = None
+    policy = make_policy("orca", threads=2)
+    obs = w.reset()
+    finished = 0
+    while w.busy:
+        res = w.step(policy.act(obs), observe=True)
+        assert_same_observation(res.observation, w.observe())
+        obs = res.observation
+        finished += len(res.finished)
+    assert finished == 40
+    assert w.step(np.zeros((16, 2))).observation is None  # only when asked
+
+
+def test_refill_past_the_end_of_a_split_raises_the_split_error():
+    w = World(WorldSettings(), make_scenario("circle_crossing", n_humans=2), 4, split="test", start=996,
+              record=False)
+    w.reset()  # indices 996..999, the last four of the test split; the first refill needs 1000
+    with pytest.raises(ValueError, match=r"split 'test' holds indices 0..999 .*; got index 100[0-3]"):
+        for _ in range(200):
+            w.step(np.zeros((4, 2)))
+
+
+def test_reset_past_the_end_of_a_split_raises_the_split_error():
+    w = World(WorldSettings(), make_scenario("circle_crossing", n_humans=2), 4, split="test", start=998,
+              record=False)
+    with pytest.raises(ValueError, match=r"split 'test' holds indices 0..999 .*; got index 1001"):
+        w.reset()
+
+
+def test_a_refill_that_cannot_place_its_humans_raises_the_generators_error():
+    scenario = make_scenario("circle_crossing", randomize_attributes=True, n_humans=10)
+    bad = None
+    for index in range(1, 1000):
+        try:
+            scenario.generate(np.array([index]), episode_seeds("test", [index]), native=False)
+        except ScenarioGenerationError as err:
+            bad, message = index, str(err)
+            break
+    assert bad is not None
+    # The episode before it generates; the refill after it ends asks for the impossible one.
+    w = World(WorldSettings(time_limit=2.0), scenario, 1, split="test", start=bad - 1, record=False)
+    w.reset()
+    with pytest.raises(ScenarioGenerationError) as raised:
+        for _ in range(20):
+            w.step(np.zeros((1, 2)))
+    assert str(raised.value) == message
+
+
+def test_world_and_native_policy_share_the_process_pool():
+    w = World(WorldSettings(threads=2), make_scenario("circle_crossing", n_humans=2), 4, record=False)
+    policy = make_policy("orca", threads=2)
+    assert policy._pool is shared_pool(2)
+    assert shared_pool(2) is shared_pool(2) and shared_pool(1) is not shared_pool(2)
+    w.reset()
+    with pytest.raises(ValueError, match="threads must be >= 1"):
+        shared_pool(0)
+
+
+def _child_runs_a_world() -> None:
+    w = World(WorldSettings(threads=2), make_scenario("circle_crossing", n_humans=3), 64, split="test",
+              count=64, record=False)
+    policy = make_policy("orca", threads=2)
+    obs = w.reset()
+    while w.busy:
+        obs = w.step(policy.act(obs), observe=True).observation
+
+
+def test_a_forked_child_starts_pools_of_its_own():
+    """A child forked while the parent's pool exists has none of its threads: it must not use it."""
+    _child_runs_a_world()  # the parent's pool of 2 exists and has run jobs
+    child = multiprocessing.get_context("fork").Process(target=_child_runs_a_world)
+    child.start()
+    child.join(120)
+    if child.exitcode is None:
+        child.kill()
+    assert child.exitcode == 0
