@@ -39,6 +39,24 @@ T* optional_checked(nb::object obj, const char* name, size_t expected) {
   return checked(a, name, expected);
 }
 
+// (robot, humans, human_mask, active, time) arrays of `rows` rows from a Python sequence, or false for None.
+bool observation_buffers(nb::object arrays, const char* name, size_t rows, int humans,
+                         socialnav::ObservationBuffers& out) {
+  if (arrays.is_none()) return false;
+  nb::sequence seq = nb::cast<nb::sequence>(arrays);
+  if (nb::len(seq) != 5)
+    throw std::invalid_argument(std::string(name) + ": expected (robot, humans, human_mask, active, time)");
+  const size_t N = static_cast<size_t>(humans);
+  out.robot = optional_checked<double>(seq[0], "robot", rows * 9);
+  out.humans = optional_checked<double>(seq[1], "humans", rows * N * 5);
+  out.human_mask = reinterpret_cast<uint8_t*>(optional_checked<bool>(seq[2], "human_mask", rows * N));
+  out.active = reinterpret_cast<uint8_t*>(optional_checked<bool>(seq[3], "active", rows));
+  out.time = optional_checked<double>(seq[4], "time", rows);
+  if (!out.robot || !out.humans || !out.human_mask || !out.active || !out.time)
+    throw std::invalid_argument(std::string(name) + ": none of the five arrays may be None");
+  return true;
+}
+
 // Keeps the arrays alive for as long as the world points into them.
 struct PyWorld {
   nb::list keep_alive;
@@ -195,7 +213,7 @@ NB_MODULE(_core, m) {
           "refill_done",
           [](PyWorld& self, const socialnav::ScenarioConfig& scenario, int64_t first_index, int count,
              int64_t seed_base, Array<int64_t> episode_index, Array<int64_t> episode_seed, Array<int32_t> failure,
-             nb::object robot, nb::object humans, nb::object human_mask, nb::object active, nb::object time) {
+             nb::object observation, nb::object final_observation) {
             const auto& c = self.world->config();
             if (scenario.n_humans != c.agents - 1)
               throw std::invalid_argument("scenario n_humans " + std::to_string(scenario.n_humans) +
@@ -203,31 +221,29 @@ NB_MODULE(_core, m) {
                                           " human slots");
             if (first_index < 0 || count < 0)
               throw std::invalid_argument("first_index and count must be >= 0");
-            const size_t B = static_cast<size_t>(c.batch), N = static_cast<size_t>(c.agents - 1);
+            const size_t B = static_cast<size_t>(c.batch);
             int64_t* index = checked(episode_index, "episode_index", B);
             int64_t* seed = checked(episode_seed, "episode_seed", B);
             int32_t* f = checked(failure, "failure", B);
-            socialnav::ObservationBuffers obs{
-                optional_checked<double>(robot, "robot", B * 9),
-                optional_checked<double>(humans, "humans", B * N * 5),
-                reinterpret_cast<uint8_t*>(optional_checked<bool>(human_mask, "human_mask", B * N)),
-                reinterpret_cast<uint8_t*>(optional_checked<bool>(active, "active", B)),
-                optional_checked<double>(time, "time", B)};
-            const bool observe = obs.robot || obs.humans || obs.human_mask || obs.active || obs.time;
-            if (observe && !(obs.robot && obs.humans && obs.human_mask && obs.active && obs.time))
-              throw std::invalid_argument("refill_done: give all five observation arrays or none");
+            size_t done = 0;
+            for (size_t b = 0; b < B; ++b) done += self.world->buffers().done[b] != 0;
+            socialnav::ObservationBuffers obs{}, final_obs{};
+            const bool with_obs = observation_buffers(observation, "observation", B, c.agents - 1, obs);
+            const bool with_final =
+                observation_buffers(final_observation, "final_observation", done, c.agents - 1, final_obs);
             nb::gil_scoped_release release;
             return self.world->refill_done(scenario, first_index, count, seed_base, index, seed, f,
-                                           observe ? &obs : nullptr);
+                                           with_obs ? &obs : nullptr, with_final ? &final_obs : nullptr);
           },
           "scenario"_a, "first_index"_a, "count"_a, "seed_base"_a, "episode_index"_a.noconvert(),
-          "episode_seed"_a.noconvert(), "failure"_a.noconvert(), "robot"_a.none() = nb::none(),
-          "humans"_a.none() = nb::none(), "human_mask"_a.none() = nb::none(), "active"_a.none() = nb::none(),
-          "time"_a.none() = nb::none(),
+          "episode_seed"_a.noconvert(), "failure"_a.noconvert(), "observation"_a.none() = nb::none(),
+          "final_observation"_a.none() = nb::none(),
           "Refills the slots whose episode ended in the last step, in slot order, with episodes first_index, "
           "first_index + 1, ... (at most count; seed = seed_base + index) of a built-in scenario; the other "
           "ended slots go idle. failure (B,) holds the codes of the first refilled ones; returns how many failed. "
-          "With the five observation arrays, also writes observe's result afterwards, in the same pass.")
+          "observation: (robot, humans, human_mask, active, time) arrays of B rows for observe's result "
+          "afterwards; final_observation: the same with one row per ended slot (slot order), their "
+          "observation before the refill; both written in the same pass.")
       .def(
           "preview_humans",
           [](PyWorld& self, Array<double> out) {

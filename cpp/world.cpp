@@ -48,6 +48,7 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
   pool_ = pool ? pool : own_pool_.get();
   refill_slots_.reserve(static_cast<size_t>(config.batch));
   refill_of_slot_.assign(static_cast<size_t>(config.batch), -1);
+  done_rank_.assign(static_cast<size_t>(config.batch), -1);
   gen_scratch_.resize(threads);
   for (GenerationScratch& g : gen_scratch_) {
     g.start.resize(2 * (config.agents - 1));
@@ -282,7 +283,7 @@ void World::preview_humans(double* out) {
   });
 }
 
-void World::observe_one(int b, const ObservationBuffers& o) const {
+void World::observe_one(int b, const ObservationBuffers& o, int64_t row) const {
   const int A = config_.agents;
   const int N = A - 1;
   const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
@@ -290,7 +291,7 @@ void World::observe_one(int b, const ObservationBuffers& o) const {
   const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
   const double* radius = buf_.radius + static_cast<size_t>(b) * A;
   const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
-  double* r = o.robot + static_cast<size_t>(b) * 9;
+  double* r = o.robot + static_cast<size_t>(row) * 9;
   r[0] = pos[0];
   r[1] = pos[1];
   r[2] = vel[0];
@@ -301,9 +302,9 @@ void World::observe_one(int b, const ObservationBuffers& o) const {
   r[7] = buf_.v_pref[static_cast<size_t>(b) * A];
   r[8] = buf_.theta[b];
   for (int i = 1; i < A; ++i) {
-    double* h = o.humans + (static_cast<size_t>(b) * N + (i - 1)) * 5;
+    double* h = o.humans + (static_cast<size_t>(row) * N + (i - 1)) * 5;
     const bool real = mask[i] != 0;
-    o.human_mask[static_cast<size_t>(b) * N + (i - 1)] = real;
+    o.human_mask[static_cast<size_t>(row) * N + (i - 1)] = real;
     if (!real) {
       h[0] = h[1] = h[2] = h[3] = h[4] = 0.0;
       continue;
@@ -314,13 +315,13 @@ void World::observe_one(int b, const ObservationBuffers& o) const {
     h[3] = vel[2 * i + 1];
     h[4] = radius[i];
   }
-  o.active[b] = buf_.status[b] == kRunning;
-  o.time[b] = static_cast<double>(buf_.steps[b]) * config_.dt;
+  o.active[row] = buf_.status[b] == kRunning;
+  o.time[row] = static_cast<double>(buf_.steps[b]) * config_.dt;
 }
 
 void World::observe(const ObservationBuffers& o) {
   pool_->parallel_for(config_.batch, [&](int begin, int end, int) {
-    for (int b = begin; b < end; ++b) observe_one(b, o);
+    for (int b = begin; b < end; ++b) observe_one(b, o, b);
   });
 }
 
@@ -408,13 +409,16 @@ int World::step(const double* actions, const StepOutputs* out) {
 
 int World::refill_done(const ScenarioConfig& scenario, int64_t first_index, int count, int64_t seed_base,
                        int64_t* episode_index, int64_t* episode_seed, int32_t* failure,
-                       const ObservationBuffers* obs) {
+                       const ObservationBuffers* obs, const ObservationBuffers* final_obs) {
   const int B = config_.batch;
   refill_slots_.clear();
   refill_seeds_.clear();
+  int done = 0;
   for (int b = 0; b < B; ++b) {
     refill_of_slot_[b] = -1;
+    done_rank_[b] = -1;
     if (!buf_.done[b]) continue;
+    done_rank_[b] = done++;
     if (static_cast<int>(refill_slots_.size()) < count) {
       refill_of_slot_[b] = static_cast<int>(refill_slots_.size());
       refill_slots_.push_back(b);
@@ -425,14 +429,16 @@ int World::refill_done(const ScenarioConfig& scenario, int64_t first_index, int 
     }
   }
   const int k = static_cast<int>(refill_slots_.size());
-  if (obs) {
-    // One pass over the batch: a refilled slot is generated, then every slot is observed while its
-    // state is in this thread's cache (one job and one pass over memory instead of two).
+  if (obs || final_obs) {
+    // One pass over the batch: a finished slot's final observation (row = its rank among the finished
+    // slots), its new episode, then every slot's observation, while the slot is in this thread's cache
+    // (one job and one pass over memory instead of three).
     pool_->parallel_for(B, [&](int begin, int end, int worker) {
       for (int b = begin; b < end; ++b) {
+        if (final_obs && done_rank_[b] >= 0) observe_one(b, *final_obs, done_rank_[b]);
         const int j = refill_of_slot_[b];
         if (j >= 0) load_one(scenario, b, refill_seeds_[j], failure + j, gen_scratch_[worker]);
-        observe_one(b, *obs);
+        if (obs) observe_one(b, *obs, b);
       }
     });
   } else {

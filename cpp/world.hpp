@@ -101,6 +101,7 @@ class World {
   World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool* pool = nullptr);
 
   const WorldConfig& config() const { return config_; }
+  const WorldBuffers& buffers() const { return buf_; }
 
   // Advances every running episode by one step; actions (B, 2) are (vx, vy) for a holonomic
   // robot or (v, d theta) for a unicycle. Throws std::invalid_argument on non-finite actions.
@@ -130,11 +131,12 @@ class World {
   // socialnav/sim/world.py's World._fill_native over done.nonzero() for a stream of consecutive
   // indices, without the Python. Writes episode_index/episode_seed (B,) of the refilled slots;
   // failure[j] is load_generated's code for the j-th. Returns the number of failed generations.
-  // With `obs`, also writes the observation of every slot afterwards (observe's result), in the
-  // same parallel pass.
+  // With `obs`, also writes the observation of every slot afterwards (observe's result); with
+  // `final_obs` (rows: the finished slots in slot order), the finished slots' observation before
+  // their refill; both in the same parallel pass.
   int refill_done(const ScenarioConfig& scenario, int64_t first_index, int count, int64_t seed_base,
                   int64_t* episode_index, int64_t* episode_seed, int32_t* failure,
-                  const ObservationBuffers* obs = nullptr);
+                  const ObservationBuffers* obs = nullptr, const ObservationBuffers* final_obs = nullptr);
 
  private:
   void step_episode(int b, const double* actions, int worker);
@@ -145,7 +147,7 @@ class World {
   };
   void load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, int32_t* failure,
                 GenerationScratch& scratch);
-  void observe_one(int b, const ObservationBuffers& obs) const;
+  void observe_one(int b, const ObservationBuffers& obs, int64_t row) const;  // slot b into obs row `row`
 
   WorldConfig config_;
   WorldBuffers buf_;
@@ -157,6 +159,7 @@ class World {
   ThreadPool* pool_;
   std::vector<int64_t> refill_slots_, refill_seeds_;  // refill_done's scratch, (B,) reserved
   std::vector<int> refill_of_slot_;                   // (B,) j of the slot's new episode, or -1
+  std::vector<int> done_rank_;                        // (B,) rank among the finished slots, or -1
   std::vector<GenerationScratch> gen_scratch_;        // one per thread
 };
 

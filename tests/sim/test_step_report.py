@@ -25,6 +25,7 @@ def reference_step(world: World, actions: np.ndarray) -> dict:
     done = world.done.view(bool).nonzero()[0]
     status = world.status[done]
     report = {
+        "final_observation": world.observe().take(done) if done.size else None,
         "reward": world.reward.copy(),
         "terminated": np.zeros(world.batch_size, dtype=bool),
         "truncated": np.zeros(world.batch_size, dtype=bool),
@@ -56,13 +57,13 @@ def assert_same_state(a: World, b: World) -> None:
         assert np.array_equal(x.view(np.uint8), y.view(np.uint8)), name
 
 
-@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize(("threads", "observe"), [(1, True), (2, True), (2, False)])
 @pytest.mark.parametrize(
     "settings", [{}, {"kinematics": "unicycle", "crowdsim_compat": True, "time_limit": 8.0}]
 )
-def test_step_report_refill_and_observation_equal_the_python_bookkeeping(threads, settings):
+def test_step_report_refill_and_observation_equal_the_python_bookkeeping(threads, observe, settings):
     """Run to exhaustion (refills, then idle slots): the native path and the Python reference agree on
-    every field of every step, and the world states stay equal."""
+    every field of every step, the final observations included, and the world states stay equal."""
     def make():
         return World(WorldSettings(threads=threads, **settings), make_scenario("circle_crossing", n_humans=5),
                      48, split="test", count=150, record=False)
@@ -74,17 +75,22 @@ def test_step_report_refill_and_observation_equal_the_python_bookkeeping(threads
     steps = ended = 0
     while native.busy:
         actions = policy.act(obs)
-        got = native.step(actions, observe=True)
+        got = native.step(actions, observe=observe, final_observation=True)
         want = reference_step(python, actions)
+        if want["final_observation"] is None:
+            assert got.final_observation is None
+        else:
+            assert_same_observation(got.final_observation, want["final_observation"])
         for name in ("reward", "terminated", "truncated", "final_dmin", "final_episode"):
             x, y = getattr(got, name), want[name]
             assert x.dtype == y.dtype, name
             np.testing.assert_array_equal(x, y, err_msg=f"{name} at step {steps}")
         assert got.outcome.tolist() == want["outcome"].tolist()
         assert_same_state(native, python)
-        assert_same_observation(got.observation, python.observe())
-        assert_same_observation(got.observation, native.observe())
-        obs = got.observation
+        assert (got.observation is not None) == observe
+        obs = got.observation if observe else native.observe()
+        assert_same_observation(obs, python.observe())
+        assert_same_observation(obs, native.observe())
         ended += int((got.terminated | got.truncated).sum())
         steps += 1
     assert ended == 150 and not python.busy
@@ -100,8 +106,10 @@ def test_step_observe_on_the_python_refill_path_equals_observe():
     obs = w.reset()
     finished = 0
     while w.busy:
-        res = w.step(policy.act(obs), observe=True)
+        res = w.step(policy.act(obs), observe=True, final_observation=True)
         assert_same_observation(res.observation, w.observe())
+        done = np.flatnonzero(res.terminated | res.truncated)
+        assert (res.final_observation is None) == (done.size == 0)
         obs = res.observation
         finished += len(res.finished)
     assert finished == 40

@@ -359,8 +359,8 @@ class SocialNavVectorEnv(VectorEnv):
             self._world.close()
 
     def step(self, actions):
-        result = self._world.step(self._cfg.to_actions(actions), final_observation=True)
-        obs = _obs_rows(self._world.observe())
+        result = self._world.step(self._cfg.to_actions(actions), final_observation=True, observe=True)
+        obs = _obs_rows(result.observation)
         done = result.terminated | result.truncated
         info = self._current_info()
         if done.any():

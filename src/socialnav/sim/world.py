@@ -458,10 +458,10 @@ class World:
             obs = dataclasses.replace(obs, next_humans=nxt)
         return obs
 
-    def _observation_arrays(self) -> tuple[np.ndarray, ...]:
-        """Fresh (robot, humans, human_mask, active, time) arrays for the core to fill: callers may
-        keep an observation while the world steps on."""
-        b, n = self.batch_size, self.n_agents - 1
+    def _observation_arrays(self, rows: int | None = None) -> tuple[np.ndarray, ...]:
+        """Fresh (robot, humans, human_mask, active, time) arrays of ``rows`` rows (B by default) for
+        the core to fill: callers may keep an observation while the world steps on."""
+        b, n = self.batch_size if rows is None else rows, self.n_agents - 1
         return (
             np.empty((b, ROBOT_DIM)),
             np.empty((b, n, HUMAN_DIM)),
@@ -500,40 +500,47 @@ class World:
         )
         finished: list = []
         final_obs = next_obs = None
-        done_slots = None
-        if n_done and (final_observation or self._recorder is not None):
-            done_slots = self.done.view(bool).nonzero()[0]  # the core writes 0/1: a bool scan
-            if final_observation:
-                final_obs = self.observe().take(done_slots)
-            if self._recorder is not None:
-                finished = self._recorder.collect(done_slots)
-        if n_done or observe:
-            next_obs = self._refill_done(n_done, done_slots, observe)
+        stream = self.stream
+        native = self._native_scenario is not None and stream.index_map is None and not stream.buffered
+        if n_done and self._recorder is not None:
+            finished = self._recorder.collect(self.done.view(bool).nonzero()[0])  # before the refill
+        if native and (n_done or observe):
+            final_obs, next_obs = self._refill_natively(n_done, final_observation, observe)
+        elif not native:
+            if n_done:
+                done_slots = self.done.view(bool).nonzero()[0]  # the core writes 0/1: a bool scan
+                if final_observation:
+                    final_obs = self.observe().take(done_slots)
+                self._fill(done_slots)
+            if observe:
+                next_obs = self.observe()
         return StepResult(
             reward, terminated, truncated, finished, final_obs, outcome_code, final_dmin, final_episode,
             next_obs,
         )
 
-    def _refill_done(self, n_done: int, done_slots: np.ndarray | None, observe: bool) -> Observation | None:
-        """Refills the slots whose episode ended in this step (``done_slots``, if already known);
-        returns the observation afterwards if ``observe``."""
+    def _refill_natively(
+        self, n_done: int, final_observation: bool, observe: bool
+    ) -> tuple[Observation | None, Observation | None]:
+        """Refills the finished slots of a built-in scenario's stream of consecutive indices: the core
+        picks the slots, generates and loads the episodes (`_fill_native`'s result, bit for bit) and
+        writes the finished slots' final observation and every slot's next one, all in one pass."""
         stream = self.stream
-        if self._native_scenario is None or stream.index_map is not None or stream.buffered:
-            if n_done:
-                self._fill(self.done.view(bool).nonzero()[0] if done_slots is None else done_slots)
-            return self.observe() if observe else None
-        # Consecutive indices of a built-in scenario: the core picks the slots, generates and loads
-        # the episodes (World._fill_native's result, bit for bit), and observes in the same pass.
         first, k = stream.take_range(n_done)
-        arrays = self._observation_arrays() if observe else (None,) * 5
+        final = self._observation_arrays(n_done) if final_observation and n_done else None
+        nxt = self._observation_arrays() if observe else None
         failed = self._core.refill_done(
             self._native_scenario, first, k, SPLIT_BASES[stream.split], self.episode_index,
-            self.episode_seed, self._failure, *arrays,
+            self.episode_seed, self._failure, nxt, final,
         )
         if failed:
             indices = np.arange(first, first + k, dtype=np.int64)
             raise_on_failure(self.scenario, self._failure[:k], episode_seeds(stream.split, indices))
-        return Observation(*arrays, self.settings.dt, self.settings.kinematics) if observe else None
+        dt, kinematics = self.settings.dt, self.settings.kinematics
+        return (
+            None if final is None else Observation(*final, dt, kinematics),
+            None if nxt is None else Observation(*nxt, dt, kinematics),
+        )
 
 
 def orca_params(settings: WorldSettings) -> _core.OrcaParams:

@@ -135,8 +135,8 @@ class MultiWorld:
         (before the auto-reset of finished slots)."""
         parts = []
         for w, lo, hi in zip(self.worlds, self.offsets[:-1], self.offsets[1:], strict=True):
-            res = w.step(actions[lo:hi], final_observation=True)
-            obs = w.observe()
+            res = w.step(actions[lo:hi], final_observation=True, observe=True)
+            obs = res.observation
             robot, humans, mask, time = obs.robot, obs.humans, obs.human_mask, obs.time
             done = np.flatnonzero(res.terminated | res.truncated)
             if done.size:
