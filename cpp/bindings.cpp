@@ -225,8 +225,9 @@ NB_MODULE(_core, m) {
             int64_t* index = checked(episode_index, "episode_index", B);
             int64_t* seed = checked(episode_seed, "episode_seed", B);
             int32_t* f = checked(failure, "failure", B);
-            size_t done = 0;
-            for (size_t b = 0; b < B; ++b) done += self.world->buffers().done[b] != 0;
+            size_t done = 0;  // the final observation's rows
+            if (!final_observation.is_none())
+              for (size_t b = 0; b < B; ++b) done += self.world->buffers().done[b] != 0;
             socialnav::ObservationBuffers obs{}, final_obs{};
             const bool with_obs = observation_buffers(observation, "observation", B, c.agents - 1, obs);
             const bool with_final =
