@@ -211,17 +211,18 @@ NB_MODULE(_core, m) {
           "episodes that ended.")
       .def(
           "refill_done",
-          [](PyWorld& self, const socialnav::ScenarioConfig& scenario, int64_t first_index, int count,
-             int64_t seed_base, Array<int64_t> episode_index, Array<int64_t> episode_seed, Array<int32_t> failure,
+          [](PyWorld& self, const socialnav::ScenarioConfig& scenario, Array<int64_t> indices, Array<int64_t> seeds,
+             Array<int64_t> episode_index, Array<int64_t> episode_seed, Array<int32_t> failure,
              nb::object observation, nb::object final_observation) {
             const auto& c = self.world->config();
             if (scenario.n_humans != c.agents - 1)
               throw std::invalid_argument("scenario n_humans " + std::to_string(scenario.n_humans) +
                                           " does not match the world's " + std::to_string(c.agents - 1) +
                                           " human slots");
-            if (first_index < 0 || count < 0)
-              throw std::invalid_argument("first_index and count must be >= 0");
             const size_t B = static_cast<size_t>(c.batch);
+            const size_t count = indices.size();
+            if (count > B) throw std::invalid_argument("more indices than slots: " + std::to_string(count));
+            checked(seeds, "seeds", count);
             int64_t* index = checked(episode_index, "episode_index", B);
             int64_t* seed = checked(episode_seed, "episode_seed", B);
             int32_t* f = checked(failure, "failure", B);
@@ -233,15 +234,14 @@ NB_MODULE(_core, m) {
             const bool with_final =
                 observation_buffers(final_observation, "final_observation", done, c.agents - 1, final_obs);
             nb::gil_scoped_release release;
-            return self.world->refill_done(scenario, first_index, count, seed_base, index, seed, f,
-                                           with_obs ? &obs : nullptr, with_final ? &final_obs : nullptr);
+            return self.world->refill_done(scenario, indices.data(), seeds.data(), static_cast<int>(count), index,
+                                           seed, f, with_obs ? &obs : nullptr, with_final ? &final_obs : nullptr);
           },
-          "scenario"_a, "first_index"_a, "count"_a, "seed_base"_a, "episode_index"_a.noconvert(),
+          "scenario"_a, "indices"_a, "seeds"_a, "episode_index"_a.noconvert(),
           "episode_seed"_a.noconvert(), "failure"_a.noconvert(), "observation"_a.none() = nb::none(),
           "final_observation"_a.none() = nb::none(),
-          "Refills the slots whose episode ended in the last step, in slot order, with episodes first_index, "
-          "first_index + 1, ... (at most count; seed = seed_base + index) of a built-in scenario; the other "
-          "ended slots go idle. failure (B,) holds the codes of the first refilled ones; returns how many failed. "
+          "Refills the slots whose episode ended in the last step, in slot order, with the episodes indices "
+          "(seeds: theirs) of a built-in scenario; ended slots beyond them go idle. failure (B,) holds the codes of the first refilled ones; returns how many failed. "
           "observation: (robot, humans, human_mask, active, time) arrays of B rows for observe's result "
           "afterwards; final_observation: the same with one row per ended slot (slot order), their "
           "observation before the refill; both written in the same pass.")

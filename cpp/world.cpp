@@ -56,7 +56,6 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
     g.radius.resize(config.agents - 1);
     g.v_pref.resize(config.agents - 1);
   }
-  refill_seeds_.reserve(static_cast<size_t>(config.batch));
 }
 
 void World::record(int b, int sample) {
@@ -407,12 +406,11 @@ int World::step(const double* actions, const StepOutputs* out) {
   return done_count.load();
 }
 
-int World::refill_done(const ScenarioConfig& scenario, int64_t first_index, int count, int64_t seed_base,
+int World::refill_done(const ScenarioConfig& scenario, const int64_t* indices, const int64_t* seeds, int count,
                        int64_t* episode_index, int64_t* episode_seed, int32_t* failure,
                        const ObservationBuffers* obs, const ObservationBuffers* final_obs) {
   const int B = config_.batch;
   refill_slots_.clear();
-  refill_seeds_.clear();
   int done = 0;
   for (int b = 0; b < B; ++b) {
     refill_of_slot_[b] = -1;
@@ -422,7 +420,6 @@ int World::refill_done(const ScenarioConfig& scenario, int64_t first_index, int 
     if (static_cast<int>(refill_slots_.size()) < count) {
       refill_of_slot_[b] = static_cast<int>(refill_slots_.size());
       refill_slots_.push_back(b);
-      refill_seeds_.push_back(seed_base + first_index + static_cast<int64_t>(refill_seeds_.size()));
     } else {  // the stream is exhausted
       buf_.status[b] = kIdle;
       episode_index[b] = -1;
@@ -437,18 +434,18 @@ int World::refill_done(const ScenarioConfig& scenario, int64_t first_index, int 
       for (int b = begin; b < end; ++b) {
         if (final_obs && done_rank_[b] >= 0) observe_one(b, *final_obs, done_rank_[b]);
         const int j = refill_of_slot_[b];
-        if (j >= 0) load_one(scenario, b, refill_seeds_[j], failure + j, gen_scratch_[worker]);
+        if (j >= 0) load_one(scenario, b, seeds[j], failure + j, gen_scratch_[worker]);
         if (obs) observe_one(b, *obs, b);
       }
     });
   } else {
-    load_generated(scenario, refill_slots_.data(), refill_seeds_.data(), k, failure);
+    load_generated(scenario, refill_slots_.data(), seeds, k, failure);
   }
   int failed = 0;
   for (int j = 0; j < k; ++j) {
     failed += failure[j] != 0;
-    episode_index[refill_slots_[j]] = first_index + j;
-    episode_seed[refill_slots_[j]] = refill_seeds_[j];
+    episode_index[refill_slots_[j]] = indices[j];
+    episode_seed[refill_slots_[j]] = seeds[j];
   }
   return failed;
 }

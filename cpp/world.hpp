@@ -126,15 +126,14 @@ class World {
                       int32_t* failure);
 
   // Refills the slots whose episode ended in the last step (done == 1), in slot order, with the
-  // episodes first_index, first_index + 1, ... (seed = seed_base + index; at most `count` of them),
-  // through load_generated; done slots beyond `count` are left idle with episode index -1. This is
-  // socialnav/sim/world.py's World._fill_native over done.nonzero() for a stream of consecutive
-  // indices, without the Python. Writes episode_index/episode_seed (B,) of the refilled slots;
-  // failure[j] is load_generated's code for the j-th. Returns the number of failed generations.
-  // With `obs`, also writes the observation of every slot afterwards (observe's result); with
-  // `final_obs` (rows: the finished slots in slot order), the finished slots' observation before
-  // their refill; both in the same parallel pass.
-  int refill_done(const ScenarioConfig& scenario, int64_t first_index, int count, int64_t seed_base,
+  // episodes indices[0..count) (seeds[j] the seed of indices[j]; fewer finished slots use a prefix),
+  // through load_generated; finished slots beyond `count` are left idle with episode index -1. This is
+  // socialnav/sim/world.py's World._fill_native over done.nonzero(), without the Python. Writes
+  // episode_index/episode_seed (B,) of the refilled slots; failure[j] is load_generated's code for the
+  // j-th. Returns the number of failed generations. With `obs`, also writes the observation of every
+  // slot afterwards (observe's result); with `final_obs` (rows: the finished slots in slot order), the
+  // finished slots' observation before their refill; both in the same parallel pass.
+  int refill_done(const ScenarioConfig& scenario, const int64_t* indices, const int64_t* seeds, int count,
                   int64_t* episode_index, int64_t* episode_seed, int32_t* failure,
                   const ObservationBuffers* obs = nullptr, const ObservationBuffers* final_obs = nullptr);
 
@@ -157,7 +156,7 @@ class World {
   std::vector<std::vector<SocialForceOther>> sf_scratch_;
   std::unique_ptr<ThreadPool> own_pool_;  // when no pool was given
   ThreadPool* pool_;
-  std::vector<int64_t> refill_slots_, refill_seeds_;  // refill_done's scratch, (B,) reserved
+  std::vector<int64_t> refill_slots_;                 // refill_done's scratch, (B,) reserved
   std::vector<int> refill_of_slot_;                   // (B,) j of the slot's new episode, or -1
   std::vector<int> done_rank_;                        // (B,) rank among the finished slots, or -1
   std::vector<GenerationScratch> gen_scratch_;        // one per thread

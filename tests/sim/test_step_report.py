@@ -57,21 +57,30 @@ def assert_same_state(a: World, b: World) -> None:
         assert np.array_equal(x.view(np.uint8), y.view(np.uint8)), name
 
 
-@pytest.mark.parametrize(("threads", "observe"), [(1, True), (2, True), (2, False)])
+@pytest.mark.parametrize(("threads", "observe", "mapped"), [(1, True, False), (2, True, False),
+                                                          (2, False, False), (2, True, True)])
 @pytest.mark.parametrize(
     "settings", [{}, {"kinematics": "unicycle", "crowdsim_compat": True, "time_limit": 8.0}]
 )
-def test_step_report_refill_and_observation_equal_the_python_bookkeeping(threads, observe, settings):
+def test_step_report_refill_and_observation_equal_the_python_bookkeeping(threads, observe, mapped, settings):
     """Run to exhaustion (refills, then idle slots): the native path and the Python reference agree on
-    every field of every step, the final observations included, and the world states stay equal."""
+    every field of every step, the final observations included, and the world states stay equal;
+    ``mapped``: a stream whose indices go through an index_map (the Gymnasium envs' orders)."""
+    from socialnav.sim.world import EpisodeStream
+
     def make():
-        return World(WorldSettings(threads=threads, **settings), make_scenario("circle_crossing", n_humans=5),
-                     48, split="test", count=150, record=False)
+        w = World(WorldSettings(threads=threads, **settings), make_scenario("circle_crossing", n_humans=5),
+                  48, split="test", count=150, record=False)
+        if mapped:
+            w.stream = EpisodeStream(w.scenario, "test", 0, 150, index_map=lambda i: 999 - 3 * i)
+        return w
 
     native, python = make(), make()
     policy = make_policy("orca", safety_space=0.05, threads=threads)
     obs = native.reset()
     python.reset()
+    if mapped:
+        assert sorted(native.episode_index) == list(range(999 - 3 * 47, 1000, 3))
     steps = ended = 0
     while native.busy:
         actions = policy.act(obs)

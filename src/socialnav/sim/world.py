@@ -501,7 +501,7 @@ class World:
         finished: list = []
         final_obs = next_obs = None
         stream = self.stream
-        native = self._native_scenario is not None and stream.index_map is None and not stream.buffered
+        native = self._native_scenario is not None and not stream.buffered
         if n_done and self._recorder is not None:
             finished = self._recorder.collect(self.done.view(bool).nonzero()[0])  # before the refill
         if native and (n_done or observe):
@@ -522,20 +522,26 @@ class World:
     def _refill_natively(
         self, n_done: int, final_observation: bool, observe: bool
     ) -> tuple[Observation | None, Observation | None]:
-        """Refills the finished slots of a built-in scenario's stream of consecutive indices: the core
-        picks the slots, generates and loads the episodes (`_fill_native`'s result, bit for bit) and
-        writes the finished slots' final observation and every slot's next one, all in one pass."""
+        """Refills the finished slots of a built-in scenario: the core picks the slots, generates and
+        loads the stream's next episodes (`_fill_native`'s result, bit for bit) and writes the finished
+        slots' final observation and every slot's next one, all in one pass."""
         stream = self.stream
-        first, k = stream.take_range(n_done)
+        if stream.index_map is None:  # consecutive indices: no seed array to check
+            first, k = stream.take_range(n_done)
+            indices = np.arange(first, first + k, dtype=np.int64)
+            seeds = indices + SPLIT_BASES[stream.split]
+        else:
+            taken = stream.take_indices(n_done) if n_done else None
+            indices = np.zeros(0, dtype=np.int64) if taken is None else taken
+            seeds = episode_seeds(stream.split, indices)
         final = self._observation_arrays(n_done) if final_observation and n_done else None
         nxt = self._observation_arrays() if observe else None
         failed = self._core.refill_done(
-            self._native_scenario, first, k, SPLIT_BASES[stream.split], self.episode_index,
-            self.episode_seed, self._failure, nxt, final,
+            self._native_scenario, indices, seeds, self.episode_index, self.episode_seed, self._failure,
+            nxt, final,
         )
         if failed:
-            indices = np.arange(first, first + k, dtype=np.int64)
-            raise_on_failure(self.scenario, self._failure[:k], episode_seeds(stream.split, indices))
+            raise_on_failure(self.scenario, self._failure[: len(indices)], seeds)
         dt, kinematics = self.settings.dt, self.settings.kinematics
         return (
             None if final is None else Observation(*final, dt, kinematics),
