@@ -123,8 +123,8 @@ class EpisodeStream:
 
     def take_range(self, k: int) -> tuple[int, int]:
         """``(first, n)``: hands out the next ``n = min(k, remaining)`` episodes, whose indices are
-        ``first … first + n - 1``, without building them (a stream without ``index_map``; a world's
-        native refill generates them from the range alone).
+        ``first … first + n - 1``, without building them (a stream without ``index_map``: a world's
+        native refill needs only the range).
 
         Raises:
             RuntimeError: the stream has an ``index_map``, or buffered episodes from :meth:`take`.
@@ -504,9 +504,10 @@ class World:
         native = self._native_scenario is not None and not stream.buffered
         if n_done and self._recorder is not None:
             finished = self._recorder.collect(self.done.view(bool).nonzero()[0])  # before the refill
-        if native and (n_done or observe):
-            final_obs, next_obs = self._refill_natively(n_done, final_observation, observe)
-        elif not native:
+        if native:
+            if n_done or observe:
+                final_obs, next_obs = self._refill_natively(n_done, final_observation, observe)
+        else:
             if n_done:
                 done_slots = self.done.view(bool).nonzero()[0]  # the core writes 0/1: a bool scan
                 if final_observation:
