@@ -107,7 +107,7 @@ def test_step_report_refill_and_observation_equal_the_python_bookkeeping(threads
 
 
 def test_step_observe_on_the_python_refill_path_equals_observe():
-    """Worlds that refill in Python (custom scenarios, recording) return the same observation."""
+    """Worlds that refill in Python (custom scenarios) return the same observations."""
     scenario = make_scenario("circle_crossing", n_humans=3)
     w = World(WorldSettings(threads=2), scenario, 16, split="test", count=40)
     w._native_scenario = None
