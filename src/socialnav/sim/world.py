@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from socialnav import _core
-from socialnav.scenarios import SPLIT_BASES, EpisodeBatch, Scenario, episode_seeds
+from socialnav.scenarios import EpisodeBatch, Scenario, episode_seeds
 from socialnav.scenarios.native import native_config, raise_on_failure
 from socialnav.sim.observation import HUMAN_DIM, ROBOT_DIM, Observation, build_observation
 from socialnav.sim.pool import shared_pool
@@ -120,28 +120,6 @@ class EpisodeStream:
         self.next_index += k
         self._generated = self.next_index
         return indices
-
-    def take_range(self, k: int) -> tuple[int, int]:
-        """``(first, n)``: hands out the next ``n = min(k, remaining)`` episodes, whose indices are
-        ``first … first + n - 1``, without building them (a stream without ``index_map``: a world's
-        native refill needs only the range).
-
-        Raises:
-            RuntimeError: the stream has an ``index_map``, or buffered episodes from :meth:`take`.
-            ValueError: the range leaves the split (as :func:`episode_seeds`).
-        """
-        if self.index_map is not None:
-            raise RuntimeError("take_range needs consecutive indices: this stream has an index_map")
-        if self.buffered:
-            raise RuntimeError("take_range after take: hand out the buffered episodes with take first")
-        if self.stop is not None:
-            k = min(k, self.stop - self.next_index)
-        first, k = self.next_index, max(int(k), 0)
-        if k:
-            episode_seeds(self.split, np.array([first, first + k - 1]))  # the same errors as take_indices
-        self.next_index += k
-        self._generated = self.next_index
-        return first, k
 
     def take(self, k: int) -> EpisodeBatch | None:
         """The next ``min(k, remaining)`` episodes, or None when exhausted."""
@@ -348,8 +326,21 @@ class World:
         self.stream = stream
         return self.reset()
 
+    @property
+    def _generates_natively(self) -> bool:
+        """The core generates the stream's next episodes (a built-in scenario, nothing buffered)."""
+        return self._native_scenario is not None and not self.stream.buffered
+
+    def _next_episodes(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Indices and seeds of the stream's next ``min(k, remaining)`` episodes (raises as
+        :func:`episode_seeds` where they leave the split)."""
+        indices = self.stream.take_indices(k)
+        if indices is None:
+            indices = np.zeros(0, dtype=np.int64)
+        return indices, episode_seeds(self.stream.split, indices)
+
     def _fill(self, slots: np.ndarray) -> None:
-        if self._native_scenario is not None and not self.stream.buffered:
+        if self._generates_natively:
             self._fill_native(slots)
             return
         episodes = self.stream.take(len(slots))
@@ -362,10 +353,9 @@ class World:
     def _fill_native(self, slots: np.ndarray) -> None:
         """`_fill` for a built-in scenario: the core generates the episodes straight into the slots, in
         its worker threads, bit-identical to ``scenario.generate`` + `_load`."""
-        indices = self.stream.take_indices(len(slots))
-        n = 0 if indices is None else len(indices)
+        indices, seeds = self._next_episodes(len(slots))
+        n = len(indices)
         if n:
-            seeds = episode_seeds(self.stream.split, indices)
             failure = np.zeros(n, dtype=np.int32)
             self._core.load_generated(
                 self._native_scenario, np.ascontiguousarray(slots[:n], dtype=np.int64), seeds, failure
@@ -500,16 +490,18 @@ class World:
         )
         finished: list = []
         final_obs = next_obs = None
-        stream = self.stream
-        native = self._native_scenario is not None and not stream.buffered
-        if n_done and self._recorder is not None:
-            finished = self._recorder.collect(self.done.view(bool).nonzero()[0])  # before the refill
+        native = self._generates_natively
+        # The core writes done as 0/1: a bool scan. The native refill finds the slots itself.
+        done_slots = None
+        if n_done and (self._recorder is not None or not native):
+            done_slots = self.done.view(bool).nonzero()[0]
+        if done_slots is not None and self._recorder is not None:
+            finished = self._recorder.collect(done_slots)  # before the refill
         if native:
             if n_done or observe:
                 final_obs, next_obs = self._refill_natively(n_done, final_observation, observe)
         else:
             if n_done:
-                done_slots = self.done.view(bool).nonzero()[0]  # the core writes 0/1: a bool scan
                 if final_observation:
                     final_obs = self.observe().take(done_slots)
                 self._fill(done_slots)
@@ -526,15 +518,7 @@ class World:
         """Refills the finished slots of a built-in scenario: the core picks the slots, generates and
         loads the stream's next episodes (`_fill_native`'s result, bit for bit) and writes the finished
         slots' final observation and every slot's next one, all in one pass."""
-        stream = self.stream
-        if stream.index_map is None:  # consecutive indices: no seed array to check
-            first, k = stream.take_range(n_done)
-            indices = np.arange(first, first + k, dtype=np.int64)
-            seeds = indices + SPLIT_BASES[stream.split]
-        else:
-            taken = stream.take_indices(n_done) if n_done else None
-            indices = np.zeros(0, dtype=np.int64) if taken is None else taken
-            seeds = episode_seeds(stream.split, indices)
+        indices, seeds = self._next_episodes(n_done)
         final = self._observation_arrays(n_done) if final_observation and n_done else None
         nxt = self._observation_arrays() if observe else None
         failed = self._core.refill_done(
