@@ -57,6 +57,14 @@ bool observation_buffers(nb::object arrays, const char* name, size_t rows, int h
   return true;
 }
 
+// A built-in scenario generates into a world only with one human slot per human.
+void check_fits(const socialnav::ScenarioConfig& scenario, const socialnav::WorldConfig& world) {
+  if (scenario.n_humans != world.agents - 1)
+    throw std::invalid_argument("scenario n_humans " + std::to_string(scenario.n_humans) +
+                                " does not match the world's " + std::to_string(world.agents - 1) +
+                                " human slots");
+}
+
 // Keeps the arrays alive for as long as the world points into them.
 struct PyWorld {
   nb::list keep_alive;
@@ -215,10 +223,7 @@ NB_MODULE(_core, m) {
              Array<int64_t> episode_index, Array<int64_t> episode_seed, Array<int32_t> failure,
              nb::object observation, nb::object final_observation) {
             const auto& c = self.world->config();
-            if (scenario.n_humans != c.agents - 1)
-              throw std::invalid_argument("scenario n_humans " + std::to_string(scenario.n_humans) +
-                                          " does not match the world's " + std::to_string(c.agents - 1) +
-                                          " human slots");
+            check_fits(scenario, c);
             const size_t B = static_cast<size_t>(c.batch);
             const size_t count = indices.size();
             if (count > B) throw std::invalid_argument("more indices than slots: " + std::to_string(count));
@@ -259,10 +264,7 @@ NB_MODULE(_core, m) {
           [](PyWorld& self, const socialnav::ScenarioConfig& scenario, Array<int64_t> slots, Array<int64_t> seeds,
              Array<int32_t> failure) {
             const auto& c = self.world->config();
-            if (scenario.n_humans != c.agents - 1)
-              throw std::invalid_argument("scenario n_humans " + std::to_string(scenario.n_humans) +
-                                          " does not match the world's " + std::to_string(c.agents - 1) +
-                                          " human slots");
+            check_fits(scenario, c);
             const size_t k = slots.size();
             checked(seeds, "seeds", k);
             int32_t* f = checked(failure, "failure", k);
