@@ -47,3 +47,13 @@ def value_or_death(_payload, i: int, deadly: tuple[int, ...]) -> int:
     if i in deadly:
         os._exit(137)
     return i
+
+
+def ignore_sigterm_and_sleep(ready) -> None:
+    """A process that SIGTERM does not stop (``ready`` is set once it ignores it); only SIGKILL ends it."""
+    import signal
+    import time
+
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    ready.set()
+    time.sleep(600)

@@ -281,6 +281,43 @@ def test_local_executor_charges_a_death_to_its_task_only_and_loses_nothing(worke
             assert got[f"t{i}"] == i
 
 
+def test_a_broken_pool_is_discarded_even_when_one_of_its_workers_outlives_sigterm():
+    """CPython's broken pool SIGTERMs its workers, then joins them all: one that survives (a worker
+    started by a submit() racing the breakage, here one that ignores SIGTERM) blocks that join, and
+    shutdown(wait=True) with it. The executor's discard must end it and return."""
+    import multiprocessing
+    import threading
+    from concurrent.futures.process import BrokenProcessPool
+
+    from socialnav.sweep.executors import _process_pool, discard_broken_pool
+    from tests.sweep.fault_policy import ignore_sigterm_and_sleep, value_or_death
+
+    pool = _process_pool(1)
+    assert pool.submit(value_or_death, None, 1, ()).result(timeout=60) == 1  # manager thread running
+    ctx = multiprocessing.get_context("forkserver")
+    ready = ctx.Event()
+    stray = ctx.Process(target=ignore_sigterm_and_sleep, args=(ready,), daemon=True)
+    stray.start()
+    try:
+        assert ready.wait(60)
+        pool._processes[stray.pid] = stray  # as if submit() had started it while the pool broke
+        with pytest.raises(BrokenProcessPool):
+            pool.submit(value_or_death, None, 2, (2,)).result(timeout=60)
+        manager = pool._executor_manager_thread
+        manager.join(timeout=1.0)
+        assert manager.is_alive(), "the pool's own shutdown did not hang: the test tested nothing"
+        assert stray.is_alive()
+        done = threading.Thread(target=discard_broken_pool, args=(pool,), daemon=True)
+        done.start()
+        done.join(timeout=60)
+        assert not done.is_alive(), "discard_broken_pool hung"
+        assert not manager.is_alive() and not stray.is_alive()
+    finally:
+        if stray.is_alive():
+            stray.kill()
+            stray.join(5)
+
+
 def test_a_task_that_keeps_failing_is_reported_not_dropped(tmp_path, capsys):
     preset = small_preset(tmp_path)
     path = write_sweep(

@@ -122,7 +122,7 @@ class LocalExecutor:
                             yield task, TaskFailed(_one_line(err), attempts[task.key] + 1)
                         else:
                             yield task, result
-                    pool.shutdown(wait=True, cancel_futures=True)
+                    discard_broken_pool(pool)
                     pool = _process_pool(self.workers)
         except BaseException:
             # Interrupted (Ctrl-C, SIGTERM, an error in the caller): do not wait for running tasks (a
@@ -132,6 +132,45 @@ class LocalExecutor:
             raise
         else:
             pool.shutdown(wait=True)
+
+
+def discard_broken_pool(pool: Any, poll_s: float = 0.05) -> None:
+    """Shut a broken process pool down without waiting forever on a worker that outlived it.
+
+    When a worker dies, CPython's pool (3.11, 3.12) sends SIGTERM to its other workers and then joins
+    them all. A worker that ``submit()`` started while the pool was breaking, or one that does not
+    stop on SIGTERM, is never ended and that join blocks, and ``shutdown(wait=True)`` with it (seen as
+    a sweep that hung after a worker was killed). Here the pool is told to shut down without waiting
+    and every one of its workers still alive is killed until its manager thread has finished. The
+    pool's workers and manager thread are private attributes: where they are missing (another Python),
+    this is a plain ``shutdown(wait=True)``.
+    """
+    thread = getattr(pool, "_executor_manager_thread", None)
+    processes = getattr(pool, "_processes", None)
+    if thread is None or processes is None:
+        pool.shutdown(wait=True, cancel_futures=True)
+        return
+    pool.shutdown(wait=False, cancel_futures=True)
+    while True:
+        workers = _snapshot(processes)
+        for process in workers:
+            if process.is_alive():
+                process.kill()
+        thread.join(timeout=poll_s)
+        if not thread.is_alive():
+            break
+    for process in _snapshot(processes):
+        process.join(timeout=5.0)
+
+
+def _snapshot(processes: dict[int, Any]) -> list[Any]:
+    # The manager thread may add or drop an entry while we copy: copy again.
+    for _ in range(100):
+        try:
+            return list(processes.values())
+        except RuntimeError:
+            continue
+    return []
 
 
 def _process_pool(workers: int):
