@@ -124,14 +124,12 @@ def test_cuda_matches_cpu():
 @pytest.mark.parametrize("reward_rule", ["end", "swept"])
 @pytest.mark.parametrize("states_per_pass", [1, 100, 250])
 def test_states_per_pass_blocks_give_identical_values(name, reward_rule, states_per_pass):
-    # 9 episodes of 81 actions: blocks of 1, 1 and 3 episodes, the last block shorter for 250.
+    # 9 episodes × 81 actions = 729 states in blocks of 1, 100 or 250 (the last one shorter).
     torch.manual_seed(13)
     net = build(name)
     robot, humans, mask = random_scene(np.random.default_rng(14), 9, 4, garbage=3.0)
     ob = obs_dict(robot, humans, mask)
     one = ValuePolicy(net, states_per_pass=None, reward_rule=reward_rule)
     blocked = ValuePolicy(net, states_per_pass=states_per_pass, reward_rule=reward_rule)
-    last = blocked._episode_blocks(9)[-1]
-    assert (last.start, last.stop) == ((6, 9) if states_per_pass == 250 else (8, 9))
     np.testing.assert_allclose(blocked.values(ob), one.values(ob), rtol=1e-6, atol=1e-6)
     np.testing.assert_array_equal(blocked.act(ob)[0], one.act(ob)[0])

@@ -77,10 +77,9 @@ class ValuePolicy:
         dt: time step [s], used when the observation carries none.
         rotation_limit, speed_samples, rotation_samples: the discrete action set.
         device: where the computation runs (default: the network's device).
-        states_per_pass: on CPU, the lookahead is built and scored in blocks of whole episodes of
-            about this many joint states (at least one episode), so that the geometry and the
-            activations stay in the CPU cache (the values do not depend on it up to float rounding).
-            None: the whole batch in one network call.
+        states_per_pass: the B·K joint states, built in one batched pass, go through the network in
+            blocks of this many states so that activations stay in the CPU cache (results are
+            identical; each block holds every action of many episodes). None: a single call.
         predictor: the trained state predictor (``information="learned"``).
         planning_depth, planning_width: d and w of model-predictive planning (1, 1: one-step).
         reward_rule: "end" (clearances at the end of the step) or "swept" (the world's rule).
@@ -229,20 +228,13 @@ class ValuePolicy:
         )  # (B, K, 2)
         robot_next = propagate_robot(robot, actions, self.kinematics, dt)  # (B, K, 9)
         humans_next = self.predict_humans(robot, humans, mask, dt, nh)  # (B, N, 5)
-        r = robot.new_empty(b, k)
-        v = robot.new_empty(b, k)
-        # Reward, joint states and values block by block of whole episodes: the (B, K, N, D) joint state
-        # of a large batch is never built, and each block's intermediates stay in the CPU cache.
-        for e in self._episode_blocks(b):
-            rp = self.reward_params
-            if self.reward_rule == "swept":
-                r[e] = swept_reward(robot[e], robot_next[e], humans[e], humans_next[e], mask[e], rp)
-            else:
-                r[e] = reward(robot_next[e], humans_next[e].unsqueeze(1), mask[e].unsqueeze(1), rp)
-            joint = self.transform(robot_next[e], humans_next[e], mask[e])  # (b_e, K, N, D)
-            be = joint.shape[0]
-            m = mask[e].unsqueeze(1).expand(be, k, n).reshape(be * k, n)
-            v[e] = self.network.value(joint.reshape(be * k, n, -1), m).view(be, k).to(v.dtype)
+        if self.reward_rule == "swept":
+            r = swept_reward(robot, robot_next, humans, humans_next, mask, self.reward_params)
+        else:
+            r = reward(robot_next, humans_next.unsqueeze(1), mask.unsqueeze(1), self.reward_params)  # (B, K)
+        joint = self.transform(robot_next, humans_next, mask)  # (B, K, N, D)
+        m = mask.unsqueeze(1).expand(b, k, n).reshape(b * k, n)
+        v = self._network_values(joint.reshape(b * k, n, -1), m).view(b, k).to(r.dtype)
         disc = torch.pow(torch.as_tensor(self.gamma, dtype=r.dtype, device=r.device), dt * robot[:, 7:8])
         return r + disc * v, actions, r, disc, robot_next, humans_next
 
@@ -308,13 +300,6 @@ class ValuePolicy:
         planned = torch.full_like(q, float("-inf"))
         planned.scatter_(1, top, returns)
         return planned, actions
-
-    def _episode_blocks(self, b: int) -> list[slice]:
-        """Ranges of whole episodes scored in one network call: about ``states_per_pass`` states each."""
-        if self.states_per_pass is None or self.device.type != "cpu":
-            return [slice(0, b)]
-        per_block = max(1, self.states_per_pass // self.num_actions)
-        return [slice(s, min(b, s + per_block)) for s in range(0, b, per_block)]
 
     def _network_values(self, joint: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
         total, c = joint.shape[0], self.states_per_pass
