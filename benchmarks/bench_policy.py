@@ -3,11 +3,18 @@
 Reports env-steps/s (one env-step = choosing the action of one episode: 81 candidate next states scored
 by SARL, 5 humans each), ms per action for a single episode, the SARL FLOPs per env-step counted from the
 layer sizes (the multiply-adds actually performed; see ``sarl_flops_per_env_step``), the achieved FLOP
-rate and its fraction of the float32 matmul rate (1024×1024 @ 1024×1024) measured in the same run
-(before and after; the larger is kept). Inputs are NumPy float64 observations, as the simulator gives
-them, so the time includes conversion, the action set, propagation, reward and the agent-centric
-transform, not only the network. On a shared machine, other processes make timings noisy: all
-timings are best-of-repeats.
+rate and its fraction of the float32 matmul rate (1024×1024 @ 1024×1024) measured in the same run.
+Inputs are NumPy float64 observations, as the simulator gives them, so the time includes conversion,
+the action set, propagation, reward and the agent-centric transform, not only the network.
+
+How the fraction is measured: every timed ``act`` call is followed by a window of back-to-back 1024³
+matmuls that lasts as long as the call, and the fraction is (best act rate) / (best matmul rate over
+those windows). A virtual machine's speed moves by ±25 % between quarter-second windows; the best
+13 ms matmul (``fraction_of_matmul_burst_peak``, this benchmark's earlier definition, still reported)
+catches a burst that no 0.2–3 s call can, and so biases the fraction low on a busy host. The same
+windows also time ``layer_chain``: the matmuls of SARL's layers alone, at the shapes one block of the
+policy uses, with nothing else: what a perfect implementation built on the same matmul routine would
+reach (``layer_chain_fraction_of_matmul_peak``), the ceiling the policy is compared with.
 
 RGL and model-predictive RGL (Chen et al., IROS 2020) are timed in the same run at B = 256 (the same
 scene), next to SARL: RGL's one-step lookahead (constant velocity), and MP-RGL with its learned state
@@ -24,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Callable
 
 import numpy as np
 import torch
@@ -48,6 +56,59 @@ def sarl_flops_per_env_step(n_humans: int, n_actions: int = N_ACTIONS) -> dict[s
     performed = n_actions * (n_humans * per_human + per_state + 2 * 100 * 100)  # + g-half once per state
     nominal = n_actions * (n_humans * (per_human + 2 * 100 * 100) + per_state)
     return {"performed": float(performed), "nominal": float(nominal)}
+
+
+class MatmulWindows:
+    """float32 1024³ matmul rate over windows of a given length (the reference of the fraction)."""
+
+    def __init__(self, n: int = 1024, device: str = "cpu") -> None:
+        self.n, self.device = n, torch.device(device)
+        self.a, self.b, self.c = (torch.randn(n, n, device=self.device) for _ in range(3))
+        torch.mm(self.a, self.b, out=self.c)
+
+    def gflops(self, seconds: float) -> float:
+        """Back-to-back matmuls for at least ``seconds`` (at least one): their GFLOP/s."""
+        count, start = 0, time.perf_counter()
+        while True:
+            torch.mm(self.a, self.b, out=self.c)
+            count += 1
+            _sync(self.device)
+            elapsed = time.perf_counter() - start
+            if elapsed >= seconds:
+                return 2 * self.n**3 * count / elapsed / 1e9
+
+
+def _sync(device: torch.device) -> None:
+    if device.type == "cuda":
+        torch.cuda.synchronize(device)
+
+
+def layer_chain(humans: int, states: int, device: str = "cpu") -> tuple[Callable[[], None], float]:
+    """SARL's matmuls at one block's shapes (``states`` joint states × ``humans`` rows), nothing else.
+
+    Returns the function running them once and its FLOPs: the multiply-adds of
+    ``sarl_flops_per_env_step(humans)["performed"] / 81 * states`` but the attention-weighted sum
+    (0.1 % of them), each layer as one addmm with its bias.
+    """
+    rows = states * humans
+    # (in, out, rows): per human mlp1, mlp2[0] fused with attention[0]'s e-half, attention[2], [4],
+    # mlp2[2]; per state attention[0]'s g-half, then mlp3.
+    per_human = [(13, 150), (150, 100), (100, 200), (100, 100), (100, 1), (100, 50)]
+    per_state = [(100, 100), (56, 150), (150, 100), (100, 100), (100, 1)]
+    shapes = [(i, o, rows) for i, o in per_human] + [(i, o, states) for i, o in per_state]
+    dev = torch.device(device)
+    mats = [
+        (torch.randn(r, i, device=dev), torch.randn(o, i, device=dev).t(), torch.randn(o, device=dev),
+         torch.empty(r, o, device=dev))
+        for i, o, r in shapes
+    ]
+
+    def run() -> None:
+        for x, w, bias, out in mats:
+            torch.addmm(bias, x, w, out=out)
+        _sync(dev)
+
+    return run, float(sum(2 * i * o * r for i, o, r in shapes))
 
 
 def matmul_gflops(n: int = 1024, repeats: int = 20) -> float:
@@ -88,6 +149,40 @@ def time_act(policy: ValuePolicy, obs: dict, min_time: float = 1.0, min_reps: in
         policy.act(obs)
         times.append(time.perf_counter() - t)
     return float(np.min(times))
+
+
+def time_paired(
+    policy: ValuePolicy,
+    obs: dict,
+    matmul: MatmulWindows,
+    chain: tuple[Callable[[], None], float],
+    min_time: float = 1.0,
+    min_reps: int = 5,
+) -> dict[str, float]:
+    """Each ``act`` call followed by a matmul window and a layer-chain window of the same length.
+
+    Returns the best seconds per call, the best matmul GFLOP/s and the best layer-chain GFLOP/s over
+    those windows (so a burst of speed or of load counts alike for all three).
+    """
+    run_chain, chain_flops = chain
+    policy.act(obs)
+    run_chain()
+    best = {"act_s": float("inf"), "matmul_gflops": 0.0, "chain_gflops": 0.0}
+    reps, start = 0, time.perf_counter()
+    while reps < min_reps or time.perf_counter() - start < min_time:
+        t = time.perf_counter()
+        policy.act(obs)
+        took = time.perf_counter() - t
+        best["act_s"] = min(best["act_s"], took)
+        best["matmul_gflops"] = max(best["matmul_gflops"], matmul.gflops(took))
+        count, t = 0, time.perf_counter()
+        while count == 0 or time.perf_counter() - t < took:
+            run_chain()
+            count += 1
+        chain_rate = chain_flops * count / (time.perf_counter() - t) / 1e9
+        best["chain_gflops"] = max(best["chain_gflops"], chain_rate)
+        reps += 1
+    return best
 
 
 def time_rgl(n_humans: int, min_time: float, device: str, b: int = 256) -> dict[str, float]:
@@ -169,24 +264,31 @@ def main() -> None:
 
     single = time_act(policy, scene(1, args.humans), args.min_time)
     print(f"B=1: {single * 1e3:.2f} ms per action (one episode)")
+    matmul = MatmulWindows(device=args.device)
+    block_states = policy.states_per_pass or 1024  # the states of one network call on CPU
+    chain = layer_chain(args.humans, block_states, args.device)
     results = {}
     for b in args.batches:
-        t = time_act(policy, scene(b, args.humans), args.min_time)
+        paired = time_paired(policy, scene(b, args.humans), matmul, chain, args.min_time)
+        t = paired["act_s"]
         steps = b / t
         gflops = steps * flops["performed"] / 1e9
-        results[b] = {"env_steps_per_s": steps, "gflops": gflops, "fraction": gflops / peak}
+        results[b] = {
+            "env_steps_per_s": steps,
+            "gflops": gflops,
+            "fraction": gflops / paired["matmul_gflops"],
+            "window_matmul_gflops": paired["matmul_gflops"],
+            "chain_fraction": paired["chain_gflops"] / paired["matmul_gflops"],
+        }
         print(
             f"B={b}: {t * 1e3:.1f} ms per call, {steps:.0f} env-steps/s, {gflops:.1f} GFLOP/s "
-            f"= {gflops / peak:.1%} of matmul"
+            f"= {results[b]['fraction']:.1%} of matmul over the same windows "
+            f"({paired['matmul_gflops']:.1f} GFLOP/s); SARL's layer matmuls alone: "
+            f"{results[b]['chain_fraction']:.1%}"
         )
-    # The matmul rate is measured again at the end and the larger value kept, so that a burst of
-    # contention from other processes during the first measurement cannot inflate the fraction.
-    peak_after = matmul_gflops()
-    if peak_after > peak:
-        print(f"float32 matmul re-measured: {peak_after:.1f} GFLOP/s (fractions rescaled)")
-        for v in results.values():
-            v["fraction"] = v["gflops"] / peak_after
-        peak = peak_after
+    # The burst peak (best 13 ms matmul, before and after): this benchmark's earlier reference.
+    burst = max(peak, matmul_gflops())
+    print(f"float32 matmul 1024^3 best burst: {burst:.1f} GFLOP/s")
     rgl = time_rgl(args.humans, args.min_time, args.device)
     head = 256 if 256 in results else args.batches[0]
     best = max(results, key=lambda k: results[k]["fraction"])
@@ -197,8 +299,14 @@ def main() -> None:
         "fraction_of_matmul_peak": round(results[best]["fraction"], 4),
         "fraction_batch": best,
         "fraction_at_batch": {str(k): round(v["fraction"], 4) for k, v in results.items()},
+        "fraction_of_matmul_burst_peak": {str(k): round(v["gflops"] / burst, 4) for k, v in results.items()},
+        "layer_chain_fraction_of_matmul_peak": {
+            str(k): round(v["chain_fraction"], 4) for k, v in results.items()
+        },
         "env_steps_per_s_at_batch": {str(k): round(v["env_steps_per_s"], 1) for k, v in results.items()},
-        "matmul_gflops": round(peak, 2),
+        "matmul_gflops": round(results[best]["window_matmul_gflops"], 2),
+        "matmul_burst_gflops": round(burst, 2),
+        "layer_chain_states": block_states,
         "sarl_mflops_per_env_step": round(flops["performed"] / 1e6, 3),
         "threads": torch.get_num_threads(),
         "humans": args.humans,
