@@ -87,6 +87,23 @@ def test_rotate_hand_computed(kinematics):
     np.testing.assert_allclose(j, want, atol=1e-12)
 
 
+@pytest.mark.parametrize("kinematics", ["holonomic", "unicycle"])
+def test_rotate_writes_each_column_once_in_the_asked_dtype(kinematics):
+    # (B, K, 9) robots against (B, 1, N, 5) humans, as the lookahead calls it: the robot part is
+    # broadcast over the humans, each row carries it, and asking for float32 is exactly .to(float32).
+    g = torch.Generator().manual_seed(3)
+    robot = torch.rand(4, 7, 9, generator=g, dtype=torch.float64) * 8 - 4
+    humans = (torch.rand(4, 1, 5, 5, generator=g, dtype=torch.float64) * 8 - 4).expand(4, 7, 5, 5)
+    ref = rotate(robot, humans, kinematics)
+    assert ref.shape == (4, 7, 5, 13) and ref.dtype == torch.float64
+    for h in range(5):
+        assert torch.equal(ref[:, :, h, :6], ref[:, :, 0, :6])
+        one = rotate(robot, humans[:, :, h : h + 1], kinematics)[:, :, 0]
+        assert torch.equal(ref[:, :, h], one)
+    got = rotate(robot, humans, kinematics, dtype=torch.float32)
+    assert got.dtype == torch.float32 and torch.equal(got, ref.to(torch.float32))
+
+
 def test_rotate_unicycle_heading_relative_to_goal_direction():
     robot = torch.tensor([[1.0, 1.0, 0.0, 0.0, 0.3, 2.0, 2.0, 1.0, 0.0]], dtype=torch.float64)
     humans = torch.tensor([[[1.0, 3.0, 0.0, 0.0, 0.3]]], dtype=torch.float64)

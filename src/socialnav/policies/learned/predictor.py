@@ -89,9 +89,9 @@ class StatePredictor(nn.Module):
         if humans.shape[1] == 0:
             return humans.clone()
         dtype = next(self.parameters()).dtype
-        joint = rotate(robot, humans).to(dtype)  # (M, N, 13), the robot part repeated per human
+        joint = rotate(robot, humans, dtype=dtype)  # (M, N, 13), the robot part repeated per human
         joint = joint.masked_fill(~mask.unsqueeze(-1), 0.0)
-        robot_part = rotate(robot, humans[:, :1])[:, 0, :SELF_DIM].to(dtype)
+        robot_part = rotate(robot, humans[:, :1], dtype=dtype)[:, 0, :SELF_DIM]
         h = self.graph(robot_part, joint[..., SELF_DIM:], mask)[:, 1:]  # human nodes (M, N, x)
         dv = self.motion(h).to(humans.dtype)  # (M, N, 2) in the robot-goal frame
         gx = robot[:, 5] - robot[:, 0]

@@ -111,7 +111,12 @@ def propagate_humans_constant_velocity(humans: torch.Tensor, dt: float) -> torch
     return nxt
 
 
-def rotate(robot: torch.Tensor, humans: torch.Tensor, kinematics: Kinematics = "holonomic") -> torch.Tensor:
+def rotate(
+    robot: torch.Tensor,
+    humans: torch.Tensor,
+    kinematics: Kinematics = "holonomic",
+    dtype: torch.dtype | None = None,
+) -> torch.Tensor:
     """Agent-centric joint state of CrowdNav: x-axis from the robot towards its goal.
 
     With rot = atan2(gy - py, gx - px) and (c, s) = (cos rot, sin rot):
@@ -123,6 +128,9 @@ def rotate(robot: torch.Tensor, humans: torch.Tensor, kinematics: Kinematics = "
         robot: (…, 9) robot full states; broadcast against the leading dims of ``humans``.
         humans: (…, N, 5) human observable states.
         kinematics: decides the heading column (see above).
+        dtype: dtype of the result (default: the inputs'). The values are computed in the inputs'
+            dtype and rounded once when written, exactly as ``rotate(...).to(dtype)``, without
+            building the joint state twice.
 
     Returns:
         (…, N, 13): dg, v_pref, theta, radius, vx, vy, px1, py1, vx1, vy1, radius1, da, radius_sum.
@@ -144,11 +152,14 @@ def rotate(robot: torch.Tensor, humans: torch.Tensor, kinematics: Kinematics = "
     vy1 = humans[..., 3] * c - humans[..., 2] * s
     r1 = humans[..., 4]
     da = torch.sqrt(hx * hx + hy * hy)
-    self_part = torch.stack([dg, r[..., 7], theta, r[..., 4], vx, vy], dim=-1)  # (…, 1, 6)
-    parts = torch.broadcast_tensors(px1, py1, vx1, vy1, r1, da, r[..., 4] + r1)
-    human_part = torch.stack(parts, dim=-1)  # (…, N, 7)
-    self_part = self_part.expand(*human_part.shape[:-1], SELF_DIM)
-    return torch.cat([self_part, human_part], dim=-1)
+    columns = (dg, r[..., 7], theta, r[..., 4], vx, vy, px1, py1, vx1, vy1, r1, da, r[..., 4] + r1)
+    shape = torch.broadcast_shapes(*(c.shape for c in columns))
+    # Each column is written (and broadcast over the humans) straight into the result: no stacked
+    # copy in the inputs' dtype, no second pass to convert it.
+    out = torch.empty(*shape, JOINT_DIM, dtype=dtype or robot.dtype, device=robot.device)
+    for i, column in enumerate(columns):
+        out[..., i] = column
+    return out
 
 
 def reward(

@@ -203,12 +203,12 @@ class ValuePolicy:
         """
         extra = robot.dim() - 2
         h = humans.view(humans.shape[0], *([1] * extra), *humans.shape[1:])
-        joint = rotate(robot, h, self.kinematics)
+        joint = rotate(robot, h, self.kinematics, dtype=self.model_dtype)
         if self.network.with_om:
             om = occupancy_map(humans, mask)
             om = om.view(om.shape[0], *([1] * extra), *om.shape[1:]).expand(*joint.shape[:-1], om.shape[-1])
-            joint = torch.cat([joint, om], dim=-1)
-        return joint.to(self.model_dtype)
+            joint = torch.cat([joint, om.to(self.model_dtype)], dim=-1)
+        return joint
 
     # ------------------------------------------------------------------ public API
     def _step_values(
