@@ -128,8 +128,8 @@ def rotate(
         robot: (…, 9) robot full states; broadcast against the leading dims of ``humans``.
         humans: (…, N, 5) human observable states.
         kinematics: decides the heading column (see above).
-        dtype: dtype of the result (default: the inputs'). The values are computed in the inputs'
-            dtype and rounded once when written, exactly as ``rotate(...).to(dtype)``, without
+        dtype: dtype of the result (default: the inputs' promoted dtype). The values are computed
+            in the inputs' dtype and rounded once when written, exactly as ``rotate(...).to(dtype)``, without
             building the joint state twice.
 
     Returns:
@@ -156,7 +156,8 @@ def rotate(
     shape = torch.broadcast_shapes(*(c.shape for c in columns))
     # Each column is written (and broadcast over the humans) straight into the result: no stacked
     # copy in the inputs' dtype, no second pass to convert it.
-    out = torch.empty(*shape, JOINT_DIM, dtype=dtype or robot.dtype, device=robot.device)
+    dtype = dtype or torch.promote_types(robot.dtype, humans.dtype)
+    out = torch.empty(*shape, JOINT_DIM, dtype=dtype, device=robot.device)
     for i, column in enumerate(columns):
         out[..., i] = column
     return out
