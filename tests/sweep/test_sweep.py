@@ -318,6 +318,32 @@ def test_a_broken_pool_is_discarded_even_when_one_of_its_workers_outlives_sigter
             stray.join(5)
 
 
+def test_discarding_a_pool_whose_manager_never_stops_warns_and_returns():
+    import threading
+
+    from socialnav.sweep.executors import discard_broken_pool
+
+    release = threading.Event()
+
+    class StuckPool:  # a manager thread blocked on something other than a live worker
+        def __init__(self):
+            self._processes = {}
+            self._executor_manager_thread = threading.Thread(target=release.wait, daemon=True)
+            self._executor_manager_thread.start()
+            self.shutdown_calls = []
+
+        def shutdown(self, wait=True, cancel_futures=False):
+            self.shutdown_calls.append((wait, cancel_futures))
+
+    pool = StuckPool()
+    try:
+        with pytest.warns(RuntimeWarning, match="did not stop within"):
+            discard_broken_pool(pool, poll_s=0.01, give_up_s=0.2)
+        assert pool.shutdown_calls == [(False, True)]  # never a shutdown that waits
+    finally:
+        release.set()
+
+
 def test_a_task_that_keeps_failing_is_reported_not_dropped(tmp_path, capsys):
     preset = small_preset(tmp_path)
     path = write_sweep(

@@ -12,6 +12,8 @@ its message.
 from __future__ import annotations
 
 import os
+import time
+import warnings
 from collections import Counter, deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -134,7 +136,7 @@ class LocalExecutor:
             pool.shutdown(wait=True)
 
 
-def discard_broken_pool(pool: Any, poll_s: float = 0.05) -> None:
+def discard_broken_pool(pool: Any, poll_s: float = 0.05, give_up_s: float = 60.0) -> None:
     """Shut a broken process pool down without waiting forever on a worker that outlived it.
 
     When a worker dies, CPython's pool (3.11, 3.12) sends SIGTERM to its other workers and then joins
@@ -143,7 +145,8 @@ def discard_broken_pool(pool: Any, poll_s: float = 0.05) -> None:
     a sweep that hung after a worker was killed). Here the pool is told to shut down without waiting
     and every one of its workers still alive is killed until its manager thread has finished. The
     pool's workers and manager thread are private attributes: where they are missing (another Python),
-    this is a plain ``shutdown(wait=True)``.
+    this is a plain ``shutdown(wait=True)``. A manager thread still running after ``give_up_s`` with
+    no worker left alive is left behind with a warning, so the sweep goes on.
     """
     thread = getattr(pool, "_executor_manager_thread", None)
     processes = getattr(pool, "_processes", None)
@@ -151,6 +154,7 @@ def discard_broken_pool(pool: Any, poll_s: float = 0.05) -> None:
         pool.shutdown(wait=True, cancel_futures=True)
         return
     pool.shutdown(wait=False, cancel_futures=True)
+    deadline = time.monotonic() + give_up_s
     while True:
         workers = _snapshot(processes)
         for process in workers:
@@ -159,6 +163,14 @@ def discard_broken_pool(pool: Any, poll_s: float = 0.05) -> None:
         thread.join(timeout=poll_s)
         if not thread.is_alive():
             break
+        if time.monotonic() > deadline:
+            warnings.warn(
+                f"the broken worker pool's manager thread did not stop within {give_up_s:.0f} s after its "
+                "workers were killed; it is left behind and a new pool is started",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            return
     for process in _snapshot(processes):
         process.join(timeout=5.0)
 
