@@ -152,14 +152,16 @@ def rotate(
     vy1 = humans[..., 3] * c - humans[..., 2] * s
     r1 = humans[..., 4]
     da = torch.sqrt(hx * hx + hy * hy)
-    columns = (dg, r[..., 7], theta, r[..., 4], vx, vy, px1, py1, vx1, vy1, r1, da, r[..., 4] + r1)
-    shape = torch.broadcast_shapes(*(c.shape for c in columns))
-    # Each column is written (and broadcast over the humans) straight into the result: no stacked
-    # copy in the inputs' dtype, no second pass to convert it.
+    self_part = torch.stack([dg, r[..., 7], theta, r[..., 4], vx, vy], dim=-1)  # (…, 1, 6)
+    human_part = torch.stack(torch.broadcast_tensors(px1, py1, vx1, vy1, r1, da, r[..., 4] + r1), dim=-1)
+    # Both parts are written into the result, converted on the way, the robot part broadcast over the
+    # humans: no concatenated copy in the inputs' dtype and no second pass to convert it. (Writing the
+    # 13 columns one by one saves one more pass on large batches but costs a single episode ~20 %
+    # more in small operations.)
     dtype = dtype or torch.promote_types(robot.dtype, humans.dtype)
-    out = torch.empty(*shape, JOINT_DIM, dtype=dtype, device=robot.device)
-    for i, column in enumerate(columns):
-        out[..., i] = column
+    out = torch.empty(*human_part.shape[:-1], JOINT_DIM, dtype=dtype, device=robot.device)
+    out[..., :SELF_DIM] = self_part
+    out[..., SELF_DIM:] = human_part
     return out
 
 
