@@ -14,16 +14,22 @@ those windows). A virtual machine's speed moves by ±25 % between quarter-second
 catches a burst that no 0.2–3 s call can, and so biases the fraction low on a busy host. The same
 windows also time ``layer_chain``: the matmuls of SARL's layers alone, at the shapes one block of the
 policy uses, with nothing else: what a perfect implementation built on the same matmul routine would
-reach (``layer_chain_fraction_of_matmul_peak``), the ceiling the policy is compared with.
+reach (``layer_chain_fraction_of_matmul_peak``), the ceiling of the PyTorch scorer (the native scorer
+takes a few states through all layers at a time and is not bound by it).
 
 RGL and model-predictive RGL (Chen et al., IROS 2020) are timed in the same run at B = 256 (the same
 scene), next to SARL: RGL's one-step lookahead (constant velocity), and MP-RGL with its learned state
 predictor (swept-reward lookahead) at depth/width 1/1 and 2/2. A "decision" is choosing one episode's
 action; ms per decision = time of one batched call / B. The issue's goal: a d = 2, w = 2 decision costs
 at most 4x a d = 1 decision.
+The policy scores with ``--scorer`` (default ``auto``, what ``socialnav evaluate`` uses: the native
+SARL evaluator on a CPU with AVX2/FMA). Each batch size is timed a second time with the PyTorch scorer
+(``torch``, the training path) in the same run, so both fractions come from the same conditions.
+
 The last line printed is one JSON object.
 
     PYTHONPATH=src python benchmarks/bench_policy.py [--threads 2] [--batches 256 1024 4096] [--device cuda]
+        [--scorer auto|torch|native]
 """
 
 from __future__ import annotations
@@ -243,18 +249,21 @@ def main() -> None:
     ap.add_argument("--batches", type=int, nargs="+", default=[256, 1024, 4096])
     ap.add_argument("--min-time", type=float, default=1.0, help="seconds spent timing each batch size")
     ap.add_argument("--device", default="cpu", help="cpu or cuda (nothing requires a GPU)")
+    ap.add_argument("--scorer", default="auto", choices=["auto", "torch", "native"], help="network evaluator")
     args = ap.parse_args()
     if args.threads > 0:
         torch.set_num_threads(args.threads)
     torch.manual_seed(0)
-    policy = ValuePolicy(build("sarl"), device=args.device)
+    policy = ValuePolicy(build("sarl"), device=args.device, scorer=args.scorer)
     policy.network.eval()
+    torch_policy = ValuePolicy(policy.network, device=args.device, scorer="torch")
+    scorer = policy.active_scorer
 
     peak = matmul_gflops()
     flops = sarl_flops_per_env_step(args.humans)
     print(
         f"torch {torch.__version__}, threads {torch.get_num_threads()}, "
-        f"humans {args.humans}, actions {N_ACTIONS}"
+        f"humans {args.humans}, actions {N_ACTIONS}, scorer {scorer}"
     )
     print(f"float32 matmul 1024^3: {peak:.1f} GFLOP/s")
     print(
@@ -263,27 +272,35 @@ def main() -> None:
     )
 
     single = time_act(policy, scene(1, args.humans), args.min_time)
-    print(f"B=1: {single * 1e3:.2f} ms per action (one episode)")
+    single_torch = time_act(torch_policy, scene(1, args.humans), args.min_time)
+    print(f"B=1: {single * 1e3:.2f} ms per action (one episode); torch scorer {single_torch * 1e3:.2f} ms")
     matmul = MatmulWindows(device=args.device)
     block_states = policy.states_per_pass or 1024  # the states of one network call on CPU
     chain = layer_chain(args.humans, block_states, args.device)
     results = {}
     for b in args.batches:
-        paired = time_paired(policy, scene(b, args.humans), matmul, chain, args.min_time)
+        obs = scene(b, args.humans)
+        paired = time_paired(policy, obs, matmul, chain, args.min_time)
         t = paired["act_s"]
         steps = b / t
         gflops = steps * flops["performed"] / 1e9
+        ref = time_paired(torch_policy, obs, matmul, chain, args.min_time) if scorer != "torch" else paired
+        ref_steps = b / ref["act_s"]
         results[b] = {
             "env_steps_per_s": steps,
             "gflops": gflops,
             "fraction": gflops / paired["matmul_gflops"],
             "window_matmul_gflops": paired["matmul_gflops"],
-            "chain_fraction": paired["chain_gflops"] / paired["matmul_gflops"],
+            "chain_fraction": max(paired["chain_gflops"], ref["chain_gflops"])
+            / max(paired["matmul_gflops"], ref["matmul_gflops"]),
+            "torch_env_steps_per_s": ref_steps,
+            "torch_fraction": ref_steps * flops["performed"] / 1e9 / ref["matmul_gflops"],
         }
         print(
             f"B={b}: {t * 1e3:.1f} ms per call, {steps:.0f} env-steps/s, {gflops:.1f} GFLOP/s "
             f"= {results[b]['fraction']:.1%} of matmul over the same windows "
-            f"({paired['matmul_gflops']:.1f} GFLOP/s); SARL's layer matmuls alone: "
+            f"({paired['matmul_gflops']:.1f} GFLOP/s); torch scorer {ref_steps:.0f} env-steps/s = "
+            f"{results[b]['torch_fraction']:.1%}; SARL's layer matmuls alone (torch): "
             f"{results[b]['chain_fraction']:.1%}"
         )
     # The burst peak (best 13 ms matmul, before and after): this benchmark's earlier reference.
@@ -307,6 +324,12 @@ def main() -> None:
         "matmul_gflops": round(results[best]["window_matmul_gflops"], 2),
         "matmul_burst_gflops": round(burst, 2),
         "layer_chain_states": block_states,
+        "scorer": scorer,
+        "torch_scorer_fraction_at_batch": {str(k): round(v["torch_fraction"], 4) for k, v in results.items()},
+        "torch_scorer_env_steps_per_s_at_batch": {
+            str(k): round(v["torch_env_steps_per_s"], 1) for k, v in results.items()
+        },
+        "torch_scorer_ms_per_action_single_episode": round(single_torch * 1e3, 3),
         "sarl_mflops_per_env_step": round(flops["performed"] / 1e6, 3),
         "threads": torch.get_num_threads(),
         "humans": args.humans,

@@ -110,6 +110,8 @@ def main() -> None:
         json.dumps(
             {
                 "policy": args.policy,
+                # learned SARL / OM-SARL: the network's evaluator in effect ("native" or "torch")
+                "scorer": policy.describe().get("scorer"),
                 "seconds": round(seconds, 3),
                 "seconds_without_trajectories": None if without is None else round(without, 3),
                 "trajectory_time_ratio": None if ratio is None else round(ratio, 3),

@@ -11,6 +11,7 @@
 
 #include "orca.hpp"
 #include "robot_policies.hpp"
+#include "sarl_scorer.hpp"
 #include "scenario_gen.hpp"
 #include "social_force.hpp"
 #include "world.hpp"
@@ -302,6 +303,52 @@ NB_MODULE(_core, m) {
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
       .def(nb::init<int>(), "threads"_a)
       .def_prop_ro("size", &socialnav::ThreadPool::size);
+
+  nb::class_<socialnav::SarlScorer>(m, "SarlScorer")
+      .def(
+          "__init__",
+          [](socialnav::SarlScorer* self, nb::list mlp1, nb::list mlp2, nb::list attention, nb::list mlp3,
+             bool with_global_state, int self_dim) {
+            // Each layer: (weight (out, in), bias (out)) float32 C-contiguous arrays, PyTorch's layout.
+            auto layers = [](nb::list items, const char* name) {
+              std::vector<socialnav::DenseLayer> out;
+              for (size_t i = 0; i < nb::len(items); ++i) {
+                nb::tuple t = nb::cast<nb::tuple>(items[i]);
+                if (nb::len(t) != 2)
+                  throw std::invalid_argument(std::string(name) + ": each layer is (weight, bias)");
+                auto w = nb::cast<Array<float>>(t[0], false);
+                auto b = nb::cast<Array<float>>(t[1], false);
+                if (w.ndim() != 2 || b.ndim() != 1 || b.shape(0) != w.shape(0))
+                  throw std::invalid_argument(std::string(name) + " layer " + std::to_string(i) +
+                                              ": expected weight (out, in) and bias (out)");
+                out.emplace_back(w.data(), b.data(), static_cast<int>(w.shape(0)), static_cast<int>(w.shape(1)));
+              }
+              return out;
+            };
+            new (self) socialnav::SarlScorer(layers(mlp1, "mlp1"), layers(mlp2, "mlp2"),
+                                             layers(attention, "attention"), layers(mlp3, "mlp3"),
+                                             with_global_state, self_dim);
+          },
+          "mlp1"_a, "mlp2"_a, "attention"_a, "mlp3"_a, "with_global_state"_a, "self_dim"_a)
+      .def_static("supported", &socialnav::SarlScorer::supported)
+      .def_prop_ro("input_dim", &socialnav::SarlScorer::input_dim)
+      .def(
+          "values",
+          [](const socialnav::SarlScorer& self, Array<float> joint, Array<bool> mask, Array<float> out,
+             socialnav::ThreadPool& pool, int states_per_tile) {
+            if (joint.ndim() != 3 || static_cast<int>(joint.shape(2)) != self.input_dim())
+              throw std::invalid_argument("joint must be (M, N, " + std::to_string(self.input_dim()) + ")");
+            const size_t M = joint.shape(0), N = joint.shape(1);
+            if (N < 1) throw std::invalid_argument("joint: N must be >= 1");
+            checked(mask, "mask", M * N);
+            float* o = checked(out, "out", M);
+            const float* j = joint.data();
+            const auto* mk = reinterpret_cast<const uint8_t*>(mask.data());
+            nb::gil_scoped_release release;
+            self.values(j, mk, static_cast<int64_t>(M), static_cast<int>(N), o, pool, states_per_tile);
+          },
+          "joint"_a.noconvert(), "mask"_a.noconvert(), "out"_a.noconvert(), "pool"_a, "states_per_tile"_a = 32,
+          "SARL values of M joint states, written into out (M,).");
 
   m.def(
       "robot_actions",

@@ -196,6 +196,32 @@ def test_replay_reproduces_a_learned_policy_with_its_checkpoint(tmp_path):
         assert result.max_abs_diff == 0.0
 
 
+@pytest.mark.parametrize("scorer", ["torch", "legacy"])
+def test_replay_rebuilds_the_recorded_scorer(tmp_path, scorer):
+    """A run scored by the module replays with the module; so does a manifest from before the scorer
+    was recorded (those runs were all scored by the module)."""
+    pytest.importorskip("torch")
+    import json
+
+    from socialnav.policies.loading import build_policy, shipped_checkpoint
+
+    preset = small_preset(episodes=3, chunk_size=3)
+    ckpt = shipped_checkpoint("sarl", "wang2022")
+    policy = build_policy("sarl", preset, ckpt, scorer="torch")
+    assert policy.describe()["scorer"] == "torch"
+    run_protocol(
+        policy, preset, tmp_path, scenarios=["circle_crossing"], visibility="invisible", progress=False,
+        workers=0, batch_size=3, extra_manifest={"checkpoint": str(ckpt)},
+    )
+    if scorer == "legacy":
+        path = tmp_path / "manifest.json"
+        manifest = json.loads(path.read_text())
+        del manifest["policy"]["scorer"]
+        path.write_text(json.dumps(manifest))
+    result = replay_episode(tmp_path, "circle_crossing/invisible/2")
+    assert result.identical, result.differences
+
+
 def test_replay_as_a_subprocess(run_dir):
     proc = subprocess.run(
         [sys.executable, "-m", "socialnav.cli", "replay", str(run_dir), "--episode", "passing/invisible/4"],

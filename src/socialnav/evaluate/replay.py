@@ -50,11 +50,15 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
         checkpoint = desc.get("checkpoint") or manifest.get("checkpoint")
         if checkpoint and not Path(checkpoint).is_file():
             raise ResultsError(f"manifest.json: the policy's checkpoint {checkpoint} does not exist")
-        policy = build_policy(name, preset, checkpoint, information=desc.get("information"))
+        # Results written before the scorer was recorded were scored by the PyTorch module.
+        scorer = desc.get("scorer", "torch")
+        policy = build_policy(name, preset, checkpoint, information=desc.get("information"), scorer=scorer)
     else:
         params = {k: desc[k] for k in entry.parameters if k in desc}
         policy = build_policy(name, preset, None, **params)
     rebuilt = {"label": desc.get("label"), **policy.describe()}
+    if entry.learned and "scorer" not in desc:
+        rebuilt.pop("scorer", None)
     if json_norm(rebuilt) != json_norm(desc):
         raise ResultsError(
             f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"

@@ -76,6 +76,8 @@ class LearnedPolicy:
             "planning_depth": vp.planning_depth,
             "planning_width": vp.planning_width,
             "reward_rule": vp.reward_rule,
+            # The evaluator in effect ("native" or "torch"): values differ by float32 rounding.
+            "scorer": vp.active_scorer,
             **({"preset_mismatch_allowed": self.preset_mismatch} if self.preset_mismatch else {}),
         }
 
@@ -150,11 +152,14 @@ def load_learned_policy(
     planning_width: int | None = None,
     preset: Any = None,
     allow_preset_mismatch: bool = False,
+    scorer: str = "auto",
 ) -> LearnedPolicy:
     """Loads ``checkpoint`` (refusing one of another policy or input size) into a LearnedPolicy.
 
     ``information``, ``planning_depth`` and ``planning_width`` override the checkpoint's settings
-    (None keeps them); ``learned`` needs a checkpoint that stores a state predictor.
+    (None keeps them); ``learned`` needs a checkpoint that stores a state predictor. ``scorer``: what
+    evaluates the network (:class:`~socialnav.policies.learned.ValuePolicy`); "auto" takes the native
+    SARL / OM-SARL evaluator where it applies.
 
     Raises:
         CheckpointError: The checkpoint is unreadable or its recorded settings are malformed.
@@ -204,6 +209,7 @@ def load_learned_policy(
             reward_params=RewardParams(**reward),
             device=device,
             predictor=ckpt.predictor,
+            scorer=scorer,
             **settings,
         )
     except (TypeError, ValueError) as err:
@@ -220,6 +226,7 @@ def _factory(name: str):
         planning_depth: int | None = None,
         planning_width: int | None = None,
         allow_preset_mismatch: bool = False,
+        scorer: str = "auto",
         **_: Any,
     ) -> LearnedPolicy:
         return load_learned_policy(
@@ -231,6 +238,7 @@ def _factory(name: str):
             planning_width,
             preset,
             allow_preset_mismatch,
+            scorer,
         )
 
     return make
@@ -246,5 +254,6 @@ for _name, _description in _DESCRIPTIONS.items():
             "device": "cpu",
             "planning_depth": 2 if _name == "mp_rgl" else 1,
             "planning_width": 2 if _name == "mp_rgl" else 1,
+            "scorer": "auto",
         },
     )(_factory(_name))

@@ -41,6 +41,7 @@ import numpy as np
 import torch
 
 from socialnav.policies.learned.actions import Kinematics, discrete_actions, num_actions
+from socialnav.policies.learned.native_scoring import SCORERS, NativeSarlScorer, native_unavailable_reason
 from socialnav.policies.learned.networks import ValueNetwork
 from socialnav.policies.learned.state import (
     RewardParams,
@@ -83,6 +84,12 @@ class ValuePolicy:
         predictor: the trained state predictor (``information="learned"``).
         planning_depth, planning_width: d and w of model-predictive planning (1, 1: one-step).
         reward_rule: "end" (clearances at the end of the step) or "swept" (the world's rule).
+        scorer: what evaluates the network on the lookahead's states: "torch" (the module itself,
+            the default, and what training uses), "native" (the C++ SARL / OM-SARL evaluator of
+            :mod:`~socialnav.policies.learned.native_scoring`, CPU only; values equal to float32
+            rounding) or "auto" (native where it applies, torch otherwise; what ``socialnav
+            evaluate`` uses). Gradients never flow through the native scorer: with autograd on, the
+            module is used.
     """
 
     def __init__(
@@ -102,6 +109,7 @@ class ValuePolicy:
         planning_depth: int = 1,
         planning_width: int = 1,
         reward_rule: str = "end",
+        scorer: str = "torch",
     ) -> None:
         if kinematics not in ("holonomic", "unicycle"):
             raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic' or 'unicycle'")
@@ -115,6 +123,8 @@ class ValuePolicy:
             raise ValueError(
                 f"unknown reward_rule {reward_rule!r}; expected one of {', '.join(REWARD_RULES)}"
             )
+        if scorer not in SCORERS:
+            raise ValueError(f"unknown scorer {scorer!r}; expected one of {', '.join(SCORERS)}")
         if int(planning_depth) < 1 or int(planning_width) < 1:
             raise ValueError(
                 f"planning_depth and planning_width must be >= 1, got {planning_depth} and {planning_width}"
@@ -142,6 +152,19 @@ class ValuePolicy:
         self.network.to(self.device)
         if self.predictor is not None:
             self.predictor.to(self.device)
+        self.scorer = scorer
+        self._native: NativeSarlScorer | None = None
+        if scorer != "torch":
+            reason = native_unavailable_reason(network, self.device)
+            if reason is None:
+                self._native = NativeSarlScorer(network)
+            elif scorer == "native":
+                raise ValueError(f"scorer 'native' is not available: {reason}")
+
+    @property
+    def active_scorer(self) -> str:
+        """What evaluates the network: "native" or "torch" (``scorer="auto"`` resolved)."""
+        return "native" if self._native is not None else "torch"
 
     @property
     def num_actions(self) -> int:
@@ -302,6 +325,15 @@ class ValuePolicy:
         return planned, actions
 
     def _network_values(self, joint: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        native = self._native
+        if native is not None and not (
+            torch.is_grad_enabled() and any(p.requires_grad for p in self.network.parameters())
+        ):
+            reason = native.unavailable_reason()  # the network may have moved since (device, dtype)
+            if reason is None:
+                return native.value(joint, mask).to(self.device)
+            if self.scorer == "native":
+                raise ValueError(f"scorer 'native' is not available: {reason}")
         total, c = joint.shape[0], self.states_per_pass
         if c is None or total <= c or self.device.type != "cpu":
             return self.network.value(joint, mask)

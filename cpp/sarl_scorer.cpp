@@ -1,0 +1,326 @@
+#include "sarl_scorer.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define SOCIALNAV_X86_KERNELS 1
+#include <immintrin.h>
+#else
+#define SOCIALNAV_X86_KERNELS 0
+#endif
+
+namespace socialnav {
+
+namespace {
+
+constexpr int kPanel = 16;  // columns per kernel call: two 8-float vectors
+
+// Rows per block: 6 (12 accumulators) where the width allows, else 5 (10), so that every width the
+// networks use (50, 100, 150, 200) is covered without a short, latency-bound remainder block.
+int block_rows(int out) {
+  if (out % 6 == 0) return 6;
+  if (out % 5 == 0) return 5;
+  return 6;
+}
+
+#if SOCIALNAV_X86_KERNELS
+// Y[r][c0 .. c0+16) for the block's MR rows: acc = bias; acc += W[r][k] · X[k][·] for k = 0 .. K-1
+// (one fused multiply-add each, in that order); optional ReLU. The accumulators are named variables
+// rather than an array: GCC keeps an array in registers but also stores it to the stack on every
+// iteration, which halves the kernel's speed.
+#define SN_ROW(R)                                                                                 \
+  __m256 a##R##0 = MR > R ? _mm256_broadcast_ss(bias + (MR > R ? R : 0)) : _mm256_setzero_ps(); \
+  __m256 a##R##1 = a##R##0;
+#define SN_FMA(R)                                                   \
+  if constexpr (MR > R) {                                         \
+    const __m256 wr = _mm256_broadcast_ss(w + R);                 \
+    a##R##0 = _mm256_fmadd_ps(wr, x0, a##R##0);                   \
+    a##R##1 = _mm256_fmadd_ps(wr, x1, a##R##1);                   \
+  }
+#define SN_STORE(R)                                                         \
+  if constexpr (MR > R) {                                                 \
+    if (relu) {                                                           \
+      a##R##0 = _mm256_max_ps(a##R##0, zero);                             \
+      a##R##1 = _mm256_max_ps(a##R##1, zero);                             \
+    }                                                                     \
+    _mm256_storeu_ps(y + static_cast<size_t>(R) * ldy, a##R##0);          \
+    _mm256_storeu_ps(y + static_cast<size_t>(R) * ldy + 8, a##R##1);      \
+  }
+template <int MR>
+__attribute__((target("avx2,fma"))) void dense_kernel(const float* __restrict wp, const float* __restrict bias,
+                                                      const float* __restrict x, int ldx, float* __restrict y,
+                                                      int ldy, int K, bool relu) {
+  SN_ROW(0) SN_ROW(1) SN_ROW(2) SN_ROW(3) SN_ROW(4) SN_ROW(5)
+  for (int k = 0; k < K; ++k) {
+    const __m256 x0 = _mm256_loadu_ps(x + static_cast<size_t>(k) * ldx);
+    const __m256 x1 = _mm256_loadu_ps(x + static_cast<size_t>(k) * ldx + 8);
+    const float* w = wp + static_cast<size_t>(k) * MR;
+    SN_FMA(0) SN_FMA(1) SN_FMA(2) SN_FMA(3) SN_FMA(4) SN_FMA(5)
+  }
+  const __m256 zero = _mm256_setzero_ps();
+  SN_STORE(0) SN_STORE(1) SN_STORE(2) SN_STORE(3) SN_STORE(4) SN_STORE(5)
+}
+#undef SN_ROW
+#undef SN_FMA
+#undef SN_STORE
+
+using Kernel = void (*)(const float*, const float*, const float*, int, float*, int, int, bool);
+
+Kernel kernel_for(int rows) {
+  switch (rows) {
+    case 1: return dense_kernel<1>;
+    case 2: return dense_kernel<2>;
+    case 3: return dense_kernel<3>;
+    case 4: return dense_kernel<4>;
+    case 5: return dense_kernel<5>;
+    case 6: return dense_kernel<6>;
+    default: throw std::logic_error("sarl scorer: bad block size");
+  }
+}
+#endif
+
+// Y (layer.out × cols) = layer(X (layer.in × cols)), feature-major with row stride `cols`.
+void dense(const DenseLayer& layer, const float* x, float* y, int cols, bool relu) {
+#if SOCIALNAV_X86_KERNELS
+  // Panel outer, blocks inner: the panel of X (in × 16 floats) stays in L1 while the packed weights
+  // stream through once per panel.
+  for (int c0 = 0; c0 < cols; c0 += kPanel)
+    for (const auto& b : layer.blocks)
+      kernel_for(b.rows)(layer.packed.data() + b.offset, layer.bias.data() + b.row0, x + c0, cols,
+                         y + static_cast<size_t>(b.row0) * cols + c0, cols, layer.in, relu);
+#else
+  (void)layer, (void)x, (void)y, (void)cols, (void)relu;
+  throw std::runtime_error("sarl scorer: no vector kernels on this CPU");
+#endif
+}
+
+// Runs layers[from ..] on x, alternating between p and q (neither may alias x unless x is one of
+// them); ReLU between layers and after the last one if `last_relu`. Returns the output buffer.
+const float* chain(const std::vector<DenseLayer>& layers, size_t from, const float* x, int cols, float* p,
+                   float* q, bool last_relu) {
+  const float* cur = x;
+  for (size_t i = from; i < layers.size(); ++i) {
+    float* dst = (cur == p) ? q : p;
+    dense(layers[i], cur, dst, cols, i + 1 < layers.size() || last_relu);
+    cur = dst;
+  }
+  return cur;
+}
+
+}  // namespace
+
+DenseLayer::DenseLayer(const float* weight, const float* b, int out_, int in_) : in(in_), out(out_) {
+  if (in <= 0 || out <= 0) throw std::invalid_argument("sarl scorer: layer sizes must be positive");
+  const int mr = block_rows(out);
+  packed.resize(static_cast<size_t>(in) * out);
+  size_t offset = 0;
+  for (int row0 = 0; row0 < out; row0 += mr) {
+    const int rows = std::min(mr, out - row0);
+    blocks.push_back({row0, rows, offset});
+    for (int k = 0; k < in; ++k)
+      for (int r = 0; r < rows; ++r) packed[offset++] = weight[static_cast<size_t>(row0 + r) * in + k];
+  }
+  if (b)
+    bias.assign(b, b + out);
+  else
+    bias.assign(static_cast<size_t>(out), 0.0f);
+}
+
+SarlScorer::SarlScorer(std::vector<DenseLayer> mlp1, std::vector<DenseLayer> mlp2,
+                       std::vector<DenseLayer> attention, std::vector<DenseLayer> mlp3, bool with_global_state,
+                       int self_dim)
+    : mlp1_(std::move(mlp1)),
+      mlp2_(std::move(mlp2)),
+      attention_(std::move(attention)),
+      mlp3_(std::move(mlp3)),
+      with_global_state_(with_global_state),
+      self_dim_(self_dim) {
+  if (mlp1_.empty() || mlp2_.empty() || attention_.empty() || mlp3_.empty())
+    throw std::invalid_argument("sarl scorer: every MLP needs at least one layer");
+  input_dim_ = mlp1_.front().in;
+  e_dim_ = mlp1_.back().out;
+  auto check_chain = [](const std::vector<DenseLayer>& layers, int in, const char* name) {
+    for (const auto& l : layers) {
+      if (l.in != in)
+        throw std::invalid_argument(std::string("sarl scorer: ") + name + " layer expects " + std::to_string(l.in) +
+                                    " inputs, gets " + std::to_string(in));
+      in = l.out;
+    }
+    return in;
+  };
+  check_chain(mlp1_, input_dim_, "mlp1");
+  const int h_dim = check_chain(mlp2_, e_dim_, "mlp2");
+  if (check_chain(mlp3_, self_dim_ + h_dim, "mlp3") != 1) throw std::invalid_argument("sarl scorer: mlp3 must end in 1");
+  const DenseLayer& first = attention_.front();
+  const int att_in = with_global_state_ ? 2 * e_dim_ : e_dim_;
+  if (first.in != att_in)
+    throw std::invalid_argument("sarl scorer: the first attention layer expects " + std::to_string(first.in) +
+                                " inputs, gets " + std::to_string(att_in));
+  if (check_chain({attention_.begin() + 1, attention_.end()}, first.out, "attention") != 1)
+    throw std::invalid_argument("sarl scorer: the attention MLP must end in 1");
+  if (with_global_state_) {
+    // Unpack the first attention layer and split it: the e-half per human (no bias), the g-half
+    // with the bias once per state.
+    std::vector<float> w(static_cast<size_t>(first.out) * first.in);
+    for (const auto& b : first.blocks)
+      for (int k = 0; k < first.in; ++k)
+        for (int r = 0; r < b.rows; ++r)
+          w[static_cast<size_t>(b.row0 + r) * first.in + k] = first.packed[b.offset + static_cast<size_t>(k) * b.rows + r];
+    std::vector<float> we(static_cast<size_t>(first.out) * e_dim_), wg(we.size());
+    for (int r = 0; r < first.out; ++r)
+      for (int k = 0; k < e_dim_; ++k) {
+        we[static_cast<size_t>(r) * e_dim_ + k] = w[static_cast<size_t>(r) * first.in + k];
+        wg[static_cast<size_t>(r) * e_dim_ + k] = w[static_cast<size_t>(r) * first.in + e_dim_ + k];
+      }
+    attention_g_ = DenseLayer(wg.data(), first.bias.data(), first.out, e_dim_);
+    attention_.front() = DenseLayer(we.data(), nullptr, first.out, e_dim_);
+  }
+  width_ = std::max({input_dim_, self_dim_ + h_dim, 1});
+  for (const auto* layers : {&mlp1_, &mlp2_, &attention_, &mlp3_})
+    for (const auto& l : *layers) width_ = std::max(width_, l.out);
+}
+
+bool SarlScorer::supported() {
+#if SOCIALNAV_X86_KERNELS
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+  return false;
+#endif
+}
+
+void SarlScorer::values(const float* joint, const uint8_t* mask, int64_t M, int N, float* out, ThreadPool& pool,
+                        int states_per_tile) const {
+  if (!supported()) throw std::runtime_error("sarl scorer: this CPU lacks AVX2/FMA");
+  if (N < 1) throw std::invalid_argument("sarl scorer: N must be >= 1");
+  if (states_per_tile < kPanel || states_per_tile % kPanel != 0)
+    throw std::invalid_argument("sarl scorer: states_per_tile must be a positive multiple of 16");
+  const int S = states_per_tile;
+  const int64_t tiles = (M + S - 1) / S;
+  if (tiles > INT32_MAX) throw std::invalid_argument("sarl scorer: too many states");
+  pool.parallel_for(static_cast<int>(tiles), [&](int begin, int end, int /*worker*/) {
+    // Per-thread activations, kept from call to call: the pool's threads live as long as the pool,
+    // so a small call (one episode: three tiles) allocates nothing.
+    thread_local std::vector<float> scratch;
+    for (int t = begin; t < end; ++t) {
+      const int64_t first = static_cast<int64_t>(t) * S;
+      const int count = static_cast<int>(std::min<int64_t>(S, M - first));
+      tile_values(joint, mask, first, count, N, S, out, scratch);
+    }
+  });
+}
+
+void SarlScorer::tile_values(const float* joint, const uint8_t* mask, int64_t first, int count, int N, int S,
+                             float* out, std::vector<float>& scratch) const {
+  const int C = N * S;  // column i·S + s: human i of state s
+  const int D = input_dim_, E = e_dim_, W = width_;
+  const size_t wc = static_cast<size_t>(W) * C;
+  const size_t need = static_cast<size_t>(D) * C + static_cast<size_t>(E) * C + 3 * wc + C +
+                      static_cast<size_t>(E) * S + 2 * static_cast<size_t>(W) * S + static_cast<size_t>(N) * S;
+  if (scratch.size() < need) scratch.resize(need);
+  // Every buffer is written before it is read (x0 and x3 are cleared below).
+  float* x0 = scratch.data();                    // D × C inputs
+  float* e = x0 + static_cast<size_t>(D) * C;    // E × C embeddings
+  float* a = e + static_cast<size_t>(E) * C;     // attention's first layer
+  float* p = a + wc;                             // p, q: ping-pong buffers of the MLP chains
+  float* q = p + wc;
+  float* scores = q + wc;                        // C attention scores
+  float* g = scores + C;                         // E × S mean embedding
+  float* gterm = g + static_cast<size_t>(E) * S; // W × S global term of the first attention layer
+  float* x3 = gterm + static_cast<size_t>(W) * S; // W × S mlp3 input: robot part, then the weighted h
+  float* wts = x3 + static_cast<size_t>(W) * S;  // N × S softmax weights
+
+  // Inputs, feature-major; padded humans and the padding states of the last tile are zeros.
+  std::fill(x0, x0 + static_cast<size_t>(D) * C, 0.0f);
+  std::fill(x3, x3 + static_cast<size_t>(W) * S, 0.0f);
+  for (int s = 0; s < count; ++s) {
+    const int64_t m = first + s;
+    const uint8_t* mk = mask + m * N;
+    int self_row = 0;  // the first real human's row carries the robot part (slot 0 when none is real)
+    while (self_row < N && !mk[self_row]) ++self_row;
+    if (self_row == N) self_row = 0;
+    const float* js = joint + static_cast<size_t>(m) * N * D;
+    for (int d = 0; d < self_dim_; ++d) x3[static_cast<size_t>(d) * S + s] = js[static_cast<size_t>(self_row) * D + d];
+    for (int i = 0; i < N; ++i) {
+      if (!mk[i]) continue;
+      for (int d = 0; d < D; ++d) x0[static_cast<size_t>(d) * C + i * S + s] = js[static_cast<size_t>(i) * D + d];
+    }
+  }
+
+  // e = mlp1(x), ReLU after every layer.
+  const float* e_out = chain(mlp1_, 0, x0, C, p, q, true);
+  std::copy(e_out, e_out + static_cast<size_t>(E) * C, e);
+
+  // Attention scores.
+  const DenseLayer& att0 = attention_.front();
+  const bool att0_relu = attention_.size() > 1;
+  if (with_global_state_) {
+    // g = masked mean of e over the real humans of each state; gterm = W_g g + b. The mask as 0/1
+    // factors (wts holds them until the softmax) keeps the loops branch-free; e is finite (padded
+    // humans' inputs are zeros), so adding 0 · e adds nothing.
+    for (int i = 0; i < N; ++i)
+      for (int s = 0; s < S; ++s) wts[i * S + s] = (s < count && mask[(first + s) * N + i]) ? 1.0f : 0.0f;
+    for (int k = 0; k < E; ++k) {
+      float* gk = g + static_cast<size_t>(k) * S;
+      const float* ek = e + static_cast<size_t>(k) * C;
+      for (int s = 0; s < S; ++s) gk[s] = 0.0f;
+      for (int i = 0; i < N; ++i)
+        for (int s = 0; s < S; ++s) gk[s] += wts[i * S + s] * ek[i * S + s];
+    }
+    for (int s = 0; s < S; ++s) {
+      float real = 0.0f;
+      for (int i = 0; i < N; ++i) real += wts[i * S + s];
+      const float div = real > 0.0f ? real : 1.0f;
+      for (int k = 0; k < E; ++k) g[static_cast<size_t>(k) * S + s] /= div;
+    }
+    dense(attention_g_, g, gterm, S, false);
+    dense(att0, e, a, C, false);
+    for (int r = 0; r < att0.out; ++r) {
+      float* ar = a + static_cast<size_t>(r) * C;
+      const float* gr = gterm + static_cast<size_t>(r) * S;
+      for (int i = 0; i < N; ++i)
+        for (int s = 0; s < S; ++s) {
+          const float v = ar[i * S + s] + gr[s];
+          ar[i * S + s] = (att0_relu && v < 0.0f) ? 0.0f : v;
+        }
+    }
+  } else {
+    dense(att0, e, a, C, att0_relu);
+  }
+  const float* sc = chain(attention_, 1, a, C, p, q, false);
+  std::copy(sc, sc + C, scores);
+
+  // Masked softmax over each state's humans (all-zero weights when none is real).
+  for (int s = 0; s < count; ++s) {
+    const uint8_t* mk = mask + (first + s) * N;
+    float mx = -INFINITY;
+    for (int i = 0; i < N; ++i)
+      if (mk[i]) mx = std::max(mx, scores[i * S + s]);
+    if (!std::isfinite(mx)) mx = 0.0f;
+    float den = 0.0f;
+    for (int i = 0; i < N; ++i) {
+      const float ex = mk[i] ? std::exp(scores[i * S + s] - mx) : 0.0f;
+      wts[i * S + s] = ex;
+      den += ex;
+    }
+    for (int i = 0; i < N; ++i) wts[i * S + s] = den > 0.0f ? wts[i * S + s] / den : 0.0f;
+  }
+  for (int s = count; s < S; ++s)
+    for (int i = 0; i < N; ++i) wts[i * S + s] = 0.0f;
+
+  // h = mlp2(e) (no ReLU after the last layer), the weighted sum into mlp3's input after the robot part.
+  const float* h = chain(mlp2_, 0, e, C, p, q, false);
+  const int H = mlp2_.back().out;
+  for (int f = 0; f < H; ++f) {
+    float* xf = x3 + static_cast<size_t>(self_dim_ + f) * S;
+    const float* hf = h + static_cast<size_t>(f) * C;
+    for (int i = 0; i < N; ++i)
+      for (int s = 0; s < S; ++s) xf[s] += wts[i * S + s] * hf[i * S + s];
+  }
+  const float* v = chain(mlp3_, 0, x3, S, p, q, false);
+  for (int s = 0; s < count; ++s) out[first + s] = v[s];
+}
+
+}  // namespace socialnav
