@@ -184,3 +184,21 @@ def test_a_pickled_scorer_rebuilds_its_native_state():
     before = scorer.value(joint, mask)
     clone = pickle.loads(pickle.dumps(scorer))
     assert torch.equal(clone.value(joint, mask), before)
+
+
+def test_a_cpu_without_the_kernels_uses_the_module(monkeypatch):
+    monkeypatch.setattr(_core.SarlScorer, "supported", staticmethod(lambda: False))
+    net = build("sarl")
+    assert "AVX2/FMA" in native_unavailable_reason(net, torch.device("cpu"))
+    assert ValuePolicy(net, scorer="auto").active_scorer == "torch"
+    with pytest.raises(ValueError, match="scorer 'native' is not available: .*AVX2/FMA"):
+        ValuePolicy(net, scorer="native")
+    # Neither a GPU nor anything else than float32 on the CPU is the native scorer's.
+    assert "runs on the CPU" in native_unavailable_reason(net, torch.device("cuda"))
+
+
+@needs_native
+def test_an_empty_batch_gives_no_values():
+    scorer = NativeSarlScorer(_network("sarl"))
+    out = scorer.value(torch.zeros(0, 4, 13), torch.zeros(0, 4, dtype=torch.bool))
+    assert out.shape == (0,)
