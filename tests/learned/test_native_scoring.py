@@ -202,3 +202,16 @@ def test_an_empty_batch_gives_no_values():
     scorer = NativeSarlScorer(_network("sarl"))
     out = scorer.value(torch.zeros(0, 4, 13), torch.zeros(0, 4, dtype=torch.bool))
     assert out.shape == (0,)
+
+
+def test_evaluate_refuses_a_scorer_it_cannot_use_naming_the_scorer(tmp_path, capsys):
+    from socialnav.cli import main
+
+    args = ["evaluate", "--episodes", "2", "--no-progress", "--policy-arg"]
+    assert main([*args, "scorer=native", "--policy", "cadrl", "--out", str(tmp_path / "a")]) != 0
+    err = capsys.readouterr().err
+    assert "cadrl: scorer 'native' is not available: the native scorer evaluates SARL and OM-SARL only" in err
+    assert "checkpoint" not in err  # the checkpoint is fine: the message must not blame it
+    assert main([*args, "scorer=fastest", "--policy", "sarl", "--out", str(tmp_path / "b")]) != 0
+    assert "unknown scorer 'fastest'; expected one of auto, torch, native" in capsys.readouterr().err
+    assert not (tmp_path / "a" / "summary.json").exists()
