@@ -37,6 +37,14 @@ def _inputs(rng: np.random.Generator, m: int, n: int, d: int, p_real: float = 0.
     return joint, mask
 
 
+def _scored(seed: int, m: int, n: int):
+    """A SARL network, inputs, its native scorer and the scorer's values of them."""
+    net = _network("sarl")
+    joint, mask = _inputs(np.random.default_rng(seed), m, n, 13)
+    scorer = NativeSarlScorer(net)
+    return net, joint, mask, scorer, scorer.value(joint, mask)
+
+
 @needs_native
 @pytest.mark.parametrize("name", ["sarl", "om_sarl"])
 @settings(max_examples=10, deadline=None)
@@ -87,11 +95,7 @@ def test_a_states_value_does_not_depend_on_batch_tile_or_threads():
 
 @needs_native
 def test_weights_changed_in_place_are_picked_up():
-    net = _network("sarl")
-    rng = np.random.default_rng(3)
-    joint, mask = _inputs(rng, 20, 4, 13)
-    scorer = NativeSarlScorer(net)
-    before = scorer.value(joint, mask)
+    net, joint, mask, scorer, before = _scored(3, 20, 4)
     with torch.no_grad():
         net.mlp3[-1].bias.add_(1.0)  # the value's output bias: every value moves by exactly 1
     after = scorer.value(joint, mask)
@@ -177,11 +181,7 @@ def test_a_pickled_scorer_rebuilds_its_native_state():
     """Evaluation workers receive the policy pickled."""
     import pickle
 
-    net = _network("sarl")
-    rng = np.random.default_rng(8)
-    joint, mask = _inputs(rng, 10, 3, 13)
-    scorer = NativeSarlScorer(net)
-    before = scorer.value(joint, mask)
+    _, joint, mask, scorer, before = _scored(8, 10, 3)
     clone = pickle.loads(pickle.dumps(scorer))
     assert torch.equal(clone.value(joint, mask), before)
 
