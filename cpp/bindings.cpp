@@ -307,8 +307,8 @@ NB_MODULE(_core, m) {
   nb::class_<socialnav::SarlScorer>(m, "SarlScorer")
       .def(
           "__init__",
-          [](socialnav::SarlScorer* self, nb::list mlp1, nb::list mlp2, nb::list attention, nb::list mlp3,
-             bool with_global_state, int self_dim) {
+          [](socialnav::SarlScorer* self, nb::list mlp1, nb::list mlp2, nb::list attention,
+             nb::list global_term, nb::list mlp3, int self_dim) {
             // Each layer: (weight (out, in), bias (out)) float32 C-contiguous arrays, PyTorch's layout.
             auto layers = [](nb::list items, const char* name) {
               std::vector<socialnav::DenseLayer> out;
@@ -326,10 +326,10 @@ NB_MODULE(_core, m) {
               return out;
             };
             new (self) socialnav::SarlScorer(layers(mlp1, "mlp1"), layers(mlp2, "mlp2"),
-                                             layers(attention, "attention"), layers(mlp3, "mlp3"),
-                                             with_global_state, self_dim);
+                                             layers(attention, "attention"), layers(global_term, "global_term"),
+                                             layers(mlp3, "mlp3"), self_dim);
           },
-          "mlp1"_a, "mlp2"_a, "attention"_a, "mlp3"_a, "with_global_state"_a, "self_dim"_a)
+          "mlp1"_a, "mlp2"_a, "attention"_a, "global_term"_a, "mlp3"_a, "self_dim"_a)
       .def_static("supported", &socialnav::SarlScorer::supported)
       .def_prop_ro("input_dim", &socialnav::SarlScorer::input_dim)
       .def(

@@ -98,13 +98,15 @@ void dense(const DenseLayer& layer, const float* x, float* y, int cols, bool rel
 }
 
 // Runs layers[from ..] on x, alternating between p and q (neither may alias x unless x is one of
-// them); ReLU between layers and after the last one if `last_relu`. Returns the output buffer.
+// them), the last layer into `last_out` if given; ReLU between layers and after the last one if
+// `last_relu`. Returns the output buffer (x itself when there is no layer to run).
 const float* chain(const std::vector<DenseLayer>& layers, size_t from, const float* x, int cols, float* p,
-                   float* q, bool last_relu) {
+                   float* q, bool last_relu, float* last_out = nullptr) {
   const float* cur = x;
   for (size_t i = from; i < layers.size(); ++i) {
-    float* dst = (cur == p) ? q : p;
-    dense(layers[i], cur, dst, cols, i + 1 < layers.size() || last_relu);
+    const bool last = i + 1 == layers.size();
+    float* dst = (last && last_out) ? last_out : (cur == p) ? q : p;
+    dense(layers[i], cur, dst, cols, !last || last_relu);
     cur = dst;
   }
   return cur;
@@ -130,16 +132,17 @@ DenseLayer::DenseLayer(const float* weight, const float* b, int out_, int in_) :
 }
 
 SarlScorer::SarlScorer(std::vector<DenseLayer> mlp1, std::vector<DenseLayer> mlp2,
-                       std::vector<DenseLayer> attention, std::vector<DenseLayer> mlp3, bool with_global_state,
-                       int self_dim)
+                       std::vector<DenseLayer> attention, std::vector<DenseLayer> global_term,
+                       std::vector<DenseLayer> mlp3, int self_dim)
     : mlp1_(std::move(mlp1)),
       mlp2_(std::move(mlp2)),
       attention_(std::move(attention)),
       mlp3_(std::move(mlp3)),
-      with_global_state_(with_global_state),
+      with_global_state_(!global_term.empty()),
       self_dim_(self_dim) {
   if (mlp1_.empty() || mlp2_.empty() || attention_.empty() || mlp3_.empty())
     throw std::invalid_argument("sarl scorer: every MLP needs at least one layer");
+  if (global_term.size() > 1) throw std::invalid_argument("sarl scorer: the global term is one layer");
   input_dim_ = mlp1_.front().in;
   e_dim_ = mlp1_.back().out;
   auto check_chain = [](const std::vector<DenseLayer>& layers, int in, const char* name) {
@@ -154,29 +157,13 @@ SarlScorer::SarlScorer(std::vector<DenseLayer> mlp1, std::vector<DenseLayer> mlp
   check_chain(mlp1_, input_dim_, "mlp1");
   const int h_dim = check_chain(mlp2_, e_dim_, "mlp2");
   if (check_chain(mlp3_, self_dim_ + h_dim, "mlp3") != 1) throw std::invalid_argument("sarl scorer: mlp3 must end in 1");
-  const DenseLayer& first = attention_.front();
-  const int att_in = with_global_state_ ? 2 * e_dim_ : e_dim_;
-  if (first.in != att_in)
-    throw std::invalid_argument("sarl scorer: the first attention layer expects " + std::to_string(first.in) +
-                                " inputs, gets " + std::to_string(att_in));
-  if (check_chain({attention_.begin() + 1, attention_.end()}, first.out, "attention") != 1)
+  if (check_chain(attention_, e_dim_, "attention") != 1)
     throw std::invalid_argument("sarl scorer: the attention MLP must end in 1");
   if (with_global_state_) {
-    // Unpack the first attention layer and split it: the e-half per human (no bias), the g-half
-    // with the bias once per state.
-    std::vector<float> w(static_cast<size_t>(first.out) * first.in);
-    for (const auto& b : first.blocks)
-      for (int k = 0; k < first.in; ++k)
-        for (int r = 0; r < b.rows; ++r)
-          w[static_cast<size_t>(b.row0 + r) * first.in + k] = first.packed[b.offset + static_cast<size_t>(k) * b.rows + r];
-    std::vector<float> we(static_cast<size_t>(first.out) * e_dim_), wg(we.size());
-    for (int r = 0; r < first.out; ++r)
-      for (int k = 0; k < e_dim_; ++k) {
-        we[static_cast<size_t>(r) * e_dim_ + k] = w[static_cast<size_t>(r) * first.in + k];
-        wg[static_cast<size_t>(r) * e_dim_ + k] = w[static_cast<size_t>(r) * first.in + e_dim_ + k];
-      }
-    attention_g_ = DenseLayer(wg.data(), first.bias.data(), first.out, e_dim_);
-    attention_.front() = DenseLayer(we.data(), nullptr, first.out, e_dim_);
+    attention_g_ = std::move(global_term.front());
+    if (attention_g_.in != e_dim_ || attention_g_.out != attention_.front().out)
+      throw std::invalid_argument("sarl scorer: the global term must map " + std::to_string(e_dim_) + " to " +
+                                  std::to_string(attention_.front().out) + " values");
   }
   width_ = std::max({input_dim_, self_dim_ + h_dim, 1});
   for (const auto* layers : {&mlp1_, &mlp2_, &attention_, &mlp3_})
@@ -226,8 +213,8 @@ void SarlScorer::tile_values(const float* joint, const uint8_t* mask, int64_t fi
   float* a = e + static_cast<size_t>(E) * C;     // attention's first layer
   float* p = a + wc;                             // p, q: ping-pong buffers of the MLP chains
   float* q = p + wc;
-  float* scores = q + wc;                        // C attention scores
-  float* g = scores + C;                         // E × S mean embedding
+  float* score_buf = q + wc;                     // C attention scores
+  float* g = score_buf + C;                      // E × S mean embedding
   float* gterm = g + static_cast<size_t>(E) * S; // W × S global term of the first attention layer
   float* x3 = gterm + static_cast<size_t>(W) * S; // W × S mlp3 input: robot part, then the weighted h
   float* wts = x3 + static_cast<size_t>(W) * S;  // N × S softmax weights
@@ -250,8 +237,7 @@ void SarlScorer::tile_values(const float* joint, const uint8_t* mask, int64_t fi
   }
 
   // e = mlp1(x), ReLU after every layer.
-  const float* e_out = chain(mlp1_, 0, x0, C, p, q, true);
-  std::copy(e_out, e_out + static_cast<size_t>(E) * C, e);
+  chain(mlp1_, 0, x0, C, p, q, true, e);
 
   // Attention scores.
   const DenseLayer& att0 = attention_.front();
@@ -289,8 +275,8 @@ void SarlScorer::tile_values(const float* joint, const uint8_t* mask, int64_t fi
   } else {
     dense(att0, e, a, C, att0_relu);
   }
-  const float* sc = chain(attention_, 1, a, C, p, q, false);
-  std::copy(sc, sc + C, scores);
+  // Into their own buffer (or still in `a` for a one-layer attention MLP): mlp2 reuses p and q.
+  const float* scores = chain(attention_, 1, a, C, p, q, false, score_buf);
 
   // Masked softmax over each state's humans (all-zero weights when none is real).
   for (int s = 0; s < count; ++s) {

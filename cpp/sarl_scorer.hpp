@@ -45,10 +45,12 @@ struct DenseLayer {
 
 class SarlScorer {
  public:
-  // Layers in PyTorch order. `attention_first` is the full first attention layer (in = 2·e when
-  // with_global_state, e otherwise); the constructor splits it into its e-half and g-half.
+  // Layers in PyTorch order, but for the first attention layer: with the global state, PyTorch's
+  // Linear(2e, a) is given as its e-half (no bias) at the front of `attention` and its g-half with
+  // the bias as the one layer of `global_term`, computed once per state; without it, `global_term`
+  // is empty and the attention layers are PyTorch's.
   SarlScorer(std::vector<DenseLayer> mlp1, std::vector<DenseLayer> mlp2, std::vector<DenseLayer> attention,
-             std::vector<DenseLayer> mlp3, bool with_global_state, int self_dim);
+             std::vector<DenseLayer> global_term, std::vector<DenseLayer> mlp3, int self_dim);
 
   // True when this CPU runs the vector kernels (x86-64 with AVX2 and FMA); the scorer refuses to run
   // otherwise (the caller uses PyTorch).

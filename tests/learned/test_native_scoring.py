@@ -62,6 +62,18 @@ def test_values_equal_the_torch_module_to_float32_rounding(name, seed, m, n):
 
 
 @needs_native
+def test_values_equal_the_torch_module_without_the_global_state():
+    """SARL without the mean embedding: the attention MLP reads e_i alone (no global term)."""
+    torch.manual_seed(3)
+    net = SARL(with_global_state=False).eval()
+    joint, mask = _inputs(np.random.default_rng(3), 50, 4, 13)
+    with torch.inference_mode():
+        ref = net.value(joint, mask)
+    got = NativeSarlScorer(net).value(joint, mask)
+    np.testing.assert_allclose(got.numpy(), ref.numpy(), rtol=2e-6, atol=2e-6)
+
+
+@needs_native
 def test_padded_humans_never_leak_even_as_nan():
     net = _network("sarl")
     rng = np.random.default_rng(1)

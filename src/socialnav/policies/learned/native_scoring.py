@@ -65,6 +65,22 @@ def _layers(seq: nn.Sequential) -> list[tuple[np.ndarray, np.ndarray]]:
     ]
 
 
+def _attention_layers(
+    net: SARL,
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[tuple[np.ndarray, np.ndarray]]]:
+    """The attention MLP and its global term, as the native scorer takes them.
+
+    With the global state, the first layer W [e_i, g] + b is split as in ``SARL.attention_scores``:
+    the e-half per human (no bias) stays first in the MLP, the g-half with the bias is the global term.
+    """
+    attention = _layers(net.attention)
+    if not net.with_global_state:
+        return attention, []
+    (w, b), k = attention[0], net.mlp1_dims[-1]
+    e_half = (np.ascontiguousarray(w[:, :k]), np.zeros_like(b))
+    return [e_half, *attention[1:]], [(np.ascontiguousarray(w[:, k:]), b)]
+
+
 class NativeSarlScorer:
     """``value(joint, mask)`` of a SARL / OM-SARL network, evaluated by the native core.
 
@@ -115,9 +131,9 @@ class NativeSarlScorer:
         version = self._version()
         if self._packed is None or version != self._packed_version:
             net = self.network
+            attention, global_term = _attention_layers(net)
             self._packed = _core.SarlScorer(
-                _layers(net.mlp1), _layers(net.mlp2), _layers(net.attention), _layers(net.mlp3),
-                net.with_global_state, SELF_DIM,
+                _layers(net.mlp1), _layers(net.mlp2), attention, global_term, _layers(net.mlp3), SELF_DIM
             )
             self._packed_version = version
         return self._packed
