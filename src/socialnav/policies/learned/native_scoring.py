@@ -93,33 +93,32 @@ class NativeSarlScorer:
     """
 
     def __init__(self, network: SARL, states_per_tile: int = STATES_PER_TILE) -> None:
-        reason = native_unavailable_reason(network, torch.device("cpu"))
-        if reason is not None:
-            raise ValueError(reason)
         self.network = network
         self.states_per_tile = int(states_per_tile)
-        self._packed: object | None = None
-        self._packed_version: tuple | None = None
-        self._pool: object | None = None
-        self._checked_version: tuple | None = None
+        # What was read from the network at its version `_seen` (parameters' storage, device, dtype and
+        # in-place version counters): why it cannot be scored natively, or its packed weights (built
+        # on first use). Both are dropped when the network changes.
+        self._seen: tuple | None = None
         self._reason: str | None = None
+        self._packed: object | None = None
+        self._pool: object | None = None
+        reason = self.unavailable_reason()
+        if reason is not None:
+            raise ValueError(reason)
 
     def __getstate__(self) -> dict:
         # The packed weights and the thread pool are native objects: rebuilt on first use after
         # unpickling (a policy is pickled into evaluation worker processes).
         state = dict(self.__dict__)
-        state.update(_packed=None, _packed_version=None, _pool=None, _checked_version=None, _reason=None)
+        state.update(_seen=None, _reason=None, _packed=None, _pool=None)
         return state
-
-    def _version(self) -> tuple:
-        return tuple((p.data_ptr(), p.device, p.dtype, p._version) for p in self.network.parameters())
 
     def unavailable_reason(self) -> str | None:
         """None while the network can still be evaluated natively (re-checked when it changes)."""
-        version = self._version()
-        if version != self._checked_version:
+        seen = tuple((p.data_ptr(), p.device, p.dtype, p._version) for p in self.network.parameters())
+        if seen != self._seen:
+            self._seen, self._packed = seen, None
             self._reason = native_unavailable_reason(self.network, torch.device("cpu"))
-            self._checked_version = version
         return self._reason
 
     def _scorer(self):
@@ -128,14 +127,12 @@ class NativeSarlScorer:
         reason = self.unavailable_reason()
         if reason is not None:
             raise ValueError(reason)
-        version = self._version()
-        if self._packed is None or version != self._packed_version:
+        if self._packed is None:
             net = self.network
             attention, global_term = _attention_layers(net)
             self._packed = _core.SarlScorer(
                 _layers(net.mlp1), _layers(net.mlp2), attention, global_term, _layers(net.mlp3), SELF_DIM
             )
-            self._packed_version = version
         return self._packed
 
     def _threads(self):
