@@ -166,10 +166,9 @@ def load_learned_policy(
         PresetMismatchError: It was trained for another world than ``preset`` (both values are named),
             unless ``allow_preset_mismatch``; the allowed differences are then recorded in ``describe()``.
     """
-    import torch
-
     from socialnav.policies.learned import ValuePolicy, load_checkpoint
     from socialnav.policies.learned.checkpoint import CheckpointError
+    from socialnav.policies.learned.native_scoring import ScorerError
     from socialnav.policies.learned.state import RewardParams
 
     ckpt = load_checkpoint(checkpoint, name, map_location=device)
@@ -205,16 +204,6 @@ def load_learned_policy(
             f"checkpoint {checkpoint} stores no state predictor, so information 'learned' is not available "
             "(train with --information learned, or --policy mp_rgl)"
         )
-    # A scorer that cannot run is the caller's choice, not a fault of the checkpoint: refused here,
-    # before ValuePolicy's errors are reported as the checkpoint's.
-    from socialnav.policies.learned.native_scoring import SCORERS, native_unavailable_reason
-
-    if scorer not in SCORERS:
-        raise ValueError(f"unknown scorer {scorer!r}; expected one of {', '.join(SCORERS)}")
-    if scorer == "native":
-        reason = native_unavailable_reason(ckpt.model, torch.device(device))
-        if reason is not None:
-            raise ValueError(f"{name}: scorer 'native' is not available: {reason}")
     try:
         policy = ValuePolicy(
             ckpt.model,
@@ -224,6 +213,8 @@ def load_learned_policy(
             scorer=scorer,
             **settings,
         )
+    except ScorerError as err:  # the caller's choice of scorer, not a fault of the checkpoint
+        raise ScorerError(f"{name}: {err}") from None
     except (TypeError, ValueError) as err:
         raise CheckpointError(f"{where} is invalid: {err}") from None
     return LearnedPolicy(name, policy, Path(checkpoint), mismatch)

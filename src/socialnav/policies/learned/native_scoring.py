@@ -27,10 +27,14 @@ from socialnav.policies.learned.networks import ValueNetwork
 from socialnav.policies.learned.sarl import SARL
 from socialnav.policies.learned.state import SELF_DIM
 
-__all__ = ["SCORERS", "NativeSarlScorer", "native_unavailable_reason"]
+__all__ = ["SCORERS", "NativeSarlScorer", "ScorerError", "native_unavailable_reason"]
 
 SCORERS = ("auto", "torch", "native")
 STATES_PER_TILE = 32
+
+
+class ScorerError(ValueError):
+    """An unknown scorer, or "native" where it cannot run: the caller's choice, not the network's."""
 
 
 def native_unavailable_reason(network: ValueNetwork, device: torch.device) -> str | None:

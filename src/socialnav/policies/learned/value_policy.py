@@ -41,7 +41,12 @@ import numpy as np
 import torch
 
 from socialnav.policies.learned.actions import Kinematics, discrete_actions, num_actions
-from socialnav.policies.learned.native_scoring import SCORERS, NativeSarlScorer, native_unavailable_reason
+from socialnav.policies.learned.native_scoring import (
+    SCORERS,
+    NativeSarlScorer,
+    ScorerError,
+    native_unavailable_reason,
+)
 from socialnav.policies.learned.networks import ValueNetwork
 from socialnav.policies.learned.state import (
     RewardParams,
@@ -124,7 +129,7 @@ class ValuePolicy:
                 f"unknown reward_rule {reward_rule!r}; expected one of {', '.join(REWARD_RULES)}"
             )
         if scorer not in SCORERS:
-            raise ValueError(f"unknown scorer {scorer!r}; expected one of {', '.join(SCORERS)}")
+            raise ScorerError(f"unknown scorer {scorer!r}; expected one of {', '.join(SCORERS)}")
         if int(planning_depth) < 1 or int(planning_width) < 1:
             raise ValueError(
                 f"planning_depth and planning_width must be >= 1, got {planning_depth} and {planning_width}"
@@ -159,7 +164,7 @@ class ValuePolicy:
             if reason is None:
                 self._native = NativeSarlScorer(network)
             elif scorer == "native":
-                raise ValueError(f"scorer 'native' is not available: {reason}")
+                raise ScorerError(f"scorer 'native' is not available: {reason}")
 
     @property
     def active_scorer(self) -> str:
@@ -333,7 +338,7 @@ class ValuePolicy:
             if reason is None:
                 return native.value(joint, mask).to(self.device)
             if self.scorer == "native":
-                raise ValueError(f"scorer 'native' is not available: {reason}")
+                raise ScorerError(f"scorer 'native' is not available: {reason}")
         total, c = joint.shape[0], self.states_per_pass
         if c is None or total <= c or self.device.type != "cpu":
             return self.network.value(joint, mask)
