@@ -43,6 +43,7 @@ import numpy as np
 import torch
 
 from socialnav.policies.learned import StatePredictor, ValuePolicy, build
+from socialnav.policies.learned.native_scoring import SCORERS
 
 N_ACTIONS = 81
 
@@ -249,7 +250,7 @@ def main() -> None:
     ap.add_argument("--batches", type=int, nargs="+", default=[256, 1024, 4096])
     ap.add_argument("--min-time", type=float, default=1.0, help="seconds spent timing each batch size")
     ap.add_argument("--device", default="cpu", help="cpu or cuda (nothing requires a GPU)")
-    ap.add_argument("--scorer", default="auto", choices=["auto", "torch", "native"], help="network evaluator")
+    ap.add_argument("--scorer", default="auto", choices=SCORERS, help="network evaluator")
     args = ap.parse_args()
     if args.threads > 0:
         torch.set_num_threads(args.threads)
@@ -271,8 +272,9 @@ def main() -> None:
         f"({flops['nominal'] / 1e6:.2f} M with the textbook concat attention)"
     )
 
-    single = time_act(policy, scene(1, args.humans), args.min_time)
-    single_torch = time_act(torch_policy, scene(1, args.humans), args.min_time)
+    one_episode = scene(1, args.humans)
+    single = time_act(policy, one_episode, args.min_time)
+    single_torch = single if scorer == "torch" else time_act(torch_policy, one_episode, args.min_time)
     print(f"B=1: {single * 1e3:.2f} ms per action (one episode); torch scorer {single_torch * 1e3:.2f} ms")
     matmul = MatmulWindows(device=args.device)
     block_states = policy.states_per_pass or 1024  # the states of one network call on CPU
