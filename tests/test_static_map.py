@@ -1,0 +1,44 @@
+"""StaticMap: validation, orientation, flat layout and distances against hand-computed values."""
+
+import numpy as np
+import pytest
+
+from socialnav.static_map import MapError, StaticMap
+
+
+def test_clockwise_square_is_stored_counter_clockwise():
+    cw = [[0, 0], [0, 1], [1, 1], [1, 0]]
+    m = StaticMap((cw,))
+    v = m.polygons[0]
+    area = 0.5 * np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1])
+    assert area == pytest.approx(1.0)
+
+
+def test_flat_round_trip():
+    m = StaticMap(([[0, 0], [2, 0]], [[0, 1], [1, 1], [1, 2]]))
+    verts, offs = m.to_flat()
+    assert verts.shape == (5, 2) and offs.tolist() == [0, 2, 5]
+    assert StaticMap.from_flat(verts, offs) == m
+    assert StaticMap.from_dict(m.to_dict()) == m
+
+
+def test_distance_hand_computed():
+    m = StaticMap(([[0, 0], [2, 0]], [[5, 5], [6, 5], [6, 6], [5, 6]]))
+    d = m.distance(np.array([[1.0, 3.0], [3.0, 0.0], [5.5, 5.5], [7.0, 5.5]]))
+    np.testing.assert_allclose(d, [3.0, 1.0, 0.0, 1.0])
+    assert np.isinf(StaticMap().distance(np.zeros((3, 2)))).all()
+
+
+@pytest.mark.parametrize(
+    "poly, match",
+    [
+        ([[0, 0], [np.nan, 1]], "vertex 1 is not finite"),
+        ([[0, 0], [0, 0]], "coincide"),
+        ([[0, 0], [1, 1], [1, 0], [0, 1]], "self-intersecting"),
+        ([[0, 0], [1, 0], [2, 0]], "zero area"),
+        ([[0, 0]], "k >= 2"),
+    ],
+)
+def test_bad_polygons_name_the_problem(poly, match):
+    with pytest.raises(MapError, match=match):
+        StaticMap((poly,))
