@@ -123,7 +123,8 @@ class StaticMap:
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, StaticMap) or len(other.polygons) != len(self.polygons):
             return False
-        return all(a.shape == b.shape and np.array_equal(a, b) for a, b in zip(self.polygons, other.polygons))
+        pairs = zip(self.polygons, other.polygons, strict=True)
+        return all(a.shape == b.shape and np.array_equal(a, b) for a, b in pairs)
 
     __hash__ = None  # type: ignore[assignment]
 
@@ -147,7 +148,7 @@ class StaticMap:
         """Inverse of :meth:`to_flat`."""
         vertices = np.asarray(vertices, dtype=np.float64)
         offs = [int(o) for o in offsets]
-        return cls(tuple(vertices[a:b] for a, b in zip(offs[:-1], offs[1:])))
+        return cls(tuple(vertices[a:b] for a, b in zip(offs[:-1], offs[1:], strict=True)))
 
     def edges(self) -> tuple[np.ndarray, np.ndarray]:
         """All obstacle edges as start points (E, 2) and end points (E, 2)."""

@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from socialnav.static_map import StaticMap
+
 __all__ = [
     "OUTCOMES",
     "ROLES",
@@ -105,6 +107,8 @@ class Trajectory:
             must be present at every sample. All-True masks are stored as None.
         arrival_times: Known time [s since sample 0] at which each agent reached its goal, shape (A,),
             NaN where unknown (M_III then detects arrival from the positions), or None.
+        static_map: The episode's obstacles (:class:`~socialnav.static_map.StaticMap`), or None for
+            an open floor. An empty map is stored as None.
     """
 
     dt: float
@@ -121,6 +125,7 @@ class Trajectory:
     settings: dict[str, Any] = field(default_factory=dict)
     present: np.ndarray | None = None
     arrival_times: np.ndarray | None = None
+    static_map: StaticMap | None = None
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__  # frozen: normalise fields once, here
@@ -194,6 +199,13 @@ class Trajectory:
                 raise ValueError(f"Trajectory.arrival_times: must be >= 0 or NaN (unknown), "
                                  f"got {arr.tolist()}")
             set_(self, "arrival_times", arr)
+        if self.static_map is not None:
+            smap = self.static_map
+            if not isinstance(smap, StaticMap):
+                raise ValueError(
+                    f"Trajectory.static_map: must be a StaticMap or None, got {type(smap).__name__}"
+                )
+            set_(self, "static_map", smap if smap else None)
         if not isinstance(self.settings, Mapping):
             raise ValueError(f"Trajectory.settings: must be a mapping, got {type(self.settings)}")
         set_(self, "settings", dict(self.settings))
