@@ -46,7 +46,7 @@ from socialnav.train.config import load_train_settings
 from socialnav.train.fused_step import FusedTDStep
 from socialnav.train.memory import ReplayMemory
 from socialnav.train.rl import replay_td_loss
-from socialnav.train.trainer import train
+from socialnav.train.trainer import resolve_device, train
 
 #: Every hidden layer 1 unit wide: the same operations as the real network with next to no arithmetic.
 _NO_ARITHMETIC: dict[str, dict] = {
@@ -75,6 +75,7 @@ def time_gradient_step(
     repeats: int = 1,
     network_kwargs: dict | None = None,
     compiled: bool = False,
+    device: str = "cpu",
 ) -> float:
     """Seconds per TD gradient step, the trainer's own (sample, gather, transform, target forward,
     forward, the divergence check, backward, fused Adam through AdamSteps); the best of ``repeats``
@@ -83,12 +84,13 @@ def time_gradient_step(
     traces into one, else the loss — with the compilation outside the timing. Every step's loss is
     read and checked here (the trainer checks a fused step's losses once per burst of steps)."""
     kw = network_kwargs or {}
-    net, target = build(policy_name, **kw), build(policy_name, **kw)
+    dev = torch.device(device)
+    net, target = build(policy_name, **kw).to(dev), build(policy_name, **kw).to(dev)
     target.eval().requires_grad_(False)
-    policy = ValuePolicy(net)
-    optimizer = make_optimizer(net.parameters(), 1e-3, torch.device("cpu"))
+    policy = ValuePolicy(net, device=dev)
+    optimizer = make_optimizer(net.parameters(), 1e-3, dev)
     adam = AdamSteps(optimizer)
-    mem = ReplayMemory(10_000, n_humans)
+    mem = ReplayMemory(10_000, n_humans, device=dev)
     g = torch.Generator().manual_seed(0)
     k = 10_000
     robot = torch.rand(k, 9, generator=g) * 8 - 4
@@ -123,14 +125,16 @@ def time_gradient_step(
 
 
 def host_overhead(
-    policy_name: str, batch_size: int, repeats: int = 3, compiled: bool = False
+    policy_name: str, batch_size: int, repeats: int = 3, compiled: bool = False, device: str = "cpu"
 ) -> dict[str, float]:
     """Host overhead of one gradient step: the same step with the network's arithmetic removed (every
     hidden layer one unit wide: the same operations, dispatches, sampling and state transforms, next
     to no FLOPs), measured against the real step in the same run (issue #13)."""
     if policy_name not in _NO_ARITHMETIC:
         raise SystemExit(f"--host-overhead knows {', '.join(_NO_ARITHMETIC)}, not {policy_name!r}")
-    full = time_gradient_step(policy_name, batch_size, steps=300, repeats=repeats, compiled=compiled)
+    full = time_gradient_step(
+        policy_name, batch_size, steps=300, repeats=repeats, compiled=compiled, device=device
+    )
     bare = time_gradient_step(
         policy_name,
         batch_size,
@@ -138,6 +142,7 @@ def host_overhead(
         repeats=repeats,
         network_kwargs=_NO_ARITHMETIC[policy_name],
         compiled=compiled,
+        device=device,
     )
     return {
         "ms_per_gradient_step": full * 1e3,
@@ -163,8 +168,11 @@ def main() -> None:
     ap.add_argument("--il-episodes", type=int)
     ap.add_argument("--il-epochs", type=int)
     ap.add_argument("--threads", type=int)
+    ap.add_argument("--device", help="cpu, cuda or auto (default: the settings' device, cpu)")
     ap.add_argument("--out", help="run directory (default: a temporary one, removed afterwards)")
     ap.add_argument("--progress", action="store_true")
+    ap.add_argument("--skip-step-timing", action="store_true",
+                    help="after training, do not time a gradient step in isolation (saves its compilations)")
     ap.add_argument("--compile", action="store_true", help="compile the RL loss (compile: true)")
     ap.add_argument(
         "--host-overhead-only",
@@ -175,9 +183,13 @@ def main() -> None:
     if args.threads:
         torch.set_num_threads(args.threads)
     batch = args.batch_size or 100
+    dev = str(resolve_device(args.device or "cpu"))
     if args.host_overhead_only:
         modes = {
-            mode: {k: round(v, 4) for k, v in host_overhead(args.policy, batch, compiled=compiled).items()}
+            mode: {
+                k: round(v, 4)
+                for k, v in host_overhead(args.policy, batch, compiled=compiled, device=dev).items()
+            }
             for mode, compiled in (("eager", False), ("compiled", True))
         }
         chosen = "compiled" if args.compile else "eager"
@@ -188,6 +200,7 @@ def main() -> None:
             "threads": torch.get_num_threads(),
             "cpu_count": os.cpu_count(),
             "mode": chosen,
+            "device": dev,
             **modes[chosen],
             "host_overhead_goal_ms": 0.5,
             **modes,
@@ -204,7 +217,8 @@ def main() -> None:
         return
 
     s = load_train_settings(
-        args.config, seed=args.seed, threads=args.threads, collection_batch=args.collection_batch
+        args.config, seed=args.seed, threads=args.threads, collection_batch=args.collection_batch,
+        device=args.device,
     )
     rl_over = {
         k: v
@@ -260,10 +274,18 @@ def main() -> None:
     rl_rows = [r for r in rows if r["phase"] == "rl"]
     rl_eps = int(rl_rows[-1]["episode"]) if rl_rows else 0
     rl_wall = (float(rl_rows[-1]["wall_time"]) - il_wall) if rl_rows else 0.0
-    sec_step = time_gradient_step(args.policy, s.rl.batch_size, compiled=s.compile)
+    # From the first RL log row on: without the one-time costs before it (a compiled step's build)
+    steady = None
+    if len(rl_rows) >= 2 and float(rl_rows[-1]["wall_time"]) > float(rl_rows[0]["wall_time"]):
+        steady = (int(rl_rows[-1]["episode"]) - int(rl_rows[0]["episode"])) / (
+            float(rl_rows[-1]["wall_time"]) - float(rl_rows[0]["wall_time"])
+        )
+    sec_step = math.nan
+    if not args.skip_step_timing:
+        sec_step = time_gradient_step(args.policy, s.rl.batch_size, compiled=s.compile, device=dev)
     overhead = {}
-    if args.policy in _NO_ARITHMETIC:
-        overhead = host_overhead(args.policy, s.rl.batch_size, compiled=s.compile)
+    if args.policy in _NO_ARITHMETIC and not args.skip_step_timing:
+        overhead = host_overhead(args.policy, s.rl.batch_size, compiled=s.compile, device=dev)
     report = {
         "benchmark": "train",
         "policy": args.policy,
@@ -272,6 +294,7 @@ def main() -> None:
         "threads": torch.get_num_threads(),
         "cpu_count": os.cpu_count(),
         "compile": s.compile,
+        "device": dev,
         "gradient_steps_per_episode": s.rl.gradient_steps_per_episode,
         "batch_size": s.rl.batch_size,
         "collection_batch": s.collection_batch,
@@ -282,7 +305,8 @@ def main() -> None:
         "rl_seconds": round(rl_wall, 1),
         "gradient_steps": result.gradient_steps,
         "episodes_per_s": round(rl_eps / rl_wall, 3) if rl_wall > 0 else None,
-        "seconds_per_gradient_step": round(sec_step, 5),
+        "episodes_per_s_steady": round(steady, 3) if steady else None,
+        "seconds_per_gradient_step": None if math.isnan(sec_step) else round(sec_step, 5),
         **{k: round(v, 4) for k, v in overhead.items()},
         "seconds_to_quality": round(reached["wall_time"], 1) if reached else None,
         "episode_at_quality": reached.get("episode"),

@@ -201,3 +201,43 @@ def test_fused_step_on_cuda_matches_the_eager_step():
         assert fused == pytest.approx(float(loss.detach()), rel=1e-4, abs=1e-7)
     for a, b in zip(net.parameters(), ref_net.parameters(), strict=True):
         torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-4)
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
+def test_cuda_graph_replay_is_bit_identical_to_the_compiled_step():
+    """On CUDA the compiled step is recorded once as a CUDA graph; replaying it must give exactly the
+    compiled step's losses, parameters and Adam state, across new transitions, a target sync and a
+    replaced optimizer state (a resume records the graph again), and the recording changes nothing."""
+    runs = {}
+    for graphed in (True, False):
+        torch.manual_seed(0)
+        net, target = build("sarl").cuda(), build("sarl").cuda()
+        target.eval().requires_grad_(False)
+        mem = ReplayMemory(K, N_HUMANS, device="cuda")
+        *fields, fixed = _transitions(1)
+        mem.push(*fields, target=fixed)
+        opt = make_optimizer(net.parameters(), 1e-3, torch.device("cuda"))
+        initial = [p.detach().clone() for p in net.parameters()]
+        step = FusedTDStep(ValuePolicy(net, device="cuda"), target, mem, opt, GAMMA, DT, BATCH,
+                           cuda_graph=graphed)
+        step._compile()
+        assert (step._graph is not None) == graphed
+        assert all(torch.equal(a, b) for a, b in zip(initial, net.parameters(), strict=True))
+        g = torch.Generator().manual_seed(3)
+        losses = [step(mem.sample_indices(BATCH, g)) for _ in range(10)]
+        *fields, fixed = _transitions(seed=9, k=K // 2)
+        mem.push(*fields, target=fixed)
+        target.load_state_dict(net.state_dict())
+        saved = copy.deepcopy(optimizer_state(opt))
+        losses += [step(mem.sample_indices(BATCH, g)) for _ in range(5)]
+        load_optimizer_state(opt, saved)  # new state tensors: the graph is recorded again
+        losses += [step(mem.sample_indices(BATCH, g)) for _ in range(5)]
+        runs[graphed] = (torch.stack(losses).cpu(), [p.detach().cpu() for p in net.parameters()],
+                         optimizer_state(opt))
+    (l1, p1, s1), (l2, p2, s2) = runs[True], runs[False]
+    assert torch.equal(l1, l2)
+    assert all(torch.equal(a, b) for a, b in zip(p1, p2, strict=True))
+    for i in s1["state"]:
+        for key in ("step", "exp_avg", "exp_avg_sq"):
+            assert torch.equal(torch.as_tensor(s1["state"][i][key]).cpu(),
+                               torch.as_tensor(s2["state"][i][key]).cpu())

@@ -134,7 +134,10 @@ class ReplayMemory:
             raise ValueError("cannot sample from an empty replay memory")
         if generator is None:
             raise ValueError("sampling needs an explicit torch.Generator")
-        return torch.randint(0, self.size, (int(batch_size),), generator=generator).to(self.device)
+        idx = torch.randint(0, self.size, (int(batch_size),), generator=generator)
+        if self.device.type == "cuda":  # from pinned memory: the copy does not wait for the GPU's queue
+            return idx.pin_memory().to(self.device, non_blocking=True)
+        return idx.to(self.device)
 
     def take(self, idx: torch.Tensor) -> Transitions:
         return Transitions(

@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# The GPU-machine checks of issue #32, as one script: build the core, then the world's thread scaling,
+# batched SARL scoring on CUDA and training at RGL's replay ratio with the network on CUDA.
+# Run from the repository root on a machine with 16 cores and one NVIDIA GPU; logs go to $OUT (or ./gpu_out).
+# Needs torch with CUDA, nanobind, cmake and ninja; gymnasium may come as wheels in .whl/.
+set -uo pipefail
+OUT=${OUT:-gpu_out}; mkdir -p "$OUT"
+if ls .whl/*.whl >/dev/null 2>&1; then
+  python3 -m pip install -q --no-index --no-deps --no-compile --target /tmp/site .whl/*.whl
+  export PYTHONPATH=/tmp/site
+fi
+export PYTHONPATH=src${PYTHONPATH:+:$PYTHONPATH} PYTHONUNBUFFERED=1
+{ nproc; lscpu | grep -E 'Model name|Flags' | cut -c1-300; nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv;
+  python3 -c 'import torch; print("torch", torch.__version__, torch.cuda.get_device_name(0))'; } 2>&1 | tee "$OUT/machine.txt"
+cmake -S . -B build/gpu -G Ninja -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE="$(command -v python3)" >/dev/null \
+  && cmake --build build/gpu >/dev/null && cp build/gpu/_core*.so src/socialnav/ || { echo "build failed"; exit 1; }
+run() { local name=$1; shift; echo "== $name: $*"; timeout "${LIMIT:-240}" "$@" 2>&1 | tee "$OUT/$name.txt" | tail -n "${TAILN:-4}"; }
+STAGES=${STAGES:-"world policy train"}
+for stage in $STAGES; do case $stage in
+  world)
+    run bench_world_b4096 python3 benchmarks/bench_world.py --batch 4096 --seconds 2 --scaling-threads 1 2 4 8 16 --scaling-repeats 2 --scaling-seconds 2
+    run bench_world_b16384 python3 benchmarks/bench_world.py --batch 16384 --seconds 2 --scaling-threads 1 2 4 8 16 --scaling-repeats 2 --scaling-seconds 2 ;;
+  policy)
+    run bench_policy_cuda python3 benchmarks/bench_policy.py --device cuda --threads 16 --batches 1024 4096 16384
+    run bench_policy_cpu16 python3 benchmarks/bench_policy.py --threads 16 --batches 1024 4096 ;;
+  train)
+    run bench_train_step_cuda python3 benchmarks/bench_train.py --host-overhead-only --device cuda
+    LIMIT=300 run bench_train_ratio100_cuda python3 benchmarks/bench_train.py --device cuda --gradient-steps-per-episode 100 \
+      --rl-episodes 100 --il-episodes 200 --il-epochs 10 --validate-every 100 --max-minutes 5 ;;
+  breakdown)
+    lscpu 2>&1 | tee "$OUT/lscpu.txt" | grep -E 'Thread|Core|Socket|NUMA node|L2|L3|Model name'
+    run world_breakdown_b4096 python3 benchmarks/gpu/world_breakdown.py --batch 4096 --threads 1 2 4 8 16
+    run world_breakdown_b16384 python3 benchmarks/gpu/world_breakdown.py --batch 16384 --threads 1 8 16 ;;
+  graphtest)
+    run test_fused_step_cuda python3 -m pytest -q -p no:cacheprovider tests/train/test_fused_step.py -k cuda_graph ;;
+  trainstep_compiled)
+    run bench_train_step_cuda_compiled python3 benchmarks/bench_train.py --host-overhead-only --device cuda --compile ;;
+  train_compiled)
+    LIMIT=300 run bench_train_ratio100_cuda_compiled python3 benchmarks/bench_train.py --device cuda --compile \
+      --gradient-steps-per-episode 100 --rl-episodes 600 --il-episodes 200 --il-epochs 10 --validate-every 200 \
+      --max-minutes 4 --skip-step-timing ;;
+esac; done
