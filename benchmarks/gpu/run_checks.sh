@@ -39,4 +39,12 @@ for stage in $STAGES; do case $stage in
     LIMIT=300 run bench_train_ratio100_cuda_compiled python3 benchmarks/bench_train.py --device cuda --compile \
       --gradient-steps-per-episode 100 --rl-episodes 600 --il-episodes 200 --il-epochs 10 --validate-every 200 \
       --max-minutes 4 --skip-step-timing ;;
+  malloc)  # the same with glibc keeping freed memory (no trim, no mmap for large arrays): A/B in one run
+    run world_breakdown_b16384_default python3 benchmarks/gpu/world_breakdown.py --batch 16384 --threads 1 16
+    MALLOC_MMAP_THRESHOLD_=1073741824 MALLOC_TRIM_THRESHOLD_=2147483648 MALLOC_TOP_PAD_=67108864 \
+      run world_breakdown_b16384_keep python3 benchmarks/gpu/world_breakdown.py --batch 16384 --threads 1 16
+    MALLOC_MMAP_THRESHOLD_=1073741824 MALLOC_TRIM_THRESHOLD_=2147483648 MALLOC_TOP_PAD_=67108864 \
+      run bench_world_b4096_keep python3 benchmarks/bench_world.py --batch 4096 --seconds 1 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 2
+    MALLOC_MMAP_THRESHOLD_=1073741824 MALLOC_TRIM_THRESHOLD_=2147483648 MALLOC_TOP_PAD_=67108864 \
+      run bench_world_b16384_keep python3 benchmarks/bench_world.py --batch 16384 --seconds 1 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 2 ;;
 esac; done

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import resource
 import time
 
 from socialnav.policies import make_policy
@@ -42,6 +43,7 @@ def breakdown(batch: int, threads: int, seconds: float) -> dict:
     spent["refill"] = 0.0
     act = step = 0.0
     calls = 0
+    faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
     start = time.perf_counter()
     while time.perf_counter() - start < seconds:
         t0 = time.perf_counter()
@@ -52,6 +54,7 @@ def breakdown(batch: int, threads: int, seconds: float) -> dict:
         act += t1 - t0
         step += t2 - t1
         calls += 1
+    faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults
     world.close()
     ms = 1e3 / calls
     return {
@@ -61,6 +64,7 @@ def breakdown(batch: int, threads: int, seconds: float) -> dict:
         "refill_observe_ms": spent["refill"] * ms,
         "core_step_and_python_ms": (step - spent["refill"]) * ms,
         "total_ms": (act + step) * ms,
+        "minor_faults_per_call": faults / calls,
     }
 
 
