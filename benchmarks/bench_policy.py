@@ -23,19 +23,22 @@ predictor (swept-reward lookahead) at depth/width 1/1 and 2/2. A "decision" is c
 action; ms per decision = time of one batched call / B. The issue's goal: a d = 2, w = 2 decision costs
 at most 4x a d = 1 decision.
 The policy scores with ``--scorer`` (default ``auto``, what ``socialnav evaluate`` uses: the native
-SARL evaluator on a CPU with AVX2/FMA). Each batch size is timed a second time with the PyTorch scorer
-(``torch``, the training path) in the same run, so both fractions come from the same conditions.
+SARL evaluator on a CPU with AVX2/FMA, with its AVX-512 kernel where the CPU has AVX-512F; ``--kernel
+avx2`` forces the AVX2 kernel, key ``native_kernel`` names the one used). Each batch size is timed a
+second time with the PyTorch scorer (``torch``, the training path) in the same run, so both fractions
+come from the same conditions.
 
 The last line printed is one JSON object.
 
     PYTHONPATH=src python benchmarks/bench_policy.py [--threads 2] [--batches 256 1024 4096] [--device cuda]
-        [--scorer auto|torch|native]
+        [--scorer auto|torch|native] [--kernel auto|avx2|avx512]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
 from collections.abc import Callable
 
@@ -43,7 +46,7 @@ import numpy as np
 import torch
 
 from socialnav.policies.learned import StatePredictor, ValuePolicy, build
-from socialnav.policies.learned.native_scoring import SCORERS
+from socialnav.policies.learned.native_scoring import KERNEL_ENV, KERNELS, SCORERS
 
 N_ACTIONS = 81
 
@@ -251,10 +254,15 @@ def main() -> None:
     ap.add_argument("--min-time", type=float, default=1.0, help="seconds spent timing each batch size")
     ap.add_argument("--device", default="cpu", help="cpu or cuda (nothing requires a GPU)")
     ap.add_argument("--scorer", default="auto", choices=SCORERS, help="network evaluator")
+    ap.add_argument(
+        "--kernel", choices=KERNELS, help=f"native scorer's vector kernel (default: ${KERNEL_ENV} or auto)"
+    )
     args = ap.parse_args()
     if args.threads > 0:
         torch.set_num_threads(args.threads)
     torch.manual_seed(0)
+    if args.kernel:
+        os.environ[KERNEL_ENV] = args.kernel  # read where the native scorer is built
     policy = ValuePolicy(build("sarl"), device=args.device, scorer=args.scorer)
     policy.network.eval()
     torch_policy = ValuePolicy(policy.network, device=args.device, scorer="torch")
@@ -265,6 +273,7 @@ def main() -> None:
     print(
         f"torch {torch.__version__}, threads {torch.get_num_threads()}, "
         f"humans {args.humans}, actions {N_ACTIONS}, scorer {scorer}"
+        + (f" ({policy.native_kernel} kernel)" if policy.native_kernel else "")
     )
     print(f"float32 matmul 1024^3: {peak:.1f} GFLOP/s")
     print(
@@ -327,6 +336,7 @@ def main() -> None:
         "matmul_burst_gflops": round(burst, 2),
         "layer_chain_states": block_states,
         "scorer": scorer,
+        "native_kernel": policy.native_kernel,
         "torch_scorer_fraction_at_batch": {str(k): round(v["torch_fraction"], 4) for k, v in results.items()},
         "torch_scorer_env_steps_per_s_at_batch": {
             str(k): round(v["torch_env_steps_per_s"], 1) for k, v in results.items()

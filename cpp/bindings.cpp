@@ -308,9 +308,10 @@ NB_MODULE(_core, m) {
       .def(
           "__init__",
           [](socialnav::SarlScorer* self, nb::list mlp1, nb::list mlp2, nb::list attention,
-             nb::list global_term, nb::list mlp3, int self_dim) {
+             nb::list global_term, nb::list mlp3, int self_dim, const std::string& kernel_name) {
+            const socialnav::ScorerKernel kernel = socialnav::resolve_kernel(kernel_name);
             // Each layer: (weight (out, in), bias (out)) float32 C-contiguous arrays, PyTorch's layout.
-            auto layers = [](nb::list items, const char* name) {
+            auto layers = [kernel](nb::list items, const char* name) {
               std::vector<socialnav::DenseLayer> out;
               for (size_t i = 0; i < nb::len(items); ++i) {
                 nb::tuple t = nb::cast<nb::tuple>(items[i]);
@@ -321,7 +322,8 @@ NB_MODULE(_core, m) {
                 if (w.ndim() != 2 || b.ndim() != 1 || b.shape(0) != w.shape(0))
                   throw std::invalid_argument(std::string(name) + " layer " + std::to_string(i) +
                                               ": expected weight (out, in) and bias (out)");
-                out.emplace_back(w.data(), b.data(), static_cast<int>(w.shape(0)), static_cast<int>(w.shape(1)));
+                out.emplace_back(w.data(), b.data(), static_cast<int>(w.shape(0)), static_cast<int>(w.shape(1)),
+                                 kernel);
               }
               return out;
             };
@@ -329,8 +331,17 @@ NB_MODULE(_core, m) {
                                              layers(attention, "attention"), layers(global_term, "global_term"),
                                              layers(mlp3, "mlp3"), self_dim);
           },
-          "mlp1"_a, "mlp2"_a, "attention"_a, "global_term"_a, "mlp3"_a, "self_dim"_a)
+          "mlp1"_a, "mlp2"_a, "attention"_a, "global_term"_a, "mlp3"_a, "self_dim"_a, "kernel"_a = "auto")
       .def_static("supported", &socialnav::SarlScorer::supported)
+      .def_static(
+          "kernel_supported",
+          [](const std::string& name) {
+            if (name == "avx2") return socialnav::kernel_supported(socialnav::ScorerKernel::avx2);
+            if (name == "avx512") return socialnav::kernel_supported(socialnav::ScorerKernel::avx512);
+            throw std::invalid_argument("unknown kernel '" + name + "' (expected avx2 or avx512)");
+          },
+          "kernel"_a, "Whether this CPU runs the named vector kernel.")
+      .def_prop_ro("kernel", [](const socialnav::SarlScorer& self) { return socialnav::kernel_name(self.kernel()); })
       .def_prop_ro("input_dim", &socialnav::SarlScorer::input_dim)
       .def(
           "values",

@@ -18,15 +18,28 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "thread_pool.hpp"
 
 namespace socialnav {
 
+// The vector kernel a scorer runs. Both compute every output with the same operations in the same
+// order (bias, then one fused multiply-add per input in index order), so their values are
+// bit-identical; AVX-512 computes twice as many outputs per instruction.
+enum class ScorerKernel { none, avx2, avx512 };
+
+// Whether this CPU runs `kernel` (x86-64: AVX2 + FMA; AVX-512F on top for avx512).
+bool kernel_supported(ScorerKernel kernel);
+// "auto" (the widest this CPU runs), "avx2" or "avx512"; throws with the reason when it cannot run.
+ScorerKernel resolve_kernel(const std::string& name);
+const char* kernel_name(ScorerKernel kernel);
+
 struct DenseLayer {
   int in = 0;
   int out = 0;
+  ScorerKernel kernel = ScorerKernel::avx2;  // the weights' packing (rows per block) is the kernel's
   // Row blocks of the weight matrix, each packed as [k][rows of the block] so that the kernel reads
   // it as one contiguous stream.
   struct Block {
@@ -39,7 +52,7 @@ struct DenseLayer {
   std::vector<float> bias;  // out
 
   // weight: row-major (out, in) as PyTorch stores it; bias: (out) or null for zeros.
-  DenseLayer(const float* weight, const float* bias, int out, int in);
+  DenseLayer(const float* weight, const float* bias, int out, int in, ScorerKernel kernel);
   DenseLayer() = default;
 };
 
@@ -57,6 +70,7 @@ class SarlScorer {
   static bool supported();
 
   int input_dim() const { return input_dim_; }
+  ScorerKernel kernel() const { return kernel_; }
 
   // joint: (M, N, input_dim) float32, mask: (M, N) bytes (0/1), out: (M) float32.
   void values(const float* joint, const uint8_t* mask, int64_t M, int N, float* out, ThreadPool& pool,
@@ -68,6 +82,7 @@ class SarlScorer {
 
   std::vector<DenseLayer> mlp1_, mlp2_, attention_, mlp3_;
   DenseLayer attention_g_;  // the g-half of the first attention layer (with its bias)
+  ScorerKernel kernel_ = ScorerKernel::avx2;
   bool with_global_state_;
   int self_dim_;
   int input_dim_;

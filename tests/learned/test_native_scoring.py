@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from socialnav import _core
 from socialnav.policies.learned import SARL, ValuePolicy, build, load_checkpoint
-from socialnav.policies.learned.native_scoring import NativeSarlScorer, native_unavailable_reason
+from socialnav.policies.learned.native_scoring import NativeSarlScorer, ScorerError, native_unavailable_reason
 from socialnav.policies.loading import shipped_checkpoint
 
 from .helpers import obs_dict, random_scene
@@ -227,3 +227,66 @@ def test_evaluate_refuses_a_scorer_it_cannot_use_naming_the_scorer(tmp_path, cap
     assert main([*args, "scorer=fastest", "--policy", "sarl", "--out", str(tmp_path / "b")]) != 0
     assert "unknown scorer 'fastest'; expected one of auto, torch, native" in capsys.readouterr().err
     assert not (tmp_path / "a" / "summary.json").exists()
+
+
+needs_avx512 = pytest.mark.skipif(
+    not _core.SarlScorer.kernel_supported("avx512"), reason="CPU without AVX-512F"
+)
+
+
+@needs_avx512
+@pytest.mark.parametrize("name", ["sarl", "om_sarl"])
+def test_the_avx512_and_avx2_kernels_give_bit_identical_values(name):
+    """Same operations in the same order per output: only the width of the instructions differs.
+    Tiles of 16 and 48 states make the AVX-512 kernel run its 16-column remainder panels too."""
+    net = _network(name)
+    joint, mask = _inputs(np.random.default_rng(5), 333, 6, net.input_dim)
+    ref = NativeSarlScorer(net, kernel="avx2").value(joint, mask)
+    for tile in (16, 32, 48, 128):
+        wide = NativeSarlScorer(net, states_per_tile=tile, kernel="avx512")
+        assert wide.kernel == "avx512"
+        assert torch.equal(wide.value(joint, mask), ref)
+
+
+@needs_native
+def test_the_kernel_is_chosen_at_run_time_and_can_be_forced(monkeypatch):
+    net = _network("sarl")
+    monkeypatch.delenv("SOCIALNAV_SCORER_KERNEL", raising=False)
+    widest = "avx512" if _core.SarlScorer.kernel_supported("avx512") else "avx2"
+    assert NativeSarlScorer(net).kernel == widest
+    assert ValuePolicy(net, scorer="auto").native_kernel == widest
+    assert ValuePolicy(net, scorer="torch").native_kernel is None
+    monkeypatch.setenv("SOCIALNAV_SCORER_KERNEL", "avx2")
+    assert NativeSarlScorer(net).kernel == "avx2"
+    assert NativeSarlScorer(net, kernel="auto").kernel == widest  # the argument wins over the variable
+    monkeypatch.setenv("SOCIALNAV_SCORER_KERNEL", "sse2")
+    with pytest.raises(ScorerError, match=r"\$SOCIALNAV_SCORER_KERNEL: unknown native scorer kernel 'sse2'"):
+        NativeSarlScorer(net)
+    monkeypatch.delenv("SOCIALNAV_SCORER_KERNEL")
+    monkeypatch.setattr(_core.SarlScorer, "kernel_supported", staticmethod(lambda name: name == "avx2"))
+    with pytest.raises(ScorerError, match="this CPU cannot run the native scorer's avx512 kernel"):
+        NativeSarlScorer(net, kernel="avx512")
+
+
+@needs_avx512
+def test_the_manifest_records_the_kernel_and_another_kernel_resumes_and_replays(tmp_path, monkeypatch):
+    """The kernel is recorded for information: its values are bit-identical, so a run resumed or
+    replayed on a CPU that uses the other kernel reuses and reproduces the results."""
+    import json
+
+    from socialnav.cli import main
+
+    out = tmp_path / "run"
+    args = ["evaluate", "--policy", "sarl", "--scenario", "passing", "--episodes", "3", "--no-progress",
+            "--out", str(out)]
+    monkeypatch.setenv("SOCIALNAV_SCORER_KERNEL", "avx512")
+    assert main(args) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["policy"]["scorer"] == "native" and manifest["policy"]["native_kernel"] == "avx512"
+    chunks = {p: p.stat().st_mtime_ns for p in (out / "episodes").rglob("*.parquet")}
+    summary = (out / "summary.json").read_text()
+    monkeypatch.setenv("SOCIALNAV_SCORER_KERNEL", "avx2")
+    assert main(args) == 0
+    assert {p: p.stat().st_mtime_ns for p in (out / "episodes").rglob("*.parquet")} == chunks
+    assert (out / "summary.json").read_text() == summary
+    assert main(["replay", str(out), "--episode", "passing/invisible/1"]) == 0

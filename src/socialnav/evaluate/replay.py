@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from socialnav.evaluate.results import ResultsError, find_episode, load_episode, load_manifest
+from socialnav.policies.base import RECORDED_ONLY
 from socialnav.trajectory import Trajectory
 
 _ARRAYS = ("positions", "velocities", "radii", "v_pref", "goals", "min_clearance", "continuation")
@@ -59,6 +60,9 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     rebuilt = {"label": desc.get("label"), **policy.describe()}
     if entry.learned and "scorer" not in desc:
         rebuilt.pop("scorer", None)
+    for key in RECORDED_ONLY:  # e.g. the native kernel: bit-identical values on any CPU
+        rebuilt.pop(key, None)
+        desc = {k: v for k, v in desc.items() if k != key}
     if json_norm(rebuilt) != json_norm(desc):
         raise ResultsError(
             f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"

@@ -48,7 +48,7 @@ from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, pl
 from socialnav.evaluate.report import render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
 from socialnav.metrics import score_episode, side_case_of_row
-from socialnav.policies.base import Policy
+from socialnav.policies.base import RECORDED_ONLY, Policy
 from socialnav.presets import Preset
 from socialnav.sim.world import World, check_world_size
 from socialnav.trajectory import Trajectory
@@ -373,9 +373,18 @@ def conclude_chunks(
     return len(rows), summary, render_reports(summary, preset)
 
 
+def run_identity(manifest: dict) -> dict:
+    """The manifest less what it records for information only (the policy's ``RECORDED_ONLY`` keys,
+    e.g. the native scorer's vector kernel, whose values are bit-identical across kernels)."""
+    policy = manifest.get("policy")
+    if isinstance(policy, dict) and any(k in policy for k in RECORDED_ONLY):
+        return {**manifest, "policy": {k: v for k, v in policy.items() if k not in RECORDED_ONLY}}
+    return manifest
+
+
 def manifest_stamp(manifest: dict) -> str:
     """Fingerprint of a run's manifest, stored in each of its chunk files."""
-    text = json.dumps(manifest, sort_keys=True, separators=(",", ":"))
+    text = json.dumps(run_identity(manifest), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
@@ -457,13 +466,13 @@ def check_or_write_manifest(out: Path, manifest: dict) -> None:
             previous = json.loads(path.read_text())
         except (ValueError, UnicodeDecodeError) as err:
             raise ResumeMismatchError(f"{path} is damaged ({err}); use another --out or delete it") from None
-        if previous == manifest:
-            return
+        if run_identity(previous) == run_identity(manifest):
+            return  # the first run's record stands (a resume on another CPU changes no result)
         has_results = (out / "episodes").is_dir() and any((out / "episodes").rglob("*.parquet"))
         if has_results:
             raise ResumeMismatchError(
                 f"{out} holds results of a different run "
-                f"(differs in: {describe_differences(previous, manifest)}); "
+                f"(differs in: {describe_differences(run_identity(previous), run_identity(manifest))}); "
                 "use another --out directory or delete it"
             )
         # A manifest without any result (e.g. a run refused right after starting) blocks nothing.

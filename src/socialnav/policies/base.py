@@ -24,6 +24,11 @@ import numpy as np
 from socialnav.plugins import load_entry_points
 from socialnav.sim.observation import Observation
 
+#: Keys a policy's ``describe()`` may hold for information only, which never change a result (the
+#: native scorer's vector kernel: its kernels' values are bit-identical): a run's manifest records
+#: them, resuming and replaying do not compare them.
+RECORDED_ONLY: tuple[str, ...] = ("native_kernel",)
+
 
 @runtime_checkable
 class Policy(Protocol):

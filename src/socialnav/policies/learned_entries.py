@@ -78,6 +78,8 @@ class LearnedPolicy:
             "reward_rule": vp.reward_rule,
             # The evaluator in effect ("native" or "torch"): values differ by float32 rounding.
             "scorer": vp.active_scorer,
+            # Recorded only (RECORDED_ONLY): the kernels' values are bit-identical.
+            **({"native_kernel": vp.native_kernel} if vp.native_kernel else {}),
             **({"preset_mismatch_allowed": self.preset_mismatch} if self.preset_mismatch else {}),
         }
 

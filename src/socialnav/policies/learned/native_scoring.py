@@ -13,6 +13,15 @@ depends only on that state (identical for any batch size and thread count). They
 PyTorch's by float32 rounding (relative differences of order 1e-7 to 1e-6); an action can therefore
 differ where two actions' values tie to that precision.
 
+Kernels: an AVX2 + FMA kernel (16 columns, up to 6 rows per instruction block) and an AVX-512 one
+(32 columns, up to 12 rows), chosen at run time from what the CPU supports (``auto``: the widest), or
+forced with the ``kernel`` argument or the environment variable ``SOCIALNAV_SCORER_KERNEL``
+(``auto``, ``avx2``, ``avx512``). Both compute each output with the same operations in the same order
+(bias, then one fused multiply-add per input in index order), so their values are bit-identical
+(tested); the kernel in effect is recorded in a run's manifest as ``policy.native_kernel`` for
+information only: it never changes a result, so resuming or replaying a run on a CPU with the other
+kernel is allowed.
+
 SARL: C. Chen, Y. Liu, S. Kreiss, A. Alahi, "Crowd-Robot Interaction: Crowd-aware Robot Navigation
 with Attention-based Deep Reinforcement Learning", ICRA 2019.
 """
@@ -27,9 +36,17 @@ from socialnav.policies.learned.networks import ValueNetwork
 from socialnav.policies.learned.sarl import SARL
 from socialnav.policies.learned.state import SELF_DIM
 
-__all__ = ["SCORERS", "NativeSarlScorer", "ScorerError", "native_unavailable_reason"]
+__all__ = [
+    "KERNELS",
+    "SCORERS",
+    "NativeSarlScorer",
+    "ScorerError",
+    "native_unavailable_reason",
+]
 
 SCORERS = ("auto", "torch", "native")
+KERNELS = ("auto", "avx2", "avx512")
+KERNEL_ENV = "SOCIALNAV_SCORER_KERNEL"
 STATES_PER_TILE = 32
 
 
@@ -85,6 +102,24 @@ def _attention_layers(
     return [e_half, *attention[1:]], [(np.ascontiguousarray(w[:, k:]), b)]
 
 
+def requested_kernel(kernel: str | None = None) -> str:
+    """The vector kernel asked for: ``kernel``, else ``$SOCIALNAV_SCORER_KERNEL``, else ``auto``;
+    a :class:`ScorerError` names an unknown one or one this CPU cannot run."""
+    import os
+
+    from socialnav import _core
+
+    name = kernel if kernel is not None else (os.environ.get(KERNEL_ENV) or "auto")
+    where = "kernel" if kernel is not None else f"${KERNEL_ENV}"
+    if name not in KERNELS:
+        raise ScorerError(
+            f"{where}: unknown native scorer kernel {name!r}; expected one of {', '.join(KERNELS)}"
+        )
+    if name != "auto" and not _core.SarlScorer.kernel_supported(name):
+        raise ScorerError(f"{where}: this CPU cannot run the native scorer's {name} kernel")
+    return name
+
+
 class NativeSarlScorer:
     """``value(joint, mask)`` of a SARL / OM-SARL network, evaluated by the native core.
 
@@ -94,11 +129,15 @@ class NativeSarlScorer:
     Args:
         network: the SARL or OM-SARL network (float32, CPU).
         states_per_tile: joint states taken through all layers at a time (a multiple of 16).
+        kernel: "auto", "avx2" or "avx512"; None reads ``$SOCIALNAV_SCORER_KERNEL`` (default auto).
     """
 
-    def __init__(self, network: SARL, states_per_tile: int = STATES_PER_TILE) -> None:
+    def __init__(
+        self, network: SARL, states_per_tile: int = STATES_PER_TILE, kernel: str | None = None
+    ) -> None:
         self.network = network
         self.states_per_tile = int(states_per_tile)
+        self.kernel_request = requested_kernel(kernel)
         # What was read from the network at its version `_seen` (parameters' storage, device, dtype and
         # in-place version counters): why it cannot be scored natively, or its packed weights (built
         # on first use). Both are dropped when the network changes.
@@ -135,9 +174,15 @@ class NativeSarlScorer:
             net = self.network
             attention, global_term = _attention_layers(net)
             self._packed = _core.SarlScorer(
-                _layers(net.mlp1), _layers(net.mlp2), attention, global_term, _layers(net.mlp3), SELF_DIM
+                _layers(net.mlp1), _layers(net.mlp2), attention, global_term, _layers(net.mlp3), SELF_DIM,
+                self.kernel_request,
             )
         return self._packed
+
+    @property
+    def kernel(self) -> str:
+        """The vector kernel in effect: "avx2" or "avx512"."""
+        return str(self._scorer().kernel)
 
     def _threads(self):
         from socialnav import _core

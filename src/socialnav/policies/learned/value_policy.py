@@ -172,6 +172,11 @@ class ValuePolicy:
         return "native" if self._native is not None else "torch"
 
     @property
+    def native_kernel(self) -> str | None:
+        """The native scorer's vector kernel ("avx2" or "avx512"), None with the torch scorer."""
+        return self._native.kernel if self._native is not None else None
+
+    @property
     def num_actions(self) -> int:
         return num_actions(self.speed_samples, self.rotation_samples)
 
