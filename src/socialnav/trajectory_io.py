@@ -88,7 +88,6 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
     keys = [tr.settings.get("episode", i) for i, tr in enumerate(trajs)]
     if len({str(k) for k in keys}) != len(keys):
         raise TrajectoryFormatError(f"{path}: duplicated episode keys {keys}")
-    cols: dict[str, list[np.ndarray]] = {c: [] for c in _WRITE_ORDER}
     settings_json: dict[str, str] = {}
     for key, tr in zip(keys, trajs, strict=True):
         try:
@@ -97,67 +96,113 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
             raise TrajectoryFormatError(
                 f"{path}: episode {key!r}: settings not JSON-serialisable: {exc}"
             ) from exc
-        n_main, n_agents = tr.positions.shape[:2]
-        cont = tr.continuation if tr.continuation is not None else np.zeros((0, n_agents, 2))
-        n_rows = (n_main + cont.shape[0]) * n_agents
-        pos = np.concatenate([tr.positions, cont]).reshape(-1, 2)
-        vel = np.concatenate([tr.velocities, np.full_like(cont, np.nan)]).reshape(-1, 2)
-        t = np.repeat(np.arange(n_main + cont.shape[0]) * tr.dt, n_agents)
-        agent = np.tile(np.arange(n_agents), n_main + cont.shape[0])
-        mc = np.full(n_rows, np.nan)
-        if tr.min_clearance is not None:
-            mc[n_agents : n_main * n_agents : n_agents] = tr.min_clearance  # robot rows, k >= 1
-        settings_col = np.full(n_rows, "", dtype=object)
-        settings_col[0] = settings_json[str(key)]
-        per_row = {
-            "episode": np.full(n_rows, key, dtype=object),
-            "t": t, "agent": agent, "x": pos[:, 0], "y": pos[:, 1], "vx": vel[:, 0], "vy": vel[:, 1],
-            "role": np.asarray(tr.roles, dtype=object)[agent],
-            "radius": tr.radii[agent], "gx": tr.goals[agent, 0], "gy": tr.goals[agent, 1],
-            "v_pref": tr.v_pref[agent],
-            "outcome": np.full(n_rows, tr.outcome, dtype=object),
-            "continuation": np.repeat(np.arange(n_main + cont.shape[0]) >= n_main, n_agents),
-            "min_clearance": mc,
-            "human_overlaps": np.full(n_rows, -1 if tr.human_overlaps is None else tr.human_overlaps),
-            "settings": settings_col,
-            "arrival_t": (np.full(n_rows, np.nan) if tr.arrival_times is None else tr.arrival_times[agent]),
-        }
-        keep = None
-        if tr.present is not None:  # absent agents have no row at that sample (nothing invented)
-            keep = np.concatenate([tr.present.reshape(-1), np.ones(cont.shape[0] * n_agents, bool)])
-            keep[0] = True  # the settings cell lives on the first row (the robot's, always present)
-        for name, values in per_row.items():
-            values = np.asarray(values)
-            cols[name].append(values if keep is None else values[keep])
-    arrays: dict[str, Any] = {}
-    all_int = all(isinstance(k, (int, np.integer)) and not isinstance(k, bool) for k in keys)
-    for name, parts in cols.items():
-        values = np.concatenate(parts) if parts else np.zeros(0)
-        if name == "episode":
-            arrays[name] = (pa.array(values.astype(np.int64)) if all_int else _string_array(values))
-        elif name in ("role", "outcome", "settings"):
-            if name == "settings" and suffix == ".parquet":
-                continue  # Parquet keeps settings in the file metadata instead
-            arrays[name] = _string_array(values)
-        elif name == "agent":
-            arrays[name] = pa.array(values.astype(np.int64))
-        elif name == "continuation":
-            arrays[name] = pa.array(values.astype(bool))
-        elif name == "human_overlaps":
-            vals = values.astype(np.int64)
-            if np.all(vals < 0):
-                continue
-            arrays[name] = pa.array(vals, mask=vals < 0)
-        else:
-            vals = values.astype(np.float64)
-            if name in ("min_clearance", "arrival_t") and np.all(np.isnan(vals)):
-                continue
-            arrays[name] = pa.array(vals, mask=np.isnan(vals))  # NaN is written as an empty cell
+    arrays = _columns(trajs, keys, [settings_json[str(k)] for k in keys], with_settings=suffix == ".csv")
     table = pa.table(arrays)
     if suffix == ".parquet":
         meta = {"format_version": _FORMAT_VERSION, "settings": settings_json}
         table = table.replace_schema_metadata({_METADATA_KEY: json.dumps(meta).encode()})
     _atomic_write(path, table, suffix)
+
+
+def _columns(
+    trajs: list[Trajectory], keys: list[Any], settings_json: list[str], with_settings: bool
+) -> dict[str, Any]:
+    """The long table's columns (Arrow arrays, in ``_WRITE_ORDER``), one row per (episode, sample,
+    agent), built for all episodes at once: per-row values come from gathers over per-episode and
+    per-agent arrays, so the cost per episode is a few array views, not a dozen allocations (the
+    ``wang2022`` protocol writes 4060 episodes; issue #32)."""
+    import pyarrow as pa
+
+    n_ep = len(trajs)
+    n_main = np.array([tr.positions.shape[0] for tr in trajs], dtype=np.int64)
+    n_agents = np.array([tr.positions.shape[1] for tr in trajs], dtype=np.int64)
+    conts = [tr.continuation for tr in trajs]
+    n_cont = np.array([0 if c is None else c.shape[0] for c in conts], dtype=np.int64)
+    rows = (n_main + n_cont) * n_agents
+    total = int(rows.sum())
+    row0 = np.concatenate([[0], np.cumsum(rows)[:-1]]).astype(np.int64)
+    ep = np.repeat(np.arange(n_ep, dtype=np.int64), rows)  # episode of each row
+    local = np.arange(total, dtype=np.int64) - row0[ep]
+    agent = local % n_agents[ep]
+    sample = local // n_agents[ep]
+    gagent = np.concatenate([[0], np.cumsum(n_agents)[:-1]]).astype(np.int64)[ep] + agent  # into per-agent
+
+    def stacked(parts: list[np.ndarray], width: int) -> np.ndarray:
+        return np.concatenate(parts) if parts else np.zeros((0, width))
+
+    pos_parts, vel_parts = [], []
+    for tr, cont in zip(trajs, conts, strict=True):
+        pos_parts.append(tr.positions.reshape(-1, 2))
+        vel_parts.append(tr.velocities.reshape(-1, 2))
+        if cont is not None and cont.shape[0]:
+            pos_parts.append(cont.reshape(-1, 2))
+            vel_parts.append(np.full((cont.shape[0] * cont.shape[1], 2), np.nan))
+    pos, vel = stacked(pos_parts, 2), stacked(vel_parts, 2)
+    radius = stacked([tr.radii for tr in trajs], 1).reshape(-1)[gagent]
+    goals = stacked([tr.goals for tr in trajs], 2)[gagent]
+    v_pref = stacked([tr.v_pref for tr in trajs], 1).reshape(-1)[gagent]
+    arrival = stacked(
+        [np.full(tr.positions.shape[1], np.nan) if tr.arrival_times is None else tr.arrival_times
+         for tr in trajs], 1,
+    ).reshape(-1)[gagent]
+    dt = np.array([tr.dt for tr in trajs], dtype=np.float64)
+    mc = np.full(total, np.nan)
+    for e, tr in enumerate(trajs):
+        if tr.min_clearance is not None:  # robot rows of samples k >= 1
+            a = int(n_agents[e])
+            mc[row0[e] + a : row0[e] + int(n_main[e]) * a : a] = tr.min_clearance
+    overlaps = np.array([-1 if tr.human_overlaps is None else tr.human_overlaps for tr in trajs],
+                        dtype=np.int64)[ep]
+    keep = None
+    if any(tr.present is not None for tr in trajs):  # absent agents have no row (nothing invented)
+        keep = np.ones(total, dtype=bool)
+        for e, tr in enumerate(trajs):
+            if tr.present is not None:
+                k = tr.present.reshape(-1).copy()
+                k[0] = True  # the settings cell lives on the first row (the robot's, always present)
+                keep[row0[e] : row0[e] + k.size] = k
+    take = None if keep is None else pa.array(np.flatnonzero(keep))
+
+    def kept(values: np.ndarray) -> np.ndarray:
+        return values if keep is None else values[keep]
+
+    def gathered(per_item: Any, index: np.ndarray) -> Any:
+        arr = per_item.take(pa.array(index))
+        return arr if take is None else arr.take(take)
+
+    def floats(values: np.ndarray) -> Any:
+        values = kept(values)
+        return pa.array(values, mask=np.isnan(values))  # NaN is written as an empty cell
+
+    arrays: dict[str, Any] = {}
+    if all(isinstance(k, (int, np.integer)) and not isinstance(k, bool) for k in keys):
+        arrays["episode"] = pa.array(kept(np.asarray(keys, dtype=np.int64)[ep]))
+    else:
+        arrays["episode"] = gathered(_string_array(np.array(keys + [None], dtype=object)[:-1]), ep)
+    arrays["t"] = floats(sample * dt[ep])
+    arrays["agent"] = pa.array(kept(agent))
+    roles = np.array([r for tr in trajs for r in tr.roles] + [None], dtype=object)[:-1]
+    arrays["role"] = gathered(_string_array(roles), gagent)
+    arrays["x"], arrays["y"] = floats(pos[:, 0]), floats(pos[:, 1])
+    arrays["vx"], arrays["vy"] = floats(vel[:, 0]), floats(vel[:, 1])
+    arrays["radius"] = floats(radius)
+    arrays["gx"], arrays["gy"] = floats(goals[:, 0]), floats(goals[:, 1])
+    arrays["v_pref"] = floats(v_pref)
+    outcomes = np.array([tr.outcome for tr in trajs] + [None], dtype=object)[:-1]
+    arrays["outcome"] = gathered(_string_array(outcomes), ep)
+    arrays["continuation"] = pa.array(kept(sample >= n_main[ep]))
+    if not np.all(np.isnan(mc)):
+        arrays["min_clearance"] = floats(mc)
+    if np.any(overlaps >= 0):
+        vals = kept(overlaps)
+        arrays["human_overlaps"] = pa.array(vals, mask=vals < 0)
+    if with_settings:
+        settings_col = np.full(total, "", dtype=object)
+        settings_col[row0[rows > 0]] = np.array(settings_json + [None], dtype=object)[:-1][rows > 0]
+        arrays["settings"] = _string_array(kept(settings_col))
+    if not np.all(np.isnan(arrival)):
+        arrays["arrival_t"] = floats(arrival)
+    return arrays
 
 
 def _string_array(values: np.ndarray) -> Any:
