@@ -96,3 +96,22 @@ def test_not_a_checkpoint(tmp_path):
     torch.save({"hello": torch.zeros(1)}, path)
     with pytest.raises(CheckpointError, match="not a socialnav"):
         load_checkpoint(path, "sarl")
+
+
+def test_a_network_with_non_finite_weights_is_refused_naming_the_tensor(tmp_path, capsys):
+    """A diverged run's weights (NaN) would score every action NaN: refused at load, also by the CLI."""
+    net = build("sarl")
+    with torch.no_grad():
+        first = next(iter(net.state_dict()))
+        net.state_dict()[first].view(-1)[:3] = float("nan")
+    path = save_checkpoint(tmp_path / "nan.pt", "sarl", net, {}, {})
+    with pytest.raises(CheckpointError, match=rf"state_dict\['{first}'\] holds 3 non-finite value\(s\)"):
+        load_checkpoint(path, "sarl")
+    from socialnav.cli import main
+
+    out = tmp_path / "run"
+    code = main(["evaluate", "--policy", "sarl", "--checkpoint", str(path), "--episodes", "2",
+                 "--no-progress", "--out", str(out)])
+    assert code != 0
+    assert "non-finite" in capsys.readouterr().err
+    assert not (out / "summary.json").exists()

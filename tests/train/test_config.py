@@ -102,6 +102,9 @@ def test_yaml_loads_nested_and_overrides(tmp_path):
         ("information: psychic\n", "information"),
         ("imitation: {lr: -1}\n", "imitation.lr"),
         ("- a\n- b\n", "mapping"),
+        ("rl: {capacity: 50, batch_size: 100}\n", r"rl.batch_size must be <= rl.capacity \(50\)"),
+        ("rl: {capacity: 500, warmup_transitions: 1000}\n",
+         r"rl.warmup_transitions must be <= rl.capacity \(500\).*no gradient step"),
     ],
 )
 def test_yaml_strict_keys_and_values(tmp_path, text, match):

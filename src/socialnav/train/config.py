@@ -131,6 +131,17 @@ class RLSettings:
             "must be a finite number >= 0",
         )
         check(self.warmup_transitions >= 0, "rl.warmup_transitions", self.warmup_transitions, "must be >= 0")
+        # The memory never holds more than `capacity` transitions, and a gradient step waits for
+        # max(batch_size, warmup_transitions) of them: beyond capacity, the run would never learn.
+        check(
+            self.batch_size <= self.capacity, "rl.batch_size", self.batch_size,
+            f"must be <= rl.capacity ({self.capacity}): the replay memory can never fill a minibatch",
+        )
+        check(
+            self.warmup_transitions <= self.capacity, "rl.warmup_transitions", self.warmup_transitions,
+            f"must be <= rl.capacity ({self.capacity}): the replay memory never holds that many, so no "
+            "gradient step would ever be taken",
+        )
         check(self.lr > 0, "rl.lr", self.lr, "must be > 0")
         check(
             self.target_update_every >= 1, "rl.target_update_every", self.target_update_every, "must be >= 1"

@@ -188,6 +188,18 @@ def _describe(value: Any) -> str:
     return f"{type(value).__name__} {_one_line(Exception(repr(value)), 60)}"
 
 
+def _require_finite_weights(path: Path, field: str, state_dict: dict) -> None:
+    """A network with a NaN or infinite weight scores every action NaN and picks one arbitrarily: its
+    evaluation would be a table of numbers with no meaning, so it is refused, naming the tensor."""
+    for name, tensor in state_dict.items():
+        if torch.is_tensor(tensor) and tensor.is_floating_point() and not bool(torch.isfinite(tensor).all()):
+            bad = int((~torch.isfinite(tensor)).sum())
+            raise CheckpointError(
+                f"checkpoint {path}: {field}[{name!r}] holds {bad} non-finite value(s) "
+                f"(NaN or inf) of {tensor.numel()}; the training run that wrote it diverged"
+            )
+
+
 def load_checkpoint(
     path: str | os.PathLike[str],
     expected_policy: str,
@@ -227,6 +239,7 @@ def load_checkpoint(
         raise CheckpointError(
             f"checkpoint {path}: its network cannot be rebuilt ({_one_line(err)})"
         ) from None
+    _require_finite_weights(path, "state_dict", payload["state_dict"])
     model.to(map_location).eval()
     predictor = None
     if payload.get("predictor") is not None:
@@ -234,6 +247,7 @@ def load_checkpoint(
 
         predictor = StatePredictor(**payload["predictor"]["model_kwargs"])
         predictor.load_state_dict(payload["predictor"]["state_dict"], strict=True)
+        _require_finite_weights(path, "predictor.state_dict", payload["predictor"]["state_dict"])
         predictor.to(map_location).eval()
     return Checkpoint(
         policy=got,
