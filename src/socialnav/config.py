@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import types
 import typing
 from collections.abc import Mapping
@@ -81,13 +82,18 @@ def _coerce(value: Any, hint: Any, path: str) -> Any:
             raise ConfigError(f"{path} must be a finite number, got {value!r}")
         return float(value)
     if hint is float and isinstance(value, str):
-        # PyYAML reads 1.0e9 (no sign in the exponent) as a string: accept what is plainly a number.
-        try:
-            value = float(value)
-        except ValueError:
-            raise ConfigError(f"{path} must be of type float, got {value!r}") from None
+        # PyYAML reads 1e-3 and 1.0e9 as strings: accept exponent forms, and refuse other text,
+        # quoted numbers included ("1.5"), as an int field refuses "20".
+        if not _EXPONENT_FORM.fullmatch(value.strip()):
+            hint_text = " (write the number without quotes)" if _is_number(value) else ""
+            raise ConfigError(f"{path} must be a number, got the text {value!r}{hint_text}")
+        value = float(value)
     if hint is float and isinstance(value, float) and not math.isfinite(value):
         raise ConfigError(f"{path} must be a finite number, got {value!r}")
+    if hint is int and isinstance(value, str) and _is_number(value):
+        raise ConfigError(
+            f"{path} must be an integer, got the text {value!r} (write the number without quotes)"
+        )
     if hint in (float, int, str, bool) and not isinstance(value, hint):
         raise ConfigError(f"{path} must be of type {hint.__name__}, got {value!r}")
     if hint is int and isinstance(value, bool):
@@ -102,6 +108,19 @@ def _coerce(value: Any, hint: Any, path: str) -> Any:
                 continue
         raise ConfigError(f"{path} has an invalid value {value!r}")
     return value
+
+
+#: What PyYAML (YAML 1.1) may leave as text although YAML 1.2 reads a number: exponent forms (1e-3,
+#: 1.0e9); YAML 1.1 wants a dot and a signed exponent.
+_EXPONENT_FORM = re.compile(r"[-+]?(\d+(\.\d*)?|\.\d+)[eE][-+]?\d+")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _kind(value: Any) -> str:

@@ -113,7 +113,7 @@ CASES: list[Case] = [
         "random twice",
     ),
     C("preset-unknown-key", "setting", "evaluate --preset {base}/unknown_key.yaml", "world.horizon"),
-    C("preset-dt-string", "type", "evaluate --preset {base}/dt_str.yaml", "dt", "type float", "fast"),
+    C("preset-dt-string", "type", "evaluate --preset {base}/dt_str.yaml", "dt", "must be a number", "fast"),
     C(
         "preset-threads-huge",
         "bounds",
@@ -320,7 +320,7 @@ CASES: list[Case] = [
     C("train-rl-list", "type", TR + " --config {base}/rl_list.yaml", "section rl must be a mapping"),
     C("train-imitation-negative", "bounds", TR + " --config {base}/il_neg.yaml", "imitation.epochs", ">= 0"),
     C("train-unknown-key", "setting", TR + " --config {base}/train_key.yaml", "rl.episodez"),
-    C("train-lr-string", "type", TR + " --config {base}/lr_str.yaml", "rl.lr", "type float"),
+    C("train-lr-string", "type", TR + " --config {base}/lr_str.yaml", "rl.lr", "must be a number"),
     C("train-collection-0", "setting", TR + " --collection-batch 0", "collection_batch", ">= 1"),
     C(
         "train-rl-episodes-negative",
