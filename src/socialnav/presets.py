@@ -82,6 +82,27 @@ class TrainingScenarios:
     n_humans: int = 5
     visibility: str = "invisible"
 
+    def __post_init__(self) -> None:
+        # Checked when the preset loads, so that `socialnav evaluate` refuses a preset whose training
+        # section could never train as surely as `socialnav train` does.
+        from socialnav.scenarios.registry import UnknownScenarioError, get_scenario
+
+        check(len(self.scenarios) >= 1, "training.scenarios", list(self.scenarios), "must name a scenario")
+        repeated = sorted({n for n in self.scenarios if self.scenarios.count(n) > 1})
+        check(not repeated, "training.scenarios", list(self.scenarios), f"lists {', '.join(repeated)} twice")
+        for name in self.scenarios:
+            try:
+                get_scenario(name)
+            except UnknownScenarioError as err:
+                raise ConfigError(f"training.scenarios: {err}") from None
+        check(1 <= self.n_humans <= 1000, "training.n_humans", self.n_humans, "must be in [1, 1000]")
+        check(
+            self.visibility in VISIBILITIES,
+            "training.visibility",
+            self.visibility,
+            f"must be one of {', '.join(VISIBILITIES)}",
+        )
+
 
 @dataclass(frozen=True)
 class Preset:

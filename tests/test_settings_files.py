@@ -1,5 +1,6 @@
-"""Numbers in settings files: a quoted number is text and refused alike for float and int fields,
-with a hint; PyYAML's exponent forms (1e-3, 1.0e9: text for YAML 1.1) are accepted."""
+"""Settings files: quoted numbers are refused alike for float and int fields, with a hint (PyYAML's
+exponent forms, 1e-3 and 1.0e9, text for YAML 1.1, are accepted); an invalid training section of a
+preset is refused when the preset loads, also by `socialnav evaluate`."""
 
 from importlib import resources
 
@@ -44,3 +45,25 @@ def test_pyyaml_unsigned_exponents_are_numbers(tmp_path):
     path.write_text("rl: {lr: 1.0e0}\n")  # unsigned exponent: text for PyYAML, accepted as 1.0
     assert yaml.safe_load(path.read_text())["rl"]["lr"] == "1.0e0"
     assert load_train_settings(path).rl.lr == 1.0
+
+
+@pytest.mark.parametrize(
+    "key, value, match",
+    [
+        ("scenarios", ["circle_crossing", "doom"], "training.scenarios: unknown scenario 'doom'"),
+        ("n_humans", -3, r"training.n_humans must be in \[1, 1000\], got -3"),
+        ("scenarios", [], "training.scenarios must name a scenario"),
+        ("visibility", "both", "training.visibility must be one of"),
+    ],
+)
+def test_evaluate_refuses_a_preset_whose_training_section_is_invalid(tmp_path, capsys, key, value, match):
+    from socialnav.cli import main
+
+    path = _wang2022_with(tmp_path, "training", key, value)
+    with pytest.raises(ConfigError, match=match):
+        load_preset(path)
+    out = tmp_path / "run"
+    assert main(["evaluate", "--policy", "linear", "--preset", str(path), "--episodes", "1", "--no-progress",
+                 "--out", str(out)]) != 0
+    assert str(path) in capsys.readouterr().err
+    assert not out.exists() or not (out / "summary.json").exists()
