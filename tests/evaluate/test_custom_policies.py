@@ -2,6 +2,7 @@
 entry-point group, typed ``--policy-arg`` values, and the docs page's example run as a script."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -146,3 +147,70 @@ def test_docs_example_runs_as_a_script_and_from_the_cli(tmp_path):
     )
     assert cli.returncode == 0, cli.stderr[-3000:]
     assert json.loads((tmp_path / "cli" / "manifest.json").read_text())["policy"]["slow_factor"] == 0.3
+
+
+class Faulty(GoalSeeker):
+    """Fails the way a user's policy can: raises, returns a wrong shape, or NaN for one episode."""
+
+    def __init__(self, mode: str = "raise"):
+        super().__init__()
+        self.name, self.mode = "faulty", mode
+
+    def act(self, observation):
+        actions = super().act(observation)
+        if self.mode == "raise":
+            return actions @ np.ones((3, 2))  # a shape bug deep in the user's code
+        if self.mode == "shape":
+            return actions[:, :1]
+        actions[np.flatnonzero(observation.active)[-1]] = np.nan
+        return actions
+
+    def describe(self):
+        return {"policy": self.name, "information": self.information, "mode": self.mode}
+
+
+@pytest.mark.parametrize(
+    "mode, message",
+    [
+        ("raise", r"policy 'faulty' failed in circle_crossing/invisible, episode\(s\) \[0, 1, 2, 3, 4, 5\] "
+                  r"at t = 0 s: ValueError: matmul"),
+        ("shape", r"policy 'faulty' returned actions of shape \(6, 1\) in circle_crossing/invisible, "
+                  r"episode\(s\) \[0, 1, 2, 3, 4, 5\] at t = 0 s; expected \(6, 2\)"),
+        ("nan", r"policy 'faulty' returned non-finite actions \(NaN or inf\) in circle_crossing/invisible, "
+                r"episode\(s\) \[5\] at t = 0 s"),
+    ],
+)
+def test_a_failing_policy_is_named_with_the_episodes_it_acted_for(tmp_path, capsys, mode, message):
+    code, _, err = evaluate(capsys, tmp_path, "--policy", f"{MODULE}:Faulty", "--policy-arg", f"mode={mode}",
+                            "--scenario", "circle_crossing", "--visibility", "invisible")
+    assert code == 2
+    assert re.search(message, err), err
+
+
+class DiesInWorkers(GoalSeeker):
+    """Kills the worker process it is pickled into (as a crash or a policy module's top-level code would)."""
+
+    def __init__(self):
+        super().__init__()
+        self.name = "dies_in_workers"
+        self.parent = os.getpid()
+
+    def act(self, observation):
+        if os.getpid() != self.parent:
+            os._exit(3)
+        return super().act(observation)
+
+    def describe(self):
+        return {"policy": self.name, "information": self.information}
+
+
+def test_a_worker_that_dies_is_explained_not_a_bare_broken_pool(tmp_path, capsys):
+    # two chunks, so that they are simulated in worker processes
+    code = main(["evaluate", "--preset", "wang2022", "--scenario", "circle_crossing", "random",
+                 "--visibility", "invisible", "--episodes", "2", "--out", str(tmp_path), "--no-progress",
+                 "--policy", f"{MODULE}:DiesInWorkers"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "an evaluation worker process died while running" in err
+    assert 'if __name__ == "__main__":' in err and "rerun to resume" in err
+    assert "terminated abruptly" not in err

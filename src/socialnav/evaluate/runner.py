@@ -30,9 +30,12 @@ import sys
 import warnings
 from collections import deque
 from collections.abc import Sequence
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from socialnav.evaluate.blas import one_blas_thread
 from socialnav.evaluate.files import (
@@ -48,7 +51,7 @@ from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, pl
 from socialnav.evaluate.report import render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
 from socialnav.metrics import score_episode, side_case_of_row
-from socialnav.policies.base import RECORDED_ONLY, Policy
+from socialnav.policies.base import RECORDED_ONLY, Policy, PolicyError
 from socialnav.presets import Preset
 from socialnav.sim.world import World, check_world_size
 from socialnav.trajectory import Trajectory
@@ -98,10 +101,46 @@ def simulate_chunk(
     with world:  # its native threads stop here, not when the cycle collector runs
         world.reset()
         while world.busy:
-            trajs.extend(world.step(policy.act(world.observe(oracle=oracle))).finished)
+            obs = world.observe(oracle=oracle)
+            trajs.extend(world.step(checked_actions(policy, obs, world, label, cell)).finished)
             if until is not None and any(t.settings["index"] == until for t in trajs):
                 break
     return sorted(trajs, key=lambda t: t.settings["index"])
+
+
+def checked_actions(policy: Policy, obs: Any, world: World, label: str, cell: Cell) -> np.ndarray:
+    """``policy.act(obs)``, checked: an exception in the policy, or actions of the wrong shape or not
+    finite where an episode runs, become a :class:`PolicyError` naming the policy, the cell and the
+    episodes (a user's policy would otherwise fail with a bare NumPy or tensor error)."""
+
+    def where(rows: np.ndarray | None = None) -> str:
+        active = np.flatnonzero(obs.active) if rows is None else rows
+        episodes = [int(i) for i in world.episode_index[active][:8]]
+        more = f" and {len(active) - 8} more" if len(active) > 8 else ""
+        t = float(obs.time.max()) if len(obs.time) else 0.0
+        return f"{cell.scenario}/{cell.visibility}, episode(s) {episodes}{more} at t = {t:g} s"
+
+    try:
+        actions = policy.act(obs)
+    except Exception as err:  # noqa: BLE001 - re-raised with where it happened
+        raise PolicyError(f"policy {label!r} failed in {where()}: {type(err).__name__}: {err}") from err
+    try:
+        arr = np.asarray(actions, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise PolicyError(
+            f"policy {label!r} returned actions that are not numbers in {where()}: {err}"
+        ) from None
+    if arr.shape != (len(obs.active), 2):
+        raise PolicyError(
+            f"policy {label!r} returned actions of shape {arr.shape} in {where()}; expected "
+            f"({len(obs.active)}, 2), one (vx, vy) or (v, dtheta) row per episode of the batch"
+        )
+    bad = obs.active & ~np.isfinite(arr).all(axis=1)
+    if bad.any():
+        raise PolicyError(
+            f"policy {label!r} returned non-finite actions (NaN or inf) in {where(np.flatnonzero(bad))}"
+        )
+    return arr
 
 
 def score_trajectories(trajs: list[Trajectory], cell: Cell, label: str) -> list[dict[str, Any]]:
@@ -292,7 +331,15 @@ def _simulate_and_score(
     def finish_oldest() -> None:
         nonlocal computed
         cell, a, b, future = pending.popleft()
-        rows, notes = future.result() if pool else future
+        try:
+            rows, notes = future.result() if pool else future
+        except BrokenProcessPool:
+            raise RuntimeError(
+                f"an evaluation worker process died while running {cell.scenario}/{cell.visibility} "
+                f"episodes {a}-{b - 1} (a crash in native code, memory exhausted, or a policy module with "
+                "code at its top level, which every worker runs again when it imports the module: put that "
+                "code under `if __name__ == \"__main__\":`); finished chunks are kept: rerun to resume"
+            ) from None
         _reissue(notes)
         # A chunk lands whole or not at all, stamped with the run it belongs to.
         atomic_write_rows_parquet(chunk_path(out, cell, a, b), rows, chunk_meta)

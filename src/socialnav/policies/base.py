@@ -30,6 +30,11 @@ from socialnav.sim.observation import Observation
 RECORDED_ONLY: tuple[str, ...] = ("native_kernel",)
 
 
+class PolicyError(RuntimeError):
+    """A policy failed while acting, or returned actions the world cannot take; the message names the
+    policy, the scenario and visibility, and the episodes it was acting for."""
+
+
 @runtime_checkable
 class Policy(Protocol):
     """Anything with ``name``, ``information`` and ``act(observation) -> (B, 2) actions``."""
