@@ -299,3 +299,18 @@ def test_html_page_of_one_episode(run_dir, tmp_path):
     assert [e["id"] for e in data["episodes"]] == ["passing/invisible/2"]
     assert data["episodes"][0]["side"][1] in ("left", "right", "unlabelled")
     assert "<script src" not in text and "viewer-canvas" in text
+
+
+def test_a_log_without_radii_renders_as_metrics_scores_it(tmp_path, capsys):
+    """A long-format log without a radius column: `socialnav metrics` scores it with the assumed
+    0.3 m and says so; `socialnav render` draws it the same way instead of refusing it."""
+    import pyarrow.csv as pcsv
+
+    path = tmp_path / "log.csv"
+    write_trajectories(path, [close_pass()])
+    table = pcsv.read_csv(path)
+    pcsv.write_csv(table.drop_columns(["radius", "settings"]), path)
+    assert main(["metrics", str(path), "--json"]) in (0, 1)
+    assert "assumed radius 0.3" in capsys.readouterr().out
+    assert main(["render", str(path), "--out", str(tmp_path / "log.png"), "--quiet"]) == 0
+    assert_not_blank(rgb(tmp_path / "log.png"))

@@ -84,6 +84,12 @@ def load_source(source: str | Path, episode: str | None, resample: bool = False)
         return load_episode(path, episode), path / "renders"
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such result directory or trajectory file")
+    from socialnav.logs.scoring import detect_format
+
+    if detect_format(path) != "long":
+        # A robot log in another layout (no radius column, other column names, ETH/UCY): read as
+        # `socialnav metrics` reads it, with the same assumed values and warnings.
+        return _one_log_episode(path, episode, resample), Path(".")
     trajs = read_trajectories(path, resample=resample, episodes=None if episode is None else [episode])
     if not trajs:
         keys = [str(t.settings.get("episode")) for t in read_trajectories(path, resample=resample)]
@@ -98,6 +104,24 @@ def load_source(source: str | Path, episode: str | None, resample: bool = False)
             f"(one of {', '.join(keys[:20])}{', ...' if len(keys) > 20 else ''})"
         )
     return trajs[0], Path(".")
+
+
+def _one_log_episode(path: Path, episode: str | None, resample: bool):
+    from socialnav.logs.scoring import load_trajectories
+
+    trajs = load_trajectories(path, resample=resample)
+
+    def key(t) -> str:
+        return str(t.settings.get("episode", t.settings.get("scene")))
+
+    chosen = trajs if episode is None else [t for t in trajs if key(t) == str(episode)]
+    keys = [key(t) for t in trajs]
+    shown = ", ".join(keys[:20]) + (", ..." if len(keys) > 20 else "")
+    if not chosen:
+        raise ValueError(f"{path}: no episode {episode!r}; episodes in the file: {shown}")
+    if len(chosen) > 1:
+        raise ValueError(f"{path} holds {len(chosen)} episodes: pass --episode KEY (one of {shown})")
+    return chosen[0]
 
 
 def _run_render(args: argparse.Namespace) -> int:
