@@ -214,3 +214,59 @@ def test_a_worker_that_dies_is_explained_not_a_bare_broken_pool(tmp_path, capsys
     assert "an evaluation worker process died while running" in err
     assert 'if __name__ == "__main__":' in err and "rerun to resume" in err
     assert "terminated abruptly" not in err
+
+
+POLICY_MODULE = '''
+import numpy as np
+
+
+class FileSeeker:
+    """Goal seeker whose speed factor is read from a model file it declares."""
+
+    information = "none"
+
+    def __init__(self, model):
+        self.name, self.model = "file_seeker", model
+        self.factor = float(open(model).read())
+
+    def act(self, observation):
+        to_goal = observation.robot[:, 5:7] - observation.robot[:, 0:2]
+        dist = np.maximum(np.linalg.norm(to_goal, axis=1, keepdims=True), 1e-9)
+        return to_goal / dist * np.minimum(self.factor * observation.robot[:, 7:8], dist / observation.dt)
+
+    def describe(self):
+        return {"policy": self.name, "information": self.information, "model": self.model}
+
+    def source_files(self):
+        return [self.model]
+'''
+
+
+def test_a_changed_policy_module_or_model_file_is_never_silently_reused(tmp_path, monkeypatch):
+    """Resuming is keyed on what the policy was built from: its module's source and declared files."""
+    import importlib
+
+    from socialnav.evaluate.runner import ResumeMismatchError, run_protocol
+    from socialnav.presets import load_preset
+
+    (tmp_path / "file_seeker_mod.py").write_text(POLICY_MODULE)
+    model = tmp_path / "model.txt"
+    model.write_text("0.8")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    mod = importlib.import_module("file_seeker_mod")
+    preset, out = load_preset("crowdnav"), tmp_path / "run"
+
+    def run():
+        return run_protocol(mod.FileSeeker(str(model)), preset, out, episodes=2, progress=False, workers=0)
+
+    run()
+    sources = json.loads((out / "manifest.json").read_text())["policy_sources"]
+    assert set(sources) == {"module file_seeker_mod", str(model)}
+    assert run().computed_episodes == 0  # unchanged: resumed, nothing recomputed
+    model.write_text("0.5")
+    with pytest.raises(ResumeMismatchError, match=rf"policy_sources.{re.escape(str(model))}"):
+        run()
+    model.write_text("0.8")
+    (tmp_path / "file_seeker_mod.py").write_text(POLICY_MODULE + "\n# tuned\n")
+    with pytest.raises(ResumeMismatchError, match="policy_sources.module file_seeker_mod"):
+        run()

@@ -13,14 +13,13 @@ directory instead of being mixed with results of its predecessor.
 
 from __future__ import annotations
 
-import hashlib
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.files import atomic_write_json
+from socialnav.evaluate.files import atomic_write_json, file_sha256
 from socialnav.evaluate.report import write_reports
 from socialnav.presets import Preset
 
@@ -140,9 +139,3 @@ def run_policies(
     return MultiResult(out, summary, timings, list(specs))
 
 
-def file_sha256(path: str | Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()

@@ -42,6 +42,7 @@ from socialnav.evaluate.files import (
     DirectoryLock,
     atomic_write_json,
     atomic_write_rows_parquet,
+    file_sha256,
     make_output_dir,
     read_parquet_verified,
     remove_orphan_temporaries,
@@ -269,6 +270,27 @@ def run_protocol(
     return ProtocolResult(out, rows, summary, computed)
 
 
+def policy_sources(policy: Policy) -> dict[str, str]:
+    """SHA-256 of what a policy from outside socialnav was built from: the source file of the module
+    that defines its class, and every file it names in an optional ``source_files()`` method (a model
+    file, say). In the manifest, so that a resume never reuses the results of a policy whose code or
+    model changed at the same path; socialnav's own policies are covered by the package version and
+    their checkpoints' hashes."""
+    out: dict[str, str] = {}
+    module = type(policy).__module__
+    path = getattr(sys.modules.get(module), "__file__", None)
+    if path and module.split(".")[0] != "socialnav" and Path(path).is_file():
+        out[f"module {module}"] = file_sha256(path)
+    declared = getattr(policy, "source_files", None)
+    for item in declared() if callable(declared) else ():
+        item = Path(item)
+        if not item.is_file():
+            raise ValueError(f"policy {getattr(policy, 'name', module)!r} declares source file {item}, "
+                             "which does not exist")
+        out[str(item)] = file_sha256(item)
+    return out
+
+
 def protocol_manifest(
     policy: Policy,
     preset: Preset,
@@ -280,10 +302,12 @@ def protocol_manifest(
 ) -> dict:
     """What a run consists of, as recorded in ``manifest.json`` and fingerprinted into every chunk file
     (a sweep builds the same manifest, so its directories are ``socialnav evaluate``'s)."""
+    sources = policy_sources(policy)
     return _normalised(
         {
             "preset": preset.to_dict(),
             "policy": {"label": label, **policy.describe()},
+            **({"policy_sources": sources} if sources else {}),
             "cells": [
                 {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells
             ],

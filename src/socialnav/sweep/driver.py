@@ -310,7 +310,7 @@ class _JobRefused(Exception):
 
 def _prepare(job: Job, out: Path) -> _EvalJob:
     """Builds the job's policy, writes or checks its manifest and lists the chunks still to compute."""
-    from socialnav.evaluate.multi import file_sha256
+    from socialnav.evaluate.files import file_sha256
     from socialnav.evaluate.plan import plan_cells
     from socialnav.evaluate.runner import (
         check_or_write_manifest,
