@@ -280,7 +280,7 @@ def policy_sources(policy: Policy) -> dict[str, str]:
     module = type(policy).__module__
     path = getattr(sys.modules.get(module), "__file__", None)
     if path and module.split(".")[0] != "socialnav" and Path(path).is_file():
-        out[f"module {module}"] = file_sha256(path)
+        out["module"] = file_sha256(path)  # by content: a script run and its import are one policy
     declared = getattr(policy, "source_files", None)
     for item in declared() if callable(declared) else ():
         item = Path(item)
