@@ -4,7 +4,7 @@ A :class:`StaticMap` is the one representation of obstacles that scenarios gener
 simulates, trajectories carry and metrics score. It depends on NumPy only, so it sits below every
 other package (scenarios, sim, trajectory, metrics, viz).
 
-Geometry conventions (see ``docs/walls.md``):
+Geometry conventions (see ``docs/walls_maps.md``):
 
 - a polygon is a vertex list of shape (k, 2) in metres, k >= 2;
 - k == 2 is a wall segment (two-sided, zero thickness);
