@@ -51,7 +51,8 @@ def test_map_file_scores_the_obstacle_metrics(tmp_path: Path, capsys: pytest.Cap
             assert row[key] == value, key
 
 
-def test_log_carrying_its_map_and_replacement_note(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_log_carrying_its_map_and_replacement_note(tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
     stored = StaticMap.from_polygons([[[-5, 1.0], [5, 1.0]]])
     log = _log(tmp_path, stored, "log.parquet")
     assert _json(capsys, [str(log)])["episodes"][0][MIN_KEY] == pytest.approx(-0.1)
