@@ -20,7 +20,7 @@ import numpy as np
 
 from socialnav.scenarios._params import ParamSpec, check_value, param, type_name
 from socialnav.scenarios.random import EpisodeRandom
-from socialnav.static_map import StaticMap
+from socialnav.static_map import MapStack, StaticMap
 
 __all__ = [
     "SPLIT_BASES",
@@ -232,32 +232,43 @@ class EpisodeBatch:
             got = len(maps) if isinstance(maps, (tuple, list)) else type(maps).__name__
             raise ValueError(f"EpisodeBatch.static_maps must be a tuple of {self.batch_size} StaticMaps, "
                              f"got {got}")
-        checked: dict[int, list[int]] = {}  # episodes per distinct map object: one distance call each
         for i, smap in enumerate(maps):
             if not isinstance(smap, StaticMap):
                 raise ValueError(f"EpisodeBatch.static_maps[{i}] must be a StaticMap, "
                                  f"got {type(smap).__name__}")
+        # one query per distinct map object when episodes share maps, one stacked query otherwise
+        groups: dict[int, list[int]] = {}
+        for i, smap in enumerate(maps):
             if smap:
-                checked.setdefault(id(smap), []).append(i)
-        for rows in checked.values():
-            smap = maps[rows[0]]
-            idx = np.array(rows)
-            points = {
-                "robot_start": (self.robot_start[idx][:, None], self.robot_radius[idx][:, None]),
-                "robot_goal": (self.robot_goal[idx][:, None], self.robot_radius[idx][:, None]),
-                "human_start": (self.human_start[idx], self.human_radius[idx]),
-                "human_goal": (self.human_goal[idx], self.human_radius[idx]),
-            }
-            for name, (pts, radius) in points.items():
-                real = self.human_mask[idx] if name.startswith("human") else np.ones(radius.shape, bool)
-                bad = (smap.distance(pts) < radius) & real
-                if bad.any():
-                    e, a = (int(v) for v in np.argwhere(bad)[0])
-                    who = "" if name.startswith("robot") else f", human {a}"
-                    raise ValueError(
-                        f"EpisodeBatch.{name}: episode {rows[e]} (seed {int(self.seeds[rows[e]])}){who}: "
-                        f"{pts[e, a].tolist()} is covered by an obstacle (distance "
-                        f"{float(smap.distance(pts[e, a])):.3g} m < radius {float(radius[e, a]):.3g} m)")
+                groups.setdefault(id(smap), []).append(i)
+        if len(groups) > 8:
+            walled = [i for rows in groups.values() for i in rows]
+            self._check_clear(np.array(walled), MapStack([maps[i] for i in walled]).distance)
+            return
+        for rows in groups.values():
+            self._check_clear(np.array(rows), maps[rows[0]].distance)
+
+    def _check_clear(self, idx: np.ndarray, distance: Any) -> None:
+        """Starts and goals of episodes ``idx`` clear of their obstacles (``distance(points)`` with
+        points of shape (len(idx), M, 2))."""
+        rows = idx.tolist()
+        points = {
+            "robot_start": (self.robot_start[idx][:, None], self.robot_radius[idx][:, None]),
+            "robot_goal": (self.robot_goal[idx][:, None], self.robot_radius[idx][:, None]),
+            "human_start": (self.human_start[idx], self.human_radius[idx]),
+            "human_goal": (self.human_goal[idx], self.human_radius[idx]),
+        }
+        for name, (pts, radius) in points.items():
+            real = self.human_mask[idx] if name.startswith("human") else np.ones(radius.shape, bool)
+            dist = distance(pts)
+            bad = (dist < radius) & real
+            if bad.any():
+                e, a = (int(v) for v in np.argwhere(bad)[0])
+                who = "" if name.startswith("robot") else f", human {a}"
+                raise ValueError(
+                    f"EpisodeBatch.{name}: episode {rows[e]} (seed {int(self.seeds[rows[e]])}){who}: "
+                    f"{pts[e, a].tolist()} is covered by an obstacle (distance "
+                    f"{float(dist[e, a]):.3g} m < radius {float(radius[e, a]):.3g} m)")
 
     def take(self, idx: np.ndarray | Sequence[int] | slice) -> EpisodeBatch:
         """Select episodes along the batch axis.

@@ -21,7 +21,7 @@ import numpy as np
 from socialnav.scenarios._placement import rejection_sample
 from socialnav.scenarios.base import STREAM_GOAL, STREAM_START, HumanArrays, Scenario
 from socialnav.scenarios.random import EpisodeRandom
-from socialnav.static_map import StaticMap
+from socialnav.static_map import MapStack, StaticMap
 
 __all__ = ["Flow", "WalledScenario", "box", "polyline"]
 
@@ -166,14 +166,24 @@ class WalledScenario(Scenario):
         """``accept(rows, points)``: True where a point is ``radius + discomfort_dist`` from every wall."""
         margin = self.discomfort_dist
         shared = all(m is maps[0] for m in maps)
+        stack = None if shared else self._stack(maps)
 
         def accept(rows: np.ndarray, points: np.ndarray) -> np.ndarray:
             need = radius[rows] + margin
-            if shared:
+            if stack is None:
                 return maps[0].distance(points) >= need
-            return np.array([maps[r].distance(p) >= n for r, p, n in zip(rows, points, need, strict=True)])
+            return stack.take(rows).distance(points) >= need
 
         return accept
+
+
+    def _stack(self, maps: tuple[StaticMap, ...]) -> MapStack:
+        """The stacked maps of a batch, built once for all its humans and attempts."""
+        held = self.__dict__.get("_stack_cache")
+        if held is None or held[0] is not maps:
+            held = (maps, MapStack(maps))  # holding ``maps`` keeps its identity from being reused
+            self.__dict__["_stack_cache"] = held
+        return held[1]
 
 
 def _uniform_in(bounds: tuple[float, float, float, float]
