@@ -515,8 +515,13 @@ class Scenario(abc.ABC):
             human_radius=np.asarray(humans.radius, dtype=np.float64),
             human_v_pref=np.asarray(humans.v_pref, dtype=np.float64),
             human_mask=np.ones((b, n), dtype=bool),
-            static_maps=self.static_maps(self.rng(sd), idx),
+            static_maps=self._episode_maps(sd, idx),
         ).validate()
+
+    def _episode_maps(self, seeds: np.ndarray, indices: np.ndarray) -> tuple[StaticMap, ...] | None:
+        if type(self).static_maps is Scenario.static_maps:
+            return None  # open floor: no random source to build (generate runs on every world refill)
+        return self.static_maps(self.rng(seeds), indices)
 
     def episodes(self, split: str, indices: np.ndarray | Sequence[int]) -> EpisodeBatch:
         """Generate episodes named by (split, index).

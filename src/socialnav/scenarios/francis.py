@@ -87,10 +87,10 @@ class FrontalApproach(_Hallway):
 class PedestrianObstruction(WalledScenario):
     """Francis (b): a standing group of three in the robot's path in a 3 m corridor.
 
-    The group (centres 0.8 m apart: two side by side, one ahead; the formation has room for a fourth
-    behind, for subclasses) stands
-    around (c, y_c), c ~ U(−group_offset, group_offset), y_c ~ U(−0.5, 0.5); each human's goal is its
-    start. The wider side always leaves the robot ≥ 0.8 m between the group and a wall.
+    The group (centres 0.8 m apart: two side by side, the third 0.7 m beyond them as seen from the
+    robot; the formation has a fourth place, on the robot's side, for subclasses) stands around
+    (c, y_c), c ~ U(−group_offset, group_offset), y_c ~ U(−0.5, 0.5); each human's goal is its start.
+    The group spans 1.4 m across, so the wider side leaves 0.8 m + |c| between it and a wall.
     """
 
     FORMATION: ClassVar[tuple[tuple[float, float], ...]] = ((-0.4, 0.0), (0.4, 0.0), (0.0, 0.7), (0.0, -0.7))
@@ -126,8 +126,8 @@ class PedestrianObstruction(WalledScenario):
         centre = self.place_flows(rng, indices, self.flows()).start[:, 0]
         b, n = len(rng), self.n_humans
         start = centre[:, None, :] + np.array(self.FORMATION[:n])[None]
-        clear = self._clear_of_walls(self._maps(rng, indices), np.full(b * n, self.human_radius))
-        if not clear(np.arange(b * n), start.reshape(-1, 2)).all():
+        clear = self._clear_of_walls(self._maps(rng, indices), np.full(b, self.human_radius))
+        if not clear(np.repeat(np.arange(b), n), start.reshape(-1, 2)).all():
             raise ValueError(f"{self.name}: the group does not fit between the walls with corridor_width="
                              f"{self.corridor_width} and group_offset={self.group_offset}")
         return HumanArrays(start=start, goal=start.copy(), radius=np.full((b, n), self.human_radius),

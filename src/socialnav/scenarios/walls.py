@@ -79,6 +79,10 @@ class WalledScenario(Scenario):
                     f"from a wall, less than robot_radius + discomfort_dist = {need:.3g} m; the settings "
                     f"{self._geometry_settings()} leave no room for it")
 
+    def __getstate__(self) -> dict[str, object]:
+        """Pickled without the per-batch caches (scenarios travel to sweep workers)."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("_map_cache", "_stack_cache")}
+
     def _geometry_settings(self) -> str:
         own = [f for f in type(self).__dataclass_fields__ if f not in Scenario.__dataclass_fields__]
         return ", ".join(f"{f}={getattr(self, f)!r}" for f in own) or "(defaults)"
