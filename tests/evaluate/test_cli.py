@@ -77,7 +77,8 @@ def test_evaluate_json_prints_one_object_with_rows(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["evaluate", "--scenario", "plaza"], "unknown scenario 'plaza'; valid scenarios: circle_crossing"),
+        (["evaluate", "--scenario", "plaza"],
+         "unknown scenario 'plaza'; valid scenarios: blind_corner, circle_crossing"),
         (["evaluate", "--policy", "teleport"], "unknown policy 'teleport'; valid: cadrl"),
         (["evaluate", "--preset", "nowhere"],
          "unknown preset 'nowhere'; shipped: crowdnav, francis2023, wang2022"),
