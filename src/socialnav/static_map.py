@@ -196,7 +196,7 @@ class StaticMap:
             x0, y0 = p[:, 0][None], p[:, 1][None]
             x1, y1 = np.roll(p[:, 0], -1)[None], np.roll(p[:, 1], -1)[None]
             crosses = (y0 > y) != (y1 > y)
-            with np.errstate(divide="ignore", invalid="ignore"):
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 x_at = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
             inside |= (np.sum(crosses & (x < x_at), axis=1) % 2 == 1)  # overlapping polygons: their union
         return inside.reshape(pts.shape[:-1])
@@ -275,7 +275,7 @@ class MapStack:
         x0, y0 = self.starts[:, None, :, 0], self.starts[:, None, :, 1]
         x1, y1 = self.ends[:, None, :, 0], self.ends[:, None, :, 1]
         straddles = (y0 > y) != (y1 > y)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             x_at = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
         crosses = (straddles & (x < x_at)).astype(np.int64)  # (B, M, E)
         counts = np.einsum("bme,bep->bmp", crosses, self.solid.astype(np.int64))
