@@ -4,7 +4,7 @@ A :class:`StaticMap` is the one representation of obstacles that scenarios gener
 simulates, trajectories carry and metrics score. It depends on NumPy only, so it sits below every
 other package (scenarios, sim, trajectory, metrics, viz).
 
-Geometry conventions (see ``docs/walls.md``):
+Geometry conventions (see ``docs/walls_maps.md``):
 
 - a polygon is a vertex list of shape (k, 2) in metres, k >= 2;
 - k == 2 is a wall segment (two-sided, zero thickness);
@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MapError", "StaticMap"]
+__all__ = ["MapError", "MapStack", "StaticMap"]
 
 
 class MapError(ValueError):
@@ -196,9 +196,9 @@ class StaticMap:
             x0, y0 = p[:, 0][None], p[:, 1][None]
             x1, y1 = np.roll(p[:, 0], -1)[None], np.roll(p[:, 1], -1)[None]
             crosses = (y0 > y) != (y1 > y)
-            with np.errstate(divide="ignore", invalid="ignore"):
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 x_at = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
-            inside ^= (np.sum(crosses & (x < x_at), axis=1) % 2 == 1)
+            inside |= (np.sum(crosses & (x < x_at), axis=1) % 2 == 1)  # overlapping polygons: their union
         return inside.reshape(pts.shape[:-1])
 
     def to_dict(self) -> dict[str, Any]:
@@ -214,3 +214,70 @@ class StaticMap:
         if not isinstance(polys, list):
             raise MapError(f"map.polygons: expected a list, got {type(polys).__name__}")
         return cls(tuple(polys))
+
+
+class MapStack:
+    """One map per episode, stacked for vectorised queries: point i against map i.
+
+    A batch of episodes with different maps (pillars drawn per episode) asks "how far is each
+    episode's candidate from its own walls" once per placement attempt; the edges of all maps are
+    padded into (B, E, 2) arrays once, so that each query is a few array operations instead of B
+    calls of :meth:`StaticMap.distance`.
+    """
+
+    def __init__(self, maps: Sequence[StaticMap]):
+        b = len(maps)
+        per_map = [m.edges() for m in maps]
+        n_edges = max((len(a) for a, _ in per_map), default=0)
+        n_solid = max((sum(p.shape[0] >= 3 for p in m.polygons) for m in maps), default=0)
+        self.starts = np.zeros((b, n_edges, 2))
+        self.ends = np.zeros((b, n_edges, 2))
+        self.valid = np.zeros((b, n_edges), dtype=bool)
+        # which solid polygon an edge closes (for the even-odd inside test), one-hot; segments: none
+        self.solid = np.zeros((b, n_edges, max(n_solid, 1)), dtype=bool)
+        for i, (m, (a, e)) in enumerate(zip(maps, per_map, strict=True)):
+            self.starts[i, : len(a)], self.ends[i, : len(a)], self.valid[i, : len(a)] = a, e, True
+            at, q = 0, 0
+            for poly in m.polygons:
+                k = poly.shape[0]
+                if k == 2:
+                    at += 1
+                    continue
+                self.solid[i, at : at + k, q] = True
+                at, q = at + k, q + 1
+
+    def __len__(self) -> int:
+        return self.starts.shape[0]
+
+    def take(self, rows: np.ndarray) -> MapStack:
+        """The maps of ``rows`` (a view of the stacked arrays, no rebuilding)."""
+        out = object.__new__(MapStack)
+        out.starts, out.ends, out.valid, out.solid = (x[rows] for x in (self.starts, self.ends, self.valid,
+                                                                         self.solid))
+        return out
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance [m] from ``points[i, ...]`` to the obstacles of map i; 0 inside a solid polygon,
+        ``inf`` for an empty map. ``points`` has shape (B, ..., 2), the result (B, ...)."""
+        pts = np.asarray(points, dtype=np.float64)
+        b = pts.shape[0]
+        flat = pts.reshape(b, -1, 2)  # (B, M, 2)
+        if self.starts.shape[1] == 0:
+            return np.full(pts.shape[:-1], np.inf)
+        a, ab = self.starts[:, None], (self.ends - self.starts)[:, None]  # (B, 1, E, 2)
+        ap = flat[:, :, None, :] - a  # (B, M, E, 2)
+        denom = np.maximum(np.sum(ab * ab, axis=-1), 1e-300)
+        t = np.clip(np.sum(ap * ab, axis=-1) / denom, 0.0, 1.0)
+        d = np.linalg.norm(ap - t[..., None] * ab, axis=-1)
+        d = np.where(self.valid[:, None], d, np.inf).min(axis=-1)  # (B, M)
+        # even-odd rule per solid polygon: a horizontal ray to -x crosses its edges an odd number of times
+        x, y = flat[..., 0:1], flat[..., 1:2]  # (B, M, 1)
+        x0, y0 = self.starts[:, None, :, 0], self.starts[:, None, :, 1]
+        x1, y1 = self.ends[:, None, :, 0], self.ends[:, None, :, 1]
+        straddles = (y0 > y) != (y1 > y)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            x_at = x0 + (y - y0) * (x1 - x0) / (y1 - y0)
+        crosses = (straddles & (x < x_at)).astype(np.int64)  # (B, M, E)
+        counts = np.einsum("bme,bep->bmp", crosses, self.solid.astype(np.int64))
+        inside = np.any(counts % 2 == 1, axis=-1)
+        return np.where(inside, 0.0, d).reshape(pts.shape[:-1])

@@ -24,12 +24,12 @@ __all__ = ["REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "read_trajectories", "write_t
 REQUIRED_COLUMNS: tuple[str, ...] = ("episode", "t", "agent", "x", "y", "radius", "gx", "gy", "v_pref")
 OPTIONAL_COLUMNS: tuple[str, ...] = (
     "role", "vx", "vy", "outcome", "continuation", "min_clearance", "human_overlaps", "settings",
-    "arrival_t",
+    "arrival_t", "static_map",
 )
 _FLOAT_COLUMNS = ("t", "x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref", "min_clearance", "arrival_t")
 _WRITE_ORDER = (
     "episode", "t", "agent", "role", "x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref", "outcome",
-    "continuation", "min_clearance", "human_overlaps", "settings", "arrival_t",
+    "continuation", "min_clearance", "human_overlaps", "settings", "arrival_t", "static_map",
 )
 _METADATA_KEY = b"socialnav"
 _ROW_GROUP = 1 << 16
@@ -89,6 +89,7 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
     if len({str(k) for k in keys}) != len(keys):
         raise TrajectoryFormatError(f"{path}: duplicated episode keys {keys}")
     settings_json: dict[str, str] = {}
+    map_json = _map_texts(trajs)
     for key, tr in zip(keys, trajs, strict=True):
         try:
             settings_json[str(key)] = json.dumps(tr.settings, sort_keys=True)
@@ -96,16 +97,25 @@ def write_trajectories(path: str | os.PathLike[str], trajs: Iterable[Trajectory]
             raise TrajectoryFormatError(
                 f"{path}: episode {key!r}: settings not JSON-serialisable: {exc}"
             ) from exc
-    arrays = _columns(trajs, keys, [settings_json[str(k)] for k in keys], with_settings=suffix == ".csv")
+    arrays = _columns(
+        trajs, keys, [settings_json[str(k)] for k in keys], map_json, with_text_columns=suffix == ".csv"
+    )
     table = pa.table(arrays)
     if suffix == ".parquet":
-        meta = {"format_version": _FORMAT_VERSION, "settings": settings_json}
+        meta: dict[str, Any] = {"format_version": _FORMAT_VERSION, "settings": settings_json}
+        if any(map_json):
+            # each distinct map once (the episodes of one scene share theirs), referenced per episode
+            distinct = list(dict.fromkeys(m for m in map_json if m))
+            index = {m: i for i, m in enumerate(distinct)}
+            meta["maps"] = [json.loads(m) for m in distinct]
+            meta["episode_maps"] = {str(k): index[m] for k, m in zip(keys, map_json, strict=True) if m}
         table = table.replace_schema_metadata({_METADATA_KEY: json.dumps(meta).encode()})
     _atomic_write(path, table, suffix)
 
 
 def _columns(
-    trajs: list[Trajectory], keys: list[Any], settings_json: list[str], with_settings: bool
+    trajs: list[Trajectory], keys: list[Any], settings_json: list[str], map_json: list[str],
+    with_text_columns: bool,
 ) -> dict[str, Any]:
     """The long table's columns (Arrow arrays, in ``_WRITE_ORDER``), one row per (episode, sample,
     agent), built for all episodes at once: per-row values come from gathers over per-episode and
@@ -196,13 +206,34 @@ def _columns(
     if np.any(overlaps >= 0):
         vals = kept(overlaps)
         arrays["human_overlaps"] = pa.array(vals, mask=vals < 0)
-    if with_settings:
-        settings_col = np.full(total, "", dtype=object)
-        settings_col[row0[rows > 0]] = np.array(settings_json + [None], dtype=object)[:-1][rows > 0]
-        arrays["settings"] = _string_array(kept(settings_col))
+    def first_rows(texts: list[str]) -> Any:  # one text per episode, on its first row (CSV)
+        col = np.full(total, "", dtype=object)
+        col[row0[rows > 0]] = np.array(texts + [None], dtype=object)[:-1][rows > 0]
+        return _string_array(kept(col))
+
+    if with_text_columns:  # Parquet keeps settings and maps in the file metadata instead
+        arrays["settings"] = first_rows(settings_json)
     if not np.all(np.isnan(arrival)):
         arrays["arrival_t"] = floats(arrival)
+    if with_text_columns and any(map_json):  # open floor everywhere: files stay as before maps
+        arrays["static_map"] = first_rows(map_json)
     return arrays
+
+
+def _map_texts(trajs: list[Trajectory]) -> list[str]:
+    """Each episode's static map as compact JSON ("" for an open floor); one text per distinct
+    map object, since the episodes of a scene usually share one."""
+    texts: dict[int, str] = {}
+    out = []
+    for tr in trajs:
+        smap = tr.static_map
+        if smap is None:
+            out.append("")
+            continue
+        if id(smap) not in texts:
+            texts[id(smap)] = json.dumps(smap.to_dict(), separators=(",", ":"))
+        out.append(texts[id(smap)])
+    return out
 
 
 def _string_array(values: np.ndarray) -> Any:
@@ -268,6 +299,7 @@ class _Table:
         if path.is_dir():
             raise TrajectoryFormatError(f"{path}: is a directory, not a trajectory file")
         meta_settings: dict[str, str] = {}
+        meta: dict[str, Any] = {}
         if suffix == ".parquet":
 
             from socialnav.evaluate.files import CorruptFileError, read_parquet_verified
@@ -288,17 +320,21 @@ class _Table:
                 raise TrajectoryFormatError(str(err)) from None
             raw = (table.schema.metadata or {}).get(_METADATA_KEY)
             if raw is not None:
-                meta_settings = json.loads(raw.decode()).get("settings", {})
+                meta = json.loads(raw.decode())
+                meta_settings = meta.get("settings", {})
         else:
             import pyarrow.csv as pcsv
 
-            strings = {c: pa.string() for c in ("role", "outcome", "settings")}
+            strings = {c: pa.string() for c in ("role", "outcome", "settings", "static_map")}
             try:
                 table = pcsv.read_csv(path, convert_options=pcsv.ConvertOptions(column_types=strings))
             except pa.ArrowInvalid as err:
                 text = " ".join(str(err).split())
                 raise TrajectoryFormatError(f"{path}: not a readable CSV file ({text[:200]})") from None
         self.meta_settings = meta_settings
+        self.meta_maps: list[Any] = meta.get("maps", [])
+        self.meta_episode_maps: dict[str, int] = meta.get("episode_maps", {})
+        self._maps: dict[Any, Any] = {}  # parsed maps, shared by the episodes that reference one
         self.row_map = None
         if rows is not None:
             start, stop = rows
@@ -553,6 +589,7 @@ def _fast_episode(tab: _Table, rows: np.ndarray, agents: np.ndarray, key: Any, d
         roles=("robot",) + ("human",) * (n_agents - 1), outcome=outcome, min_clearance=min_clearance,
         continuation=pos[n_main:] if n_main < n_samples else None, human_overlaps=overlaps,
         settings=settings, arrival_times=None if arrival is None or np.all(np.isnan(arrival)) else arrival,
+        static_map=_episode_map(tab, rows, key),
     )
 
 
@@ -672,6 +709,7 @@ def _read_episode(
         goals=np.array([p["goal"] for p in per_agent], dtype=float),
         roles=("robot",) + ("human",) * (len(ids) - 1), outcome=outcome,
         min_clearance=min_clearance, continuation=cont, human_overlaps=overlaps, settings=settings,
+        static_map=_episode_map(tab, rows, key),
     )
 
 
@@ -692,6 +730,45 @@ def _episode_settings(tab: _Table, rows: np.ndarray, key: Any) -> dict[str, Any]
             raise tab.fail("settings", row, "settings JSON must be an object")
     settings["episode"] = key.item() if isinstance(key, np.generic) else key
     return settings
+
+
+def _episode_map(tab: _Table, rows: np.ndarray, key: Any) -> Any:
+    """The episode's static map: from the Parquet metadata, else the ``static_map`` column (JSON on
+    one row of the episode); None for an open floor."""
+    from socialnav.static_map import MapError, StaticMap
+
+    ref = tab.meta_episode_maps.get(str(key))
+    if ref is not None:
+        if not isinstance(ref, int) or not 0 <= ref < len(tab.meta_maps):
+            raise TrajectoryFormatError(f"{tab.path}: metadata 'episode_maps' of episode {key!r}: map index "
+                                        f"{ref!r} outside the {len(tab.meta_maps)} stored maps")
+        source: Any = ("meta", ref)
+        data = tab.meta_maps[ref]
+
+        def fail(message: str) -> TrajectoryFormatError:
+            return TrajectoryFormatError(f"{tab.path}: metadata 'maps'[{ref}] (episode {key!r}): {message}")
+    elif "static_map" in tab.cols:
+        text = _constant(tab, "static_map", rows)
+        if not text:
+            return None
+        source = ("text", text)
+        row = int(next(r for r in rows if tab.cols["static_map"][r] not in (None, "")))
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise tab.fail("static_map", row, f"invalid JSON ({exc})") from None
+
+        def fail(message: str) -> TrajectoryFormatError:
+            return tab.fail("static_map", row, message)
+    else:
+        return None
+    if source not in tab._maps:
+        try:
+            tab._maps[source] = StaticMap.from_dict(data)
+        except MapError as exc:
+            raise fail(str(exc)) from None
+    smap = tab._maps[source]
+    return smap if smap else None
 
 
 def _check_grid(

@@ -77,9 +77,11 @@ def test_evaluate_json_prints_one_object_with_rows(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["evaluate", "--scenario", "plaza"], "unknown scenario 'plaza'; valid scenarios: circle_crossing"),
+        (["evaluate", "--scenario", "plaza"],
+         "unknown scenario 'plaza'; valid scenarios: blind_corner, circle_crossing"),
         (["evaluate", "--policy", "teleport"], "unknown policy 'teleport'; valid: cadrl"),
-        (["evaluate", "--preset", "nowhere"], "unknown preset 'nowhere'; shipped: crowdnav, wang2022"),
+        (["evaluate", "--preset", "nowhere"],
+         "unknown preset 'nowhere'; shipped: crowdnav, francis2023, wang2022"),
         # om_sarl ships for wang2022 only: under crowdnav a checkpoint path is required
         (["evaluate", "--policy", "om_sarl", "--preset", "crowdnav"], "pass --checkpoint"),
         (["evaluate", "--episodes", "0"], "episodes must be >= 1"),

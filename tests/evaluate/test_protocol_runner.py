@@ -125,7 +125,8 @@ def test_directory_of_another_run_is_refused(tmp_path, orca):
 
 
 def test_unknown_scenario_lists_valid_names(tmp_path, orca):
-    with pytest.raises(KeyError, match="valid scenarios: circle_crossing, crossing"):
+    with pytest.raises(KeyError, match="valid scenarios: blind_corner, circle_crossing, "
+                       "circle_crossing_obstacles, crossing"):
         run_protocol(orca, small_preset(), tmp_path, scenarios=["plaza"], progress=False)
 
 
@@ -138,7 +139,7 @@ def test_summary_json_rows_hold_every_metric_mean_and_std(tmp_path, orca):
 
     for row in data["rows"]:
         for key in score_keys():
-            if key in ("success", "collision", "timeout"):
+            if key in ("success", "collision", "timeout", "wall_collision"):  # rates: <name>_rate
                 continue
             assert f"{key}.mean" in row and f"{key}.std" in row, key
     assert np.isfinite(data["rows"][0]["nav_time_s"])

@@ -88,7 +88,10 @@ def make_single(preset: Preset, name: str) -> Scenario:
 def cell_scenario(preset: Preset, cell: Cell) -> Scenario:
     if cell.single_human:
         return make_single(preset, cell.scenario)
-    return make_scenario(cell.scenario, n_humans=preset.evaluation.n_humans, robot_v_pref=preset.robot.v_pref,
+    # scenarios whose design fixes the crowd (one person head-on, a standing group) keep their own count
+    fixed = get_scenario(cell.scenario).fixed_n_humans
+    crowd = {} if fixed else {"n_humans": preset.evaluation.n_humans}
+    return make_scenario(cell.scenario, **crowd, robot_v_pref=preset.robot.v_pref,
                          robot_radius=preset.robot.radius)
 
 

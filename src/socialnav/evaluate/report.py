@@ -119,8 +119,19 @@ def _index(summary: Sequence[dict[str, Any]]) -> dict[tuple[str, str, str], dict
     return {(r["policy"], r["scenario"], r["visibility"]): r for r in summary}
 
 
+def has_walls(summary: Sequence[dict[str, Any]]) -> bool:
+    """Whether any group was run with static maps: its ``wall_collision_rate`` is a number (it is NaN
+    on open floors), and Table II then shows wall collisions in a column of their own."""
+    return any(_finite(r.get("wall_collision_rate")) for r in summary)
+
+
+def _finite(x: Any) -> bool:
+    return isinstance(x, (int, float)) and math.isfinite(x)
+
+
 def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> list[list[str]]:
     idx = _index(summary)
+    walls = has_walls(summary)
     policies = list(dict.fromkeys(r["policy"] for r in summary))
     if scenario == "pooled" and not any(k[1] == "pooled" for k in idx):
         # A preset with a single multi-human scenario: its own row is the pooled one.
@@ -136,6 +147,7 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
             p,
             _pct(base.get("success_rate")),
             _pct(base.get("collision_rate")),
+            *([_pct(base.get("wall_collision_rate"))] if walls else []),
             _pct(base.get("timeout_rate")),
             _pm(base.get("nav_time_s"), base.get("nav_time_s_std"), 2),
         ]
@@ -152,6 +164,7 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
         "Policy",
         "Success %",
         "Collision %",
+        *(["of which walls %"] if has_walls(summary) else []),
         "Timeout %",
         "Nav. time (s)",
         *[c[0] for c in TABLE2_COLUMNS],

@@ -24,7 +24,8 @@ from socialnav.metrics import summarize_side_preference
 from socialnav.metrics.aggregate import column_stats
 
 ID_COLUMNS = ("policy", "scenario", "visibility", "index", "seed", "outcome", "information", "side")
-RATE_KEYS = {"success": "success_rate", "collision": "collision_rate", "timeout": "timeout_rate"}
+RATE_KEYS = {"success": "success_rate", "collision": "collision_rate", "timeout": "timeout_rate",
+             "wall_collision": "wall_collision_rate"}  # NaN on open floors (metrics/obstacles.py)
 NAV_TIME_KEY = "navigation_time"
 N_BOOT = 1000
 CONFIDENCE = 0.95

@@ -56,6 +56,11 @@ def add_metrics_parser(sub: Any) -> None:
     me.add_argument("--goal-tolerance", type=float,
                     help="a 'success' ending farther than this from its goal is reported [m] (default: "
                     "the robot's radius)")
+    me.add_argument("--map", metavar="FILE",
+                    help="static map (YAML or SVG, docs/walls_maps.md) of every episode: the obstacle "
+                    "clearance metrics use it; replaces a map stored in the file (with a note)")
+    me.add_argument("--map-scale", type=float, metavar="M_PER_UNIT",
+                    help="SVG maps: metres per SVG user unit (default: the file's data-scale, else 1)")
     me.add_argument("--all-episodes", action="store_true",
                     help="score social metrics on every episode, not only successful ones (logs)")
     me.add_argument("--per-episode", action="store_true",
@@ -89,6 +94,10 @@ def cmd_metrics(args: argparse.Namespace) -> int:
                 if not loaded:
                     raise ValueError(f"{path}: no episodes (the file has a header but no rows)")
                 trajs += loaded
+            if args.map is not None:
+                trajs = _with_map(trajs, args.map, args.map_scale)
+            elif args.map_scale is not None:
+                raise ValueError("--map-scale needs --map")
             scores = score_trajectories(trajs, require_success=not args.all_episodes,
                                         goal_tolerance=args.goal_tolerance)
     except (ValueError, KeyError, OSError) as err:
@@ -112,6 +121,21 @@ def cmd_metrics(args: argparse.Namespace) -> int:
     return EXIT_WARNINGS if problems else 0
 
 
+def _with_map(trajs: list[Any], path: str, scale: float | None) -> list[Any]:
+    """The trajectories with the map of ``path`` (an empty map means an open floor)."""
+    import dataclasses
+    import warnings
+
+    from socialnav.map_files import load_map
+
+    smap = load_map(path, scale=scale)
+    replaced = sum(1 for t in trajs if t.static_map is not None and t.static_map != smap)
+    if replaced:
+        warnings.warn(f"--map {path} replaces the static map stored with {replaced} episode(s)",
+                      UserWarning, stacklevel=2)
+    return [dataclasses.replace(t, static_map=smap) for t in trajs]
+
+
 def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
     from socialnav.metrics.aggregate import _population
 
@@ -128,7 +152,7 @@ def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
     for group in scores.summaries:
         title = "dataset" if group["scope"] == "dataset" else f"scene {group['scenario']}"
         print(f"summary, {title} [{group['policy']}], {group['episodes']} episode(s):")
-        for rate in ("success_rate", "collision_rate", "timeout_rate"):
+        for rate in ("success_rate", "collision_rate", "wall_collision_rate", "timeout_rate"):
             value = group.get(rate)
             if value is not None and math.isfinite(value):
                 print(f"  {rate:60s} {value:.4g} (of known outcomes)")

@@ -1,10 +1,15 @@
 """Social-conformity metrics: pure NumPy functions of a :class:`socialnav.trajectory.Trajectory`.
 
-Importing this package registers every metric (basic, M_I–M_VI) and imports NumPy only. Score one
+Importing this package registers every metric (basic, M_I–M_VI, obstacle clearance) and imports
+NumPy only. Score one
 episode with :func:`score_episode`; aggregate with :func:`summarize`. See ``docs/metrics.md``.
 """
 
 from socialnav.metrics import basic, comfort, naturalness, sociability  # noqa: F401  (registration)
+
+# isort: split
+# registered after the human metrics, so that their columns come first in every table
+from socialnav.metrics import obstacles  # noqa: F401
 from socialnav.metrics.aggregate import summarize, summarize_rows
 from socialnav.metrics.naturalness import WalkingSpeedWarning, walking_speed_note
 from socialnav.metrics.registry import (

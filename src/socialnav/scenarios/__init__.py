@@ -8,10 +8,11 @@ Example:
 
 Importing this package registers the built-in scenarios: `circle_crossing`, `random`,
 `parallel_traffic`, `perpendicular_traffic`, `square_crossing`, `passing`, `overtaking` and
-`crossing`. Third-party scenarios plug in through the entry-point group ``socialnav.scenarios``.
+`crossing`, and the scenarios with walls after Francis et al. (`socialnav.scenarios.francis`).
+Third-party scenarios plug in through the entry-point group ``socialnav.scenarios``.
 """
 
-from socialnav.scenarios import circle, single, square  # noqa: F401  (registers the scenarios)
+from socialnav.scenarios import circle, francis, single, square  # noqa: F401  (registers the scenarios)
 from socialnav.scenarios._placement import ScenarioGenerationError
 from socialnav.scenarios.base import (
     SPLIT_BASES,

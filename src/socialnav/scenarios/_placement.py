@@ -37,6 +37,7 @@ def rejection_sample(
     margin: float,
     max_attempts: int,
     what: str,
+    accept: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> np.ndarray:
     """Draw a position per episode until it clears every reference disc.
 
@@ -54,6 +55,8 @@ def rejection_sample(
         margin: Extra clearance (discomfort distance) [m].
         max_attempts: Attempts before giving up.
         what: Name of the quantity for error messages (e.g. "circle_crossing start of human 3").
+        accept: Optional further test ``accept(rows, candidates) -> (len(rows),) bool`` (e.g. clear of
+            the walls); a candidate must pass it too.
 
     Returns:
         Accepted positions [(B, 2) m].
@@ -75,18 +78,22 @@ def rejection_sample(
         diff = cand[:, None, :] - ref_pos[rows]
         d2 = np.einsum("bmk,bmk->bm", diff, diff)
         ok = np.all(d2 >= min_d2[rows], axis=1)
+        if accept is not None:
+            ok &= accept(rows, cand)
         out[rows[ok]] = cand[ok]
         rows = rows[~ok]
     if rows.size == 0:
         return out
-    raise ScenarioGenerationError(failure_message(what, max_attempts, rng.seeds[rows]))
+    raise ScenarioGenerationError(
+        failure_message(what, max_attempts, rng.seeds[rows], walls=accept is not None))
 
 
-def failure_message(what: str, max_attempts: int, seeds: np.ndarray) -> str:
+def failure_message(what: str, max_attempts: int, seeds: np.ndarray, walls: bool = False) -> str:
     """The error of a placement that failed in the episodes of ``seeds`` (Python and native paths)."""
     shown = ", ".join(str(s) for s in seeds[:5]) + (", ..." if seeds.size > 5 else "")
+    clear_of = "the other agents and the walls" if walls else "the other agents"
     return (
-        f"{what}: no position clear of the other agents after {max_attempts} attempts in "
+        f"{what}: no position clear of {clear_of} after {max_attempts} attempts in "
         f"{seeds.size} episode(s) (seeds {shown}); the scene is too crowded for the space, "
         "radii and discomfort_dist (reduce n_humans or enlarge the area)"
     )

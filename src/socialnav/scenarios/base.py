@@ -20,6 +20,7 @@ import numpy as np
 
 from socialnav.scenarios._params import ParamSpec, check_value, param, type_name
 from socialnav.scenarios.random import EpisodeRandom
+from socialnav.static_map import MapStack, StaticMap
 
 __all__ = [
     "SPLIT_BASES",
@@ -126,6 +127,9 @@ class EpisodeBatch:
         human_radius: [(B, N) m].
         human_v_pref: Human preferred speeds [(B, N) m/s].
         human_mask: Real human slots [(B, N) bool].
+        static_maps: The obstacles of each episode (B StaticMaps; an empty one is an open floor), or
+            None when every episode is on an open floor (the original protocol). Episodes often share
+            one map object.
     """
 
     seeds: np.ndarray
@@ -140,6 +144,7 @@ class EpisodeBatch:
     human_radius: np.ndarray
     human_v_pref: np.ndarray
     human_mask: np.ndarray
+    static_maps: tuple[StaticMap, ...] | None = None
 
     @property
     def batch_size(self) -> int:
@@ -161,8 +166,15 @@ class EpisodeBatch:
         return self.batch_size
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """All fields as a name → array dict (no copies)."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        """All array fields as a name → array dict (no copies); ``static_maps`` is not an array."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "static_maps"}
+
+    def static_map(self, i: int) -> StaticMap | None:
+        """The obstacles of episode ``i``, or None on an open floor."""
+        if self.static_maps is None:
+            return None
+        smap = self.static_maps[i]
+        return smap if smap else None
 
     def validate(self) -> EpisodeBatch:
         """Check shapes, dtypes, finiteness, positivity and zero padding.
@@ -209,7 +221,54 @@ class EpisodeBatch:
         for name in _BN2_FIELDS + _BN_FIELDS:
             if np.any(getattr(self, name)[~mask] != 0):
                 raise ValueError(f"EpisodeBatch.{name} must be 0 in padded slots")
+        if self.static_maps is not None:
+            self._validate_maps()
         return self
+
+    def _validate_maps(self) -> None:
+        """Every map a StaticMap, and no start or goal covered by an obstacle (distance < radius)."""
+        maps = self.static_maps
+        if not isinstance(maps, tuple) or len(maps) != self.batch_size:
+            got = len(maps) if isinstance(maps, (tuple, list)) else type(maps).__name__
+            raise ValueError(f"EpisodeBatch.static_maps must be a tuple of {self.batch_size} StaticMaps, "
+                             f"got {got}")
+        for i, smap in enumerate(maps):
+            if not isinstance(smap, StaticMap):
+                raise ValueError(f"EpisodeBatch.static_maps[{i}] must be a StaticMap, "
+                                 f"got {type(smap).__name__}")
+        # one query per distinct map object when episodes share maps, one stacked query otherwise
+        groups: dict[int, list[int]] = {}
+        for i, smap in enumerate(maps):
+            if smap:
+                groups.setdefault(id(smap), []).append(i)
+        if len(groups) > 8:
+            walled = [i for rows in groups.values() for i in rows]
+            self._check_clear(np.array(walled), MapStack([maps[i] for i in walled]).distance)
+            return
+        for rows in groups.values():
+            self._check_clear(np.array(rows), maps[rows[0]].distance)
+
+    def _check_clear(self, idx: np.ndarray, distance: Any) -> None:
+        """Starts and goals of episodes ``idx`` clear of their obstacles (``distance(points)`` with
+        points of shape (len(idx), M, 2))."""
+        rows = idx.tolist()
+        points = {
+            "robot_start": (self.robot_start[idx][:, None], self.robot_radius[idx][:, None]),
+            "robot_goal": (self.robot_goal[idx][:, None], self.robot_radius[idx][:, None]),
+            "human_start": (self.human_start[idx], self.human_radius[idx]),
+            "human_goal": (self.human_goal[idx], self.human_radius[idx]),
+        }
+        for name, (pts, radius) in points.items():
+            real = self.human_mask[idx] if name.startswith("human") else np.ones(radius.shape, bool)
+            dist = distance(pts)
+            bad = (dist < radius) & real
+            if bad.any():
+                e, a = (int(v) for v in np.argwhere(bad)[0])
+                who = "" if name.startswith("robot") else f", human {a}"
+                raise ValueError(
+                    f"EpisodeBatch.{name}: episode {rows[e]} (seed {int(self.seeds[rows[e]])}){who}: "
+                    f"{pts[e, a].tolist()} is covered by an obstacle (distance "
+                    f"{float(dist[e, a]):.3g} m < radius {float(radius[e, a]):.3g} m)")
 
     def take(self, idx: np.ndarray | Sequence[int] | slice) -> EpisodeBatch:
         """Select episodes along the batch axis.
@@ -224,7 +283,11 @@ class EpisodeBatch:
             idx = np.asarray(idx)
             if idx.ndim == 0:
                 idx = idx[None]
-        return EpisodeBatch(**{k: v[idx] for k, v in self.arrays().items()})
+        maps = None
+        if self.static_maps is not None:
+            picked = np.arange(self.batch_size)[idx]
+            maps = tuple(self.static_maps[int(i)] for i in picked)
+        return EpisodeBatch(**{k: v[idx] for k, v in self.arrays().items()}, static_maps=maps)
 
     @staticmethod
     def concat(batches: Sequence[EpisodeBatch]) -> EpisodeBatch:
@@ -239,7 +302,13 @@ class EpisodeBatch:
         if not batches:
             raise ValueError("EpisodeBatch.concat needs at least one batch")
         n = max(bt.max_humans for bt in batches)
-        out: dict[str, list[np.ndarray]] = {f.name: [] for f in dataclasses.fields(EpisodeBatch)}
+        out: dict[str, list[np.ndarray]] = {name: [] for name in batches[0].arrays()}
+        maps = None
+        if any(bt.static_maps is not None for bt in batches):
+            # open-floor batches beside walled ones: an empty map per episode
+            open_floor = StaticMap()
+            maps = tuple(m for bt in batches
+                         for m in (bt.static_maps or (open_floor,) * bt.batch_size))
         for bt in batches:
             pad = n - bt.max_humans
             for name, arr in bt.arrays().items():
@@ -248,7 +317,7 @@ class EpisodeBatch:
                     widths[1] = (0, pad)
                     arr = np.pad(arr, widths)  # zeros / False, as padding requires
                 out[name].append(arr)
-        return EpisodeBatch(**{k: np.concatenate(v, axis=0) for k, v in out.items()})
+        return EpisodeBatch(**{k: np.concatenate(v, axis=0) for k, v in out.items()}, static_maps=maps)
 
 
 class HumanArrays(NamedTuple):
@@ -410,7 +479,7 @@ class Scenario(abc.ABC):
             )
         if idx.size and idx.min() < 0:
             raise ValueError(f"episode indices must be >= 0, got {int(idx.min())}")
-        b, r = idx.shape[0], self.circle_radius
+        b = idx.shape[0]
         from socialnav.scenarios.native import native_config, sample_humans_native
 
         config = native_config(self) if native else None
@@ -427,12 +496,18 @@ class Scenario(abc.ABC):
                     f"{type(self).__name__}.sample_humans returned {key} of shape "
                     f"{got}, expected {shape}"
                 )
+        robot_start, robot_goal = (np.broadcast_to(np.asarray(p, dtype=np.float64), (b, 2)).copy()
+                                   for p in self.robot_endpoints())
+        heading = robot_goal - robot_start  # the robot starts facing its goal: π/2 for (0, -R) -> (0, R)
+        theta = np.arctan2(heading[:, 1], heading[:, 0])
+        if self.robot_heading() is not None:
+            theta = np.full(b, float(self.robot_heading()))
         return EpisodeBatch(
             seeds=sd,
             indices=idx,
-            robot_start=np.broadcast_to(np.array([0.0, -r]), (b, 2)).copy(),
-            robot_goal=np.broadcast_to(np.array([0.0, r]), (b, 2)).copy(),
-            robot_theta=np.full(b, np.pi / 2),
+            robot_start=robot_start,
+            robot_goal=robot_goal,
+            robot_theta=theta,
             robot_radius=np.full(b, float(self.robot_radius)),
             robot_v_pref=np.full(b, float(self.robot_v_pref)),
             human_start=np.asarray(humans.start, dtype=np.float64),
@@ -440,7 +515,13 @@ class Scenario(abc.ABC):
             human_radius=np.asarray(humans.radius, dtype=np.float64),
             human_v_pref=np.asarray(humans.v_pref, dtype=np.float64),
             human_mask=np.ones((b, n), dtype=bool),
+            static_maps=self._episode_maps(sd, idx),
         ).validate()
+
+    def _episode_maps(self, seeds: np.ndarray, indices: np.ndarray) -> tuple[StaticMap, ...] | None:
+        if type(self).static_maps is Scenario.static_maps:
+            return None  # open floor: no random source to build (generate runs on every world refill)
+        return self.static_maps(self.rng(seeds), indices)
 
     def episodes(self, split: str, indices: np.ndarray | Sequence[int]) -> EpisodeBatch:
         """Generate episodes named by (split, index).
@@ -453,6 +534,27 @@ class Scenario(abc.ABC):
             ``generate(indices, episode_seeds(split, indices))``.
         """
         return self.generate(indices, episode_seeds(split, indices))
+
+    def robot_endpoints(self) -> tuple[np.ndarray, np.ndarray]:
+        """The robot's start and goal [(2,) m each, or (B, 2)]: (0, −R) and (0, R) by default.
+
+        The robot starts facing its goal.
+        """
+        r = self.circle_radius
+        return np.array([0.0, -r]), np.array([0.0, r])
+
+    def robot_heading(self) -> float | None:
+        """The robot's initial heading [rad], or None: facing its goal (π/2 by default)."""
+        return None
+
+    def static_maps(self, rng: EpisodeRandom, indices: np.ndarray) -> tuple[StaticMap, ...] | None:
+        """The obstacles of every episode (B maps, shared objects allowed), or None: an open floor.
+
+        Scenarios with walls override this; the episodes' starts and goals must clear the map
+        (``EpisodeBatch.validate`` checks). ``rng`` is the scenario's random source for the batch,
+        for maps drawn per episode (use a key stream of its own).
+        """
+        return None
 
     @abc.abstractmethod
     def sample_humans(self, rng: EpisodeRandom, indices: np.ndarray) -> HumanArrays:

@@ -21,6 +21,26 @@ VIOLATION = "#d62728"
 _HUMAN_COLOURS = ("#1f77b4", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#ff7f0e", "#7f7f7f")
 
 
+WALL_FACE = "#9a9a9a"
+WALL_EDGE = "#4a4a4a"
+WALL_SEGMENT_PT = 4.0  # line width of a wall segment [points]: zero-thickness walls must stay visible
+
+
+def draw_static_map(ax, smap) -> None:
+    """Walls under everything else: solid polygons filled, wall segments as thick lines."""
+    if smap is None:
+        return
+    from matplotlib.patches import Polygon
+
+    for poly in smap.polygons:
+        if poly.shape[0] == 2:
+            ax.plot(poly[:, 0], poly[:, 1], "-", color=WALL_EDGE, lw=WALL_SEGMENT_PT, solid_capstyle="butt",
+                    zorder=0.5)
+        else:
+            ax.add_patch(Polygon(poly, closed=True, facecolor=WALL_FACE, edgecolor=WALL_EDGE, lw=1.0,
+                                 zorder=0.5))
+
+
 def agent_colour(agent: int) -> str:
     return ROBOT_EDGE if agent == 0 else _HUMAN_COLOURS[(agent - 1) % len(_HUMAN_COLOURS)]
 
@@ -80,6 +100,7 @@ def plot_trajectory(
     every = every or _stamp_every(K, traj.dt)
     stamps = sorted(set(range(0, K + 1, every)) | {K})
     pos = view.positions
+    draw_static_map(ax, traj.static_map)
     for a in range(traj.n_agents):
         colour = agent_colour(a)
         ax.plot(pos[: view.n_main, a, 0], pos[: view.n_main, a, 1], "-", color=colour, lw=1.0, alpha=0.7)
@@ -233,6 +254,7 @@ class FrameRenderer:
         ax.set_aspect("equal")
         ax.grid(alpha=0.25)
         ax.set_title(title or describe_episode(traj), fontsize=9)
+        draw_static_map(ax, traj.static_map)
         for a in range(traj.n_agents):
             ax.plot(*traj.goals[a], "*", color=agent_colour(a), ms=10 if a == 0 else 7, alpha=0.8)
         self.trails = [

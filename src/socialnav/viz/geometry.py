@@ -119,14 +119,28 @@ def velocity_rectangle(p: np.ndarray, v: np.ndarray, r: float, tau: float) -> np
     return corners[0] if valid[0] else None
 
 
+#: How far beyond the agents [m] a drawing extends to show the walls around them: enough to see a
+#: corridor's sides and a door's frame, while a wall running on for tens of metres is cut off.
+WALL_CONTEXT = 2.0
+
+
 def scene_bounds(traj: Trajectory, margin: float = 0.6) -> tuple[float, float, float, float]:
-    """(xmin, xmax, ymin, ymax) [m] holding every sample, goal and disc, with a margin."""
+    """(xmin, xmax, ymin, ymax) [m] holding every sample, goal and disc, with a margin, and the
+    walls of the static map within ``WALL_CONTEXT`` of that."""
     pts = [traj.positions.reshape(-1, 2), traj.goals]
     if traj.continuation is not None:
         pts.append(traj.continuation.reshape(-1, 2))
     allp = np.concatenate(pts)
+    allp = allp[np.isfinite(allp).all(axis=1)]
     pad = float(np.max(traj.radii)) + margin
     (x0, y0), (x1, y1) = allp.min(axis=0) - pad, allp.max(axis=0) + pad
+    if traj.static_map is not None:
+        vertices = np.concatenate(traj.static_map.polygons)
+        edge = 0.3  # a wall on the frame's edge would be half drawn
+        lo = np.maximum(vertices.min(axis=0) - edge, [x0 - WALL_CONTEXT, y0 - WALL_CONTEXT])
+        hi = np.minimum(vertices.max(axis=0) + edge, [x1 + WALL_CONTEXT, y1 + WALL_CONTEXT])
+        x0, y0 = min(x0, lo[0]), min(y0, lo[1])
+        x1, y1 = max(x1, hi[0]), max(y1, hi[1])
     # no sliver plots (a single-human sweep is tall and thin): each span >= 3/4 of the other
     span = max(x1 - x0, y1 - y0) * 0.75
     if x1 - x0 < span:

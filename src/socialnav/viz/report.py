@@ -12,7 +12,9 @@ JavaScript), so it opens offline and can be mailed as it is. Layout of the embed
      "episodes": [{"id", "policy", "outcome", "dt", "n_main", "radii", "goals",
                    "pos": [x, y per (sample, agent), integers in 1/scale m],
                    "m1"|"m2"|"collision": "0101…" per sample, "side": [sample, label] | null,
-                   "values": {metric key: value}}]}
+                   "values": {metric key: value},
+                   "walls": [[x, y, x, y, ...] per polygon, integers in 1/scale m]}]}
+                                                    # walls: only with a static map; 2 vertices = a segment
 """
 
 from __future__ import annotations
@@ -335,6 +337,10 @@ def _episode_json(
         v = row.get(k)
         if isinstance(v, int | float) and math.isfinite(v):
             values[k] = round(float(v), 4)
+    walls = {}
+    if traj.static_map is not None:
+        walls["walls"] = [np.rint(p * SCALE).astype(np.int64).reshape(-1).tolist()
+                          for p in traj.static_map.polygons]
     return {
         "id": str(traj.settings.get("episode", "")),
         "policy": policy,
@@ -349,6 +355,7 @@ def _episode_json(
         "collision": _bits(view.collision),
         "side": list(view.side) if view.side else None,
         "values": values,
+        **walls,
     }
 
 

@@ -77,6 +77,7 @@
     if (!ep.P) {
       ep.P = ep.pos.map((v) => v / DATA.scale); // decode once: (S * A * 2) metres
       ep.S = ep.P.length / (2 * ep.radii.length);
+      ep.W = (ep.walls || []).map((w) => w.map((v) => v / DATA.scale)); // [x, y, x, y, ...] metres
     }
     state.ep = ep;
     state.k = 0;
@@ -102,6 +103,13 @@
     ep.goals.forEach(([x, y]) => take(x, y));
     const pad = Math.max(...ep.radii) + 0.6;
     x0 -= pad; x1 += pad; y0 -= pad; y1 += pad;
+    // walls within WALL_CONTEXT m of the agents (as socialnav/viz/geometry.py's scene_bounds)
+    const c = 2.0, ax0 = x0 - c, ax1 = x1 + c, ay0 = y0 - c, ay1 = y1 + c;
+    ep.W.forEach((w) => {
+      for (let i = 0; i < w.length; i += 2) {
+        take(Math.min(Math.max(w[i], ax0), ax1), Math.min(Math.max(w[i + 1], ay0), ay1));
+      }
+    });
     const s = Math.min(canvas.width / (x1 - x0), canvas.height / (y1 - y0));
     view = { s: s, ox: (canvas.width - s * (x1 - x0)) / 2 - s * x0, oy: (canvas.height + s * (y1 - y0)) / 2 + s * y0 };
   }
@@ -140,6 +148,17 @@
       ctx.beginPath(); ctx.moveTo(X(g), 0); ctx.lineTo(X(g), canvas.height); ctx.stroke();
       ctx.beginPath(); ctx.moveTo(0, Y(g)); ctx.lineTo(canvas.width, Y(g)); ctx.stroke();
     }
+    ep.W.forEach((w) => { // walls: solid polygons filled, segments as thick lines
+      ctx.beginPath();
+      for (let i = 0; i < w.length; i += 2) (i ? ctx.lineTo(X(w[i]), Y(w[i + 1])) : ctx.moveTo(X(w[i]), Y(w[i + 1])));
+      ctx.strokeStyle = "#4a4a4a";
+      if (w.length > 4) {
+        ctx.closePath(); ctx.fillStyle = "#9a9a9a"; ctx.fill(); ctx.lineWidth = 1;
+      } else {
+        ctx.lineWidth = Math.max(4, 0.08 * view.s);
+      }
+      ctx.stroke();
+    });
     for (let a = 0; a < A; a++) { // goals
       const [gx, gy] = ep.goals[a];
       ctx.fillStyle = colour(a);

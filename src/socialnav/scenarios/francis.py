@@ -1,0 +1,367 @@
+"""Scenarios with walls after Francis et al., "Principles and Guidelines for Evaluating Social Robot
+Navigation Algorithms" (arXiv 2306.16740, ACM THRI 2025), Fig. 7.
+
+The paper draws its scenarios without dimensions; every size here is a decision, stated with its
+reason in ``docs/walls_maps.md``. Common conventions: the robot and the humans keep the protocol's
+0.3 m radius, ``discomfort_dist`` (0.2 m) is the clearance required between placed agents and
+between an agent and a wall, R = ``circle_radius`` (4 m) sets the travel distance, the robot walks
+from (0, −R) towards +y unless a scenario says otherwise. Corridor walls are zero-thickness wall
+segments (a width is then the distance between the wall lines); blocks that an agent cannot enter
+(corners, pillars, the group's obstruction) are solid polygons.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from socialnav.scenarios._placement import rejection_sample
+from socialnav.scenarios.base import STREAM_START, HumanArrays, param
+from socialnav.scenarios.random import EpisodeRandom
+from socialnav.scenarios.registry import register_scenario
+from socialnav.scenarios.walls import STREAM_OBSTACLES, Flow, WalledScenario, box, polyline
+from socialnav.static_map import StaticMap
+
+__all__ = [
+    "BlindCorner", "CircleCrossingObstacles", "EnteringRoom", "ExitingRoom", "FrontalApproach",
+    "Intersection", "NarrowDoorway", "NarrowHallway", "PedestrianObstruction",
+]
+
+#: The walled scenarios, in the order of Francis et al.'s Fig. 7 (the `francis2023` preset's order).
+FRANCIS_SCENARIOS = (
+    "frontal_approach", "pedestrian_obstruction", "intersection", "blind_corner", "narrow_hallway",
+    "narrow_doorway", "entering_room", "exiting_room", "circle_crossing_obstacles",
+)
+
+
+def _mirror_y(start: np.ndarray) -> np.ndarray:
+    return start * np.array([1.0, -1.0])
+
+
+def _mirror_x(start: np.ndarray) -> np.ndarray:
+    return start * np.array([-1.0, 1.0])
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Hallway(WalledScenario):
+    """A straight corridor along y; the human walks head-on from (o, R) to (o, −R)."""
+
+    fixed_n_humans = True
+
+    n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
+    corridor_width: float = param(1.8, "distance between the two walls", unit="m", gt=0)
+    corridor_length: float = param(10.0, "length of the walls, centred on the origin", unit="m", gt=0)
+    lateral_jitter: float = param(0.2, "human start and goal offset o ~ U(-j, j) across the corridor",
+                                  unit="m", ge=0)
+    start_jitter: float = param(0.5, "human start distance R ± U(-j, j) along the corridor", unit="m", ge=0)
+
+    def walls(self) -> list[np.ndarray]:
+        h, half = self.corridor_width / 2, self.corridor_length / 2
+        return [np.array([[-h, -half], [-h, half]]), np.array([[h, -half], [h, half]])]
+
+    def flows(self) -> list[Flow]:
+        r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
+        return [Flow((-o, o, r - s, r + s), goal=_mirror_y)]
+
+
+@register_scenario("narrow_hallway")
+@dataclass(frozen=True, kw_only=True)
+class NarrowHallway(_Hallway):
+    """Francis (j): head-on in a corridor barely wide enough for two (1.8 m = two 0.6 m bodies and
+    three 0.2 m gaps: wall, each other, wall)."""
+
+
+@register_scenario("frontal_approach")
+@dataclass(frozen=True, kw_only=True)
+class FrontalApproach(_Hallway):
+    """Francis (a): one human head-on in a wide hall (4 m: the two can pass keeping M_I's outer
+    ε = 1.2 m apart and 0.2 m from the walls, 0.6 + 1.2 + 0.6 + 2·0.2 = 2.8 m, with room to spare)."""
+
+    corridor_width: float = param(4.0, "distance between the two walls", unit="m", gt=0)
+
+
+@register_scenario("pedestrian_obstruction")
+@dataclass(frozen=True, kw_only=True)
+class PedestrianObstruction(WalledScenario):
+    """Francis (b): a standing group of three in the robot's path in a 3 m corridor.
+
+    The group (centres 0.8 m apart: two side by side, the third 0.7 m beyond them as seen from the
+    robot; the formation has a fourth place, on the robot's side, for subclasses) stands around
+    (c, y_c), c ~ U(−group_offset, group_offset), y_c ~ U(−0.5, 0.5); each human's goal is its start.
+    The group spans 1.4 m across, so the wider side leaves 0.8 m + |c| between it and a wall.
+    """
+
+    FORMATION: ClassVar[tuple[tuple[float, float], ...]] = ((-0.4, 0.0), (0.4, 0.0), (0.0, 0.7), (0.0, -0.7))
+
+    fixed_n_humans = True
+
+    n_humans: int = param(3, "humans in the standing group (always 3 here)", ge=1)
+    corridor_width: float = param(3.0, "distance between the two walls", unit="m", gt=0)
+    corridor_length: float = param(10.0, "length of the walls, centred on the origin", unit="m", gt=0)
+    group_offset: float = param(0.5, "the group's centre across the corridor ~ U(-g, g)", unit="m", ge=0)
+
+    def __post_init__(self) -> None:
+        """Validate settings; the formation fixes the group's size and geometry."""
+        super().__post_init__()
+        if self.n_humans > len(self.FORMATION):
+            raise ValueError(f"PedestrianObstruction.n_humans must be <= {len(self.FORMATION)}, "
+                             f"got {self.n_humans}")
+        if self.randomize_attributes:
+            raise ValueError("PedestrianObstruction.randomize_attributes must be False (the group's "
+                             "formation is designed for the fixed radius)")
+
+    def walls(self) -> list[np.ndarray]:
+        h, half = self.corridor_width / 2, self.corridor_length / 2
+        return [np.array([[-h, -half], [-h, half]]), np.array([[h, -half], [h, half]])]
+
+    def flows(self) -> list[Flow]:
+        """The group's centre, drawn as human 0's standing position; the others keep the formation."""
+        g = self.group_offset
+        return [Flow((-g, g, -0.5, 0.5), goal=lambda start: start)]
+
+    def sample_humans(self, rng: EpisodeRandom, indices: np.ndarray) -> HumanArrays:
+        """Draw the group's centre, then lay the formation around it (standing: goal = start)."""
+        centre = self.place_flows(rng, indices, self.flows()).start[:, 0]
+        b, n = len(rng), self.n_humans
+        start = centre[:, None, :] + np.array(self.FORMATION[:n])[None]
+        clear = self._clear_of_walls(self._maps(rng, indices), np.full(b, self.human_radius))
+        if not clear(np.repeat(np.arange(b), n), start.reshape(-1, 2)).all():
+            raise ValueError(f"{self.name}: the group does not fit between the walls with corridor_width="
+                             f"{self.corridor_width} and group_offset={self.group_offset}")
+        return HumanArrays(start=start, goal=start.copy(), radius=np.full((b, n), self.human_radius),
+                           v_pref=np.full((b, n), self.human_v_pref))
+
+
+@register_scenario("narrow_doorway")
+@dataclass(frozen=True, kw_only=True)
+class NarrowDoorway(WalledScenario):
+    """Francis (k): a wall across an enclosure at y = 0 with a door; people flow through both ways.
+
+    Door 1.0 m: wider than one body with its discomfort gaps (0.6 + 2·0.2 m), narrower than two
+    bodies (1.2 m), so people pass one at a time. The closed enclosure (x = ±area_width/2,
+    y = ±(R + 1)) makes the door the only way through. Human j walks against the robot (from
+    y ∈ [1, R + 0.5] to y ∈ [−R − 0.5, −1]) for even j and with it for odd j.
+    """
+
+    n_humans: int = param(4, "humans per episode, alternately against and with the robot", ge=0)
+    door_width: float = param(1.0, "width of the door", unit="m", gt=0)
+    area_width: float = param(6.0, "distance between the side walls", unit="m", gt=0)
+
+    def __post_init__(self) -> None:
+        """Validate settings; the door must fit in its wall."""
+        if not self.door_width < self.area_width:
+            raise ValueError(f"NarrowDoorway.door_width must be < area_width = {self.area_width} m, "
+                             f"got {self.door_width}")
+        super().__post_init__()
+
+    def walls(self) -> list[np.ndarray]:
+        h, d, length = self.area_width / 2, self.door_width / 2, self.circle_radius + 1.0
+        return [np.array([[-h, 0.0], [-d, 0.0]]), np.array([[d, 0.0], [h, 0.0]]),
+                *polyline((-h, -length), (h, -length), (h, length), (-h, length), (-h, -length))]
+
+    def flows(self) -> list[Flow]:
+        h, r = self.area_width / 2, self.circle_radius
+        far, near = (-h, h, 1.0, r + 0.5), (-h, h, -r - 0.5, -1.0)
+        return [Flow(far, goal_box=near) if j % 2 == 0 else Flow(near, goal_box=far)
+                for j in range(self.n_humans)]
+
+
+@register_scenario("blind_corner")
+@dataclass(frozen=True, kw_only=True)
+class BlindCorner(WalledScenario):
+    """Francis (i): an L-shaped corridor; the robot goes up and turns right, a human comes the other
+    way round the corner. The inner corner is a solid block (the occluder); the outer wall a polyline.
+
+    Robot (0, −R) → (R, 0); human start (R ± s, o), goal (o, −R) with o, s jitters.
+    """
+
+    fixed_n_humans = True
+
+    n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
+    corridor_width: float = param(2.0, "width of both legs", unit="m", gt=0)
+    lateral_jitter: float = param(0.2, "human offset o ~ U(-j, j) across its leg", unit="m", ge=0)
+    start_jitter: float = param(0.5, "human start distance R ± U(-j, j) along its leg", unit="m", ge=0)
+
+    def robot_endpoints(self) -> tuple[np.ndarray, np.ndarray]:
+        """Up the vertical leg, then right along the horizontal one."""
+        r = self.circle_radius
+        return np.array([0.0, -r]), np.array([r, 0.0])
+
+    def robot_heading(self) -> float:
+        """Along the corridor (+y), not towards the goal behind the corner."""
+        return float(np.pi / 2)
+
+    def walls(self) -> list[np.ndarray]:
+        h, length = self.corridor_width / 2, self.circle_radius + 1.0
+        return [*polyline((-h, -length), (-h, h), (length, h)), box(h, length, -length, -h)]
+
+    def flows(self) -> list[Flow]:
+        r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
+        return [Flow((r - s, r + s, -o, o), goal=lambda start: np.stack([start[:, 1], -start[:, 0]], axis=1))]
+
+
+@register_scenario("intersection")
+@dataclass(frozen=True, kw_only=True)
+class Intersection(WalledScenario):
+    """Francis (f): two corridors crossing at right angles; a human crosses the robot's corridor
+    from its left (four solid corner blocks). Robot (0, −R) → (0, R); human (−R ± s, o) → (R ∓ s, o),
+    so that with equal speeds both reach the junction at about the same time.
+    """
+
+    fixed_n_humans = True
+
+    n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
+    corridor_width: float = param(2.0, "width of both corridors", unit="m", gt=0)
+    lateral_jitter: float = param(0.2, "human offset o ~ U(-j, j) across its corridor", unit="m", ge=0)
+    start_jitter: float = param(0.5, "human start distance R ± U(-j, j) from the junction", unit="m", ge=0)
+
+    def walls(self) -> list[np.ndarray]:
+        h, length = self.corridor_width / 2, self.circle_radius + 1.0
+        return [box(h, length, h, length), box(-length, -h, h, length), box(-length, -h, -length, -h),
+                box(h, length, -length, -h)]
+
+    def flows(self) -> list[Flow]:
+        r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
+        return [Flow((-r - s, -r + s, -o, o), goal=_mirror_x)]
+
+
+@dataclass(frozen=True, kw_only=True)
+class _Room(WalledScenario):
+    """A room [−w/2, w/2] × [0, depth] with one door centred in its south wall, open floor outside."""
+
+    fixed_n_humans = True
+    entering: ClassVar[bool] = False
+
+    n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
+    room_width: float = param(4.0, "inside width of the room", unit="m", gt=0)
+    room_depth: float = param(4.0, "inside depth of the room", unit="m", gt=0)
+    door_width: float = param(1.0, "width of the door", unit="m", gt=0)
+    outside_distance: float = param(3.0, "distance from the door of the point outside", unit="m", gt=0)
+
+    def __post_init__(self) -> None:
+        """Validate settings; the door must fit in its wall."""
+        if not self.door_width < self.room_width:
+            raise ValueError(f"{type(self).__name__}.door_width must be < room_width = {self.room_width} m, "
+                             f"got {self.door_width}")
+        super().__post_init__()
+
+    def _inside(self) -> np.ndarray:
+        return np.array([0.0, 0.6 * self.room_depth])
+
+    def _outside(self) -> np.ndarray:
+        return np.array([0.0, -self.outside_distance])
+
+    def robot_endpoints(self) -> tuple[np.ndarray, np.ndarray]:
+        """From outside to inside when entering, the reverse when exiting."""
+        return (self._outside(), self._inside()) if self.entering else (self._inside(), self._outside())
+
+    def walls(self) -> list[np.ndarray]:
+        w, dep, d = self.room_width / 2, self.room_depth, self.door_width / 2
+        return [*polyline((-d, 0.0), (-w, 0.0), (-w, dep), (w, dep), (w, 0.0), (d, 0.0))]
+
+    def flows(self) -> list[Flow]:
+        w, dep, out = self.room_width / 2, self.room_depth, self.outside_distance
+        inside = (-w, w, 0.5 * dep, dep)  # the back half of the room
+        outside = (-w, w, -out - 0.5, -out + 0.5)
+        # the human goes the other way through the door
+        return [Flow(inside, goal_box=outside) if self.entering else Flow(outside, goal_box=inside)]
+
+
+@register_scenario("entering_room")
+@dataclass(frozen=True, kw_only=True)
+class EnteringRoom(_Room):
+    """Francis (l): the robot enters a 4 m × 4 m room (a small office) by its 1 m door while a person
+    inside leaves."""
+
+    entering = True
+
+
+@register_scenario("exiting_room")
+@dataclass(frozen=True, kw_only=True)
+class ExitingRoom(_Room):
+    """Francis (m): the robot leaves the room by its door while a person outside comes in."""
+
+    entering = False
+
+
+@register_scenario("circle_crossing_obstacles")
+@dataclass(frozen=True, kw_only=True)
+class CircleCrossingObstacles(WalledScenario):
+    """Francis (x) with static obstacles (as social-jym and Social-Navigation-PyEnvs have): humans
+    cross a circle of radius R to the antipode of their start (CrowdSim's rule, start noise ±0.5 m)
+    around square pillars drawn per episode inside radius R/2.
+
+    Pillar p: centre uniform in the disc of radius ``obstacle_area``·R, random rotation, redrawn while
+    closer than 2·circumradius + 2·robot_radius + discomfort_dist to a placed pillar, so that the
+    robot fits between any two.
+    """
+
+    n_humans: int = param(5, "humans per episode", ge=0)
+    n_obstacles: int = param(3, "square pillars per episode", ge=0)
+    obstacle_size: float = param(0.6, "side of a pillar", unit="m", gt=0)
+    obstacle_area: float = param(0.5, "pillars' centres lie within this fraction of R", gt=0)
+
+    @property
+    def layout(self) -> StaticMap | None:
+        return None  # drawn per episode
+
+    def maps_per_episode(self, rng: EpisodeRandom, indices: np.ndarray) -> tuple[StaticMap, ...]:
+        b, p = len(rng), self.n_obstacles
+        if p == 0:
+            return (StaticMap(),) * b
+        reach = self.obstacle_area * self.circle_radius
+        circum = self.obstacle_size / np.sqrt(2.0)
+        centres = np.zeros((b, p, 2))
+        angles = rng.uniform((STREAM_OBSTACLES, 0), 0.0, np.pi / 2, p)  # a square repeats every 90 deg
+
+        def draw(sub: EpisodeRandom, key: tuple[int, ...], rows: np.ndarray) -> np.ndarray:
+            u = sub.random(key, 2)
+            rad, ang = reach * np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
+            return np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=1)
+
+        for q in range(p):
+            centres[:, q] = rejection_sample(
+                rng, draw, stream=STREAM_OBSTACLES, j=1 + q, radius=np.full(b, circum),
+                ref_pos=centres[:, :q], ref_radius=np.full((b, q), circum),
+                margin=2 * self.robot_radius + self.discomfort_dist,
+                max_attempts=self.max_attempts, what=f"{self.name}: pillar {q}")
+        half = self.obstacle_size / 2
+        corners = np.array([[-half, -half], [half, -half], [half, half], [-half, half]])
+        c, s = np.cos(angles), np.sin(angles)
+        rot = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)  # (B, P, 2, 2)
+        squares = centres[:, :, None, :] + np.einsum("bpij,kj->bpki", rot, corners)
+        return tuple(StaticMap(tuple(squares[i])) for i in range(b))
+
+    def flows(self) -> list[Flow]:
+        raise NotImplementedError  # humans are placed on the circle below
+
+    def sample_humans(self, rng: EpisodeRandom, indices: np.ndarray) -> HumanArrays:
+        """CrowdSim's circle crossing, each start and its antipode also clear of the pillars."""
+        b, n, r_circle = len(rng), self.n_humans, self.circle_radius
+        maps = self._maps(rng, indices)
+        start, radius, v_pref = np.zeros((b, n, 2)), np.zeros((b, n)), np.zeros((b, n))
+        ref_pos = np.zeros((b, 2 + 2 * n, 2))
+        ref_pos[:, 0], ref_pos[:, 1] = (0.0, -r_circle), (0.0, r_circle)
+        ref_rad = np.zeros((b, 2 + 2 * n))
+        ref_rad[:, :2] = self.robot_radius
+        for j in range(n):
+            radius[:, j], v_pref[:, j] = self.human_attributes(rng, j)
+            clear = self._clear_of_walls(maps, radius[:, j])
+
+            def draw(sub: EpisodeRandom, key: tuple[int, ...], rows: np.ndarray) -> np.ndarray:
+                u = sub.random(key, 3)
+                angle = u[:, 0] * (2.0 * np.pi)
+                noise = (2.0 * u[:, 1:] - 1.0) * 0.5
+                return r_circle * np.stack([np.cos(angle), np.sin(angle)], axis=1) + noise
+
+            m = 2 + 2 * j
+            start[:, j] = rejection_sample(
+                rng, draw, stream=STREAM_START, j=j, radius=radius[:, j], ref_pos=ref_pos[:, :m],
+                ref_radius=ref_rad[:, :m], margin=self.discomfort_dist, max_attempts=self.max_attempts,
+                what=f"{self.name}: start of human {j}",
+                accept=lambda rows, p, c=clear: c(rows, p) & c(rows, -p))
+            ref_pos[:, m], ref_pos[:, m + 1] = start[:, j], -start[:, j]
+            ref_rad[:, m : m + 2] = radius[:, j, None]
+        return HumanArrays(start=start, goal=-start, radius=radius, v_pref=v_pref)

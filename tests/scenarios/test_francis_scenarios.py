@@ -1,0 +1,215 @@
+"""The scenarios with walls (scenarios/francis.py): geometry, reachability, determinism, errors."""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+import pytest
+
+from socialnav.evaluate.plan import cell_scenario, plan_cells
+from socialnav.presets import load_preset
+from socialnav.scenarios import EpisodeBatch, ScenarioGenerationError, list_scenarios, make_scenario
+from socialnav.scenarios.francis import FRANCIS_SCENARIOS
+from socialnav.static_map import StaticMap
+
+N = 100  # episodes per check
+
+
+def _batches(name: str, **settings: object) -> EpisodeBatch:
+    return make_scenario(name, **settings).episodes("test", range(N))
+
+
+def _reachable(smap: StaticMap, start: np.ndarray, goal: np.ndarray, radius: float,
+               cell: float = 0.1) -> bool:
+    """Breadth-first search on a grid of the free space (cells whose centre is >= radius from every
+    wall), 8-connected, from the start's cell to the goal's."""
+    lo = np.minimum(start, goal) - 3.0
+    hi = np.maximum(start, goal) + 3.0
+    if smap:
+        vertices = np.concatenate(smap.polygons)
+        lo, hi = np.minimum(lo, vertices.min(axis=0) - 1.0), np.maximum(hi, vertices.max(axis=0) + 1.0)
+    nx, ny = (np.ceil((hi - lo) / cell).astype(int) + 1)
+    xs, ys = lo[0] + cell * np.arange(nx), lo[1] + cell * np.arange(ny)
+    grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1)
+    free = smap.distance(grid) >= radius if smap else np.ones((nx, ny), bool)
+    s = tuple(np.rint((start - lo) / cell).astype(int))
+    g = tuple(np.rint((goal - lo) / cell).astype(int))
+    if not (free[s] and free[g]):
+        return False
+    seen = np.zeros_like(free)
+    seen[s] = True
+    queue = deque([s])
+    steps = [(dx, dy) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]
+    while queue:
+        x, y = queue.popleft()
+        if (x, y) == g:
+            return True
+        for dx, dy in steps:
+            u, v = x + dx, y + dy
+            if 0 <= u < nx and 0 <= v < ny and free[u, v] and not seen[u, v]:
+                seen[u, v] = True
+                queue.append((u, v))
+    return False
+
+
+def test_bfs_helper_sees_a_blocked_passage() -> None:
+    closed = StaticMap.from_polygons([[[-2, 0], [2, 0]], [[2, 0], [2, 4]], [[2, 4], [-2, 4]],
+                                      [[-2, 4], [-2, 0]]])
+    assert not _reachable(closed, np.array([0.0, -2.0]), np.array([0.0, 2.0]), 0.3)  # the goal is walled in
+    door = make_scenario("narrow_doorway").layout  # closed enclosure, 1 m door
+    assert _reachable(door, np.array([0.0, -2.0]), np.array([0.0, 2.0]), 0.3)
+    assert not _reachable(door, np.array([0.0, -2.0]), np.array([0.0, 2.0]), 0.55)  # 1 m door, 1.1 m body
+
+
+@pytest.mark.parametrize("name", FRANCIS_SCENARIOS)
+def test_starts_and_goals_clear_the_walls_and_each_other(name: str) -> None:
+    sc = make_scenario(name)
+    batch = _batches(name)
+    assert batch.static_maps is not None and len(batch.static_maps) == N
+    margin = sc.discomfort_dist
+    for i in range(N):
+        smap = batch.static_map(i)
+        assert smap is not None and len(smap) > 0
+        for point in (batch.robot_start[i], batch.robot_goal[i]):
+            assert smap.distance(point) >= sc.robot_radius + margin - 1e-12
+        for pts in (batch.human_start[i], batch.human_goal[i]):
+            assert np.all(smap.distance(pts) >= batch.human_radius[i] + margin - 1e-12)
+        # starts clear each other (robot included), goals clear each other: the initial and final scenes
+        scenes = ((batch.human_start[i], batch.robot_start[i]), (batch.human_goal[i], batch.robot_goal[i]))
+        for pos, robot in scenes:
+            if name == "pedestrian_obstruction" and pos is batch.human_goal[i]:
+                continue  # standing: the goals are the starts
+            everyone = np.concatenate([robot[None], pos])
+            radii = np.concatenate([[sc.robot_radius], batch.human_radius[i]])
+            d = np.linalg.norm(everyone[:, None] - everyone[None], axis=-1)
+            need = radii[:, None] + radii[None] + margin
+            off = ~np.eye(len(everyone), dtype=bool)
+            assert np.all(d[off] >= need[off] - 1e-12), (name, i)
+
+
+@pytest.mark.parametrize("name", FRANCIS_SCENARIOS)
+def test_every_goal_is_reachable(name: str) -> None:
+    batch = make_scenario(name).episodes("test", range(8))
+    for i in range(8):
+        smap = batch.static_map(i)
+        assert _reachable(smap, batch.robot_start[i], batch.robot_goal[i], batch.robot_radius[i]), (name, i)
+        for j in range(batch.max_humans):
+            start, goal = batch.human_start[i, j], batch.human_goal[i, j]
+            assert _reachable(smap, start, goal, batch.human_radius[i, j]), (name, i, j)
+
+
+@pytest.mark.parametrize("name", FRANCIS_SCENARIOS)
+def test_deterministic_by_seed_and_independent_of_the_batch(name: str) -> None:
+    sc = make_scenario(name)
+    full = sc.episodes("test", range(12))
+    again = make_scenario(name).episodes("test", range(12))
+    one_by_one = EpisodeBatch.concat([sc.episodes("test", [i]) for i in range(12)])
+    for other in (again, one_by_one):
+        for k, v in full.arrays().items():
+            np.testing.assert_array_equal(other.arrays()[k], v, err_msg=k)
+        assert all(a == b for a, b in zip(full.static_maps, other.static_maps, strict=True))
+    val = sc.episodes("val", range(12))
+    assert not np.array_equal(val.human_start, full.human_start)  # the splits' seeds differ
+
+
+def test_fixed_layouts_are_shared_and_pillars_drawn_per_episode() -> None:
+    hallway = _batches("narrow_hallway")
+    assert all(m is hallway.static_maps[0] for m in hallway.static_maps)  # one object for the batch
+    pillars = _batches("circle_crossing_obstacles")
+    assert len({np.concatenate(m.polygons).tobytes() for m in pillars.static_maps}) == N
+    assert all(len(m) == 3 for m in pillars.static_maps)
+    assert all(len(m) == 0 for m in _batches("circle_crossing_obstacles", n_obstacles=0).static_maps)
+
+
+def test_geometry_by_hand() -> None:
+    hallway = _batches("narrow_hallway", corridor_width=1.6)
+    walls = [p.tolist() for p in hallway.static_maps[0].polygons]
+    assert walls == [[[-0.8, -5.0], [-0.8, 5.0]], [[0.8, -5.0], [0.8, 5.0]]]
+    np.testing.assert_array_equal(hallway.human_goal[:, 0], hallway.human_start[:, 0] * [1, -1])  # head-on
+    assert np.all(np.abs(hallway.human_start[:, 0, 0]) <= 0.2)
+    assert np.all(np.abs(hallway.human_start[:, 0, 1] - 4) <= 0.5)
+    door = make_scenario("narrow_doorway", door_width=0.9).layout
+    assert [p.tolist() for p in door.polygons[:2]] == [[[-3.0, 0.0], [-0.45, 0.0]], [[0.45, 0.0], [3.0, 0.0]]]
+    assert len(door) == 6  # and the closed enclosure
+    corner = _batches("blind_corner")
+    assert corner.robot_goal[0].tolist() == [4.0, 0.0] and np.allclose(corner.robot_theta, np.pi / 2)
+    np.testing.assert_array_equal(corner.human_goal[:, 0], corner.human_start[:, 0, ::-1] * [1, -1])
+    assert corner.static_maps[0].contains(np.array([3.0, -3.0]))  # the inner corner is solid
+    crossing = _batches("intersection")
+    assert len(crossing.static_maps[0]) == 4 and np.all(crossing.human_start[:, 0, 0] < -3.4)
+    group = _batches("pedestrian_obstruction")
+    np.testing.assert_array_equal(group.human_goal, group.human_start)  # standing
+    np.testing.assert_allclose(group.human_start[:, 1] - group.human_start[:, 0], [[0.8, 0.0]] * N)
+    entering, exiting = _batches("entering_room"), _batches("exiting_room")
+    assert entering.robot_start[0].tolist() == [0.0, -3.0] and entering.robot_goal[0].tolist() == [0.0, 2.4]
+    assert exiting.robot_start[0].tolist() == [0.0, 2.4] and np.allclose(exiting.robot_theta, -np.pi / 2)
+    assert np.all(entering.human_start[:, 0, 1] > 1.9) and np.all(entering.human_goal[:, 0, 1] < -2.4)
+    flows = _batches("narrow_doorway").human_start[:, :, 1]
+    assert np.all(flows[:, ::2] > 0) and np.all(flows[:, 1::2] < 0)  # both ways through the door
+
+
+@pytest.mark.parametrize("name, settings, match", [
+    ("narrow_hallway", {"corridor_width": 0.8},
+     r"NarrowHallway: the robot's start \[0.0, -4.0\] is 0.4 m from a wall, less than robot_radius \+ "
+     r"discomfort_dist = 0.5 m; the settings .*corridor_width=0.8"),
+    ("entering_room", {"room_depth": 0.5},
+     r"EnteringRoom: the robot's goal \[0.0, 0.3\] is 0.2 m from a wall"),
+    ("exiting_room", {"door_width": 4.0}, r"ExitingRoom.door_width must be < room_width = 4.0 m, got 4.0"),
+    ("narrow_doorway", {"door_width": 7.0},
+     r"NarrowDoorway.door_width must be < area_width = 6.0 m, got 7.0"),
+    ("narrow_hallway", {"n_humans": 2}, r"NarrowHallway.n_humans must be 1"),
+    ("pedestrian_obstruction", {"randomize_attributes": True}, r"randomize_attributes must be False"),
+    ("narrow_doorway", {"door_width": -1.0}, r"NarrowDoorway.door_width must be > 0"),
+])
+def test_bad_settings_are_named(name: str, settings: dict, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        make_scenario(name, **settings)
+
+
+def test_impossible_placement_says_so_after_too_many_rejections() -> None:
+    crowded = make_scenario("narrow_doorway", n_humans=40, area_width=2.0, max_attempts=50)
+    with pytest.raises(ScenarioGenerationError, match=r"narrow_doorway: (start|goal) of human \d+: no "
+                       r"position clear of the other agents and the walls after 50 attempts"):
+        crowded.episodes("test", range(4))
+    with pytest.raises(ScenarioGenerationError, match=r"circle_crossing_obstacles: pillar \d+"):
+        make_scenario("circle_crossing_obstacles", n_obstacles=30, max_attempts=20).episodes("test", range(2))
+
+
+def test_batch_validation_refuses_a_start_inside_an_obstacle() -> None:
+    batch = _batches("narrow_hallway").take([0, 1])
+    blocker = StaticMap.from_polygons([[[-1, -4.2], [1, -4.2], [1, -3.9], [-1, -3.9]]])  # on the robot
+    import dataclasses
+
+    with pytest.raises(ValueError, match=r"EpisodeBatch.robot_start: episode 1 \(seed 1001\): \[0.0, -4.0\] "
+                       r"is covered by an obstacle \(distance 0 m < radius 0.3 m\)"):
+        dataclasses.replace(batch, static_maps=(batch.static_maps[0], blocker)).validate()
+    with pytest.raises(ValueError, match=r"static_maps must be a tuple of 2 StaticMaps, got 1"):
+        dataclasses.replace(batch, static_maps=(blocker,)).validate()
+
+
+def test_take_and_concat_keep_maps_and_open_floors() -> None:
+    walled = _batches("circle_crossing_obstacles")
+    picked = walled.take([3, 1])
+    assert picked.static_maps == (walled.static_maps[3], walled.static_maps[1])
+    open_floor = make_scenario("circle_crossing").episodes("test", range(2))
+    assert open_floor.static_maps is None and open_floor.static_map(0) is None
+    mixed = EpisodeBatch.concat([open_floor, picked])
+    assert [len(m) for m in mixed.static_maps] == [0, 0, 3, 3] and mixed.static_map(0) is None
+    assert mixed.static_maps[2] is walled.static_maps[3]
+    assert EpisodeBatch.concat([open_floor, open_floor]).static_maps is None
+
+
+def test_listed_with_parameters_and_in_the_preset() -> None:
+    listed = list_scenarios()
+    for name in FRANCIS_SCENARIOS:
+        assert name in listed
+    door = {p.name: p for p in listed["narrow_doorway"]}
+    assert door["door_width"].default == 1.0 and door["door_width"].unit == "m"
+    preset = load_preset("francis2023")
+    assert preset.evaluation.multi_human == FRANCIS_SCENARIOS and preset.evaluation.single_human == ()
+    cells = plan_cells(preset)
+    assert len(cells) == 2 * len(FRANCIS_SCENARIOS)  # visible and invisible passes
+    crowd = {c.scenario: cell_scenario(preset, c).n_humans for c in cells}
+    assert crowd["narrow_doorway"] == 4 and crowd["circle_crossing_obstacles"] == 4
+    assert crowd["narrow_hallway"] == 1 and crowd["pedestrian_obstruction"] == 3  # fixed by design
