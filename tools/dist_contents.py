@@ -40,7 +40,7 @@ RUNTIME_DATA = {
 # Paths that are never package content: build output and files that only make sense in a checkout.
 FORBIDDEN_PARTS = {"tests", "benchmarks", "build", "dist", "__pycache__", ".ci-venv", ".git"}
 FORBIDDEN_SUFFIXES = (".pyc", ".pyo", ".o", ".a")
-SDIST_REQUIRED = ["pyproject.toml", "CMakeLists.txt", "LICENSE", "README.md", "CITATION.cff", "PKG-INFO"]
+SDIST_REQUIRED = ["pyproject.toml", "CMakeLists.txt", "README.md", "CITATION.cff", "PKG-INFO"]
 WHEEL_NAME = re.compile(
     r"^(?P<name>[A-Za-z0-9_.]+)-(?P<version>[^-]+)-(?P<python>[^-]+)-(?P<abi>[^-]+)-(?P<platform>[^-]+)\.whl$"
 )
@@ -91,8 +91,14 @@ def expected_wheel_files(root: Path) -> dict[str, str]:
     """Each file the wheel must contain, with what it is (for the message when it is missing)."""
     expected = {f: "a package file of the source tree" for f in package_files(root)}
     expected.update(RUNTIME_DATA)
-    expected.update({f: "a shipped checkpoint listed in checkpoints/index.yaml" for f in shipped_checkpoints(root)})
+    listed = "a shipped checkpoint listed in checkpoints/index.yaml"
+    expected.update({f: listed for f in shipped_checkpoints(root)})
     return expected
+
+
+def licence_files(root: Path) -> list[str]:
+    """The project's licence and the notices of what its compiled core links in (``license-files``)."""
+    return ["LICENSE", *sorted(p.relative_to(root).as_posix() for p in (root / "LICENSES").glob("*.txt"))]
 
 
 def _forbidden(name: str) -> str | None:
@@ -133,17 +139,18 @@ def wheel_problems(wheel: Path, root: Path) -> list[str]:
     for name in names:
         if name.startswith(f"{PACKAGE}/") and name not in expected and not CORE.match(name):
             problems.append(f"{name}: in the wheel but not a package file of the source tree")
-    problems += _dist_info_problems(read, dist_info, m)
+    problems += _dist_info_problems(read, dist_info, m, licence_files(root))
     return problems
 
 
-def _dist_info_problems(read: dict[str, str], dist_info: str, m: re.Match) -> list[str]:
+def _dist_info_problems(read: dict[str, str], dist_info: str, m: re.Match, licences: list[str]) -> list[str]:
     problems = []
     for required in ("METADATA", "WHEEL", "RECORD", "entry_points.txt"):
         if dist_info + required not in read:
             problems.append(f"{dist_info}{required}: missing")
-    if not any(n.startswith(dist_info) and n.rsplit("/", 1)[-1] == "LICENSE" for n in read):
-        problems.append(f"{dist_info}: the LICENSE file is missing")
+    for licence in licences:
+        if f"{dist_info}licenses/{licence}" not in read:
+            problems.append(f"{dist_info}licenses/{licence}: missing (a licence or notice it must carry)")
     wheel_meta = read.get(dist_info + "WHEEL", "")
     tags = set(re.findall(r"^Tag: (\S+)$", wheel_meta, re.M))
     for python in m["python"].split("."):
@@ -168,7 +175,8 @@ def sdist_problems(sdist: Path, root: Path) -> list[str]:
         return [f"{sdist.name}: must unpack into one folder, found {sorted(tops)}"]
     top = tops.pop()
     rels = {str(PurePosixPath(n).relative_to(top)) for n in names}
-    problems = [f"{name}: missing from the sdist" for name in SDIST_REQUIRED if name not in rels]
+    required = SDIST_REQUIRED + licence_files(root)
+    problems = [f"{name}: missing from the sdist" for name in required if name not in rels]
     sources = _tracked(root, "cpp") or [p.relative_to(root).as_posix() for p in (root / "cpp").glob("*")]
     for name in sorted(sources):
         if name not in rels:
