@@ -17,7 +17,8 @@
 # "check_dist: N passed, 0 failed". Exits non-zero at the first failed check.
 #
 # Usage: tools/check_dist.sh [WORKDIR]   (default: a temporary folder, removed afterwards unless
-#        KEEP_DIST_CHECK=1). Needs Python >= 3.11 with pip and venv, a C++17 compiler and the package index.
+#        KEEP_DIST_CHECK=1). Needs Python >= 3.11 with pip, venv and PyYAML (a socialnav dependency: the
+#        environment socialnav is developed in), a C++17 compiler and the package index.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -56,11 +57,11 @@ step() {
 
 install_tools() {
   # The `dist` extra of pyproject.toml, at the versions constraints.txt pins (not socialnav itself).
-  local reqs
-  reqs=$("$python" -c 'import tomllib,sys; print("\n".join(tomllib.load(open("pyproject.toml","rb"))["project"]["optional-dependencies"]["dist"]))') ||
-    fail "reading the dist extra of pyproject.toml needs Python >= 3.11 (tomllib)"
-  # shellcheck disable=SC2086
-  "$python" -m pip install -q -c constraints.txt $reqs
+  local reqs=()
+  mapfile -t reqs < <("$python" -c 'import tomllib
+print("\n".join(tomllib.load(open("pyproject.toml", "rb"))["project"]["optional-dependencies"]["dist"]))')
+  ((${#reqs[@]})) || fail "reading the dist extra of pyproject.toml needs Python >= 3.11 (tomllib)"
+  "$python" -m pip install -q -c constraints.txt "${reqs[@]}"
 }
 
 check_classifiers() {
