@@ -112,8 +112,8 @@ class ObservationTransform:
     def __init__(
         self, settings: ObservationSettings, n_humans: int, kinematics: str, action_set: str = "continuous"
     ):
-        if settings.max_humans is None:
-            settings = dataclasses.replace(settings, max_humans=int(n_humans))
+        if settings.max_humans is None:  # a crowd-free env keeps one (padded) slot: networks need inputs
+            settings = dataclasses.replace(settings, max_humans=max(int(n_humans), 1))
         if settings.frame == "robot" and kinematics == "holonomic" and action_set == "discrete":
             raise ValueError(
                 "observation frame 'robot' with discrete holonomic actions: CrowdSim's 81 actions are "
