@@ -6,16 +6,21 @@ except ``n_steps``) on circle crossing with 5 ORCA humans, ``--envs`` environmen
 observation (socialnav.sim.learner_obs defaults: float32, world frame). Measured per variant:
 
 - ``env_steps_per_s``: env-steps collected per second of SB3's rollout collection (policy inference,
-  stepping, buffer writes: everything the VecEnv choice changes), the first rollout (resets, process
-  start-up) left out;
-- ``learn_env_steps_per_s``: env-steps per second of the whole ``learn()`` (collection plus the PPO
-  update, which does not depend on the VecEnv), the first rollout left out likewise.
+  stepping, buffer writes: everything the VecEnv choice changes), best of the timed rounds (``_median``
+  beside it);
+- ``learn_env_steps_per_s``: env-steps per second of a whole round of ``learn()`` (one rollout plus
+  its PPO update: 10 epochs of minibatches of 64, which cost the same with every VecEnv and dominate).
+
+A round is one rollout and its update; rounds alternate between the variants and the first of each
+(resets, process start-up) is not timed. Every variant's native world runs ``--world-threads``
+worker threads (1 by default: a single env holds one episode, and 64 episodes are too few to share).
 
 ``sb3_adapter_speedup_vs_subproc`` / ``_vs_dummy`` are ratios of ``env_steps_per_s`` (goal >= 5 vs
 SubprocVecEnv, issue #29). SubprocVecEnv uses the ``fork`` start method (the children share the
 parent's imported modules; ``forkserver`` would import torch in each of the 64 processes).
 
-    python benchmarks/bench_ppo.py [--envs 64] [--n-steps 64] [--rollouts 3] [--only sb3_adapter ...]
+    python benchmarks/bench_ppo.py [--envs 64] [--n-steps 64] [--rounds 4] [--world-threads 1]
+        [--torch-threads 1] [--only sb3_adapter ...]
 
 Prints one line per variant, then one JSON object last. Later trainers (the project's own PPO) add
 their variants to VARIANTS under their own keys.
@@ -28,6 +33,7 @@ import json
 import multiprocessing
 import os
 import platform
+import statistics
 import sys
 import time
 
@@ -40,16 +46,14 @@ def _rollout_timer():
     from stable_baselines3.common.callbacks import BaseCallback
 
     class RolloutTimer(BaseCallback):
-        """Collection seconds per rollout (SB3 calls on_rollout_start/end around collect_rollouts)."""
+        """Seconds of each rollout collection (SB3 calls on_rollout_start/end around it)."""
 
         def __init__(self):
             super().__init__()
             self.collect: list[float] = []
-            self.marks: list[float] = []
 
         def _on_rollout_start(self) -> None:
             self._t0 = time.perf_counter()
-            self.marks.append(self._t0)
 
         def _on_rollout_end(self) -> None:
             self.collect.append(time.perf_counter() - self._t0)
@@ -60,20 +64,26 @@ def _rollout_timer():
     return RolloutTimer()
 
 
+def _world() -> dict:
+    return {"threads": WORLD_THREADS}
+
+
 def _single_env_factory():
     import gymnasium as gym
 
     import socialnav  # noqa: F401  (registers the ids)
     from socialnav.sim.learner_wrappers import LearnerObservation
 
-    env = gym.make("socialnav/CircleCrossing-v0", scenario_params=SCENARIO["scenario_params"])
+    env = gym.make("socialnav/CircleCrossing-v0", scenario_params=SCENARIO["scenario_params"], world=_world())
     return LearnerObservation(env)
 
 
 def make_sb3_adapter(n: int):
     from socialnav.integrations.sb3 import SocialNavVecEnv
 
-    return SocialNavVecEnv(SCENARIO["scenario"], n, scenario_params=SCENARIO["scenario_params"])
+    return SocialNavVecEnv(
+        SCENARIO["scenario"], n, scenario_params=SCENARIO["scenario_params"], world=_world()
+    )
 
 
 def make_sb3_subproc(n: int):
@@ -93,59 +103,111 @@ VARIANTS = {
     "sb3_subproc": make_sb3_subproc,
     "sb3_dummy": make_sb3_dummy,
 }
+WORLD_THREADS = 1
 
 
-def measure_sb3(make_env, envs: int, n_steps: int, rollouts: int, seed: int) -> dict:
-    from stable_baselines3 import PPO
+class SB3Run:
+    """One PPO model on one VecEnv, trained a rollout (plus its update) at a time."""
 
-    venv = make_env(envs)
+    def __init__(self, make_env, envs: int, n_steps: int, seed: int):
+        from stable_baselines3 import PPO
+
+        self.venv = make_env(envs)
+        self.model = PPO("MultiInputPolicy", self.venv, n_steps=n_steps, seed=seed, device="cpu", verbose=0)
+        self.steps = envs * n_steps
+        self.timer = _rollout_timer()
+        self.rounds: list[tuple[float, float]] = []  # (collection seconds, learn() seconds)
+
+    def round(self) -> None:
+        first = not self.timer.collect
+        start = time.perf_counter()
+        self.model.learn(self.steps, callback=self.timer, reset_num_timesteps=first)
+        self.rounds.append((self.timer.collect[-1], time.perf_counter() - start))
+
+    def result(self) -> dict:
+        timed = self.rounds[1:]  # the first round (resets, start-up, first allocations) is left out
+        collect = [self.steps / c for c, _ in timed]
+        learn = [self.steps / t for _, t in timed]
+        return {
+            "env_steps_per_s": max(collect),
+            "env_steps_per_s_median": statistics.median(collect),
+            "learn_env_steps_per_s": max(learn),
+            "env_steps_per_round": self.steps,
+            "rounds_timed": len(timed),
+        }
+
+
+def _cpu_name() -> str:
     try:
-        model = PPO("MultiInputPolicy", venv, n_steps=n_steps, seed=seed, device="cpu", verbose=0)
-        timer = _rollout_timer()
-        model.learn(envs * n_steps * rollouts, callback=timer)
-        end = time.perf_counter()
-    finally:
-        venv.close()
-    steps = envs * n_steps * (rollouts - 1)  # the first rollout (resets, start-up) is left out
-    collect = sum(timer.collect[1:])
-    learn = end - timer.marks[1]
-    return {
-        "env_steps_per_s": steps / collect,
-        "learn_env_steps_per_s": steps / learn,
-        "collect_seconds": collect,
-        "learn_seconds": learn,
-        "env_steps_timed": steps,
-    }
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--envs", type=int, default=64)
     ap.add_argument("--n-steps", type=int, default=64, help="PPO n_steps (per env and rollout)")
-    ap.add_argument("--rollouts", type=int, default=3, help="rollouts per variant (the first is not timed)")
+    ap.add_argument(
+        "--rounds",
+        type=int,
+        default=4,
+        help="rollouts (each with its PPO update) per variant, alternating; the first is not timed",
+    )
+    ap.add_argument(
+        "--world-threads",
+        type=int,
+        default=1,
+        help="native worker threads of every variant's world (1: a single env has one episode, "
+        "and 64 are too few to share)",
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--only", nargs="+", choices=sorted(VARIANTS), help="measure only these variants")
+    ap.add_argument(
+        "--torch-threads",
+        type=int,
+        default=1,
+        help="PyTorch intra-op threads of the learner (1: the least sensitive to other load)",
+    )
     args = ap.parse_args(argv)
-    if args.rollouts < 2:
-        ap.error("--rollouts must be >= 2 (the first is not timed)")
-    torch.set_num_threads(os.cpu_count() or 1)
-    results = {}
-    for name in args.only or VARIANTS:
-        r = measure_sb3(VARIANTS[name], args.envs, args.n_steps, args.rollouts, args.seed)
-        results[name] = r
+    if args.rounds < 2:
+        ap.error("--rounds must be >= 2 (the first is not timed)")
+    torch.set_num_threads(args.torch_threads)
+    global WORLD_THREADS
+    WORLD_THREADS = args.world_threads
+    names = args.only or list(VARIANTS)
+    runs = {name: SB3Run(VARIANTS[name], args.envs, args.n_steps, args.seed) for name in names}
+    try:
+        # Rounds alternate between the variants, so that a change in the machine's other load
+        # touches all of them alike; the best round of each is kept (load only ever slows one down).
+        for _ in range(args.rounds):
+            for run in runs.values():
+                run.round()
+    finally:
+        for run in runs.values():
+            run.venv.close()
+    results = {name: run.result() for name, run in runs.items()}
+    for name, r in results.items():
         print(
-            f"{name:12s} {r['env_steps_per_s']:9.0f} env-steps/s collecting, "
-            f"{r['learn_env_steps_per_s']:8.0f} env-steps/s in learn() ({r['env_steps_timed']} env-steps)",
+            f"{name:12s} {r['env_steps_per_s']:9.0f} env-steps/s collecting "
+            f"(median {r['env_steps_per_s_median']:.0f}),"
+            f" {r['learn_env_steps_per_s']:8.0f} env-steps/s in learn() (best of {r['rounds_timed']} rounds)",
             file=sys.stderr,
         )
     out: dict = {
         "benchmark": "bench_ppo",
-        "cpu": platform.processor() or platform.machine(),
+        "cpu": _cpu_name(),
         "cores": os.cpu_count(),
         "torch": torch.__version__,
+        "torch_threads": args.torch_threads,
         "envs": args.envs,
         "n_steps": args.n_steps,
-        "rollouts_timed": args.rollouts - 1,
+        "rounds_timed": args.rounds - 1,
+        "world_threads": args.world_threads,
     }
     try:
         import stable_baselines3
@@ -155,6 +217,7 @@ def main(argv: list[str] | None = None) -> int:
         pass
     for name, r in results.items():
         out[f"{name}_env_steps_per_s"] = round(r["env_steps_per_s"], 1)
+        out[f"{name}_env_steps_per_s_median"] = round(r["env_steps_per_s_median"], 1)
         out[f"{name}_learn_env_steps_per_s"] = round(r["learn_env_steps_per_s"], 1)
     if "sb3_adapter" in results:
         for other in ("subproc", "dummy"):

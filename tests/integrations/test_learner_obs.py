@@ -100,6 +100,8 @@ def test_robot_frame_is_invariant_to_moving_the_whole_scene(values, angle, shift
     world = t.actions_to_world(np.array([[1.0, 0.0]]), moved_r)[0]
     to_goal = moved_r[0, 5:7] - moved_r[0, 0:2]
     np.testing.assert_allclose(world, to_goal / np.linalg.norm(to_goal), atol=1e-9)
+    back = t.actions_from_world(np.array([[0.3, -0.7]]), moved_r)
+    np.testing.assert_allclose(t.actions_to_world(back, moved_r), [[0.3, -0.7]], atol=1e-12)
 
 
 def test_robot_frame_equals_the_value_networks_rotate():

@@ -183,6 +183,17 @@ class ObservationTransform:
         c, s = np.cos(rot), np.sin(rot)
         return np.stack([a[:, 0] * c - a[:, 1] * s, a[:, 0] * s + a[:, 1] * c], axis=1)
 
+    def actions_from_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
+        """The inverse of :meth:`actions_to_world`: a world-frame action (e.g. a teacher's, for
+        imitation) as the learner gives it."""
+        if not self.rotates_actions:
+            return actions
+        a = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
+        robot = np.asarray(robot, dtype=np.float64).reshape(-1, 9)
+        rot = np.arctan2(robot[:, 6] - robot[:, 1], robot[:, 5] - robot[:, 0])
+        c, s = np.cos(rot), np.sin(rot)
+        return np.stack([a[:, 0] * c + a[:, 1] * s, a[:, 1] * c - a[:, 0] * s], axis=1)
+
 
 def _fixed_count(robot: np.ndarray, humans: np.ndarray, mask: np.ndarray, k: int):
     """(B, K, 5) humans and (B, K) mask: real humans first in slot order, the nearest k where more."""
