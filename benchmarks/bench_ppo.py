@@ -16,7 +16,8 @@ A round is one rollout and its update; rounds alternate between the variants and
 worker threads (1 by default: a single env holds one episode, and 64 episodes are too few to share).
 
 ``sb3_adapter_speedup_vs_subproc`` / ``_vs_dummy`` are ratios of ``env_steps_per_s`` (goal >= 5 vs
-SubprocVecEnv, issue #29). SubprocVecEnv uses the ``fork`` start method (the children share the
+SubprocVecEnv, issue #29); ``..._median`` the ratios of the medians, ``sb3_adapter_learn_speedup_...``
+those of whole rounds. SubprocVecEnv uses the ``fork`` start method (the children share the
 parent's imported modules; ``forkserver`` would import torch in each of the 64 processes).
 
     python benchmarks/bench_ppo.py [--envs 64] [--n-steps 64] [--rounds 4] [--world-threads 1]
@@ -224,6 +225,9 @@ def main(argv: list[str] | None = None) -> int:
             if f"sb3_{other}" in results:
                 a, b = results["sb3_adapter"], results[f"sb3_{other}"]
                 out[f"sb3_adapter_speedup_vs_{other}"] = round(a["env_steps_per_s"] / b["env_steps_per_s"], 2)
+                out[f"sb3_adapter_speedup_vs_{other}_median"] = round(
+                    a["env_steps_per_s_median"] / b["env_steps_per_s_median"], 2
+                )
                 out[f"sb3_adapter_learn_speedup_vs_{other}"] = round(
                     a["learn_env_steps_per_s"] / b["learn_env_steps_per_s"], 2
                 )

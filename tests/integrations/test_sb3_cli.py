@@ -125,6 +125,9 @@ def test_discrete_and_unrecorded_models(tmp_path, capsys):
     plain = f"sb3:{tmp_path / 'plain.zip'}"
     code, _, err = evaluate(capsys, "--policy", plain, "--out", str(tmp_path / "p1"), *PASSING)
     assert code != 0 and "--policy-arg algo=PPO" in err
+    code, _, err = evaluate(capsys, "--policy", plain, "--policy-arg", "algo=SAC", "--out",
+                            str(tmp_path / "p0"), *PASSING)
+    assert code != 0 and "plain.zip: cannot be loaded as SAC" in err
     code, stdout, err = evaluate(capsys, "--policy", plain, "--policy-arg", "algo=PPO", "--out",
                                  str(tmp_path / "p2"), "--json", *PASSING)
     assert code == 0, err

@@ -151,7 +151,12 @@ def load_sb3_policy(
     record = saved.get("socialnav_record")
     inferred = record is None
     algorithm = _algorithm(path, algo, None if inferred else record.get("algorithm"))
-    model = algorithm.load(io.BytesIO(data), device=device)
+    try:
+        model = algorithm.load(io.BytesIO(data), device=device)
+    except Exception as err:  # SB3 raises many kinds; the user's fix is the same: file or algorithm
+        raise SB3ModelError(
+            f"{path}: cannot be loaded as {algorithm.__name__} ({type(err).__name__}: {err})"
+        ) from None
     if inferred:
         record = _infer_record(path, model, preset)
     elif not isinstance(record, dict) or record.get("format") != RECORD_FORMAT:
@@ -207,8 +212,10 @@ def _algorithm(path: Path, asked: str | None, recorded: str | None) -> type:
             module = importlib.import_module(module_name)
         except ImportError:
             continue
+        from stable_baselines3.common.base_class import BaseAlgorithm
+
         cls = getattr(module, str(name), None)
-        if isinstance(cls, type) and hasattr(cls, "load"):
+        if isinstance(cls, type) and issubclass(cls, BaseAlgorithm):
             return cls
     raise SB3ModelError(f"{path}: unknown algorithm {name!r} (looked in {', '.join(ALGORITHM_MODULES)})")
 
