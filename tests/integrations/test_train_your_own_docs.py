@@ -14,6 +14,8 @@ from tests._env import subprocess_env
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGE = ROOT / "docs" / "train_your_own.md"
+# small networks: one PyTorch thread is fastest and does not slow to a crawl when the machine is busy
+ONE_THREAD = subprocess_env(OMP_NUM_THREADS="1")
 
 
 def blocks() -> list[str]:
@@ -23,7 +25,7 @@ def blocks() -> list[str]:
 def run(code: str, cwd: Path) -> subprocess.CompletedProcess:
     (cwd / "snippet.py").write_text(code)
     return subprocess.run([sys.executable, "snippet.py"], cwd=cwd, capture_output=True, text=True,
-                          env=subprocess_env(), timeout=600)
+                          env=ONE_THREAD, timeout=600)
 
 
 def shortened(code: str, name: str, value: str) -> str:
@@ -54,7 +56,7 @@ def test_sb3_example_then_cli_evaluation(tmp_path):
     cli = subprocess.run(
         [sys.executable, "-m", "socialnav.cli", *argv, "--scenario", "circle_crossing", "passing",
          "--episodes", "2", "--no-progress", "--json", "--out", "out"],
-        cwd=tmp_path, capture_output=True, text=True, env=subprocess_env(), timeout=600,
+        cwd=tmp_path, capture_output=True, text=True, env=ONE_THREAD, timeout=600,
     )
     assert cli.returncode == 0, cli.stderr[-3000:]
     assert {r["scenario"] for r in json.loads(cli.stdout)["rows"]} >= {"circle_crossing", "passing"}
