@@ -23,8 +23,9 @@ parent's imported modules; ``forkserver`` would import torch in each of the 64 p
     python benchmarks/bench_ppo.py [--envs 64] [--n-steps 64] [--rounds 4] [--world-threads 1]
         [--torch-threads 1] [--only sb3_adapter ...]
 
-Prints one line per variant, then one JSON object last. Later trainers (the project's own PPO) add
-their variants to VARIANTS under their own keys.
+Prints one line per variant, then one JSON object last. Every key of an SB3 variant starts with
+``sb3_``; another trainer (the project's own PPO) adds its own measurement beside ``SB3Run``, run in
+the same alternation, under its own key prefix.
 """
 
 from __future__ import annotations
