@@ -34,7 +34,7 @@ class ReplayResult:
 
 def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     """The policy a manifest describes, built as `socialnav evaluate` built it."""
-    from socialnav.policies.base import get_policy_entry
+    from socialnav.policies.base import SB3_PREFIX, get_policy_entry
     from socialnav.policies.loading import build_policy
 
     desc = dict(manifest.get("policy") or {})
@@ -47,6 +47,8 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
         raise ResultsError(
             f"manifest.json: policy {name!r} is not registered in this installation; {err.args[0]}"
         ) from None
+    if name.startswith(SB3_PREFIX):
+        return _rebuild_sb3(desc, preset)
     if entry.learned:
         checkpoint = desc.get("checkpoint") or manifest.get("checkpoint")
         if checkpoint and not Path(checkpoint).is_file():
@@ -63,6 +65,31 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     for key in RECORDED_ONLY:  # e.g. the native kernel: bit-identical values on any CPU
         rebuilt.pop(key, None)
         desc = {k: v for k, v in desc.items() if k != key}
+    if json_norm(rebuilt) != json_norm(desc):
+        raise ResultsError(
+            f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"
+        )
+    return policy
+
+
+def _rebuild_sb3(desc: dict[str, Any], preset: Any) -> Any:
+    """The SB3 model of the run, refused when its file is gone or changed (SHA-256 differs)."""
+    from socialnav.policies.loading import build_policy
+
+    model = desc.get("model", "")
+    if not Path(model).is_file():
+        raise ResultsError(f"manifest.json: the policy's model file {model} does not exist")
+    allow = bool(desc.get("preset_mismatch_allowed"))
+    policy = build_policy(
+        desc["policy"], preset, None, allow_preset_mismatch=allow, algo=desc.get("algorithm"),
+        device=desc.get("device", "cpu"),
+    )
+    if policy.sha256 != desc.get("sha256"):
+        raise ResultsError(
+            f"manifest.json: model file {model} changed since the run (SHA-256 {desc.get('sha256')} "
+            f"recorded, {policy.sha256} now); replay needs the file the run used"
+        )
+    rebuilt = {"label": desc.get("label"), **policy.describe()}
     if json_norm(rebuilt) != json_norm(desc):
         raise ResultsError(
             f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"

@@ -5,8 +5,9 @@ information it receives about the future is a named setting (``information``) th
 every result.
 
 Policies are found by name in the registry (built-in ones, ``@register_policy``, and the entry points
-of group ``socialnav.policies``, loaded on the first unknown name), or as ``module.path:Attribute``
-naming a class or factory anywhere on the import path (docs/custom_policies.md).
+of group ``socialnav.policies``, loaded on the first unknown name), as ``module.path:Attribute``
+naming a class or factory anywhere on the import path (docs/custom_policies.md), or as ``sb3:PATH``
+naming a saved Stable-Baselines3 model (docs/train_your_own.md).
 """
 
 from __future__ import annotations
@@ -90,6 +91,8 @@ def get_policy_entry(name: str) -> PolicyEntry:
     _load_builtin()
     if name in _REGISTRY:
         return _REGISTRY[name]
+    if name.startswith(SB3_PREFIX):
+        return _sb3_entry(name)
     if ":" in name:
         return _entry_from_path(name)
     _load_plugins()
@@ -120,6 +123,24 @@ def make_policy(name: str, **params: Any) -> Policy:
             "name, information, act(observation) and describe() (docs/custom_policies.md)"
         )
     return policy
+
+
+#: ``sb3:PATH`` names a saved Stable-Baselines3 model (socialnav.integrations.sb3_policy).
+SB3_PREFIX = "sb3:"
+
+
+def _sb3_entry(spec: str) -> PolicyEntry:
+    def load(preset: Any = None, allow_preset_mismatch: bool = False, **params: Any) -> Policy:
+        from socialnav.integrations.sb3_policy import load_sb3_policy
+
+        if preset is None:
+            raise ValueError(f"policy {spec}: an SB3 model is checked against the preset it runs under")
+        return load_sb3_policy(spec, preset, allow_preset_mismatch=allow_preset_mismatch, **params)
+
+    from socialnav.integrations.sb3_policy import PARAMETERS  # imports no SB3
+
+    description = "a saved Stable-Baselines3 model, deterministic actions"
+    return PolicyEntry(spec, load, description, False, dict(PARAMETERS))
 
 
 def _entry_from_path(spec: str) -> PolicyEntry:

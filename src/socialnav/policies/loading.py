@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from socialnav.config import ConfigError
-from socialnav.policies.base import Policy, get_policy_entry, make_policy
+from socialnav.policies.base import SB3_PREFIX, Policy, get_policy_entry, make_policy
 from socialnav.presets import Preset
 
 INDEX_FILE = "index.yaml"
@@ -75,6 +75,10 @@ def build_policy(
     """
     entry = get_policy_entry(name)
     params = {**preset.policy_params(name), **overrides}
+    if name.startswith(SB3_PREFIX):
+        if checkpoint is not None:
+            raise ValueError(f"policy {name} names its model file itself and takes no --checkpoint")
+        return entry.factory(preset=preset, allow_preset_mismatch=allow_preset_mismatch, **params)
     if not entry.learned:
         if checkpoint is not None:
             raise ValueError(f"policy {name!r} is not learned and takes no --checkpoint")

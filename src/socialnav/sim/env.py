@@ -52,7 +52,8 @@ def _spaces(n_humans: int, settings: WorldSettings, v_pref: float, action_set: s
         {
             "robot": spaces.Box(-big, big, shape=(9,), dtype=np.float64),
             "humans": spaces.Box(-big, big, shape=(n_humans, 5), dtype=np.float64),
-            "human_mask": spaces.MultiBinary(n_humans),
+            # Gymnasium has no MultiBinary(0): a crowd-free scenario's empty mask is an empty Box
+            "human_mask": spaces.MultiBinary(n_humans) if n_humans else spaces.Box(0, 1, (0,), np.int8),
         }
     )
     if action_set == "discrete":

@@ -7,7 +7,11 @@ without any import (Gymnasium imports the module before the ``:``).
 
 from __future__ import annotations
 
+from typing import Any
+
 import gymnasium as gym
+
+from socialnav.viz.env_render import RENDER_MODES
 
 #: The protocol's scenarios (and CrowdNav's square crossing); ``Passing``, ``Overtaking`` and
 #: ``Crossing`` are the single-human side-preference sweeps (finite: their episodes cycle).
@@ -23,6 +27,22 @@ ENV_IDS = {
 }
 
 
+def make_env(**kwargs: Any) -> gym.Env:
+    """``gym.make``'s entry point: a :class:`~socialnav.sim.env.SocialNavEnv`.
+
+    Its ``metadata`` lists every render mode, so that ``gym.make(..., render_mode="human")`` reaches
+    the env, which explains what is missing (a display, matplotlib), instead of Gymnasium wrapping an
+    ``rgb_array`` env in its pygame window (and failing with "pygame is not installed"). The env's
+    own ``metadata`` lists ``human`` only where a display exists, so the env checker tries no window.
+    """
+    from socialnav.sim.env import SocialNavEnv
+
+    return SocialNavEnv(**kwargs)
+
+
+make_env.metadata = {"render_modes": list(RENDER_MODES), "render_fps": 4}  # type: ignore[attr-defined]
+
+
 def register_envs() -> None:
     """Registers the ids (idempotent)."""
     for env_id, kwargs in ENV_IDS.items():
@@ -30,7 +50,7 @@ def register_envs() -> None:
             continue
         gym.register(
             id=env_id,
-            entry_point="socialnav.sim.env:SocialNavEnv",
+            entry_point="socialnav.sim.registration:make_env",
             vector_entry_point="socialnav.sim.env:SocialNavVectorEnv",
             kwargs=kwargs,
         )

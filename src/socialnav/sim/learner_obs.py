@@ -1,0 +1,249 @@
+"""Observations a learner can use: one transformation shared by the single env, the vector env, the
+SB3 adapter and the ``sb3:`` evaluation policy (docs/train_your_own.md).
+
+The raw observation (:mod:`socialnav.sim.observation`) is world-frame float64 with the scenario's own
+human count. :class:`ObservationSettings` names what a learner usually wants instead:
+
+- ``frame="robot"``: CrowdNav's agent-centric frame (Chen et al., "Crowd-Robot Interaction", ICRA
+  2019; the ``rotate`` the value networks use, socialnav.policies.learned.state): x-axis from the robot
+  towards its goal. Holonomic actions are then given in that frame too and rotated back to the world
+  before they reach the simulator (a policy that sees no world heading could not aim a world-frame
+  velocity); unicycle actions (v, dθ) are body-frame already.
+- ``max_humans``: a fixed human count. Real humans come first in slot order, the rest are zero rows
+  with mask 0; where an episode has more humans than that, the nearest ``max_humans`` are kept (in slot
+  order). A model trained on the 5-human mix so sees 1 human and 4 padded slots on a single-human sweep.
+- ``length_scale`` / ``speed_scale``: lengths [m] and speeds [m/s] are divided by them (1 = SI units).
+- ``dtype``: of ``robot`` and ``humans`` (float32 by default: what networks take).
+
+Layouts (B leading rows in a batch; K = max_humans):
+
+=========  =====  ==========================================================================
+frame      key    columns
+=========  =====  ==========================================================================
+world      robot  (9,)  px, py, vx, vy, radius, gx, gy, v_pref, theta
+world      humans (K, 5) px, py, vx, vy, radius
+robot      robot  (6,)  dg, v_pref, theta', radius, vx', vy'   (theta' = theta - rot, unicycle; 0 holonomic)
+robot      humans (K, 7) px', py', vx', vy', radius, da, radius + robot radius
+both       human_mask (K,) int8, 1 for a real human
+=========  =====  ==========================================================================
+
+Lengths (positions, radii, dg, da) are in units of ``length_scale``, speeds (velocities, v_pref) in
+units of ``speed_scale``; angles in radians. rot = atan2(gy - py, gx - px).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from socialnav.config import check
+
+FRAMES = ("world", "robot")
+DTYPES = ("float32", "float64")
+ROBOT_COLUMNS = {
+    "world": ("px", "py", "vx", "vy", "radius", "gx", "gy", "v_pref", "theta"),
+    "robot": ("dg", "v_pref", "theta", "radius", "vx", "vy"),
+}
+HUMAN_COLUMNS = {
+    "world": ("px", "py", "vx", "vy", "radius"),
+    "robot": ("px", "py", "vx", "vy", "radius", "da", "radius_sum"),
+}
+_BOUND = 1e6  # the raw env's Box bound, kept for every layout
+
+
+@dataclass(frozen=True)
+class ObservationSettings:
+    """How raw observations are turned into a learner's (see the module docstring).
+
+    ``max_humans=None`` means the env's own human count; the adapters resolve it when built, and the
+    resolved number is what a saved model records.
+    """
+
+    frame: str = "world"
+    max_humans: int | None = None
+    length_scale: float = 1.0  # [m]
+    speed_scale: float = 1.0  # [m/s]
+    dtype: str = "float32"
+
+    def __post_init__(self) -> None:
+        check(self.frame in FRAMES, "observation.frame", self.frame, f"must be one of {', '.join(FRAMES)}")
+        check(
+            self.max_humans is None or (isinstance(self.max_humans, int) and self.max_humans >= 1),
+            "observation.max_humans",
+            self.max_humans,
+            "must be an integer >= 1 or None",
+        )
+        for name in ("length_scale", "speed_scale"):
+            value = getattr(self, name)
+            check(
+                isinstance(value, int | float) and math.isfinite(value) and value > 0,
+                f"observation.{name}",
+                value,
+                "must be a finite number > 0",
+            )
+        check(self.dtype in DTYPES, "observation.dtype", self.dtype, f"must be one of {', '.join(DTYPES)}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any] | None) -> ObservationSettings:
+        from socialnav.config import from_dict
+
+        return from_dict(cls, data or {}, "observation")
+
+
+class ObservationTransform:
+    """Raw batched arrays -> the learner's dict (and, for ``frame="robot"``, actions back to the world).
+
+    Args:
+        settings: The transformation.
+        n_humans: The env's human slot count (resolves ``max_humans=None``).
+        kinematics: "holonomic" or "unicycle" (decides theta' and whether actions are rotated).
+        action_set: "continuous" or "discrete"; a discrete holonomic action is a world-frame heading,
+            which a robot-frame policy cannot aim, so that combination is refused.
+    """
+
+    def __init__(
+        self, settings: ObservationSettings, n_humans: int, kinematics: str, action_set: str = "continuous"
+    ):
+        if settings.max_humans is None:  # a crowd-free env keeps one (padded) slot: networks need inputs
+            settings = dataclasses.replace(settings, max_humans=max(int(n_humans), 1))
+        if settings.frame == "robot" and kinematics == "holonomic" and action_set == "discrete":
+            raise ValueError(
+                "observation frame 'robot' with discrete holonomic actions: CrowdSim's 81 actions are "
+                "world-frame headings, which a policy that sees the robot frame cannot aim; use "
+                "action_set='continuous' (rotated back to the world) or frame='world'"
+            )
+        self.settings = settings
+        self.kinematics = kinematics
+        self.rotates_actions = (
+            settings.frame == "robot" and kinematics == "holonomic" and action_set != "discrete"
+        )
+        self.dtype = np.dtype(settings.dtype)
+
+    @property
+    def max_humans(self) -> int:
+        return int(self.settings.max_humans)
+
+    def single_space(self) -> spaces.Dict:
+        """The space of one episode's transformed observation."""
+        k, frame = self.max_humans, self.settings.frame
+        return spaces.Dict(
+            {
+                "robot": spaces.Box(-_BOUND, _BOUND, shape=(len(ROBOT_COLUMNS[frame]),), dtype=self.dtype),
+                "humans": spaces.Box(-_BOUND, _BOUND, shape=(k, len(HUMAN_COLUMNS[frame])), dtype=self.dtype),
+                "human_mask": spaces.MultiBinary(k),
+            }
+        )
+
+    def __call__(self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray]:
+        """``robot`` (B, 9), ``humans`` (B, N, 5), ``mask`` (B, N) -> the learner's (B, …) arrays."""
+        robot = np.asarray(robot, dtype=np.float64)
+        humans, mask = _fixed_count(
+            robot, np.asarray(humans, np.float64), np.asarray(mask, bool), self.max_humans
+        )
+        s = self.settings
+        if s.frame == "world":
+            r = robot.copy()
+            r[:, [0, 1, 4, 5, 6]] /= s.length_scale
+            r[:, [2, 3, 7]] /= s.speed_scale
+            h = humans.copy()
+            h[..., [0, 1, 4]] /= s.length_scale
+            h[..., [2, 3]] /= s.speed_scale
+        else:
+            r, h = _robot_frame(robot, humans, self.kinematics)
+            r[:, [0, 3]] /= s.length_scale
+            r[:, [1, 4, 5]] /= s.speed_scale
+            h[..., [0, 1, 4, 5, 6]] /= s.length_scale
+            h[..., [2, 3]] /= s.speed_scale
+        h[~mask] = 0.0
+        return {
+            "robot": r.astype(self.dtype),
+            "humans": h.astype(self.dtype),
+            "human_mask": mask.astype(np.int8),
+        }
+
+    def actions_to_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
+        """The simulator's actions for ``actions`` chosen on the observation of raw ``robot`` (B, 9).
+
+        Robot-frame holonomic velocities are rotated by rot (the robot-to-goal heading); anything else
+        passes unchanged.
+        """
+        if not self.rotates_actions:
+            return actions
+        a = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
+        robot = np.asarray(robot, dtype=np.float64).reshape(-1, 9)
+        rot = np.arctan2(robot[:, 6] - robot[:, 1], robot[:, 5] - robot[:, 0])
+        c, s = np.cos(rot), np.sin(rot)
+        return np.stack([a[:, 0] * c - a[:, 1] * s, a[:, 0] * s + a[:, 1] * c], axis=1)
+
+    def actions_from_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
+        """The inverse of :meth:`actions_to_world`: a world-frame action (e.g. a teacher's, for
+        imitation) as the learner gives it."""
+        if not self.rotates_actions:
+            return actions
+        a = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
+        robot = np.asarray(robot, dtype=np.float64).reshape(-1, 9)
+        rot = np.arctan2(robot[:, 6] - robot[:, 1], robot[:, 5] - robot[:, 0])
+        c, s = np.cos(rot), np.sin(rot)
+        return np.stack([a[:, 0] * c + a[:, 1] * s, a[:, 1] * c - a[:, 0] * s], axis=1)
+
+
+def _fixed_count(robot: np.ndarray, humans: np.ndarray, mask: np.ndarray, k: int):
+    """(B, K, 5) humans and (B, K) mask: real humans first in slot order, the nearest k where more."""
+    b, n = mask.shape
+    keep = mask
+    if mask.sum(axis=1).max(initial=0) > k:
+        dist = np.where(
+            mask, np.hypot(humans[..., 0] - robot[:, None, 0], humans[..., 1] - robot[:, None, 1]), np.inf
+        )
+        rank = np.argsort(np.argsort(dist, axis=1, kind="stable"), axis=1, kind="stable")
+        keep = mask & (rank < k)
+    order = np.argsort(~keep, axis=1, kind="stable")[:, : min(n, k)]  # kept slots first, in slot order
+    out = np.zeros((b, k, humans.shape[2]))
+    out_mask = np.zeros((b, k), dtype=bool)
+    rows = np.arange(b)[:, None]
+    out[:, : order.shape[1]] = humans[rows, order]
+    out_mask[:, : order.shape[1]] = keep[rows, order]
+    return out, out_mask
+
+
+def _robot_frame(robot: np.ndarray, humans: np.ndarray, kinematics: str):
+    """CrowdNav's rotate (socialnav.policies.learned.state.rotate) in NumPy, split into robot/humans."""
+    dx, dy = robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1]
+    rot = np.arctan2(dy, dx)
+    c, s = np.cos(rot), np.sin(rot)
+    theta = robot[:, 8] - rot if kinematics == "unicycle" else np.zeros_like(rot)
+    r = np.stack(
+        [
+            np.hypot(dx, dy),
+            robot[:, 7],
+            theta,
+            robot[:, 4],
+            robot[:, 2] * c + robot[:, 3] * s,
+            robot[:, 3] * c - robot[:, 2] * s,
+        ],
+        axis=1,
+    )
+    hx = humans[..., 0] - robot[:, None, 0]
+    hy = humans[..., 1] - robot[:, None, 1]
+    c, s = c[:, None], s[:, None]
+    h = np.stack(
+        [
+            hx * c + hy * s,
+            hy * c - hx * s,
+            humans[..., 2] * c + humans[..., 3] * s,
+            humans[..., 3] * c - humans[..., 2] * s,
+            humans[..., 4],
+            np.hypot(hx, hy),
+            humans[..., 4] + robot[:, None, 4],
+        ],
+        axis=-1,
+    )
+    return r, h

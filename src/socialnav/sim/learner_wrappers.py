@@ -1,0 +1,144 @@
+"""Gymnasium wrappers applying :class:`~socialnav.sim.learner_obs.ObservationSettings` to the single
+env and to the native vector env, exactly as the SB3 adapter does (docs/train_your_own.md).
+
+>>> env = LearnerObservation(gym.make("socialnav/CircleCrossing-v0"), ObservationSettings(frame="robot"))
+
+Both wrappers keep the env's action space; with ``frame="robot"`` and a holonomic robot the action
+is read in the robot frame and rotated to the world frame before it is stepped. Each offers
+``training_record()``: what a saved model must remember to be evaluated with the same conversion.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import VectorWrapper
+from gymnasium.vector.utils import batch_space
+
+from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
+
+#: Version of the record a saved model carries (socialnav.integrations.sb3).
+RECORD_FORMAT = 1
+
+
+def env_config(env: Any) -> Any:
+    """The construction settings of a socialnav env (single or vector, wrapped or not)."""
+    raw = env.unwrapped
+    cfg = getattr(raw, "_cfg", None)
+    if cfg is None:
+        raise TypeError(
+            f"{type(raw).__name__} is not a socialnav env: wrap gym.make('socialnav/...') or "
+            "SocialNavVectorEnv"
+        )
+    return cfg
+
+
+def make_transform(cfg: Any, settings: ObservationSettings | None) -> ObservationTransform:
+    return ObservationTransform(
+        settings or ObservationSettings(), cfg.scenario.n_humans, cfg.settings.kinematics, cfg.action_set
+    )
+
+
+def training_record(cfg: Any, transform: ObservationTransform) -> dict[str, Any]:
+    """What evaluating a model trained on this env needs to know (JSON-ready)."""
+    from socialnav import __version__
+
+    world = cfg.settings
+    return {
+        "format": RECORD_FORMAT,
+        "observation": transform.settings.to_dict(),
+        "action_set": cfg.action_set,
+        "kinematics": world.kinematics,
+        "rotation_limit": world.rotation_limit,
+        "dt": world.dt,
+        "robot_v_pref": cfg.v_pref,
+        "scenario": cfg.scenario.name,
+        "n_humans": int(cfg.scenario.n_humans),
+        "human_model": world.human_model,
+        "visibility": world.visibility,
+        "socialnav_version": __version__,
+    }
+
+
+class LearnerObservation(gym.Wrapper):
+    """The single env with the learner's observation (and robot-frame actions where that applies)."""
+
+    def __init__(self, env: gym.Env, settings: ObservationSettings | None = None):
+        super().__init__(env)
+        self._cfg = env_config(env)
+        self.transform = make_transform(self._cfg, settings)
+        self.observation_space = self.transform.single_space()
+        self._robot: np.ndarray | None = None  # raw robot row the next action is chosen on
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self._convert(obs), info
+
+    def step(self, action):
+        if self._robot is not None and self.transform.rotates_actions:
+            action = self.transform.actions_to_world(np.asarray(action)[None], self._robot[None])[0]
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return self._convert(obs), reward, terminated, truncated, info
+
+    def training_record(self) -> dict[str, Any]:
+        return training_record(self._cfg, self.transform)
+
+    def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        self._robot = np.array(obs["robot"], dtype=np.float64)
+        out = self.transform(obs["robot"][None], obs["humans"][None], obs["human_mask"][None])
+        return {k: v[0] for k, v in out.items()}
+
+
+class LearnerObservationVector(VectorWrapper):
+    """The vector env (native or ``sync``/``async``) with the learner's observation; ``final_obs`` of
+    finished episodes is converted the same way."""
+
+    def __init__(self, env: gym.vector.VectorEnv, settings: ObservationSettings | None = None):
+        super().__init__(env)
+        self._cfg = env_config(env) if hasattr(env.unwrapped, "_cfg") else _first_copy_config(env)
+        self.transform = make_transform(self._cfg, settings)
+        self.single_observation_space = self.transform.single_space()
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._robot: np.ndarray | None = None
+
+    def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self._convert(obs), info
+
+    def step(self, actions):
+        if self._robot is not None and self.transform.rotates_actions:
+            actions = self.transform.actions_to_world(actions, self._robot)
+        obs, reward, terminated, truncated, info = self.env.step(actions)
+        if "final_obs" in info:
+            final = np.array(info["final_obs"], dtype=object)
+            for b in np.flatnonzero(info["_final_obs"]):
+                one = final[b]
+                converted = self.transform(one["robot"][None], one["humans"][None], one["human_mask"][None])
+                final[b] = {k: v[0] for k, v in converted.items()}
+            info = {**info, "final_obs": final}
+        return self._convert(obs), reward, terminated, truncated, info
+
+    def training_record(self) -> dict[str, Any]:
+        return training_record(self._cfg, self.transform)
+
+    def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        self._robot = np.array(obs["robot"], dtype=np.float64)
+        return self.transform(obs["robot"], obs["humans"], obs["human_mask"])
+
+
+def _first_copy_config(env: gym.vector.VectorEnv) -> Any:
+    # sync/async vector envs of gym.make copies: every copy is built from the same spec
+    copies = getattr(env.unwrapped, "envs", None)
+    if copies:
+        return env_config(copies[0])
+    spec = getattr(env.unwrapped, "spec", None)
+    if spec is None:
+        raise TypeError(f"{type(env.unwrapped).__name__} is not a vector env of socialnav envs")
+    kwargs = {k: v for k, v in (spec.kwargs or {}).items() if k not in ("num_envs", "vectorization_mode")}
+    probe = gym.make(spec.id, **kwargs)
+    try:
+        return env_config(probe)
+    finally:
+        probe.close()
