@@ -22,8 +22,10 @@ class ObstacleArrays:
     Attributes:
         maps: (B,) the episodes' :class:`~socialnav.static_map.StaticMap` or None.
         vertices: (V, 2) every polygon's vertices [m], episode after episode.
-        polygon_offsets: (P + 1,) int64, polygon p is ``vertices[polygon_offsets[p]:polygon_offsets[p + 1]]``.
-        episode_polygons: (B + 1,) int64, episode b has polygons ``episode_polygons[b]:episode_polygons[b + 1]``.
+        polygon_offsets: (P + 1,) int64; polygon p is
+            ``vertices[polygon_offsets[p]:polygon_offsets[p + 1]]``.
+        episode_polygons: (B + 1,) int64; episode b has the polygons
+            ``episode_polygons[b]:episode_polygons[b + 1]``.
     """
 
     maps: tuple

@@ -345,7 +345,10 @@ class World:
                 f"the static map of slot {slot} has {static_map.n_vertices} vertices, more than "
                 f"max_obstacle_vertices = {self.settings.max_obstacle_vertices} (raise that setting)"
             )
-        vertices, offsets = (np.zeros((0, 2)), np.zeros(1, np.int64)) if static_map is None else static_map.to_flat()
+        if static_map is None:
+            vertices, offsets = np.zeros((0, 2)), np.zeros(1, np.int64)
+        else:
+            vertices, offsets = static_map.to_flat()
         self._core.set_obstacles(int(slot), vertices, offsets)
         self.static_maps[slot] = static_map
         self._obstacle_arrays = None
@@ -608,7 +611,8 @@ def _scenario_map(scenario: Scenario) -> StaticMap | None:
     fixed = getattr(scenario, "static_map", None)
     if fixed is not None and not isinstance(fixed, StaticMap):
         raise TypeError(
-            f"scenario {type(scenario).__name__}.static_map must be a StaticMap or None, got {type(fixed).__name__}"
+            f"scenario {type(scenario).__name__}.static_map must be a StaticMap or None, "
+            f"got {type(fixed).__name__}"
         )
     return fixed if fixed else None
 
