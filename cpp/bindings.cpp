@@ -646,4 +646,26 @@ NB_MODULE(_core, m) {
       },
       "start"_a, "end"_a, "radius"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
       "Clearance of a disc moving from start to end against the obstacles (< 0: it touched one).");
+
+  m.def(
+      "orca_obstacle_lines",
+      [](Array<double> position, Array<double> velocity, double radius, double max_speed,
+         Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets, double time_horizon_obst) {
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        std::vector<socialnav::ObstacleVertex> walls(static_cast<size_t>(obstacle_offsets.data()[P]));
+        socialnav::build_obstacle_vertices(obstacle_vertices.data(), obstacle_offsets.data(), P, walls.data());
+        socialnav::OrcaScratch scratch;
+        const socialnav::OrcaAgent self{vec(position), vec(velocity), radius, max_speed, Vec2{}};
+        const int k = socialnav::orca_obstacle_lines(
+            self, socialnav::ObstacleView{walls.data(), static_cast<int>(walls.size())}, time_horizon_obst, scratch);
+        nb::list out;
+        for (int i = 0; i < k; ++i) {
+          const socialnav::Line& l = scratch.lines[i];
+          out.append(nb::make_tuple(l.point.x, l.point.y, l.direction.x, l.direction.y));
+        }
+        return out;
+      },
+      "position"_a, "velocity"_a, "radius"_a, "max_speed"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
+      "time_horizon_obst"_a = 5.0,
+      "The obstacle ORCA half-planes (px, py, dx, dy; permitted on the left) of one agent, in solver order.");
 }

@@ -389,6 +389,14 @@ Vec2 orca_new_velocity(const OrcaAgent& self, const ObstacleView& obstacles, dou
   return result;
 }
 
+int orca_obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double time_horizon_obst,
+                        OrcaScratch& scratch) {
+  const double range = time_horizon_obst * self.max_speed + self.radius;
+  select_obstacles(self, obstacles, range * range, scratch);
+  scratch.reserve_lines(static_cast<int>(scratch.obstacle_index.size()));
+  return obstacle_lines(self, obstacles, time_horizon_obst, scratch, scratch.lines.data());
+}
+
 Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n,
                               const OrcaParams& params, double time_step, OrcaScratch& scratch,
                               const ObstacleView& obstacles) {

@@ -87,6 +87,11 @@ Vec2 orca_new_velocity(const OrcaAgent& self, const ObstacleView& obstacles, dou
                        const OrcaNeighbor* neighbors, int n, double time_horizon, double time_step,
                        OrcaScratch& scratch);
 
+// The obstacle half-planes alone (written to scratch.lines[0..count), count returned), in the order
+// the solver uses them: for tests that compare them with another implementation's lines.
+int orca_obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double time_horizon_obst,
+                        OrcaScratch& scratch);
+
 // Convenience used by tests and single-agent callers: selects neighbours (range, count) first.
 Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n,
                               const OrcaParams& params, double time_step, OrcaScratch& scratch,
