@@ -1,4 +1,4 @@
-"""The core's ORCA with wall segments against RVO2, through navground (tests/reference/navground_orca_walls.py).
+"""The core's ORCA with wall segments against RVO2, through navground (reference/navground_orca_walls.py).
 
 Random layouts of 1-8 wall segments (crossing ones included) and 1-6 agents, many of them touching or
 near a wall; every agent's new velocity is compared (the core's `socialnav.sim.orca_step` solves all
@@ -35,8 +35,9 @@ LAYOUTS = 400
 def _float32_sensitive(layout: dict, i: int, ours: np.ndarray, ref: np.ndarray) -> bool:
     n = len(layout["radii"])
     others = [j for j in range(n) if j != i]
-    args = (layout["positions"][i], layout["velocities"][i], layout["radii"][i], layout["pref_velocities"][i],
-            layout["positions"][others], layout["velocities"][others], layout["radii"][others])
+    args = (layout["positions"][i], layout["velocities"][i], layout["radii"][i],
+            layout["pref_velocities"][i], layout["positions"][others], layout["velocities"][others],
+            layout["radii"][others])
     vertices, offsets = StaticMap(tuple(layout["walls"])).to_flat()
     obstacle = [((a, b), (c, d)) for a, b, c, d in _core.orca_obstacle_lines(
         args[0], args[1], args[2], layout["max_speeds"][i], vertices, offsets, 5.0)]
