@@ -57,8 +57,8 @@ def test_orca_with_walls_matches_navground_rvo2():
     feasible, fallback, sensitive = [], [], 0
     for _ in range(LAYOUTS):
         layout = random_wall_layout(rng, int(rng.integers(1, 9)), int(rng.integers(1, 7)))
-        ours = orca_step(layout["positions"], layout["velocities"], layout["pref_velocities"], layout["radii"],
-                         layout["max_speeds"], StaticMap(tuple(layout["walls"])))
+        ours = orca_step(layout["positions"], layout["velocities"], layout["pref_velocities"],
+                         layout["radii"], layout["max_speeds"], StaticMap(tuple(layout["walls"])))
         n = len(layout["radii"])
         for i in range(n):
             others = [j for j in range(n) if j != i]

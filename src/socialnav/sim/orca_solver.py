@@ -100,7 +100,7 @@ def orca_step(
     params.time_horizon_obst = float(time_horizon_obst)
     out = np.zeros((n, 2))
     _core.orca_step(
-        positions, velocities, pref_velocities, radii, max_speeds, params, float(time_step), vertices, offsets,
-        out,
+        positions, velocities, pref_velocities, radii, max_speeds, params, float(time_step),
+        vertices, offsets, out,
     )
     return out
