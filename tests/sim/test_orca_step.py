@@ -36,7 +36,8 @@ def test_a_wall_segment_blocks_from_both_sides_and_a_polygon_from_outside():
     v = orca_step([[0.0, 0.0]], [[1.0, 0.0]], [[1.0, 0.0]], [0.3], [1.0], box, time_horizon_obst=2.0)
     np.testing.assert_allclose(v, [[0.7 / 2.0, 0.0]], atol=1e-12)
     # Without obstacles: the preferred velocity.
-    np.testing.assert_array_equal(orca_step([[0.0, 0.0]], [[0.0, 0.0]], [[0.6, 0.8]], [0.3], [1.0]), [[0.6, 0.8]])
+    free = orca_step([[0.0, 0.0]], [[0.0, 0.0]], [[0.6, 0.8]], [0.3], [1.0])
+    np.testing.assert_array_equal(free, [[0.6, 0.8]])
 
 
 def test_an_agent_touching_a_wall_may_not_move_further_in():
