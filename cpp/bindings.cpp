@@ -91,8 +91,9 @@ int polygon_count(const Array<double>& vertices, const Array<int64_t>& offsets) 
 // Prepared obstacles of many episodes: episode b has polygons [episode_polygons[b], episode_polygons[b + 1]).
 struct PreparedBatch {
   std::vector<socialnav::ObstacleVertex> vertex;
+  std::vector<double> edges;
   std::vector<int64_t> first;
-  socialnav::ObstacleBatchView view() const { return {vertex.data(), first.data()}; }
+  socialnav::ObstacleBatchView view() const { return {vertex.data(), edges.data(), first.data()}; }
 };
 
 PreparedBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>& offsets,
@@ -105,6 +106,7 @@ PreparedBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>&
   if (ep[0] != 0 || ep[B] != P) throw std::invalid_argument("episode_polygons must run from 0 to P");
   PreparedBatch out;
   out.vertex.resize(static_cast<size_t>(o[P]));
+  out.edges.resize(static_cast<size_t>(5 * o[P]));
   out.first.resize(B + 1);
   std::vector<int64_t> rebased;
   for (size_t b = 0; b < B; ++b) {
@@ -115,6 +117,7 @@ PreparedBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>&
     rebased.resize(static_cast<size_t>(n) + 1);
     for (int p = 0; p <= n; ++p) rebased[p] = o[ep[b] + p] - v0;
     socialnav::build_obstacle_vertices(vertices.data() + 2 * v0, rebased.data(), n, out.vertex.data() + v0);
+    socialnav::build_edge_arrays(out.vertex.data() + v0, static_cast<int>(rebased[n]), out.edges.data() + 5 * v0);
   }
   out.first[B] = o[P];
   return out;
@@ -368,6 +371,20 @@ NB_MODULE(_core, m) {
           "robot"_a.noconvert(), "humans"_a.noconvert(), "human_mask"_a.noconvert(), "active"_a.noconvert(),
           "time"_a.noconvert(), "The observation of every slot, written into the given arrays.");
 
+  nb::class_<PreparedBatch>(m, "PreparedObstacleBatch")
+      .def(
+          "__init__",
+          [](PreparedBatch* self, Array<double> vertices, Array<int64_t> polygon_offsets,
+             Array<int64_t> episode_polygons) {
+            if (episode_polygons.size() < 1) throw std::invalid_argument("episode_polygons must have B + 1 entries");
+            new (self) PreparedBatch(
+                prepare_batch(vertices, polygon_offsets, episode_polygons, episode_polygons.size() - 1));
+          },
+          "vertices"_a, "polygon_offsets"_a, "episode_polygons"_a,
+          "The static maps of B episodes prepared once for the native robot policies: vertices (V, 2), "
+          "polygon_offsets (P + 1,), episode_polygons (B + 1,).")
+      .def_prop_ro("episodes", [](const PreparedBatch& self) { return self.first.size() - 1; });
+
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
       .def(nb::init<int>(), "threads"_a)
       .def_prop_ro("size", &socialnav::ThreadPool::size);
@@ -437,16 +454,14 @@ NB_MODULE(_core, m) {
                                              humans.data(), reinterpret_cast<const uint8_t*>(mask.data()),
                                              reinterpret_cast<const uint8_t*>(active.data())};
         const socialnav::ActionFormat format{kinematics, rotation_limit};
-        PreparedBatch walls;
+        socialnav::ObstacleBatchView wall_view{};
         if (!obstacles.is_none()) {
-          nb::tuple t = nb::cast<nb::tuple>(obstacles);
-          if (nb::len(t) != 3)
-            throw std::invalid_argument("obstacles: expected (vertices, polygon_offsets, episode_polygons)");
-          walls = prepare_batch(nb::cast<Array<double>>(t[0]), nb::cast<Array<int64_t>>(t[1]),
-                                nb::cast<Array<int64_t>>(t[2]), B);
+          const PreparedBatch& walls = nb::cast<const PreparedBatch&>(obstacles);
+          if (walls.first.size() != B + 1)
+            throw std::invalid_argument("obstacles: prepared for " + std::to_string(walls.first.size() - 1) +
+                                        " episodes, the observation has " + std::to_string(B));
+          wall_view = walls.view();
         }
-        const socialnav::ObstacleBatchView wall_view =
-            obstacles.is_none() ? socialnav::ObstacleBatchView{} : walls.view();
         if (policy == "linear") {
           socialnav::linear_robot_actions(obs, format, dt, o);
         } else if (policy == "orca") {
@@ -463,8 +478,8 @@ NB_MODULE(_core, m) {
       "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a,
       "orca"_a, "radius_margin"_a, "safety_space"_a, "social_force"_a, "pool"_a, "out"_a.noconvert(),
       "obstacles"_a.none() = nb::none(),
-      "Batched actions of a native robot policy, written into out (B, 2). obstacles: None or (vertices (V, 2), "
-      "polygon_offsets (P + 1,), episode_polygons (B + 1,)), the static maps of the B episodes.");
+      "Batched actions of a native robot policy, written into out (B, 2). obstacles: None or the B episodes' "
+      "static maps as PreparedObstacleBatch.");
 
   using SC = socialnav::ScenarioConfig;
   nb::class_<SC>(m, "ScenarioConfig")
@@ -583,9 +598,9 @@ NB_MODULE(_core, m) {
           throw std::invalid_argument("max_neighbors must be in [0, " + std::to_string(socialnav::kMaxOrcaNeighbors) +
                                       "], got " + std::to_string(params.max_neighbors));
         const int P = polygon_count(obstacle_vertices, obstacle_offsets);
-        std::vector<socialnav::ObstacleVertex> walls(static_cast<size_t>(obstacle_offsets.data()[P]));
-        socialnav::build_obstacle_vertices(obstacle_vertices.data(), obstacle_offsets.data(), P, walls.data());
-        const socialnav::ObstacleView view{walls.data(), static_cast<int>(walls.size())};
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        const socialnav::ObstacleView view = walls.view();
         const double* p = positions.data();
         const double* v = velocities.data();
         const double* pv = pref_velocities.data();
@@ -625,10 +640,9 @@ NB_MODULE(_core, m) {
       [](Array<double> position, Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets,
          const socialnav::SocialForceParams& params) {
         const int P = polygon_count(obstacle_vertices, obstacle_offsets);
-        std::vector<socialnav::ObstacleVertex> walls(static_cast<size_t>(obstacle_offsets.data()[P]));
-        socialnav::build_obstacle_vertices(obstacle_vertices.data(), obstacle_offsets.data(), P, walls.data());
-        const Vec2 f = socialnav::social_force_wall_repulsion(
-            vec(position), socialnav::ObstacleView{walls.data(), static_cast<int>(walls.size())}, params);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        const Vec2 f = socialnav::social_force_wall_repulsion(vec(position), walls.view(), params);
         return nb::make_tuple(f.x, f.y);
       },
       "position"_a, "obstacle_vertices"_a, "obstacle_offsets"_a, "params"_a,
@@ -639,10 +653,9 @@ NB_MODULE(_core, m) {
       [](Array<double> start, Array<double> end, double radius, Array<double> obstacle_vertices,
          Array<int64_t> obstacle_offsets) {
         const int P = polygon_count(obstacle_vertices, obstacle_offsets);
-        std::vector<socialnav::ObstacleVertex> walls(static_cast<size_t>(obstacle_offsets.data()[P]));
-        socialnav::build_obstacle_vertices(obstacle_vertices.data(), obstacle_offsets.data(), P, walls.data());
-        return socialnav::swept_obstacle_clearance(
-            socialnav::ObstacleView{walls.data(), static_cast<int>(walls.size())}, vec(start), vec(end), radius);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        return socialnav::swept_obstacle_clearance(walls.view(), vec(start), vec(end), radius);
       },
       "start"_a, "end"_a, "radius"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
       "Clearance of a disc moving from start to end against the obstacles (< 0: it touched one).");
@@ -652,12 +665,11 @@ NB_MODULE(_core, m) {
       [](Array<double> position, Array<double> velocity, double radius, double max_speed,
          Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets, double time_horizon_obst) {
         const int P = polygon_count(obstacle_vertices, obstacle_offsets);
-        std::vector<socialnav::ObstacleVertex> walls(static_cast<size_t>(obstacle_offsets.data()[P]));
-        socialnav::build_obstacle_vertices(obstacle_vertices.data(), obstacle_offsets.data(), P, walls.data());
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
         socialnav::OrcaScratch scratch;
         const socialnav::OrcaAgent self{vec(position), vec(velocity), radius, max_speed, Vec2{}};
-        const int k = socialnav::orca_obstacle_lines(
-            self, socialnav::ObstacleView{walls.data(), static_cast<int>(walls.size())}, time_horizon_obst, scratch);
+        const int k = socialnav::orca_obstacle_lines(self, walls.view(), time_horizon_obst, scratch);
         nb::list out;
         for (int i = 0; i < k; ++i) {
           const socialnav::Line& l = scratch.lines[i];

@@ -34,11 +34,33 @@ void build_obstacle_vertices(const double* vertices, const int64_t* offsets, int
         throw std::invalid_argument("obstacle polygon " + std::to_string(p) + ": vertices " + std::to_string(i) +
                                     " and " + std::to_string((i + 1) % k) + " coincide");
       o.unit_dir = normalize(edge);
+      o.edge = edge;
+      o.inv_edge_len_sq = 1.0 / abs_sq(edge);
       // RVO2: a vertex is convex when the polygon turns left (or goes straight) there; both ends of
       // a wall segment are convex.
       o.convex = k == 2 || left_of(out[o.prev].point, o.point, out[o.next].point) >= 0.0;
     }
   }
+}
+
+void build_edge_arrays(const ObstacleVertex* vertex, int count, double* edges) {
+  for (int i = 0; i < count; ++i) {
+    edges[i] = vertex[i].point.x;
+    edges[count + i] = vertex[i].point.y;
+    edges[2 * count + i] = vertex[i].edge.x;
+    edges[3 * count + i] = vertex[i].edge.y;
+    edges[4 * count + i] = vertex[i].inv_edge_len_sq;
+  }
+}
+
+PreparedObstacles prepare_obstacles(const double* vertices, const int64_t* offsets, int n_polygons) {
+  PreparedObstacles out;
+  const int64_t count = n_polygons > 0 ? offsets[n_polygons] : 0;
+  out.vertex.resize(static_cast<size_t>(count));
+  out.edges.resize(static_cast<size_t>(5 * count));
+  build_obstacle_vertices(vertices, offsets, n_polygons, out.vertex.data());
+  build_edge_arrays(out.vertex.data(), static_cast<int>(count), out.edges.data());
+  return out;
 }
 
 double segment_segment_distance(Vec2 p0, Vec2 p1, Vec2 a, Vec2 b) {

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "vec2.hpp"
 
@@ -17,6 +18,8 @@ namespace socialnav {
 struct ObstacleVertex {
   Vec2 point;
   Vec2 unit_dir;  // towards the next vertex
+  Vec2 edge;      // next point - point
+  double inv_edge_len_sq;  // 1 / |edge|^2
   int32_t next;   // indices into the same episode's vertex array
   int32_t prev;
   bool convex;
@@ -24,19 +27,36 @@ struct ObstacleVertex {
   bool own_edge;  // the edge to `next` is an edge of its own (false for a wall's return face b -> a)
 };
 
-// One episode's prepared vertices (null/0 for an open floor).
+// One episode's prepared vertices (null/0 for an open floor). `edges` holds the same vertices'
+// edges as five arrays of `count` doubles (point x, point y, edge x, edge y, 1 / |edge|^2): the
+// structure of arrays the per-agent neighbour query scans without branches.
 struct ObstacleView {
   const ObstacleVertex* vertex = nullptr;
   int count = 0;
+  const double* edges = nullptr;
 };
 
-// Many episodes' prepared vertices: episode b owns vertex[first[b], first[b + 1]); null for none.
+// Writes `count` vertices' edge arrays (ObstacleView::edges, 5 * count doubles).
+void build_edge_arrays(const ObstacleVertex* vertex, int count, double* edges);
+
+// Prepared obstacles that own their storage (one map, or many episodes' maps back to back).
+struct PreparedObstacles {
+  std::vector<ObstacleVertex> vertex;
+  std::vector<double> edges;  // 5 doubles per vertex, episode by episode
+  ObstacleView view() const {
+    return ObstacleView{vertex.data(), static_cast<int>(vertex.size()), edges.data()};
+  }
+};
+
+// Many episodes' prepared vertices: episode b owns vertex[first[b], first[b + 1]) and the edge
+// arrays at edges + 5 * first[b]; null for none.
 struct ObstacleBatchView {
   const ObstacleVertex* vertex = nullptr;
+  const double* edges = nullptr;
   const int64_t* first = nullptr;
   ObstacleView episode(int b) const {
     if (!first) return ObstacleView{};
-    return ObstacleView{vertex + first[b], static_cast<int>(first[b + 1] - first[b])};
+    return ObstacleView{vertex + first[b], static_cast<int>(first[b + 1] - first[b]), edges + 5 * first[b]};
   }
 };
 
@@ -44,6 +64,9 @@ struct ObstacleBatchView {
 // polygon of fewer than 2 vertices, a non-finite vertex or coincident consecutive vertices.
 void build_obstacle_vertices(const double* vertices, const int64_t* offsets, int n_polygons,
                              ObstacleVertex* out);
+
+// One map prepared from flat polygons (build_obstacle_vertices + build_edge_arrays).
+PreparedObstacles prepare_obstacles(const double* vertices, const int64_t* offsets, int n_polygons);
 
 // RVO2's leftOf(a, b, c): > 0 when c lies to the left of the directed line a -> b.
 inline double left_of(Vec2 a, Vec2 b, Vec2 c) { return det(a - c, b - a); }

@@ -133,14 +133,32 @@ void select_obstacles(const OrcaAgent& self, const ObstacleView& obstacles, doub
                       OrcaScratch& scratch) {
   scratch.obstacle_index.clear();
   scratch.obstacle_dist_sq.clear();
-  for (int i = 0; i < obstacles.count; ++i) {
-    const ObstacleVertex& o1 = obstacles.vertex[i];
-    const Vec2 p2 = obstacles.vertex[o1.next].point;
-    const double agent_left_of_line = left_of(o1.point, p2, self.position);
-    if (!(agent_left_of_line < 0.0)) continue;
-    if (!(agent_left_of_line * agent_left_of_line / abs_sq(p2 - o1.point) < range_sq)) continue;
-    const double dist_sq = dist_sq_point_segment(o1.point, p2, self.position);
-    if (!(dist_sq < range_sq)) continue;
+  const int n = obstacles.count;
+  if (static_cast<int>(scratch.obstacle_key.size()) < n) scratch.obstacle_key.resize(n);
+  double* __restrict key = scratch.obstacle_key.data();
+  const double* __restrict px = obstacles.edges;
+  const double* __restrict py = px + n;
+  const double* __restrict ex = px + 2 * n;
+  const double* __restrict ey = px + 3 * n;
+  const double* __restrict inv = px + 4 * n;
+  const double ax = self.position.x, ay = self.position.y;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  // Branch-free over all edges (the compiler vectorises it): the squared distance of each edge that
+  // faces the agent within range, +inf for the others.
+  for (int i = 0; i < n; ++i) {
+    const double tx = ax - px[i], ty = ay - py[i];
+    const double left = ex[i] * ty - ey[i] * tx;  // RVO2's leftOf(p1, p2, agent)
+    // Squared distance to the segment (RVO2's distSqPointLineSegment), r clamped to [0, 1].
+    double r = (tx * ex[i] + ty * ey[i]) * inv[i];
+    r = r < 0.0 ? 0.0 : (r > 1.0 ? 1.0 : r);
+    const double dx = tx - r * ex[i], dy = ty - r * ey[i];
+    const double dist_sq = dx * dx + dy * dy;
+    const bool selected = (left < 0.0) & (left * left * inv[i] < range_sq) & (dist_sq < range_sq);
+    key[i] = selected ? dist_sq : kInf;
+  }
+  for (int i = 0; i < n; ++i) {
+    if (!(key[i] < kInf)) continue;
+    const double dist_sq = key[i];
     std::vector<int>& idx = scratch.obstacle_index;
     std::vector<double>& dsq = scratch.obstacle_dist_sq;
     idx.push_back(i);
@@ -190,8 +208,8 @@ int obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double 
 
     const double dist_sq1 = abs_sq(relative_position1);
     const double dist_sq2 = abs_sq(relative_position2);
-    const Vec2 obstacle_vector = obstacle2->point - obstacle1->point;
-    const double s = dot(-relative_position1, obstacle_vector) / abs_sq(obstacle_vector);
+    const Vec2 obstacle_vector = obstacle1->edge;
+    const double s = dot(-relative_position1, obstacle_vector) * obstacle1->inv_edge_len_sq;
     const double dist_sq_line = abs_sq(-relative_position1 - s * obstacle_vector);
 
     Line line;

@@ -44,6 +44,7 @@ struct OrcaScratch {
   std::vector<Line> projected;
   std::vector<int> obstacle_index;       // selected obstacle vertices, by distance
   std::vector<double> obstacle_dist_sq;
+  std::vector<double> obstacle_key;     // per vertex: squared distance if selected, else +inf
 
   OrcaScratch() : lines(kMaxOrcaNeighbors), projected(kMaxOrcaNeighbors) {}
   void reserve_lines(int n) {

@@ -83,10 +83,16 @@ void World::set_obstacles(int b, const double* vertices, const int64_t* offsets,
         grown[static_cast<size_t>(s) * stride + i] = obstacle_vertex_[static_cast<size_t>(s) * obstacle_stride_ + i];
     obstacle_vertex_.swap(grown);
     obstacle_stride_ = stride;
+    obstacle_edges_.assign(static_cast<size_t>(config_.batch) * stride * 5, 0.0);
+    for (int s = 0; s < config_.batch; ++s) {
+      const size_t first = static_cast<size_t>(s) * stride;
+      build_edge_arrays(obstacle_vertex_.data() + first, obstacle_count_[s], obstacle_edges_.data() + 5 * first);
+    }
   }
-  for (int64_t i = 0; i < count; ++i)
-    obstacle_vertex_[static_cast<size_t>(b) * obstacle_stride_ + i] = obstacle_staging_[i];
+  const size_t first = static_cast<size_t>(b) * obstacle_stride_;
+  for (int64_t i = 0; i < count; ++i) obstacle_vertex_[first + i] = obstacle_staging_[i];
   obstacle_count_[b] = static_cast<int>(count);
+  build_edge_arrays(obstacle_vertex_.data() + first, obstacle_count_[b], obstacle_edges_.data() + 5 * first);
 }
 
 void World::record(int b, int sample) {

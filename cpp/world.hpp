@@ -123,7 +123,8 @@ class World {
   // config.max_obstacle_vertices vertices or a malformed polygon. n_polygons == 0 clears them.
   void set_obstacles(int b, const double* vertices, const int64_t* offsets, int n_polygons);
   ObstacleView obstacles(int b) const {
-    return ObstacleView{obstacle_vertex_.data() + static_cast<size_t>(b) * obstacle_stride_, obstacle_count_[b]};
+    const size_t first = static_cast<size_t>(b) * obstacle_stride_;
+    return ObstacleView{obstacle_vertex_.data() + first, obstacle_count_[b], obstacle_edges_.data() + 5 * first};
   }
 
   // The humans' exact next states (B, N, 5: px, py, vx, vy, radius) without advancing anything:
@@ -182,6 +183,7 @@ class World {
   // floor allocates nothing.
   int obstacle_stride_ = 0;
   std::vector<ObstacleVertex> obstacle_vertex_;
+  std::vector<double> obstacle_edges_;  // slot b's edge arrays (ObstacleView::edges) at 5 * b * stride
   std::vector<int> obstacle_count_;  // (B,)
   std::vector<ObstacleVertex> obstacle_staging_;
 };

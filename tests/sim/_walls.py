@@ -20,8 +20,8 @@ def with_map(scenario, static_map: StaticMap | None):
 def walled_world(static_map: StaticMap | None, n_humans: int = 5, batch: int = 2, count: int | None = None,
                  scenario: str = "circle_crossing", **settings) -> World:
     settings.setdefault("threads", 1)
-    return World(WorldSettings(**settings), with_map(make_scenario(scenario, n_humans=n_humans), static_map),
-                 batch, split="test", count=batch if count is None else count)
+    return World(WorldSettings(**settings), make_scenario(scenario, n_humans=n_humans), batch, split="test",
+                 count=batch if count is None else count, static_map=static_map)
 
 
 def pillars_and_walls() -> StaticMap:

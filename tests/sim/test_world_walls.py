@@ -6,12 +6,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from tests.sim._walls import human_clearances, pillars_and_walls, walled_world
+from tests.sim._walls import human_clearances, pillars_and_walls, walled_world, with_map
 
 from socialnav import _core
 from socialnav.config import ConfigError
 from socialnav.policies import make_policy
+from socialnav.scenarios import make_scenario
 from socialnav.sim.settings import WorldSettings
+from socialnav.sim.world import World
 from socialnav.static_map import StaticMap
 
 WALL_X = StaticMap(([[0.0, -3.0], [0.0, 3.0]],))  # a thin wall across the robot's path
@@ -58,11 +60,31 @@ def test_slots_have_their_own_maps_and_an_open_slot_is_unchanged():
     assert walled.observe().obstacles.maps == (walled.static_maps[0], None)
 
 
-def test_episodes_carry_the_scenario_map_into_their_trajectories():
-    world = walled_world(pillars_and_walls(), n_humans=3, batch=2, count=4)
+@pytest.mark.parametrize("through", ["world", "scenario"])
+def test_episodes_carry_the_map_into_their_trajectories(through):
+    """The map given to the World, or the scenario's ``static_map`` attribute, reaches every episode
+    (refilled ones included) and its trajectory."""
+    if through == "world":
+        world = walled_world(pillars_and_walls(), n_humans=3, batch=2, count=4)
+    else:
+        scenario = with_map(make_scenario("circle_crossing", n_humans=3), pillars_and_walls())
+        world = World(WorldSettings(threads=1), scenario, 2, split="test", count=4)
     trajectories, _ = _run(world)
     assert len(trajectories) == 4
     assert all(t.static_map == pillars_and_walls() for t in trajectories)
+
+
+def test_a_slot_map_set_by_hand_lasts_for_the_current_episode_only():
+    world = walled_world(None, n_humans=2, batch=1, count=3)
+    world.reset()
+    world.set_static_map(0, WALL_X)
+    assert world.observe().obstacles.maps == (WALL_X,)
+    pol = make_policy("orca", threads=1)
+    finished = []
+    while not finished:
+        finished = world.step(pol.act(world.observe())).finished
+    assert finished[0].static_map == WALL_X
+    assert world.static_maps == [None] and world.observe().obstacles is None
 
 
 # -- ORCA humans ------------------------------------------------------------------------------------

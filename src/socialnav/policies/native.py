@@ -74,7 +74,7 @@ class NativePolicy:
             self._social_force,
             self._pool,
             self._out,
-            None if observation.obstacles is None else observation.obstacles.native(),
+            None if observation.obstacles is None else observation.obstacles.native,
         )
         return self._out.copy()
 

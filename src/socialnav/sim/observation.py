@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -49,9 +50,12 @@ class ObstacleArrays:
             np.concatenate([[0], np.cumsum(per_episode)]).astype(np.int64),
         )
 
-    def native(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(vertices, polygon_offsets, episode_polygons), the native robot policies' argument."""
-        return self.vertices, self.polygon_offsets, self.episode_polygons
+    @cached_property
+    def native(self):
+        """The maps prepared once for the native robot policies (``_core.PreparedObstacleBatch``)."""
+        from socialnav import _core
+
+        return _core.PreparedObstacleBatch(self.vertices, self.polygon_offsets, self.episode_polygons)
 
     def take(self, index: np.ndarray | slice) -> ObstacleArrays | None:
         """The rows ``index`` (None when they are all open floors)."""

@@ -211,11 +211,13 @@ class World:
         split, start, count: The episode stream (see :class:`EpisodeStream`).
         record: Keep per-episode histories and emit trajectories when episodes finish.
         tags: Extra settings stored in every trajectory (policy name, information setting, …).
+        static_map: One static map for every episode of this world (e.g. a built-in scenario among
+            walls), in place of the scenario's own ``static_map`` attribute.
 
     Static obstacles: each episode's map (a :class:`~socialnav.static_map.StaticMap`, or None for an
-    open floor) comes with the episode, from the episode batch's ``static_maps`` (one per episode)
-    when the scenario generates one, else from the scenario's ``static_map`` attribute (one map for
-    all its episodes). A slot keeps its map while it is refilled by the native generator.
+    open floor) comes with the episode: from the episode batch's ``static_maps`` (one per episode)
+    when the scenario generates them, else the world's ``static_map`` argument, else the scenario's
+    ``static_map`` attribute (one map for all its episodes), else none.
     """
 
     def __init__(
@@ -229,6 +231,7 @@ class World:
         count: int | None = None,
         record: bool = True,
         tags: dict | None = None,
+        static_map: StaticMap | None = None,
     ):
         if not isinstance(batch_size, int | np.integer) or batch_size < 1:
             raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
@@ -283,7 +286,9 @@ class World:
         #: (B,) each slot's static map (None: open floor); change it through `set_static_map` only.
         self.static_maps: list[StaticMap | None] = [None] * B
         self._obstacle_arrays: ObstacleArrays | None = None  # the flat form of static_maps, cached
-        self._fixed_map = _scenario_map(scenario)
+        if static_map is not None and not isinstance(static_map, StaticMap):
+            raise TypeError(f"static_map must be a StaticMap or None, got {type(static_map).__name__}")
+        self._fixed_map = (static_map or None) if static_map is not None else _scenario_map(scenario)
         self._custom_maps: set[int] = set()  # slots whose map is not the scenario's fixed map
         if self._fixed_map is not None:
             for b in range(B):
