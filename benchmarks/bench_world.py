@@ -104,7 +104,7 @@ def main_obstacles(args: argparse.Namespace) -> None:
     sys.path.insert(0, os.path.dirname(__file__))
     from _navground_workload import navground_env_steps_per_s
 
-    best = {"obstacles": 0.0, "open": 0.0, "navground_obstacles": 0.0}
+    best = {"obstacles": 0.0, "open": 0.0, "navground_obstacles": 0.0, "navground_open": 0.0}
     threads = None
     for _ in range(args.repeats):
         walled = measure_socialnav(args.batch, args.seconds, args.threads, static_map)
@@ -114,6 +114,8 @@ def main_obstacles(args: argparse.Namespace) -> None:
         best["open"] = max(best["open"], open_floor["env_steps_per_s"])
         ng = navground_env_steps_per_s(seconds=args.seconds, walls=walls)
         best["navground_obstacles"] = max(best["navground_obstacles"], ng["env_steps_per_s"])
+        ng_open = navground_env_steps_per_s(seconds=args.seconds)
+        best["navground_open"] = max(best["navground_open"], ng_open["env_steps_per_s"])
     result = {
         "batch": args.batch,
         "cpu_count": os.cpu_count(),
@@ -125,6 +127,8 @@ def main_obstacles(args: argparse.Namespace) -> None:
         "navground_env_steps_per_s_obstacles": best["navground_obstacles"],
         "ratio_vs_open_world": best["obstacles"] / best["open"],
         "ratio_vs_navground_obstacles": best["obstacles"] / best["navground_obstacles"],
+        "navground_env_steps_per_s_open_world": best["navground_open"],
+        "navground_ratio_obstacles_vs_open": best["navground_obstacles"] / best["navground_open"],
     }
     result["meets_target"] = bool(
         result["ratio_vs_open_world"] >= 0.5 and result["ratio_vs_navground_obstacles"] >= 3
