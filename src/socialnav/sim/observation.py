@@ -57,6 +57,34 @@ class ObstacleArrays:
 
         return _core.PreparedObstacleBatch(self.vertices, self.polygon_offsets, self.episode_polygons)
 
+    def padded_edges(self, max_edges: int) -> tuple[np.ndarray, np.ndarray]:
+        """Every episode's obstacle edges as a fixed-size list: segments (B, max_edges, 4) of
+        (x1, y1, x2, y2) [m] (a wall is one edge, a k-gon k edges, in map order), zero-padded, and
+        their mask (B, max_edges) bool (the Gymnasium envs' ``obstacles`` / ``obstacle_mask``).
+
+        Raises:
+            ValueError: an episode's map has more than ``max_edges`` edges.
+        """
+        cache = self.__dict__.setdefault("_padded", {})
+        if max_edges not in cache:
+            edges = np.zeros((len(self.maps), max_edges, 4))
+            mask = np.zeros((len(self.maps), max_edges), dtype=bool)
+            for b, static_map in enumerate(self.maps):
+                if static_map is None:
+                    continue
+                start, end = static_map.edges()
+                if len(start) > max_edges:
+                    raise ValueError(
+                        f"the static map of episode row {b} has {len(start)} edges, more than "
+                        f"max_obstacle_edges = {max_edges}"
+                    )
+                edges[b, : len(start), :2], edges[b, : len(start), 2:] = start, end
+                mask[b, : len(start)] = True
+            edges.setflags(write=False)
+            mask.setflags(write=False)
+            cache[max_edges] = (edges, mask)
+        return cache[max_edges]
+
     def take(self, index: np.ndarray | slice) -> ObstacleArrays | None:
         """The rows ``index`` (None when they are all open floors)."""
         rows = np.arange(len(self.maps))[index]
