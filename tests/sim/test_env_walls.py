@@ -4,10 +4,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from tests.sim._walls import pillars_and_walls
 
 from socialnav.sim.env import SocialNavEnv, SocialNavVectorEnv
 from socialnav.static_map import StaticMap
-from tests.sim._walls import pillars_and_walls
 
 ACROSS = StaticMap(([[-2.0, 0.0], [2.0, 0.0]],))  # across the robot's straight route (0, -4) -> (0, 4)
 
