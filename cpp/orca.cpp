@@ -116,14 +116,26 @@ void linear_program3(const Line* lines, int n, int n_hard, int begin_line, doubl
 }
 
 // Left and right leg directions of the cone from the agent tangent to a disc of `radius` around
-// relative position `p` (|p| > radius).
+// relative position `p` (|p| > radius). One division per vertex (a multiplication by its inverse
+// after), where RVO2 divides each component: the results differ by an ulp at most.
+struct Legs {
+  Vec2 left, right;
+};
+inline Legs legs(Vec2 p, double dist_sq, double radius) {
+  const double leg = std::sqrt(dist_sq - radius * radius);
+  const double inv = 1.0 / dist_sq;
+  return Legs{Vec2{(p.x * leg - p.y * radius) * inv, (p.x * radius + p.y * leg) * inv},
+              Vec2{(p.x * leg + p.y * radius) * inv, (-p.x * radius + p.y * leg) * inv}};
+}
 inline Vec2 left_leg(Vec2 p, double dist_sq, double radius) {
   const double leg = std::sqrt(dist_sq - radius * radius);
-  return Vec2{p.x * leg - p.y * radius, p.x * radius + p.y * leg} / dist_sq;
+  const double inv = 1.0 / dist_sq;
+  return Vec2{(p.x * leg - p.y * radius) * inv, (p.x * radius + p.y * leg) * inv};
 }
 inline Vec2 right_leg(Vec2 p, double dist_sq, double radius) {
   const double leg = std::sqrt(dist_sq - radius * radius);
-  return Vec2{p.x * leg + p.y * radius, -p.x * radius + p.y * leg} / dist_sq;
+  const double inv = 1.0 / dist_sq;
+  return Vec2{(p.x * leg + p.y * radius) * inv, (-p.x * radius + p.y * leg) * inv};
 }
 
 // RVO2's obstacle neighbours: vertices whose edge faces the agent (agent strictly on its right,
@@ -149,12 +161,15 @@ void select_obstacles(const OrcaAgent& self, const ObstacleView& obstacles, doub
     const double tx = ax - px[i], ty = ay - py[i];
     const double left = ex[i] * ty - ey[i] * tx;  // RVO2's leftOf(p1, p2, agent)
     // Squared distance to the segment (RVO2's distSqPointLineSegment), r clamped to [0, 1].
-    double r = (tx * ex[i] + ty * ey[i]) * inv[i];
-    r = r < 0.0 ? 0.0 : (r > 1.0 ? 1.0 : r);
+    const double r = std::min(std::max((tx * ex[i] + ty * ey[i]) * inv[i], 0.0), 1.0);
     const double dx = tx - r * ex[i], dy = ty - r * ey[i];
     const double dist_sq = dx * dx + dy * dy;
-    const bool selected = (left < 0.0) & (left * left * inv[i] < range_sq) & (dist_sq < range_sq);
-    key[i] = selected ? dist_sq : kInf;
+    // Facing (strictly on the edge's right), line and segment within range; written without
+    // branches so that the loop vectorises.
+    const double line_dist_sq = left * left * inv[i];
+    const double facing = left < 0.0 ? dist_sq : kInf;
+    const double in_range = line_dist_sq < range_sq ? facing : kInf;
+    key[i] = dist_sq < range_sq ? in_range : kInf;
   }
   for (int i = 0; i < n; ++i) {
     if (!(key[i] < kInf)) continue;
@@ -245,14 +260,16 @@ int obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double 
       // Seen obliquely: the left vertex alone defines the velocity obstacle.
       if (!obstacle1->convex) continue;
       obstacle2 = obstacle1;
-      left_leg_direction = left_leg(relative_position1, dist_sq1, radius);
-      right_leg_direction = right_leg(relative_position1, dist_sq1, radius);
+      const Legs both = legs(relative_position1, dist_sq1, radius);
+      left_leg_direction = both.left;
+      right_leg_direction = both.right;
     } else if (s > 1.0 && dist_sq_line <= radius_sq) {
       // Seen obliquely: the right vertex alone defines it.
       if (!obstacle2->convex) continue;
       obstacle1 = obstacle2;
-      left_leg_direction = left_leg(relative_position2, dist_sq2, radius);
-      right_leg_direction = right_leg(relative_position2, dist_sq2, radius);
+      const Legs both = legs(relative_position2, dist_sq2, radius);
+      left_leg_direction = both.left;
+      right_leg_direction = both.right;
     } else {
       left_leg_direction = obstacle1->convex ? left_leg(relative_position1, dist_sq1, radius)
                                              : -obstacle1->unit_dir;  // continues the cut-off line
