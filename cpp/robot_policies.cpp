@@ -52,7 +52,8 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
                         double* out, const ObstacleBatchView& obstacles) {
   const int N = obs.humans;
   pool.parallel_for(obs.batch, [&](int begin, int end, int) {
-    OrcaScratch scratch;
+    // One per thread, kept between calls: its line buffers grow once to the largest problem.
+    thread_local OrcaScratch scratch;
     OrcaNeighbor nb[kMaxOrcaNeighbors];
     for (int b = begin; b < end; ++b) {
       out[2 * b] = out[2 * b + 1] = 0.0;
