@@ -97,6 +97,14 @@ def measure_socialnav(batch: int, seconds: float, threads: int, static_map: Stat
     }
 
 
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            return next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), "")
+    except OSError:
+        return ""
+
+
 def main_obstacles(args: argparse.Namespace) -> None:
     """The --obstacles benchmark: walls vs open floor vs navground with walls, alternating."""
     walls = spoke_walls()
@@ -119,6 +127,7 @@ def main_obstacles(args: argparse.Namespace) -> None:
     result = {
         "batch": args.batch,
         "cpu_count": os.cpu_count(),
+        "cpu_model": _cpu_model(),
         "threads": threads,
         "walls": len(walls),
         "repeats": args.repeats,
