@@ -16,7 +16,7 @@ open world and against navground's ORCA with the same walls, all in the same run
 
     python benchmarks/bench_world.py [--batch 4096] [--seconds 5] [--threads 0]
         [--scaling-threads 1 2] [--scaling-repeats 3] [--scaling-seconds 2]
-    python benchmarks/bench_world.py --obstacles [--batch 4096] [--seconds 3] [--repeats 3]
+    python benchmarks/bench_world.py --obstacles [--batch 4096] [--seconds 3] [--repeats 3] [--map spokes]
 """
 
 from __future__ import annotations
@@ -48,6 +48,21 @@ def spoke_walls() -> list[tuple[tuple[float, float], tuple[float, float]]]:
         a = math.pi / 8 + k * math.pi / 4
         walls.append(((1.5 * math.cos(a), 1.5 * math.sin(a)), (2.5 * math.cos(a), 2.5 * math.sin(a))))
     return walls
+
+
+def room_walls() -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """8 wall segments: the 12 m x 12 m room around the circle (4 walls) and 4 short walls 1 m long
+    at 2 m from the centre, tangential: fewer walls within each agent's query range than spokes."""
+    walls = [((-6.0, -6.0), (6.0, -6.0)), ((6.0, -6.0), (6.0, 6.0)), ((6.0, 6.0), (-6.0, 6.0)),
+             ((-6.0, 6.0), (-6.0, -6.0))]
+    for k in range(4):
+        a = math.pi / 4 + k * math.pi / 2
+        c, t = 2.0 * np.array([math.cos(a), math.sin(a)]), 0.5 * np.array([-math.sin(a), math.cos(a)])
+        walls.append((tuple(c - t), tuple(c + t)))
+    return walls
+
+
+MAPS = {"spokes": spoke_walls, "room": room_walls}
 
 
 def measure_socialnav(batch: int, seconds: float, threads: int, static_map: StaticMap | None = None) -> dict:
@@ -107,7 +122,7 @@ def _cpu_model() -> str:
 
 def main_obstacles(args: argparse.Namespace) -> None:
     """The --obstacles benchmark: walls vs open floor vs navground with walls, alternating."""
-    walls = spoke_walls()
+    walls = MAPS[args.map]()
     static_map = StaticMap(tuple(np.array(w) for w in walls))
     sys.path.insert(0, os.path.dirname(__file__))
     from _navground_workload import navground_env_steps_per_s
@@ -130,6 +145,7 @@ def main_obstacles(args: argparse.Namespace) -> None:
         "cpu_model": _cpu_model(),
         "threads": threads,
         "walls": len(walls),
+        "map": args.map,
         "repeats": args.repeats,
         "env_steps_per_s_obstacles": best["obstacles"],
         "env_steps_per_s_open_world": best["open"],
@@ -162,6 +178,9 @@ def main() -> None:
     parser.add_argument("--scaling-seconds", type=float, default=2.0)
     parser.add_argument("--obstacles", action="store_true", help="the walls benchmark (issue #28)")
     parser.add_argument("--repeats", type=int, default=3, help="--obstacles: alternating runs, best kept")
+    parser.add_argument("--map", choices=sorted(MAPS), default="spokes",
+                        help="--obstacles: the 8 walls (spokes: radial, in the crowd's way; room: the room's "
+                        "4 walls and 4 short ones)")
     args = parser.parse_args()
     if args.obstacles:
         main_obstacles(args)
