@@ -26,6 +26,8 @@ from socialnav.static_map import StaticMap
 
 #: Memory one World may allocate for its state and recorded histories (docs/simulator.md, "Bounds").
 MAX_WORLD_BYTES = 4 * 2**30
+#: Native bytes per obstacle vertex and slot: every slot reserves room for the largest map set so far.
+OBSTACLE_VERTEX_BYTES = 128
 
 
 def world_bytes(settings: WorldSettings, batch_size: int, n_agents: int, record: bool = True) -> int:
@@ -357,6 +359,14 @@ class World:
                 f"the static map of slot {slot} has {static_map.n_vertices} vertices, more than "
                 f"max_obstacle_vertices = {self.settings.max_obstacle_vertices} (raise that setting)"
             )
+        if static_map is not None:
+            need = self.batch_size * static_map.n_vertices * OBSTACLE_VERTEX_BYTES
+            if need > MAX_WORLD_BYTES:
+                raise ValueError(
+                    f"a static map of {static_map.n_vertices} vertices in each of {self.batch_size} slots "
+                    f"needs {need / 2**30:.1f} GiB, more than the {MAX_WORLD_BYTES / 2**30:.0f} GiB allowed "
+                    "(lower the batch size or simplify the map)"
+                )
         if static_map is None:
             vertices, offsets = np.zeros((0, 2)), np.zeros(1, np.int64)
         else:
