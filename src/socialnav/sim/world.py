@@ -345,15 +345,12 @@ class World:
         """Gives slot ``slot``'s current episode the static map ``static_map`` (None: an open floor);
         the next episode loaded into the slot brings its own (see the class docstring). Raises
         ValueError beyond ``max_obstacle_vertices``."""
-        static_map = static_map if static_map else None
-        if static_map is self._fixed_map:
-            self._custom_maps.discard(int(slot))
-        else:
-            self._custom_maps.add(int(slot))
-        if static_map is self.static_maps[slot]:
-            return
         if static_map is not None and not isinstance(static_map, StaticMap):
             raise TypeError(f"a static map must be a StaticMap or None, got {type(static_map).__name__}")
+        static_map = static_map if static_map else None
+        if static_map is self.static_maps[slot]:
+            self._note_custom(slot, static_map)
+            return
         if static_map is not None and static_map.n_vertices > self.settings.max_obstacle_vertices:
             raise ValueError(
                 f"the static map of slot {slot} has {static_map.n_vertices} vertices, more than "
@@ -374,6 +371,14 @@ class World:
         self._core.set_obstacles(int(slot), vertices, offsets)
         self.static_maps[slot] = static_map
         self._obstacle_arrays = None
+        self._note_custom(slot, static_map)
+
+    def _note_custom(self, slot: int, static_map: StaticMap | None) -> None:
+        """Tracks the slots whose map is not the world's fixed one (native refills restore it)."""
+        if static_map is self._fixed_map:
+            self._custom_maps.discard(int(slot))
+        else:
+            self._custom_maps.add(int(slot))
 
     @property
     def obstacles(self) -> ObstacleArrays | None:
