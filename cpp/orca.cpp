@@ -143,10 +143,12 @@ inline Vec2 right_leg(Vec2 p, double dist_sq, double radius) {
 // keep vertex order).
 void select_obstacles(const OrcaAgent& self, const ObstacleView& obstacles, double range_sq,
                       OrcaScratch& scratch) {
-  scratch.obstacle_index.clear();
-  scratch.obstacle_dist_sq.clear();
   const int n = obstacles.count;
-  if (static_cast<int>(scratch.obstacle_key.size()) < n) scratch.obstacle_key.resize(n);
+  if (static_cast<int>(scratch.obstacle_key.size()) < n) {
+    scratch.obstacle_key.resize(n);
+    scratch.obstacle_index.resize(n);
+    scratch.obstacle_dist_sq.resize(n);
+  }
   double* __restrict key = scratch.obstacle_key.data();
   const double* __restrict px = obstacles.edges;
   const double* __restrict py = px + n;
@@ -171,14 +173,20 @@ void select_obstacles(const OrcaAgent& self, const ObstacleView& obstacles, doub
     const double in_range = line_dist_sq < range_sq ? facing : kInf;
     key[i] = dist_sq < range_sq ? in_range : kInf;
   }
+  // The selected ones, compacted without branches (in vertex order), then insertion-sorted by
+  // distance (a strict comparison: ties keep vertex order, as RVO2's insertion does).
+  int* __restrict idx = scratch.obstacle_index.data();
+  double* __restrict dsq = scratch.obstacle_dist_sq.data();
+  int m = 0;
   for (int i = 0; i < n; ++i) {
-    if (!(key[i] < kInf)) continue;
-    const double dist_sq = key[i];
-    std::vector<int>& idx = scratch.obstacle_index;
-    std::vector<double>& dsq = scratch.obstacle_dist_sq;
-    idx.push_back(i);
-    dsq.push_back(dist_sq);
-    size_t k = idx.size() - 1;
+    idx[m] = i;
+    dsq[m] = key[i];
+    m += key[i] < kInf;
+  }
+  for (int j = 1; j < m; ++j) {
+    const int i = idx[j];
+    const double dist_sq = dsq[j];
+    int k = j;
     while (k != 0 && dist_sq < dsq[k - 1]) {
       idx[k] = idx[k - 1];
       dsq[k] = dsq[k - 1];
@@ -187,6 +195,7 @@ void select_obstacles(const OrcaAgent& self, const ObstacleView& obstacles, doub
     idx[k] = i;
     dsq[k] = dist_sq;
   }
+  scratch.obstacle_count = m;
 }
 
 // One ORCA half-plane per selected obstacle edge (van den Berg et al. 2011, Sec. 5; RVO2's cases):
@@ -202,7 +211,8 @@ int obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double 
   const double radius = self.radius;
   const double radius_sq = radius * radius;
   int count = 0;
-  for (const int first : scratch.obstacle_index) {
+  for (int selected = 0; selected < scratch.obstacle_count; ++selected) {
+    const int first = scratch.obstacle_index[selected];
     const ObstacleVertex* obstacle1 = &obstacles.vertex[first];
     const ObstacleVertex* obstacle2 = &obstacles.vertex[obstacle1->next];
     const Vec2 relative_position1 = obstacle1->point - self.position;
@@ -358,7 +368,7 @@ Vec2 orca_new_velocity(const OrcaAgent& self, const ObstacleView& obstacles, dou
   if (obstacles.count > 0) {
     const double range = time_horizon_obst * self.max_speed + self.radius;
     select_obstacles(self, obstacles, range * range, scratch);
-    scratch.reserve_lines(static_cast<int>(scratch.obstacle_index.size()) + n);
+    scratch.reserve_lines(scratch.obstacle_count + n);
     n_obstacle_lines = obstacle_lines(self, obstacles, time_horizon_obst, scratch, scratch.lines.data());
   } else {
     scratch.reserve_lines(n);
@@ -428,7 +438,7 @@ int orca_obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, do
                         OrcaScratch& scratch) {
   const double range = time_horizon_obst * self.max_speed + self.radius;
   select_obstacles(self, obstacles, range * range, scratch);
-  scratch.reserve_lines(static_cast<int>(scratch.obstacle_index.size()));
+  scratch.reserve_lines(scratch.obstacle_count);
   return obstacle_lines(self, obstacles, time_horizon_obst, scratch, scratch.lines.data());
 }
 

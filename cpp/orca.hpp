@@ -42,8 +42,9 @@ struct OrcaScratch {
   double dist_sq[kMaxOrcaNeighbors];
   std::vector<Line> lines;      // obstacle lines first, then agent lines
   std::vector<Line> projected;
-  std::vector<int> obstacle_index;       // selected obstacle vertices, by distance
+  std::vector<int> obstacle_index;       // selected obstacle vertices [0, obstacle_count), by distance
   std::vector<double> obstacle_dist_sq;
+  int obstacle_count = 0;
   std::vector<double> obstacle_key;     // per vertex: squared distance if selected, else +inf
 
   OrcaScratch() : lines(kMaxOrcaNeighbors), projected(kMaxOrcaNeighbors) {}
