@@ -21,6 +21,11 @@
 
 One env-step = one ``World`` step of all 6 agents (sensing, ORCA, actuation,
 collision check).  ``navground`` is imported lazily.
+
+With ``walls`` (a list of ``((x1, y1), (x2, y2))`` segments), the worlds also hold
+those walls (``navground.sim.Wall``); the agents' state estimation hands the ones in
+range to RVO2 as 2-vertex obstacles, with ``static_time_horizon`` 5 s (CrowdSim's
+``timeHorizonObst``).
 """
 
 from __future__ import annotations
@@ -56,8 +61,8 @@ def _import_navground():
     return core, sim, ORCABehavior, OmnidirectionalKinematics, BoundedStateEstimation, WaypointsTask
 
 
-def make_circle_world(seed: int = 0):
-    """A navground ``World`` with 6 ORCA agents crossing a 4 m circle."""
+def make_circle_world(seed: int = 0, walls=()):
+    """A navground ``World`` with 6 ORCA agents crossing a 4 m circle (and ``walls``)."""
     import numpy as np
 
     (_core, sim, ORCABehavior, OmnidirectionalKinematics, BoundedStateEstimation,
@@ -73,6 +78,7 @@ def make_circle_world(seed: int = 0):
         behavior = ORCABehavior(kinematics=kinematics, radius=RADIUS)
         behavior.optimal_speed = SPEED
         behavior.time_horizon = TIME_HORIZON
+        behavior.static_time_horizon = TIME_HORIZON
         behavior.horizon = 0.5 * NEIGHBOR_RANGE  # ORCA neighbour range = 2 * horizon
         behavior.safety_margin = 0.0
         agent = sim.Agent(
@@ -83,6 +89,8 @@ def make_circle_world(seed: int = 0):
         agent.position = start
         agent.orientation = angle + math.pi
         world.add_agent(agent)
+    for p1, p2 in walls:
+        world.add_wall(sim.Wall(np.asarray(p1, dtype=float), np.asarray(p2, dtype=float)))
     return world
 
 
@@ -90,7 +98,7 @@ def _jammed(world) -> bool:
     return max(math.hypot(*a.velocity) for a in world.agents) < JAM_SPEED
 
 
-def navground_env_steps_per_s(n_worlds: int = 1, seconds: float = 3.0, seed: int = 0) -> dict:
+def navground_env_steps_per_s(n_worlds: int = 1, seconds: float = 3.0, seed: int = 0, walls=()) -> dict:
     """Env-steps/s of navground stepping ``n_worlds`` 6-agent ORCA worlds.
 
     Worlds are stepped one after the other (single thread) with
@@ -106,7 +114,7 @@ def navground_env_steps_per_s(n_worlds: int = 1, seconds: float = 3.0, seed: int
     next_seed = seed
     worlds = []
     for _ in range(n_worlds):
-        worlds.append(make_circle_world(next_seed))
+        worlds.append(make_circle_world(next_seed, walls))
         next_seed += 1
     # warm-up (first steps initialise navground's internal state/caches)
     for w in worlds:
@@ -122,7 +130,7 @@ def navground_env_steps_per_s(n_worlds: int = 1, seconds: float = 3.0, seed: int
             elapsed += time.perf_counter() - t0
             steps += CHUNK
             if _jammed(w):
-                worlds[k] = make_circle_world(next_seed)
+                worlds[k] = make_circle_world(next_seed, walls)
                 next_seed += 1
                 resets += 1
     idle = sum(1 for w in worlds for a in w.agents if a.idle)

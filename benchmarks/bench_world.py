@@ -8,14 +8,22 @@ Thread scaling (issue #13): the world is also measured at 1 and 2 threads (``--s
 alternating, ``--scaling-repeats`` times each for ``--scaling-seconds``; the best of each is kept (other
 processes only ever slow a measurement down) and ``speedup_2_threads_vs_1`` is their ratio (goal 1.9).
 
+With ``--obstacles`` (issue #28) it measures instead the same workload among 8 wall segments
+(``spoke_walls``: radial walls from 1.5 to 2.5 m around the centre, in the crowd's way) against the
+open world and against navground's ORCA with the same walls, all in the same run, best of
+``--repeats`` alternating runs each; keys ``env_steps_per_s_obstacles``, ``ratio_vs_open_world``
+(goal >= 0.5) and ``ratio_vs_navground_obstacles`` (goal >= 3).
+
     python benchmarks/bench_world.py [--batch 4096] [--seconds 5] [--threads 0]
         [--scaling-threads 1 2] [--scaling-repeats 3] [--scaling-seconds 2]
+    python benchmarks/bench_world.py --obstacles [--batch 4096] [--seconds 3] [--repeats 3] [--map spokes]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import resource
 import sys
@@ -27,13 +35,40 @@ from socialnav.policies import make_policy
 from socialnav.scenarios import make_scenario
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
+from socialnav.static_map import StaticMap
 
 CROWDNAV_ENV_STEPS_PER_S = 4134  # CrowdNav's simulator on a 2-core machine (issue #2)
 
 
-def measure_socialnav(batch: int, seconds: float, threads: int) -> dict:
+def spoke_walls() -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """8 wall segments, radial from 1.5 to 2.5 m at angles 22.5 + 45 k degrees: between the circle
+    (humans start beyond ~3.3 m) and the centre, where the crowd crosses."""
+    walls = []
+    for k in range(8):
+        a = math.pi / 8 + k * math.pi / 4
+        walls.append(((1.5 * math.cos(a), 1.5 * math.sin(a)), (2.5 * math.cos(a), 2.5 * math.sin(a))))
+    return walls
+
+
+def room_walls() -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """8 wall segments: the 12 m x 12 m room around the circle (4 walls) and 4 short walls 1 m long
+    at 2 m from the centre, tangential: fewer walls within each agent's query range than spokes."""
+    walls = [((-6.0, -6.0), (6.0, -6.0)), ((6.0, -6.0), (6.0, 6.0)), ((6.0, 6.0), (-6.0, 6.0)),
+             ((-6.0, 6.0), (-6.0, -6.0))]
+    for k in range(4):
+        a = math.pi / 4 + k * math.pi / 2
+        c, t = 2.0 * np.array([math.cos(a), math.sin(a)]), 0.5 * np.array([-math.sin(a), math.cos(a)])
+        walls.append((tuple(c - t), tuple(c + t)))
+    return walls
+
+
+MAPS = {"spokes": spoke_walls, "room": room_walls}
+
+
+def measure_socialnav(batch: int, seconds: float, threads: int, static_map: StaticMap | None = None) -> dict:
     settings = WorldSettings(time_limit=25.0, threads=threads)
-    world = World(settings, make_scenario("circle_crossing", n_humans=5), batch, split="train", record=False)
+    world = World(settings, make_scenario("circle_crossing", n_humans=5), batch, split="train", record=False,
+                  static_map=static_map)
     policy = make_policy("orca", safety_space=0.0, threads=threads)
     obs = world.reset()
     for _ in range(50):  # warm-up: pages in memory, starts the worker threads
@@ -94,6 +129,62 @@ def state_digest(batch: int, threads: int, steps: int = 300) -> str:
     return h.hexdigest()
 
 
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            return next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), "")
+    except OSError:
+        return ""
+
+
+def main_obstacles(args: argparse.Namespace) -> None:
+    """The --obstacles benchmark: walls vs open floor vs navground with walls, alternating."""
+    walls = MAPS[args.map]()
+    static_map = StaticMap(tuple(np.array(w) for w in walls))
+    sys.path.insert(0, os.path.dirname(__file__))
+    from _navground_workload import navground_env_steps_per_s
+
+    best = {"obstacles": 0.0, "open": 0.0, "navground_obstacles": 0.0, "navground_open": 0.0}
+    threads = None
+    for _ in range(args.repeats):
+        walled = measure_socialnav(args.batch, args.seconds, args.threads, static_map)
+        threads = walled["threads"]
+        best["obstacles"] = max(best["obstacles"], walled["env_steps_per_s"])
+        open_floor = measure_socialnav(args.batch, args.seconds, args.threads)
+        best["open"] = max(best["open"], open_floor["env_steps_per_s"])
+        ng = navground_env_steps_per_s(seconds=args.seconds, walls=walls)
+        best["navground_obstacles"] = max(best["navground_obstacles"], ng["env_steps_per_s"])
+        ng_open = navground_env_steps_per_s(seconds=args.seconds)
+        best["navground_open"] = max(best["navground_open"], ng_open["env_steps_per_s"])
+    result = {
+        "batch": args.batch,
+        "cpu_count": os.cpu_count(),
+        "cpu_model": _cpu_model(),
+        "threads": threads,
+        "walls": len(walls),
+        "map": args.map,
+        "repeats": args.repeats,
+        "env_steps_per_s_obstacles": best["obstacles"],
+        "env_steps_per_s_open_world": best["open"],
+        "navground_env_steps_per_s_obstacles": best["navground_obstacles"],
+        "ratio_vs_open_world": best["obstacles"] / best["open"],
+        "ratio_vs_navground_obstacles": best["obstacles"] / best["navground_obstacles"],
+        "navground_env_steps_per_s_open_world": best["navground_open"],
+        "navground_ratio_obstacles_vs_open": best["navground_obstacles"] / best["navground_open"],
+    }
+    result["meets_target"] = bool(
+        result["ratio_vs_open_world"] >= 0.5 and result["ratio_vs_navground_obstacles"] >= 3
+    )
+    result["load_average_1min"] = os.getloadavg()[0]
+    print(f"socialnav with {len(walls)} walls: {best['obstacles']:,.0f} env-steps/s "
+          f"(B={args.batch}, {threads} threads)")
+    print(f"socialnav open floor: {best['open']:,.0f} env-steps/s -> ratio "
+          f"{result['ratio_vs_open_world']:.2f} (goal 0.5)")
+    print(f"navground with the same walls: {best['navground_obstacles']:,.0f} env-steps/s -> ratio "
+          f"{result['ratio_vs_navground_obstacles']:.1f}x (goal 3)")
+    print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in result.items()}))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--batch", type=int, default=4096)
@@ -102,7 +193,15 @@ def main() -> None:
     parser.add_argument("--scaling-threads", type=int, nargs="*", default=[1, 2])
     parser.add_argument("--scaling-repeats", type=int, default=3)
     parser.add_argument("--scaling-seconds", type=float, default=2.0)
+    parser.add_argument("--obstacles", action="store_true", help="the walls benchmark (issue #28)")
+    parser.add_argument("--repeats", type=int, default=3, help="--obstacles: alternating runs, best kept")
+    parser.add_argument("--map", choices=sorted(MAPS), default="spokes",
+                        help="--obstacles: the 8 walls (spokes: radial, in the crowd's way; room: the room's "
+                        "4 walls and 4 short ones)")
     args = parser.parse_args()
+    if args.obstacles:
+        main_obstacles(args)
+        return
 
     ours = measure_socialnav(args.batch, args.seconds, args.threads)
     print(

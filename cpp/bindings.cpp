@@ -74,6 +74,55 @@ struct PyWorld {
 
 Vec2 vec(const Array<double>& a) { return Vec2{a.data()[0], a.data()[1]}; }
 
+// Checks flat polygons (vertices (V, 2), offsets (P + 1,)) and returns P.
+int polygon_count(const Array<double>& vertices, const Array<int64_t>& offsets) {
+  if (offsets.size() < 1) throw std::invalid_argument("obstacle offsets must have P + 1 >= 1 entries");
+  const size_t P = offsets.size() - 1;
+  const int64_t* o = offsets.data();
+  if (o[0] != 0) throw std::invalid_argument("obstacle offsets must start at 0");
+  for (size_t p = 0; p < P; ++p)
+    if (o[p + 1] < o[p]) throw std::invalid_argument("obstacle offsets must not decrease");
+  if (vertices.size() != static_cast<size_t>(2 * o[P]))
+    throw std::invalid_argument("obstacle vertices: expected " + std::to_string(o[P]) + " x 2 values, got " +
+                                std::to_string(vertices.size()));
+  return static_cast<int>(P);
+}
+
+// Prepared obstacles of many episodes: episode b has polygons [episode_polygons[b], episode_polygons[b + 1]).
+struct PreparedBatch {
+  std::vector<socialnav::ObstacleVertex> vertex;
+  std::vector<double> edges;
+  std::vector<int64_t> first;
+  socialnav::ObstacleBatchView view() const { return {vertex.data(), edges.data(), first.data()}; }
+};
+
+PreparedBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>& offsets,
+                            const Array<int64_t>& episode_polygons, size_t B) {
+  const int P = polygon_count(vertices, offsets);
+  if (episode_polygons.size() != B + 1)
+    throw std::invalid_argument("episode_polygons: expected B + 1 = " + std::to_string(B + 1) + " entries");
+  const int64_t* ep = episode_polygons.data();
+  const int64_t* o = offsets.data();
+  if (ep[0] != 0 || ep[B] != P) throw std::invalid_argument("episode_polygons must run from 0 to P");
+  PreparedBatch out;
+  out.vertex.resize(static_cast<size_t>(o[P]));
+  out.edges.resize(static_cast<size_t>(5 * o[P]));
+  out.first.resize(B + 1);
+  std::vector<int64_t> rebased;
+  for (size_t b = 0; b < B; ++b) {
+    if (ep[b + 1] < ep[b]) throw std::invalid_argument("episode_polygons must not decrease");
+    const int64_t v0 = o[ep[b]];
+    out.first[b] = v0;
+    const int n = static_cast<int>(ep[b + 1] - ep[b]);
+    rebased.resize(static_cast<size_t>(n) + 1);
+    for (int p = 0; p <= n; ++p) rebased[p] = o[ep[b] + p] - v0;
+    socialnav::build_obstacle_vertices(vertices.data() + 2 * v0, rebased.data(), n, out.vertex.data() + v0);
+    socialnav::build_edge_arrays(out.vertex.data() + v0, static_cast<int>(rebased[n]), out.edges.data() + 5 * v0);
+  }
+  out.first[B] = o[P];
+  return out;
+}
+
 }  // namespace
 
 NB_MODULE(_core, m) {
@@ -83,7 +132,8 @@ NB_MODULE(_core, m) {
       .def(nb::init<>())
       .def_rw("neighbor_dist", &socialnav::OrcaParams::neighbor_dist)
       .def_rw("max_neighbors", &socialnav::OrcaParams::max_neighbors)
-      .def_rw("time_horizon", &socialnav::OrcaParams::time_horizon);
+      .def_rw("time_horizon", &socialnav::OrcaParams::time_horizon)
+      .def_rw("time_horizon_obst", &socialnav::OrcaParams::time_horizon_obst);
 
   nb::class_<socialnav::SocialForceParams>(m, "SocialForceParams")
       .def(nb::init<>())
@@ -93,7 +143,9 @@ NB_MODULE(_core, m) {
       .def_rw("step_time", &socialnav::SocialForceParams::step_time)
       .def_rw("fov_half_angle", &socialnav::SocialForceParams::fov_half_angle)
       .def_rw("outside_fov_weight", &socialnav::SocialForceParams::outside_fov_weight)
-      .def_rw("max_speed_factor", &socialnav::SocialForceParams::max_speed_factor);
+      .def_rw("max_speed_factor", &socialnav::SocialForceParams::max_speed_factor)
+      .def_rw("wall_u0", &socialnav::SocialForceParams::wall_u0)
+      .def_rw("wall_r", &socialnav::SocialForceParams::wall_r);
 
   using C = socialnav::WorldConfig;
   nb::class_<C>(m, "WorldConfig")
@@ -118,7 +170,10 @@ NB_MODULE(_core, m) {
       .def_rw("continue_after_success", &C::continue_after_success)
       .def_rw("continuation_cap", &C::continuation_cap)
       .def_rw("history_len", &C::history_len)
-      .def_rw("threads", &C::threads);
+      .def_rw("threads", &C::threads)
+      .def_rw("max_obstacle_vertices", &C::max_obstacle_vertices)
+      .def_rw("obstacle_collision_penalty", &C::obstacle_collision_penalty)
+      .def_rw("obstacle_collision_ends", &C::obstacle_collision_ends);
 
   m.attr("STATUS_IDLE") = static_cast<int>(socialnav::kIdle);
   m.attr("STATUS_RUNNING") = static_cast<int>(socialnav::kRunning);
@@ -126,6 +181,9 @@ NB_MODULE(_core, m) {
   m.attr("STATUS_COLLISION") = static_cast<int>(socialnav::kCollision);
   m.attr("STATUS_TIMEOUT") = static_cast<int>(socialnav::kTimeout);
   m.attr("STATUS_CONTINUING") = static_cast<int>(socialnav::kContinuing);
+  m.attr("COLLISION_NONE") = static_cast<int>(socialnav::kNoCollision);
+  m.attr("COLLISION_HUMAN") = static_cast<int>(socialnav::kHumanCollision);
+  m.attr("COLLISION_OBSTACLE") = static_cast<int>(socialnav::kObstacleCollision);
   m.attr("HUMAN_ORCA") = static_cast<int>(socialnav::kHumanOrca);
   m.attr("HUMAN_SOCIAL_FORCE") = static_cast<int>(socialnav::kHumanSocialForce);
   m.attr("HUMAN_LINEAR") = static_cast<int>(socialnav::kHumanLinear);
@@ -140,7 +198,7 @@ NB_MODULE(_core, m) {
              Array<double> theta, Array<int32_t> steps, Array<int8_t> status, Array<double> reward,
              Array<double> dmin, Array<uint8_t> done, Array<int32_t> overlaps, Array<double> arrival,
              Array<int32_t> end_step, nb::object hist_position, nb::object hist_velocity,
-             nb::object hist_dmin, nb::object pool) {
+             nb::object hist_dmin, nb::object pool, nb::object collision_kind) {
             const size_t B = static_cast<size_t>(config.batch);
             const size_t A = static_cast<size_t>(config.agents);
             const size_t T = static_cast<size_t>(config.history_len);
@@ -163,6 +221,7 @@ NB_MODULE(_core, m) {
             buf.hist_position = optional_checked<double>(hist_position, "hist_position", B * T * A * 2);
             buf.hist_velocity = optional_checked<double>(hist_velocity, "hist_velocity", B * T * A * 2);
             buf.hist_dmin = optional_checked<double>(hist_dmin, "hist_dmin", B * T);
+            buf.collision_kind = optional_checked<int8_t>(collision_kind, "collision_kind", B);
             if (T > 0 && (!buf.hist_position || !buf.hist_velocity || !buf.hist_dmin))
               throw std::invalid_argument("history_len > 0 needs hist_position, hist_velocity and hist_dmin");
             socialnav::ThreadPool* shared = pool.is_none() ? nullptr : nb::cast<socialnav::ThreadPool*>(pool);
@@ -177,13 +236,15 @@ NB_MODULE(_core, m) {
             self->keep_alive.append(hist_velocity);
             self->keep_alive.append(hist_dmin);
             self->keep_alive.append(pool);  // a shared pool outlives the worlds that run on it
+            self->keep_alive.append(collision_kind);
           },
           // State buffers are shared with Python: a converted copy would silently decouple them.
           "config"_a, "position"_a.noconvert(), "velocity"_a.noconvert(), "goal"_a.noconvert(),
           "radius"_a.noconvert(), "v_pref"_a.noconvert(), "mask"_a.noconvert(), "theta"_a.noconvert(),
           "steps"_a.noconvert(), "status"_a.noconvert(), "reward"_a.noconvert(), "dmin"_a.noconvert(),
           "done"_a.noconvert(), "overlaps"_a.noconvert(), "arrival"_a.noconvert(), "end_step"_a.noconvert(),
-          "hist_position"_a.none(), "hist_velocity"_a.none(), "hist_dmin"_a.none(), "pool"_a.none() = nb::none())
+          "hist_position"_a.none(), "hist_velocity"_a.none(), "hist_dmin"_a.none(), "pool"_a.none() = nb::none(),
+          "collision_kind"_a.none() = nb::none())
       .def(
           "step",
           [](PyWorld& self, Array<double> actions) {
@@ -197,7 +258,7 @@ NB_MODULE(_core, m) {
           "step",
           [](PyWorld& self, Array<double> actions, Array<double> reward, Array<bool> terminated,
              Array<bool> truncated, Array<int8_t> outcome, Array<double> final_dmin, Array<int64_t> final_episode,
-             Array<int64_t> episode_index) {
+             Array<int64_t> episode_index, nb::object collision_kind) {
             const auto& c = self.world->config();
             const size_t B = static_cast<size_t>(c.batch);
             const double* a = checked(actions, "actions", B * 2);
@@ -209,15 +270,25 @@ NB_MODULE(_core, m) {
             out.final_dmin = checked(final_dmin, "final_dmin", B);
             out.final_episode = checked(final_episode, "final_episode", B);
             out.episode_index = checked(episode_index, "episode_index", B);
+            out.collision_kind = optional_checked<int8_t>(collision_kind, "collision_kind", B);
             nb::gil_scoped_release release;
             return self.world->step(a, &out);
           },
           "actions"_a, "reward"_a.noconvert(), "terminated"_a.noconvert(), "truncated"_a.noconvert(),
           "outcome"_a.noconvert(), "final_dmin"_a.noconvert(), "final_episode"_a.noconvert(),
-          "episode_index"_a.noconvert(),
+          "episode_index"_a.noconvert(), "collision_kind"_a.none() = nb::none(),
           "Advance every running episode by one step and write its per-slot report (reward; terminated, "
-          "truncated, final status, dmin and episode index where an episode ended); returns the number of "
-          "episodes that ended.")
+          "truncated, final status, dmin, episode index and collision kind where an episode ended); returns "
+          "the number of episodes that ended.")
+      .def(
+          "set_obstacles",
+          [](PyWorld& self, int slot, Array<double> vertices, Array<int64_t> offsets) {
+            const int P = polygon_count(vertices, offsets);
+            self.world->set_obstacles(slot, vertices.data(), offsets.data(), P);
+          },
+          "slot"_a, "vertices"_a, "offsets"_a,
+          "Sets the static obstacles of one slot from flat polygons (StaticMap.to_flat); they stay for the "
+          "slot's later episodes until set again. Raises ValueError beyond max_obstacle_vertices.")
       .def(
           "refill_done",
           [](PyWorld& self, const socialnav::ScenarioConfig& scenario, Array<int64_t> indices, Array<int64_t> seeds,
@@ -300,6 +371,20 @@ NB_MODULE(_core, m) {
           "robot"_a.noconvert(), "humans"_a.noconvert(), "human_mask"_a.noconvert(), "active"_a.noconvert(),
           "time"_a.noconvert(), "The observation of every slot, written into the given arrays.");
 
+  nb::class_<PreparedBatch>(m, "PreparedObstacleBatch")
+      .def(
+          "__init__",
+          [](PreparedBatch* self, Array<double> vertices, Array<int64_t> polygon_offsets,
+             Array<int64_t> episode_polygons) {
+            if (episode_polygons.size() < 1) throw std::invalid_argument("episode_polygons must have B + 1 entries");
+            new (self) PreparedBatch(
+                prepare_batch(vertices, polygon_offsets, episode_polygons, episode_polygons.size() - 1));
+          },
+          "vertices"_a, "polygon_offsets"_a, "episode_polygons"_a,
+          "The static maps of B episodes prepared once for the native robot policies: vertices (V, 2), "
+          "polygon_offsets (P + 1,), episode_polygons (B + 1,).")
+      .def_prop_ro("episodes", [](const PreparedBatch& self) { return self.first.size() - 1; });
+
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
       .def(nb::init<int>(), "threads"_a)
       .def_prop_ro("size", &socialnav::ThreadPool::size);
@@ -366,7 +451,8 @@ NB_MODULE(_core, m) {
       [](const std::string& policy, Array<double> robot, Array<double> humans, Array<bool> mask,
          Array<bool> active, int kinematics, double rotation_limit, double dt,
          const socialnav::OrcaParams& orca, double radius_margin, double safety_space,
-         const socialnav::SocialForceParams& social_force, socialnav::ThreadPool& pool, Array<double> out) {
+         const socialnav::SocialForceParams& social_force, socialnav::ThreadPool& pool, Array<double> out,
+         nb::object obstacles) {
         if (robot.ndim() != 2 || robot.shape(1) != 9) throw std::invalid_argument("robot must be (B, 9)");
         const size_t B = robot.shape(0);
         if (humans.ndim() != 3 || humans.shape(0) != B || humans.shape(2) != 5)
@@ -379,14 +465,22 @@ NB_MODULE(_core, m) {
                                              humans.data(), reinterpret_cast<const uint8_t*>(mask.data()),
                                              reinterpret_cast<const uint8_t*>(active.data())};
         const socialnav::ActionFormat format{kinematics, rotation_limit};
+        socialnav::ObstacleBatchView wall_view{};
+        if (!obstacles.is_none()) {
+          const PreparedBatch& walls = nb::cast<const PreparedBatch&>(obstacles);
+          if (walls.first.size() != B + 1)
+            throw std::invalid_argument("obstacles: prepared for " + std::to_string(walls.first.size() - 1) +
+                                        " episodes, the observation has " + std::to_string(B));
+          wall_view = walls.view();
+        }
         if (policy == "linear") {
           socialnav::linear_robot_actions(obs, format, dt, o);
         } else if (policy == "orca") {
           nb::gil_scoped_release release;
-          socialnav::orca_robot_actions(obs, format, orca, radius_margin, safety_space, dt, pool, o);
+          socialnav::orca_robot_actions(obs, format, orca, radius_margin, safety_space, dt, pool, o, wall_view);
         } else if (policy == "social_force") {
           nb::gil_scoped_release release;
-          socialnav::social_force_robot_actions(obs, format, social_force, dt, pool, o);
+          socialnav::social_force_robot_actions(obs, format, social_force, dt, pool, o, wall_view);
         } else {
           throw std::invalid_argument("unknown native robot policy '" + policy +
                                       "'; valid: linear, orca, social_force");
@@ -394,7 +488,9 @@ NB_MODULE(_core, m) {
       },
       "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a,
       "orca"_a, "radius_margin"_a, "safety_space"_a, "social_force"_a, "pool"_a, "out"_a.noconvert(),
-      "Batched actions of a native robot policy, written into out (B, 2).");
+      "obstacles"_a.none() = nb::none(),
+      "Batched actions of a native robot policy, written into out (B, 2). obstacles: None or the B episodes' "
+      "static maps as PreparedObstacleBatch.");
 
   using SC = socialnav::ScenarioConfig;
   nb::class_<SC>(m, "ScenarioConfig")
@@ -497,4 +593,102 @@ NB_MODULE(_core, m) {
       },
       "position"_a, "velocity"_a, "desired_velocity"_a, "max_speed"_a, "other_positions"_a,
       "other_velocities"_a, "params"_a, "dt"_a = 0.25);
+
+  m.def(
+      "orca_step",
+      [](Array<double> positions, Array<double> velocities, Array<double> pref_velocities, Array<double> radii,
+         Array<double> max_speeds, const socialnav::OrcaParams& params, double time_step,
+         Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets, Array<double> out) {
+        const size_t n = radii.size();
+        checked(positions, "positions", 2 * n);
+        checked(velocities, "velocities", 2 * n);
+        checked(pref_velocities, "pref_velocities", 2 * n);
+        checked(max_speeds, "max_speeds", n);
+        double* o = checked(out, "out", 2 * n);
+        if (params.max_neighbors < 0 || params.max_neighbors > socialnav::kMaxOrcaNeighbors)
+          throw std::invalid_argument("max_neighbors must be in [0, " + std::to_string(socialnav::kMaxOrcaNeighbors) +
+                                      "], got " + std::to_string(params.max_neighbors));
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        const socialnav::ObstacleView view = walls.view();
+        const double* p = positions.data();
+        const double* v = velocities.data();
+        const double* pv = pref_velocities.data();
+        const double* r = radii.data();
+        const double* ms = max_speeds.data();
+        nb::gil_scoped_release release;
+        socialnav::OrcaScratch scratch;
+        std::vector<socialnav::OrcaNeighbor> selected(socialnav::kMaxOrcaNeighbors);
+        for (size_t i = 0; i < n; ++i) {
+          // RVO2's computeNeighbors: every other agent strictly within neighbor_dist, the closest
+          // max_neighbors of them, sorted by distance (ties in index order).
+          const Vec2 pi{p[2 * i], p[2 * i + 1]};
+          scratch.begin(params.neighbor_dist);
+          for (size_t j = 0; j < n; ++j) {
+            if (j == i) continue;
+            scratch.offer(static_cast<int>(j), socialnav::abs_sq(Vec2{p[2 * j], p[2 * j + 1]} - pi),
+                          params.max_neighbors);
+          }
+          for (int k = 0; k < scratch.count; ++k) {
+            const int j = scratch.index[k];
+            selected[k] = socialnav::OrcaNeighbor{Vec2{p[2 * j], p[2 * j + 1]}, Vec2{v[2 * j], v[2 * j + 1]}, r[j]};
+          }
+          const socialnav::OrcaAgent self{pi, Vec2{v[2 * i], v[2 * i + 1]}, r[i], ms[i], Vec2{pv[2 * i], pv[2 * i + 1]}};
+          const Vec2 nv = socialnav::orca_new_velocity(self, view, params.time_horizon_obst, selected.data(),
+                                                       scratch.count, params.time_horizon, time_step, scratch);
+          o[2 * i] = nv.x;
+          o[2 * i + 1] = nv.y;
+        }
+      },
+      "positions"_a, "velocities"_a, "pref_velocities"_a, "radii"_a, "max_speeds"_a, "params"_a, "time_step"_a,
+      "obstacle_vertices"_a, "obstacle_offsets"_a, "out"_a.noconvert(),
+      "New velocities (n, 2) of n agents after one ORCA step with static obstacles (RVO2's computeNeighbors "
+      "and computeNewVelocity for every agent; positions are not advanced).");
+
+  m.def(
+      "social_force_wall_force",
+      [](Array<double> position, Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets,
+         const socialnav::SocialForceParams& params) {
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        const Vec2 f = socialnav::social_force_wall_repulsion(vec(position), walls.view(), params);
+        return nb::make_tuple(f.x, f.y);
+      },
+      "position"_a, "obstacle_vertices"_a, "obstacle_offsets"_a, "params"_a,
+      "Helbing & Molnar's wall repulsion on an agent at position (sum over the obstacles).");
+
+  m.def(
+      "swept_obstacle_clearance",
+      [](Array<double> start, Array<double> end, double radius, Array<double> obstacle_vertices,
+         Array<int64_t> obstacle_offsets) {
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        return socialnav::swept_obstacle_clearance(walls.view(), vec(start), vec(end), radius);
+      },
+      "start"_a, "end"_a, "radius"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
+      "Clearance of a disc moving from start to end against the obstacles (< 0: it touched one).");
+
+  m.def(
+      "orca_obstacle_lines",
+      [](Array<double> position, Array<double> velocity, double radius, double max_speed,
+         Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets, double time_horizon_obst) {
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        socialnav::OrcaScratch scratch;
+        const socialnav::OrcaAgent self{vec(position), vec(velocity), radius, max_speed, Vec2{}};
+        const int k = socialnav::orca_obstacle_lines(self, walls.view(), time_horizon_obst, scratch);
+        nb::list out;
+        for (int i = 0; i < k; ++i) {
+          const socialnav::Line& l = scratch.lines[i];
+          out.append(nb::make_tuple(l.point.x, l.point.y, l.direction.x, l.direction.y));
+        }
+        return out;
+      },
+      "position"_a, "velocity"_a, "radius"_a, "max_speed"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
+      "time_horizon_obst"_a = 5.0,
+      "The obstacle ORCA half-planes (px, py, dx, dy; permitted on the left) of one agent, in solver order.");
 }

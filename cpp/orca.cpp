@@ -1,6 +1,7 @@
 #include "orca.hpp"
 
 #include <algorithm>
+#include <limits>
 
 namespace socialnav {
 
@@ -81,14 +82,16 @@ int linear_program2(const Line* lines, int n, double radius, Vec2 opt_velocity,
 }
 
 // Infeasible case: minimise the maximum signed distance into the violated half-planes by
-// sweeping the lines from `begin_line` and solving a 2-D program on their bisectors.
-void linear_program3(const Line* lines, int n, int begin_line, double radius, Vec2& result,
+// sweeping the lines from `begin_line` and solving a 2-D program on their bisectors. The first
+// `n_hard` lines (static obstacles) are never relaxed: they enter every sub-problem unchanged.
+void linear_program3(const Line* lines, int n, int n_hard, int begin_line, double radius, Vec2& result,
                      Line* projected) {
   double distance = 0.0;
   for (int i = begin_line; i < n; ++i) {
     if (det(lines[i].direction, lines[i].point - result) <= distance) continue;
     int m = 0;
-    for (int j = 0; j < i; ++j) {
+    for (int j = 0; j < n_hard; ++j) projected[m++] = lines[j];
+    for (int j = n_hard; j < i; ++j) {
       Line line;
       const double determinant = det(lines[i].direction, lines[j].direction);
       if (std::fabs(determinant) <= kOrcaEpsilon) {
@@ -112,11 +115,265 @@ void linear_program3(const Line* lines, int n, int begin_line, double radius, Ve
   }
 }
 
+// Left and right leg directions of the cone from the agent tangent to a disc of `radius` around
+// relative position `p` (|p| > radius). One division per vertex (a multiplication by its inverse
+// after), where RVO2 divides each component: the results differ by an ulp at most.
+struct Legs {
+  Vec2 left, right;
+};
+inline Legs legs(Vec2 p, double dist_sq, double radius) {
+  const double leg = std::sqrt(dist_sq - radius * radius);
+  const double inv = 1.0 / dist_sq;
+  return Legs{Vec2{(p.x * leg - p.y * radius) * inv, (p.x * radius + p.y * leg) * inv},
+              Vec2{(p.x * leg + p.y * radius) * inv, (-p.x * radius + p.y * leg) * inv}};
+}
+inline Vec2 left_leg(Vec2 p, double dist_sq, double radius) {
+  const double leg = std::sqrt(dist_sq - radius * radius);
+  const double inv = 1.0 / dist_sq;
+  return Vec2{(p.x * leg - p.y * radius) * inv, (p.x * radius + p.y * leg) * inv};
+}
+inline Vec2 right_leg(Vec2 p, double dist_sq, double radius) {
+  const double leg = std::sqrt(dist_sq - radius * radius);
+  const double inv = 1.0 / dist_sq;
+  return Vec2{(p.x * leg + p.y * radius) * inv, (-p.x * radius + p.y * leg) * inv};
+}
+
+// RVO2's obstacle neighbours: vertices whose edge faces the agent (agent strictly on its right,
+// the outside of a counter-clockwise polygon) within range, sorted by distance to the edge (ties
+// keep vertex order).
+void select_obstacles(const OrcaAgent& self, const ObstacleView& obstacles, double range_sq,
+                      OrcaScratch& scratch) {
+  const int n = obstacles.count;
+  if (static_cast<int>(scratch.obstacle_key.size()) < n) {
+    scratch.obstacle_key.resize(n);
+    scratch.obstacle_index.resize(n);
+    scratch.obstacle_dist_sq.resize(n);
+  }
+  double* __restrict key = scratch.obstacle_key.data();
+  const double* __restrict px = obstacles.edges;
+  const double* __restrict py = px + n;
+  const double* __restrict ex = px + 2 * n;
+  const double* __restrict ey = px + 3 * n;
+  const double* __restrict inv = px + 4 * n;
+  const double ax = self.position.x, ay = self.position.y;
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  // Branch-free over all edges (the compiler vectorises it): the squared distance of each edge that
+  // faces the agent within range, +inf for the others.
+  for (int i = 0; i < n; ++i) {
+    const double tx = ax - px[i], ty = ay - py[i];
+    const double left = ex[i] * ty - ey[i] * tx;  // RVO2's leftOf(p1, p2, agent)
+    // Squared distance to the segment (RVO2's distSqPointLineSegment), r clamped to [0, 1].
+    const double r = std::min(std::max((tx * ex[i] + ty * ey[i]) * inv[i], 0.0), 1.0);
+    const double dx = tx - r * ex[i], dy = ty - r * ey[i];
+    const double dist_sq = dx * dx + dy * dy;
+    // Facing (strictly on the edge's right), line and segment within range; written without
+    // branches so that the loop vectorises.
+    const double line_dist_sq = left * left * inv[i];
+    const double facing = left < 0.0 ? dist_sq : kInf;
+    const double in_range = line_dist_sq < range_sq ? facing : kInf;
+    key[i] = dist_sq < range_sq ? in_range : kInf;
+  }
+  // The selected ones, compacted without branches (in vertex order), then insertion-sorted by
+  // distance (a strict comparison: ties keep vertex order, as RVO2's insertion does).
+  int* __restrict idx = scratch.obstacle_index.data();
+  double* __restrict dsq = scratch.obstacle_dist_sq.data();
+  int m = 0;
+  for (int i = 0; i < n; ++i) {
+    idx[m] = i;
+    dsq[m] = key[i];
+    m += key[i] < kInf;
+  }
+  for (int j = 1; j < m; ++j) {
+    const int i = idx[j];
+    const double dist_sq = dsq[j];
+    int k = j;
+    while (k != 0 && dist_sq < dsq[k - 1]) {
+      idx[k] = idx[k - 1];
+      dsq[k] = dsq[k - 1];
+      --k;
+    }
+    idx[k] = i;
+    dsq[k] = dist_sq;
+  }
+  scratch.obstacle_count = m;
+}
+
+// One ORCA half-plane per selected obstacle edge (van den Berg et al. 2011, Sec. 5; RVO2's cases):
+// edges already excluded by earlier lines are skipped; an agent already touching a vertex or an
+// edge gets a line through the origin that forbids moving further in; otherwise the velocity
+// obstacle is the edge's cut-off segment (scaled by 1/tau_obst) with its two legs, where a leg
+// at a non-convex vertex continues the edge and a leg that would point into the neighbouring edge
+// is replaced by that edge ("foreign" leg, which adds no line when it is the closest part).
+// Returns the number of lines written.
+int obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double time_horizon_obst,
+                   const OrcaScratch& scratch, Line* lines) {
+  const double inv_time_horizon_obst = 1.0 / time_horizon_obst;
+  const double radius = self.radius;
+  const double radius_sq = radius * radius;
+  int count = 0;
+  for (int selected = 0; selected < scratch.obstacle_count; ++selected) {
+    const int first = scratch.obstacle_index[selected];
+    const ObstacleVertex* obstacle1 = &obstacles.vertex[first];
+    const ObstacleVertex* obstacle2 = &obstacles.vertex[obstacle1->next];
+    const Vec2 relative_position1 = obstacle1->point - self.position;
+    const Vec2 relative_position2 = obstacle2->point - self.position;
+
+    // Already excluded by a previous obstacle line: both cut-off ends are on the far side of it.
+    bool already_covered = false;
+    for (int j = 0; j < count; ++j) {
+      if (det(inv_time_horizon_obst * relative_position1 - lines[j].point, lines[j].direction) -
+                  inv_time_horizon_obst * radius >= -kOrcaEpsilon &&
+          det(inv_time_horizon_obst * relative_position2 - lines[j].point, lines[j].direction) -
+                  inv_time_horizon_obst * radius >= -kOrcaEpsilon) {
+        already_covered = true;
+        break;
+      }
+    }
+    if (already_covered) continue;
+
+    const double dist_sq1 = abs_sq(relative_position1);
+    const double dist_sq2 = abs_sq(relative_position2);
+    const Vec2 obstacle_vector = obstacle1->edge;
+    const double s = dot(-relative_position1, obstacle_vector) * obstacle1->inv_edge_len_sq;
+    const double dist_sq_line = abs_sq(-relative_position1 - s * obstacle_vector);
+
+    Line line;
+    if (s < 0.0 && dist_sq1 <= radius_sq) {
+      // Touching the left vertex (ignored when non-convex: the neighbouring edge handles it).
+      if (obstacle1->convex) {
+        line.point = Vec2{};
+        line.direction = normalize(Vec2{-relative_position1.y, relative_position1.x});
+        lines[count++] = line;
+      }
+      continue;
+    }
+    if (s > 1.0 && dist_sq2 <= radius_sq) {
+      // Touching the right vertex: only when convex and not left to the next edge.
+      if (obstacle2->convex && det(relative_position2, obstacle2->unit_dir) >= 0.0) {
+        line.point = Vec2{};
+        line.direction = normalize(Vec2{-relative_position2.y, relative_position2.x});
+        lines[count++] = line;
+      }
+      continue;
+    }
+    if (s >= 0.0 && s < 1.0 && dist_sq_line <= radius_sq) {
+      // Touching the edge itself.
+      line.point = Vec2{};
+      line.direction = -obstacle1->unit_dir;
+      lines[count++] = line;
+      continue;
+    }
+
+    // No contact: the legs of the velocity obstacle.
+    Vec2 left_leg_direction, right_leg_direction;
+    if (s < 0.0 && dist_sq_line <= radius_sq) {
+      // Seen obliquely: the left vertex alone defines the velocity obstacle.
+      if (!obstacle1->convex) continue;
+      obstacle2 = obstacle1;
+      const Legs both = legs(relative_position1, dist_sq1, radius);
+      left_leg_direction = both.left;
+      right_leg_direction = both.right;
+    } else if (s > 1.0 && dist_sq_line <= radius_sq) {
+      // Seen obliquely: the right vertex alone defines it.
+      if (!obstacle2->convex) continue;
+      obstacle1 = obstacle2;
+      const Legs both = legs(relative_position2, dist_sq2, radius);
+      left_leg_direction = both.left;
+      right_leg_direction = both.right;
+    } else {
+      left_leg_direction = obstacle1->convex ? left_leg(relative_position1, dist_sq1, radius)
+                                             : -obstacle1->unit_dir;  // continues the cut-off line
+      right_leg_direction = obstacle2->convex ? right_leg(relative_position2, dist_sq2, radius)
+                                              : obstacle1->unit_dir;
+    }
+
+    // A leg pointing into the neighbouring edge is replaced by that edge's direction.
+    const ObstacleVertex& left_neighbor = obstacles.vertex[obstacle1->prev];
+    bool is_left_leg_foreign = false, is_right_leg_foreign = false;
+    if (obstacle1->convex && det(left_leg_direction, -left_neighbor.unit_dir) >= 0.0) {
+      left_leg_direction = -left_neighbor.unit_dir;
+      is_left_leg_foreign = true;
+    }
+    if (obstacle2->convex && det(right_leg_direction, obstacle2->unit_dir) <= 0.0) {
+      right_leg_direction = obstacle2->unit_dir;
+      is_right_leg_foreign = true;
+    }
+
+    // Cut-off centres and the projection of the current velocity on the velocity obstacle.
+    const Vec2 left_cutoff = inv_time_horizon_obst * (obstacle1->point - self.position);
+    const Vec2 right_cutoff = inv_time_horizon_obst * (obstacle2->point - self.position);
+    const Vec2 cutoff_vector = right_cutoff - left_cutoff;
+    const bool single_vertex = obstacle1 == obstacle2;
+    const double t = single_vertex ? 0.5 : dot(self.velocity - left_cutoff, cutoff_vector) / abs_sq(cutoff_vector);
+    const double t_left = dot(self.velocity - left_cutoff, left_leg_direction);
+    const double t_right = dot(self.velocity - right_cutoff, right_leg_direction);
+
+    if ((t < 0.0 && t_left < 0.0) || (single_vertex && t_left < 0.0 && t_right < 0.0)) {
+      // Closest to the left cut-off circle.
+      const Vec2 unit_w = normalize(self.velocity - left_cutoff);
+      line.direction = Vec2{unit_w.y, -unit_w.x};
+      line.point = left_cutoff + radius * inv_time_horizon_obst * unit_w;
+      lines[count++] = line;
+      continue;
+    }
+    if (t > 1.0 && t_right < 0.0) {
+      // Closest to the right cut-off circle.
+      const Vec2 unit_w = normalize(self.velocity - right_cutoff);
+      line.direction = Vec2{unit_w.y, -unit_w.x};
+      line.point = right_cutoff + radius * inv_time_horizon_obst * unit_w;
+      lines[count++] = line;
+      continue;
+    }
+
+    // Otherwise the closest of the cut-off segment, the left leg and the right leg.
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    const double dist_sq_cutoff = (t < 0.0 || t > 1.0 || single_vertex)
+                                      ? kInf
+                                      : abs_sq(self.velocity - (left_cutoff + t * cutoff_vector));
+    const double dist_sq_left =
+        t_left < 0.0 ? kInf : abs_sq(self.velocity - (left_cutoff + t_left * left_leg_direction));
+    const double dist_sq_right =
+        t_right < 0.0 ? kInf : abs_sq(self.velocity - (right_cutoff + t_right * right_leg_direction));
+
+    if (dist_sq_cutoff <= dist_sq_left && dist_sq_cutoff <= dist_sq_right) {
+      line.direction = -obstacle1->unit_dir;
+      line.point = left_cutoff + radius * inv_time_horizon_obst * Vec2{-line.direction.y, line.direction.x};
+      lines[count++] = line;
+    } else if (dist_sq_left <= dist_sq_right) {
+      if (is_left_leg_foreign) continue;
+      line.direction = left_leg_direction;
+      line.point = left_cutoff + radius * inv_time_horizon_obst * Vec2{-line.direction.y, line.direction.x};
+      lines[count++] = line;
+    } else {
+      if (is_right_leg_foreign) continue;
+      line.direction = -right_leg_direction;
+      line.point = right_cutoff + radius * inv_time_horizon_obst * Vec2{-line.direction.y, line.direction.x};
+      lines[count++] = line;
+    }
+  }
+  return count;
+}
+
 }  // namespace
 
 Vec2 orca_new_velocity(const OrcaAgent& self, const OrcaNeighbor* neighbors, int n,
                        double time_horizon, double time_step, OrcaScratch& scratch) {
-  Line* lines = scratch.lines;
+  return orca_new_velocity(self, ObstacleView{}, 1.0, neighbors, n, time_horizon, time_step, scratch);
+}
+
+Vec2 orca_new_velocity(const OrcaAgent& self, const ObstacleView& obstacles, double time_horizon_obst,
+                       const OrcaNeighbor* neighbors, int n, double time_horizon, double time_step,
+                       OrcaScratch& scratch) {
+  int n_obstacle_lines = 0;
+  if (obstacles.count > 0) {
+    const double range = time_horizon_obst * self.max_speed + self.radius;
+    select_obstacles(self, obstacles, range * range, scratch);
+    scratch.reserve_lines(scratch.obstacle_count + n);
+    n_obstacle_lines = obstacle_lines(self, obstacles, time_horizon_obst, scratch, scratch.lines.data());
+  } else {
+    scratch.reserve_lines(n);
+  }
+  Line* lines = scratch.lines.data() + n_obstacle_lines;
   const double inv_time_horizon = 1.0 / time_horizon;
   for (int k = 0; k < n; ++k) {
     const OrcaNeighbor& other = neighbors[k];
@@ -169,19 +426,32 @@ Vec2 orca_new_velocity(const OrcaAgent& self, const OrcaNeighbor* neighbors, int
   }
 
   Vec2 result;
-  const int line_fail = linear_program2(lines, n, self.max_speed, self.pref_velocity, false, result);
-  if (line_fail < n) linear_program3(lines, n, line_fail, self.max_speed, result, scratch.projected);
+  const Line* all_lines = scratch.lines.data();
+  const int total = n_obstacle_lines + n;
+  const int line_fail = linear_program2(all_lines, total, self.max_speed, self.pref_velocity, false, result);
+  if (line_fail < total)
+    linear_program3(all_lines, total, n_obstacle_lines, line_fail, self.max_speed, result, scratch.projected.data());
   return result;
 }
 
+int orca_obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double time_horizon_obst,
+                        OrcaScratch& scratch) {
+  const double range = time_horizon_obst * self.max_speed + self.radius;
+  select_obstacles(self, obstacles, range * range, scratch);
+  scratch.reserve_lines(scratch.obstacle_count);
+  return obstacle_lines(self, obstacles, time_horizon_obst, scratch, scratch.lines.data());
+}
+
 Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n,
-                              const OrcaParams& params, double time_step, OrcaScratch& scratch) {
+                              const OrcaParams& params, double time_step, OrcaScratch& scratch,
+                              const ObstacleView& obstacles) {
   scratch.begin(params.neighbor_dist);
   for (int j = 0; j < n; ++j)
     scratch.offer(j, abs_sq(candidates[j].position - self.position), params.max_neighbors);
   OrcaNeighbor selected[kMaxOrcaNeighbors];
   for (int k = 0; k < scratch.count; ++k) selected[k] = candidates[scratch.index[k]];
-  return orca_new_velocity(self, selected, scratch.count, params.time_horizon, time_step, scratch);
+  return orca_new_velocity(self, obstacles, params.time_horizon_obst, selected, scratch.count,
+                           params.time_horizon, time_step, scratch);
 }
 
 }  // namespace socialnav

@@ -49,10 +49,11 @@ void linear_robot_actions(const ObservationView& obs, const ActionFormat& format
 
 void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, const OrcaParams& params,
                         double radius_margin, double safety_space, double dt, ThreadPool& pool,
-                        double* out) {
+                        double* out, const ObstacleBatchView& obstacles) {
   const int N = obs.humans;
   pool.parallel_for(obs.batch, [&](int begin, int end, int) {
-    OrcaScratch scratch;
+    // One per thread, kept between calls: its line buffers grow once to the largest problem.
+    thread_local OrcaScratch scratch;
     OrcaNeighbor nb[kMaxOrcaNeighbors];
     for (int b = begin; b < end; ++b) {
       out[2 * b] = out[2 * b + 1] = 0.0;
@@ -69,7 +70,8 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
         nb[k] = OrcaNeighbor{{hj[0], hj[1]}, {hj[2], hj[3]}, hj[4] + margin};
       }
       const OrcaAgent self{r.p, r.v, r.radius + margin, r.v_pref, crowdsim_pref_velocity(r.p, r.g, r.v_pref)};
-      const Vec2 v = orca_new_velocity(self, nb, scratch.count, params.time_horizon, dt, scratch);
+      const Vec2 v = orca_new_velocity(self, obstacles.episode(b), params.time_horizon_obst, nb, scratch.count,
+                                       params.time_horizon, dt, scratch);
       write_action(format, r.theta, v, out + 2 * b);
     }
   });
@@ -77,7 +79,7 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
 
 void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format,
                                 const SocialForceParams& params, double dt, ThreadPool& pool,
-                                double* out) {
+                                double* out, const ObstacleBatchView& obstacles) {
   const int N = obs.humans;
   pool.parallel_for(obs.batch, [&](int begin, int end, int) {
     // Grows once per thread to the largest crowd seen; no allocation in steady state.
@@ -94,7 +96,8 @@ void social_force_robot_actions(const ObservationView& obs, const ActionFormat& 
         if (m[j]) others[n++] = SocialForceOther{{h[5 * j], h[5 * j + 1]}, {h[5 * j + 2], h[5 * j + 3]}};
       // The robot never exceeds its own v_pref, unlike a pedestrian's 1.3x margin.
       const SocialForceAgent self{r.p, r.v, social_force_desired_velocity(r.p, r.g, r.v_pref), r.v_pref};
-      write_action(format, r.theta, social_force_new_velocity(self, others.data(), n, params, dt), out + 2 * b);
+      write_action(format, r.theta, social_force_new_velocity(self, others.data(), n, params, dt, obstacles.episode(b)),
+                   out + 2 * b);
     }
   });
 }

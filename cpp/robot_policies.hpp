@@ -5,6 +5,7 @@
 
 #include <cstdint>
 
+#include "obstacles.hpp"
 #include "orca.hpp"
 #include "social_force.hpp"
 #include "thread_pool.hpp"
@@ -29,13 +30,15 @@ struct ActionFormat {
 
 void linear_robot_actions(const ObservationView& obs, const ActionFormat& format, double dt, double* out);
 
-// CrowdNav's ORCA policy: own and neighbours' radii inflated by margin + safety_space.
+// CrowdNav's ORCA policy: own and neighbours' radii inflated by margin + safety_space. Static
+// obstacles (one episode per observation row) are avoided with RVO2's obstacle algorithm, as the
+// ORCA humans do; the linear policy ignores them, as linear humans do.
 void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, const OrcaParams& params,
                         double radius_margin, double safety_space, double dt, ThreadPool& pool,
-                        double* out);
+                        double* out, const ObstacleBatchView& obstacles = ObstacleBatchView{});
 
 void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format,
                                 const SocialForceParams& params, double dt, ThreadPool& pool,
-                                double* out);
+                                double* out, const ObstacleBatchView& obstacles = ObstacleBatchView{});
 
 }  // namespace socialnav

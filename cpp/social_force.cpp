@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace socialnav {
 
@@ -26,8 +27,41 @@ Vec2 social_force_repulsion(Vec2 r, Vec2 v_b, const SocialForceParams& params) {
   return scale * (r / r1 + r_minus / r2);
 }
 
+Vec2 social_force_wall_repulsion(Vec2 position, const ObstacleView& obstacles, const SocialForceParams& params) {
+  Vec2 force{};
+  double best_sq = std::numeric_limits<double>::infinity();
+  Vec2 best_point{};
+  bool parity = false;
+  for (int i = 0; i < obstacles.count; ++i) {
+    const ObstacleVertex& v = obstacles.vertex[i];
+    const Vec2 a = v.point, b = obstacles.vertex[v.next].point;
+    if (v.own_edge) {
+      const Vec2 c = closest_point_segment(a, b, position);
+      const double d_sq = abs_sq(position - c);
+      if (d_sq < best_sq) {
+        best_sq = d_sq;
+        best_point = c;
+      }
+    }
+    if (v.solid && (a.y > position.y) != (b.y > position.y) &&
+        position.x < a.x + (position.y - a.y) * (b.x - a.x) / (b.y - a.y))
+      parity = !parity;
+    if (v.next > i) continue;
+    // The polygon's last vertex: its force, from the closest point over its edges.
+    const double d = std::sqrt(best_sq);
+    if (d > 1e-12) {
+      const double magnitude = params.wall_u0 / params.wall_r * std::exp(-(parity ? 0.0 : d) / params.wall_r);
+      const Vec2 away = (position - best_point) / d;
+      force = force + (parity ? -magnitude : magnitude) * away;
+    }
+    best_sq = std::numeric_limits<double>::infinity();
+    parity = false;
+  }
+  return force;
+}
+
 Vec2 social_force_new_velocity(const SocialForceAgent& self, const SocialForceOther* others, int n,
-                               const SocialForceParams& params, double dt) {
+                               const SocialForceParams& params, double dt, const ObstacleView& obstacles) {
   Vec2 force = (self.desired_velocity - self.velocity) / params.relaxation_time;
   const double desired_speed = norm(self.desired_velocity);
   const Vec2 e = desired_speed > 1e-9 ? self.desired_velocity / desired_speed : Vec2{};
@@ -40,6 +74,7 @@ Vec2 social_force_new_velocity(const SocialForceAgent& self, const SocialForceOt
     const double weight = dot(e, -f) >= f_norm * cos_phi ? 1.0 : params.outside_fov_weight;
     force = force + weight * f;
   }
+  if (obstacles.count > 0) force = force + social_force_wall_repulsion(self.position, obstacles, params);
   Vec2 v = self.velocity + dt * force;
   const double speed = norm(v);
   if (speed > self.max_speed && speed > 0.0) v = (self.max_speed / speed) * v;

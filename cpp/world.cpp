@@ -49,6 +49,9 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
   refill_slots_.reserve(static_cast<size_t>(config.batch));
   refill_of_slot_.assign(static_cast<size_t>(config.batch), -1);
   done_rank_.assign(static_cast<size_t>(config.batch), -1);
+  if (config.max_obstacle_vertices < 0)
+    throw std::invalid_argument("max_obstacle_vertices must be >= 0, got " + std::to_string(config.max_obstacle_vertices));
+  obstacle_count_.assign(static_cast<size_t>(config.batch), 0);
   gen_scratch_.resize(threads);
   for (GenerationScratch& g : gen_scratch_) {
     g.start.resize(2 * (config.agents - 1));
@@ -56,6 +59,40 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
     g.radius.resize(config.agents - 1);
     g.v_pref.resize(config.agents - 1);
   }
+}
+
+void World::set_obstacles(int b, const double* vertices, const int64_t* offsets, int n_polygons) {
+  if (b < 0 || b >= config_.batch) throw std::invalid_argument("slot " + std::to_string(b) + " out of range");
+  if (n_polygons < 0) throw std::invalid_argument("n_polygons must be >= 0");
+  const int64_t count = n_polygons > 0 ? offsets[n_polygons] : 0;
+  if (n_polygons > 0 && offsets[0] != 0) throw std::invalid_argument("obstacle offsets must start at 0");
+  for (int p = 0; p < n_polygons; ++p)
+    if (offsets[p + 1] < offsets[p]) throw std::invalid_argument("obstacle offsets must not decrease");
+  if (count > config_.max_obstacle_vertices)
+    throw std::invalid_argument("a static map of " + std::to_string(count) +
+                                " vertices exceeds max_obstacle_vertices = " +
+                                std::to_string(config_.max_obstacle_vertices));
+  // Validate into staging first: a bad map leaves the slot's obstacles as they were.
+  obstacle_staging_.resize(static_cast<size_t>(count));
+  build_obstacle_vertices(vertices, offsets, n_polygons, obstacle_staging_.data());
+  if (count > obstacle_stride_) {
+    const int stride = static_cast<int>(count);
+    std::vector<ObstacleVertex> grown(static_cast<size_t>(config_.batch) * stride);
+    for (int s = 0; s < config_.batch; ++s)
+      for (int i = 0; i < obstacle_count_[s]; ++i)
+        grown[static_cast<size_t>(s) * stride + i] = obstacle_vertex_[static_cast<size_t>(s) * obstacle_stride_ + i];
+    obstacle_vertex_.swap(grown);
+    obstacle_stride_ = stride;
+    obstacle_edges_.assign(static_cast<size_t>(config_.batch) * stride * 5, 0.0);
+    for (int s = 0; s < config_.batch; ++s) {
+      const size_t first = static_cast<size_t>(s) * stride;
+      build_edge_arrays(obstacle_vertex_.data() + first, obstacle_count_[s], obstacle_edges_.data() + 5 * first);
+    }
+  }
+  const size_t first = static_cast<size_t>(b) * obstacle_stride_;
+  for (int64_t i = 0; i < count; ++i) obstacle_vertex_[first + i] = obstacle_staging_[i];
+  obstacle_count_[b] = static_cast<int>(count);
+  build_edge_arrays(obstacle_vertex_.data() + first, obstacle_count_[b], obstacle_edges_.data() + 5 * first);
 }
 
 void World::record(int b, int sample) {
@@ -80,6 +117,7 @@ void World::human_velocities(int b, int worker) {
   const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
   double* out = new_velocity_.data() + static_cast<size_t>(b) * A * 2;
   const int first_other = config_.robot_visible ? 0 : 1;
+  const ObstacleView walls = obstacles(b);
 
   for (int i = 1; i < A; ++i) {
     if (!mask[i]) continue;
@@ -101,8 +139,8 @@ void World::human_velocities(int b, int worker) {
       }
       const OrcaAgent self{p, load(vel + 2 * i), radius[i] + margin, v_pref[i],
                            crowdsim_pref_velocity(p, g)};
-      v_new = orca_new_velocity(self, nb.data(), scratch.count, config_.orca.time_horizon,
-                                config_.dt, scratch);
+      v_new = orca_new_velocity(self, walls, config_.orca.time_horizon_obst, nb.data(), scratch.count,
+                                config_.orca.time_horizon, config_.dt, scratch);
     } else if (config_.human_model == kHumanSocialForce) {
       std::vector<SocialForceOther>& others = sf_scratch_[worker];
       int n = 0;
@@ -112,7 +150,7 @@ void World::human_velocities(int b, int worker) {
       }
       const SocialForceAgent self{p, load(vel + 2 * i), social_force_desired_velocity(p, g, v_pref[i]),
                                   config_.social_force.max_speed_factor * v_pref[i]};
-      v_new = social_force_new_velocity(self, others.data(), n, config_.social_force, config_.dt);
+      v_new = social_force_new_velocity(self, others.data(), n, config_.social_force, config_.dt, walls);
     } else {
       v_new = straight_to_goal_velocity(p, g, v_pref[i], config_.dt);
     }
@@ -173,6 +211,10 @@ void World::step_episode(int b, const double* actions, int worker) {
     }
   }
   buf_.dmin[b] = dmin;
+  // The robot's swept disc against the static obstacles (a thin wall crossed within the step counts).
+  bool hit_obstacle = false;
+  if (status == kRunning && obstacle_count_[b] > 0)
+    hit_obstacle = swept_obstacle_clearance(obstacles(b), p_robot, p_robot + dt * v_robot, radius[0]) < 0.0;
 
   // 4. Everyone moves.
   store(pos, p_robot + dt * v_robot);
@@ -222,7 +264,8 @@ void World::step_episode(int b, const double* actions, int worker) {
     return;
   }
   const bool reached = norm(load(pos) - load(goal)) < radius[0];
-  const bool collided = dmin < 0.0;
+  const bool hit_human = dmin < 0.0;
+  const bool collided = hit_human || (hit_obstacle && config_.obstacle_collision_ends);
   int8_t outcome = kRunning;
   if (config_.crowdsim_compat) {
     // CrowdSim tests the clock before the step and lets a timeout win over everything else.
@@ -235,11 +278,16 @@ void World::step_episode(int b, const double* actions, int worker) {
     else if (t >= config_.time_limit - kTimeEps) outcome = kTimeout;
   }
   double reward = 0.0;
-  if (outcome == kCollision) reward = config_.collision_penalty;
+  // A human collision is the one reported when both happen in the same step (the human metrics'
+  // collision rate must not lose it).
+  if (outcome == kCollision) reward = hit_human ? config_.collision_penalty : config_.obstacle_collision_penalty;
   else if (outcome == kSuccess) reward = config_.success_reward;
+  else if (outcome == kRunning && hit_obstacle) reward = config_.obstacle_collision_penalty;
   else if (outcome == kRunning && dmin < config_.discomfort_dist)
     reward = (dmin - config_.discomfort_dist) * config_.discomfort_penalty_factor * dt;
   buf_.reward[b] = reward;
+  if (outcome == kCollision && buf_.collision_kind)
+    buf_.collision_kind[b] = hit_human ? kHumanCollision : kObstacleCollision;
 
   if (outcome != kRunning) {
     buf_.end_step[b] = steps;
@@ -367,6 +415,7 @@ void World::load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, in
   buf_.done[b] = 0;
   buf_.overlaps[b] = 0;
   buf_.end_step[b] = -1;
+  if (buf_.collision_kind) buf_.collision_kind[b] = kNoCollision;
   buf_.status[b] = kRunning;
 }
 
@@ -400,6 +449,9 @@ int World::step(const double* actions, const StepOutputs* out) {
       out->outcome[b] = ended ? status : static_cast<int8_t>(kRunning);
       out->final_dmin[b] = ended ? buf_.dmin[b] : nan;
       out->final_episode[b] = ended ? out->episode_index[b] : -1;
+      if (out->collision_kind)
+        out->collision_kind[b] = ended && status == kCollision && buf_.collision_kind ? buf_.collision_kind[b]
+                                                                                       : static_cast<int8_t>(0);
     }
     done_count.fetch_add(done, std::memory_order_relaxed);
   });

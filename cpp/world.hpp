@@ -10,6 +10,7 @@
 #include <memory>
 #include <vector>
 
+#include "obstacles.hpp"
 #include "orca.hpp"
 #include "scenario_gen.hpp"
 #include "social_force.hpp"
@@ -25,6 +26,9 @@ enum Status : int8_t {
   kTimeout = 3,
   kContinuing = 4,  // robot succeeded and is parked; humans still walking (M_III)
 };
+
+// Why a collision ended an episode (collision_kind buffers).
+enum CollisionKind : int8_t { kNoCollision = 0, kHumanCollision = 1, kObstacleCollision = 2 };
 
 enum HumanModel : int { kHumanOrca = 0, kHumanSocialForce = 1, kHumanLinear = 2 };
 enum Kinematics : int { kHolonomic = 0, kUnicycle = 1 };
@@ -51,6 +55,9 @@ struct WorldConfig {
   double continuation_cap = 100.0;  // [s] since the start of the episode
   int history_len = 0;              // samples recorded per episode; 0 disables recording
   int threads = 1;
+  int max_obstacle_vertices = 0;    // bound on one episode's obstacle vertices (set_obstacles checks)
+  double obstacle_collision_penalty = -0.25;  // reward when the robot touches an obstacle
+  bool obstacle_collision_ends = true;        // touching an obstacle ends the episode (as a human)
 };
 
 struct WorldBuffers {
@@ -72,6 +79,7 @@ struct WorldBuffers {
   double* hist_position; // (B, T, A, 2) or null
   double* hist_velocity; // (B, T, A, 2) or null
   double* hist_dmin;     // (B, T) or null (entry k: clearance during step k; entry 0 unused)
+  int8_t* collision_kind;  // (B,) CollisionKind of the episode's collision, or null
 };
 
 // The policies' observation arrays (see World::observe).
@@ -91,6 +99,7 @@ struct StepOutputs {
   int8_t* outcome;               // its final Status where an episode ended in this step, kRunning elsewhere
   double* final_dmin;            // dmin where an episode ended in this step, NaN elsewhere
   int64_t* final_episode;        // episode_index where an episode ended in this step, -1 elsewhere
+  int8_t* collision_kind;        // CollisionKind where an episode ended in this step, 0 elsewhere (or null)
   const int64_t* episode_index;  // input: the slots' episode indices
 };
 
@@ -108,6 +117,15 @@ class World {
   // With `out`, also writes the per-slot report (same parallel pass: no Python over B afterwards).
   // Returns the number of episodes that ended in this step (done == 1).
   int step(const double* actions, const StepOutputs* out = nullptr);
+
+  // Sets the static obstacles of slot b (flat polygons, see obstacles.hpp); they stay until the next
+  // call for that slot (refills keep them). Throws std::invalid_argument when the map has more than
+  // config.max_obstacle_vertices vertices or a malformed polygon. n_polygons == 0 clears them.
+  void set_obstacles(int b, const double* vertices, const int64_t* offsets, int n_polygons);
+  ObstacleView obstacles(int b) const {
+    const size_t first = static_cast<size_t>(b) * obstacle_stride_;
+    return ObstacleView{obstacle_vertex_.data() + first, obstacle_count_[b], obstacle_edges_.data() + 5 * first};
+  }
 
   // The humans' exact next states (B, N, 5: px, py, vx, vy, radius) without advancing anything:
   // the "oracle" information some policies are given. Human motion depends on the robot only
@@ -160,6 +178,14 @@ class World {
   std::vector<int> refill_of_slot_;                   // (B,) j of the slot's new episode, or -1
   std::vector<int> done_rank_;                        // (B,) rank among the finished slots, or -1
   std::vector<GenerationScratch> gen_scratch_;        // one per thread
+  // Static obstacles: slot b's prepared vertices are obstacle_vertex_[b * stride, b * stride + count[b]);
+  // the stride grows (up to config.max_obstacle_vertices) with the largest map set so far, so an open
+  // floor allocates nothing.
+  int obstacle_stride_ = 0;
+  std::vector<ObstacleVertex> obstacle_vertex_;
+  std::vector<double> obstacle_edges_;  // slot b's edge arrays (ObstacleView::edges) at 5 * b * stride
+  std::vector<int> obstacle_count_;  // (B,)
+  std::vector<ObstacleVertex> obstacle_staging_;
 };
 
 }  // namespace socialnav

@@ -17,6 +17,10 @@ from socialnav.sim.world import orca_params, social_force_params
 class NativePolicy:
     """A robot policy computed by the native core from observations.
 
+    The ORCA and social-force policies avoid the observation's static obstacles the way the humans
+    of the same model do (RVO2's obstacle algorithm; Helbing & Molnár's wall repulsion); the linear
+    policy ignores them, as linear humans do.
+
     Args:
         kind: "linear", "orca" or "social_force".
         safety_space: ORCA only: inflation of the robot's and every human's radius [m].
@@ -70,6 +74,7 @@ class NativePolicy:
             self._social_force,
             self._pool,
             self._out,
+            None if observation.obstacles is None else observation.obstacles.native,
         )
         return self._out.copy()
 

@@ -1,7 +1,9 @@
 """Gymnasium environments over the batched world: one episode (Env) and B episodes (VectorEnv).
 
 Observations are dicts of arrays: ``robot`` (9,), ``humans`` (N, 5) and ``human_mask`` (N,)
-(see :mod:`socialnav.sim.observation`). Actions are continuous (vx, vy) or (v, dθ) by default,
+(see :mod:`socialnav.sim.observation`), and in worlds with walls (``max_obstacle_edges`` > 0)
+``obstacles`` (E, 4), the episode's obstacle edges (x1, y1, x2, y2), zero-padded, and
+``obstacle_mask`` (E,). Actions are continuous (vx, vy) or (v, dθ) by default,
 or an index into CrowdSim's 81-action set with ``action_set="discrete"``.
 
 Episodes are named by their index in the chosen split (``info["episode_index"]``) and played in
@@ -38,6 +40,7 @@ from socialnav.sim.actions import discrete_actions
 from socialnav.sim.observation import Observation
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import EpisodeStream, StepResult, World
+from socialnav.static_map import StaticMap
 from socialnav.viz.env_render import available_render_modes
 
 #: Episodes reserved per seed in an endless split (as ``socialnav train`` does with its seed).
@@ -46,16 +49,18 @@ SEED_STRIDE = 10_000_000
 OUTCOME_CODES = {"running": 0, "success": 1, "collision": 2, "timeout": 3}
 
 
-def _spaces(n_humans: int, settings: WorldSettings, v_pref: float, action_set: str):
+def _spaces(n_humans: int, settings: WorldSettings, v_pref: float, action_set: str, max_edges: int = 0):
     big = np.float64(1e6)
-    observation_space = spaces.Dict(
-        {
-            "robot": spaces.Box(-big, big, shape=(9,), dtype=np.float64),
-            "humans": spaces.Box(-big, big, shape=(n_humans, 5), dtype=np.float64),
-            # Gymnasium has no MultiBinary(0): a crowd-free scenario's empty mask is an empty Box
-            "human_mask": spaces.MultiBinary(n_humans) if n_humans else spaces.Box(0, 1, (0,), np.int8),
-        }
-    )
+    entries = {
+        "robot": spaces.Box(-big, big, shape=(9,), dtype=np.float64),
+        "humans": spaces.Box(-big, big, shape=(n_humans, 5), dtype=np.float64),
+        # Gymnasium has no MultiBinary(0): a crowd-free scenario's empty mask is an empty Box
+        "human_mask": spaces.MultiBinary(n_humans) if n_humans else spaces.Box(0, 1, (0,), np.int8),
+    }
+    if max_edges:
+        entries["obstacles"] = spaces.Box(-big, big, shape=(max_edges, 4), dtype=np.float64)
+        entries["obstacle_mask"] = spaces.MultiBinary(max_edges)
+    observation_space = spaces.Dict(entries)
     if action_set == "discrete":
         action_space: spaces.Space = spaces.Discrete(81)
     elif settings.kinematics == "holonomic":
@@ -69,8 +74,17 @@ def _spaces(n_humans: int, settings: WorldSettings, v_pref: float, action_set: s
     return observation_space, action_space
 
 
-def _obs_rows(obs: Observation) -> dict[str, np.ndarray]:
-    return {"robot": obs.robot, "humans": obs.humans, "human_mask": obs.human_mask.astype(np.int8)}
+def _obs_rows(obs: Observation, max_edges: int = 0) -> dict[str, np.ndarray]:
+    rows = {"robot": obs.robot, "humans": obs.humans, "human_mask": obs.human_mask.astype(np.int8)}
+    if max_edges:
+        b = obs.batch_size
+        if obs.obstacles is None:
+            rows["obstacles"] = np.zeros((b, max_edges, 4))
+            rows["obstacle_mask"] = np.zeros((b, max_edges), dtype=np.int8)
+        else:
+            edges, mask = obs.obstacles.padded_edges(max_edges)
+            rows["obstacles"], rows["obstacle_mask"] = edges.copy(), mask.astype(np.int8)
+    return rows
 
 
 class EpisodeOrder:
@@ -133,9 +147,28 @@ class _EnvConfig:
         split: str,
         action_set: str,
         preset: Any = None,
+        static_map: StaticMap | dict | None = None,
+        max_obstacle_edges: int | None = None,
     ):
         if action_set not in ("continuous", "discrete"):
             raise ValueError(f"action_set must be 'continuous' or 'discrete', got {action_set!r}")
+        if isinstance(static_map, dict):
+            static_map = StaticMap.from_dict(static_map)
+        if static_map is not None and not isinstance(static_map, StaticMap):
+            raise TypeError(
+                f"static_map must be a StaticMap, its dict form or None, got {type(static_map).__name__}"
+            )
+        self.static_map = static_map or None
+        edges = 0 if self.static_map is None else len(self.static_map.edges()[0])
+        if max_obstacle_edges is None:
+            max_obstacle_edges = edges
+        if not isinstance(max_obstacle_edges, int | np.integer) or max_obstacle_edges < 0:
+            raise ValueError(f"max_obstacle_edges must be an integer >= 0, got {max_obstacle_edges!r}")
+        if edges > max_obstacle_edges:
+            raise ValueError(
+                f"static_map has {edges} edges, more than max_obstacle_edges = {max_obstacle_edges}"
+            )
+        self.max_edges = int(max_obstacle_edges)
         if preset is not None:
             scenario_params, world = _preset_defaults(preset, scenario, scenario_params, world)
         self.settings = (
@@ -220,6 +253,8 @@ class SocialNavEnv(gym.Env):
         action_set: str = "continuous",
         preset: Any = None,
         render_mode: str | None = None,
+        static_map: StaticMap | dict | None = None,
+        max_obstacle_edges: int | None = None,
     ):
         self._recorder = None
         if render_mode is not None:
@@ -228,12 +263,14 @@ class SocialNavEnv(gym.Env):
             check_render_mode(render_mode)
             self._recorder = EnvRecorder()
         self.render_mode = render_mode
-        self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set, preset)
-        self._world = World(self._cfg.settings, self._cfg.scenario, 1, split=split, record=False)
+        self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set, preset, static_map,
+                               max_obstacle_edges)
+        self._world = World(self._cfg.settings, self._cfg.scenario, 1, split=split, record=False,
+                            static_map=self._cfg.static_map)
         self._order: EpisodeOrder | None = None
         self._position = 0
         self.observation_space, self.action_space = _spaces(
-            self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set
+            self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set, self._cfg.max_edges
         )
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -265,7 +302,7 @@ class SocialNavEnv(gym.Env):
             # The finished episode's values: the world has already emptied its slot.
             obs = result.final_observation
             info = self._info(result.outcome[0], float(result.final_dmin[0]), float(obs.time[0]),
-                              int(result.final_episode[0]))
+                              int(result.final_episode[0]), result.collision_kind[0])
         else:
             obs = w.observe()
             info = self._info("running", float(w.dmin[0]), float(w.steps[0] * w.settings.dt),
@@ -298,11 +335,14 @@ class SocialNavEnv(gym.Env):
         super().close()
 
     def _single(self, obs: Observation) -> dict[str, np.ndarray]:
-        return {k: v[0] for k, v in _obs_rows(obs).items()}
+        return {k: v[0] for k, v in _obs_rows(obs, self._cfg.max_edges).items()}
 
     @staticmethod
-    def _info(outcome: str, dmin: float, time: float, episode_index: int) -> dict[str, Any]:
-        return {"outcome": outcome, "dmin": dmin, "time": time, "episode_index": episode_index}
+    def _info(
+        outcome: str, dmin: float, time: float, episode_index: int, collision_kind: str = ""
+    ) -> dict[str, Any]:
+        return {"outcome": outcome, "dmin": dmin, "time": time, "episode_index": episode_index,
+                "collision_kind": collision_kind}
 
 
 class SocialNavVectorEnv(VectorEnv):
@@ -311,8 +351,9 @@ class SocialNavVectorEnv(VectorEnv):
     Follows Gymnasium's ``AutoresetMode.SAME_STEP``: when an episode ends, the returned observation
     is the first of the next episode and ``info["final_obs"]`` / ``info["final_info"]`` hold the
     finished one's (``final_info["outcome"]``, ``["time"]``, ``["dmin"]``, ``["episode_index"]``,
-    each with its ``_key`` mask). ``info["outcome"]`` etc. describe the episodes now in the slots.
-    The layout is the one ``gym.make_vec(..., vectorization_mode="sync")`` gives.
+    ``["collision_kind"]``, each with its ``_key`` mask). ``info["outcome"]`` etc. describe the
+    episodes now in the slots. The layout is the one ``gym.make_vec(..., vectorization_mode="sync")``
+    gives.
     """
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP}
@@ -326,13 +367,17 @@ class SocialNavVectorEnv(VectorEnv):
         split: str = "train",
         action_set: str = "continuous",
         preset: Any = None,
+        static_map: StaticMap | dict | None = None,
+        max_obstacle_edges: int | None = None,
     ):
-        self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set, preset)
+        self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set, preset, static_map,
+                               max_obstacle_edges)
         self.num_envs = int(num_envs)
-        self._world = World(self._cfg.settings, self._cfg.scenario, self.num_envs, split=split, record=False)
+        self._world = World(self._cfg.settings, self._cfg.scenario, self.num_envs, split=split,
+                            record=False, static_map=self._cfg.static_map)
         self._order: EpisodeOrder | None = None
         self.single_observation_space, self.single_action_space = _spaces(
-            self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set
+            self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set, self._cfg.max_edges
         )
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
@@ -352,7 +397,7 @@ class SocialNavVectorEnv(VectorEnv):
         else:
             position = self._world.stream.next_index  # continue the stream: no episode twice
         obs = self._world.use_stream(self._cfg.stream(self._order, position))
-        return _obs_rows(obs), self._current_info()
+        return _obs_rows(obs, self._cfg.max_edges), self._current_info()
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stops the world's native threads now (called by ``VectorEnv.close``)."""
@@ -361,12 +406,12 @@ class SocialNavVectorEnv(VectorEnv):
 
     def step(self, actions):
         result = self._world.step(self._cfg.to_actions(actions), final_observation=True, observe=True)
-        obs = _obs_rows(result.observation)
+        obs = _obs_rows(result.observation, self._cfg.max_edges)
         done = result.terminated | result.truncated
         info = self._current_info()
         if done.any():
             final = np.full(self.num_envs, None, dtype=object)
-            rows = _obs_rows(result.final_observation)
+            rows = _obs_rows(result.final_observation, self._cfg.max_edges)
             for k, b in enumerate(np.flatnonzero(done)):
                 final[b] = {key: value[k] for key, value in rows.items()}
             info["final_obs"], info["_final_obs"] = final, done.copy()
@@ -382,6 +427,7 @@ class SocialNavVectorEnv(VectorEnv):
                 "dmin": w.dmin.copy(),
                 "time": w.steps * w.settings.dt,
                 "episode_index": w.episode_index.copy(),
+                "collision_kind": np.full(self.num_envs, "", dtype=object),
             },
             np.ones(self.num_envs, dtype=bool),
         )
@@ -390,6 +436,8 @@ class SocialNavVectorEnv(VectorEnv):
         # Rows of slots that did not finish hold zeros/None, as SyncVectorEnv leaves them.
         outcome = np.full(self.num_envs, None, dtype=object)
         outcome[done] = result.outcome[done]
+        collision_kind = np.full(self.num_envs, None, dtype=object)
+        collision_kind[done] = result.collision_kind[done]
         time = np.zeros(self.num_envs)
         time[np.flatnonzero(done)] = result.final_observation.time
         return _masked(
@@ -398,6 +446,7 @@ class SocialNavVectorEnv(VectorEnv):
                 "dmin": np.where(done, result.final_dmin, 0.0),
                 "time": time,
                 "episode_index": np.where(done, result.final_episode, 0),
+                "collision_kind": collision_kind,
             },
             done,
         )

@@ -2,14 +2,93 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
+
+from socialnav.static_map import StaticMap
 
 ROBOT_PX, ROBOT_PY, ROBOT_VX, ROBOT_VY, ROBOT_RADIUS, ROBOT_GX, ROBOT_GY, ROBOT_VPREF, ROBOT_THETA = range(9)
 HUMAN_PX, HUMAN_PY, HUMAN_VX, HUMAN_VY, HUMAN_RADIUS = range(5)
 ROBOT_DIM = 9
 HUMAN_DIM = 5
+
+
+@dataclass(frozen=True, eq=False)
+class ObstacleArrays:
+    """The static maps of B episodes, flat for the native policies (``None`` rows are open floors).
+
+    Attributes:
+        maps: (B,) the episodes' :class:`~socialnav.static_map.StaticMap` or None.
+        vertices: (V, 2) every polygon's vertices [m], episode after episode.
+        polygon_offsets: (P + 1,) int64; polygon p is
+            ``vertices[polygon_offsets[p]:polygon_offsets[p + 1]]``.
+        episode_polygons: (B + 1,) int64; episode b has the polygons
+            ``episode_polygons[b]:episode_polygons[b + 1]``.
+    """
+
+    maps: tuple
+    vertices: np.ndarray
+    polygon_offsets: np.ndarray
+    episode_polygons: np.ndarray
+
+    @classmethod
+    def from_maps(cls, maps: Sequence[StaticMap | None]) -> ObstacleArrays | None:
+        """The flat form of ``maps``, or None when every episode is an open floor."""
+        maps = tuple(m if m else None for m in maps)
+        if all(m is None for m in maps):
+            return None
+        polygons = [p for m in maps if m is not None for p in m.polygons]
+        counts = np.array([len(p) for p in polygons], dtype=np.int64)
+        per_episode = np.array([0 if m is None else len(m) for m in maps], dtype=np.int64)
+        return cls(
+            maps,
+            np.ascontiguousarray(np.concatenate(polygons), dtype=np.float64),
+            np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+            np.concatenate([[0], np.cumsum(per_episode)]).astype(np.int64),
+        )
+
+    @cached_property
+    def native(self):
+        """The maps prepared once for the native robot policies (``_core.PreparedObstacleBatch``)."""
+        from socialnav import _core
+
+        return _core.PreparedObstacleBatch(self.vertices, self.polygon_offsets, self.episode_polygons)
+
+    def padded_edges(self, max_edges: int) -> tuple[np.ndarray, np.ndarray]:
+        """Every episode's obstacle edges as a fixed-size list: segments (B, max_edges, 4) of
+        (x1, y1, x2, y2) [m] (a wall is one edge, a k-gon k edges, in map order), zero-padded, and
+        their mask (B, max_edges) bool (the Gymnasium envs' ``obstacles`` / ``obstacle_mask``).
+
+        Raises:
+            ValueError: an episode's map has more than ``max_edges`` edges.
+        """
+        cache = self.__dict__.setdefault("_padded", {})
+        if max_edges not in cache:
+            edges = np.zeros((len(self.maps), max_edges, 4))
+            mask = np.zeros((len(self.maps), max_edges), dtype=bool)
+            for b, static_map in enumerate(self.maps):
+                if static_map is None:
+                    continue
+                start, end = static_map.edges()
+                if len(start) > max_edges:
+                    raise ValueError(
+                        f"the static map of episode row {b} has {len(start)} edges, more than "
+                        f"max_obstacle_edges = {max_edges}"
+                    )
+                edges[b, : len(start), :2], edges[b, : len(start), 2:] = start, end
+                mask[b, : len(start)] = True
+            edges.setflags(write=False)
+            mask.setflags(write=False)
+            cache[max_edges] = (edges, mask)
+        return cache[max_edges]
+
+    def take(self, index: np.ndarray | slice) -> ObstacleArrays | None:
+        """The rows ``index`` (None when they are all open floors)."""
+        rows = np.arange(len(self.maps))[index]
+        return ObstacleArrays.from_maps([self.maps[int(i)] for i in np.atleast_1d(rows)])
 
 
 @dataclass(frozen=True)
@@ -26,6 +105,8 @@ class Observation:
         kinematics: "holonomic" or "unicycle".
         next_humans: (B, N, 5) the simulator's exact next human states, present only when the
             observation was requested with the "oracle" information setting.
+        obstacles: the episodes' static maps (:class:`ObstacleArrays`), or None when every episode
+            is an open floor. The native robot policies (ORCA, social force) avoid them.
     """
 
     robot: np.ndarray
@@ -36,6 +117,7 @@ class Observation:
     dt: float
     kinematics: str
     next_humans: np.ndarray | None = None
+    obstacles: ObstacleArrays | None = None
 
     @property
     def batch_size(self) -> int:
@@ -44,8 +126,10 @@ class Observation:
     def take(self, index: np.ndarray | slice) -> Observation:
         """Sub-batch of episodes (copies)."""
         nxt = None if self.next_humans is None else self.next_humans[index].copy()
+        walls = None if self.obstacles is None else self.obstacles.take(index)
         return Observation(self.robot[index].copy(), self.humans[index].copy(), self.human_mask[index].copy(),
-                           self.active[index].copy(), self.time[index].copy(), self.dt, self.kinematics, nxt)
+                           self.active[index].copy(), self.time[index].copy(), self.dt, self.kinematics, nxt,
+                           walls)
 
 
 def build_observation(position: np.ndarray, velocity: np.ndarray, goal: np.ndarray, radius: np.ndarray,

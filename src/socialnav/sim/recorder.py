@@ -21,6 +21,11 @@ OUTCOME_NAMES = {
     _core.STATUS_COLLISION: "collision",
     _core.STATUS_TIMEOUT: "timeout",
 }
+#: Why a collision happened (the trajectory's settings["collision_kind"]).
+COLLISION_KIND_NAMES = {
+    _core.COLLISION_HUMAN: "human",
+    _core.COLLISION_OBSTACLE: "obstacle",
+}
 
 
 class Recorder:
@@ -78,6 +83,8 @@ class Recorder:
                 "index": int(w.episode_index[b]),
                 "seed": int(w.episode_seed[b]),
             }
+            if int(w.status[b]) == _core.STATUS_COLLISION:
+                settings["collision_kind"] = COLLISION_KIND_NAMES[int(w.collision_kind[b])]
             out.append(
                 Trajectory(
                     dt=w.settings.dt,
@@ -92,6 +99,7 @@ class Recorder:
                     continuation=continuation,
                     human_overlaps=None if w.settings.crowdsim_compat else int(w.overlaps[b]),
                     settings=settings,
+                    static_map=w.static_maps[b],
                 )
             )
         return out

@@ -23,6 +23,7 @@ KINEMATICS = ("holonomic", "unicycle")
 MAX_THREADS = 256  # native worker threads of one world
 MAX_STEPS = 100_000  # samples of one episode: max(time_limit, continuation cap) / dt
 MIN_DT = 1e-4  # [s]
+MAX_OBSTACLE_VERTICES = 100_000  # the largest bound max_obstacle_vertices may be set to
 
 
 @dataclass(frozen=True)
@@ -32,6 +33,7 @@ class OrcaSettings:
     neighbor_dist: float = 10.0  # [m]
     max_neighbors: int = 10
     time_horizon: float = 5.0  # [s]
+    time_horizon_obst: float = 5.0  # [s] for static obstacles (CrowdSim's timeHorizonObst)
     radius_margin: float = 0.01  # [m] CrowdSim inflates every radius by 1 cm
     safety_space: float = 0.0  # [m] extra inflation used by the humans
 
@@ -39,6 +41,7 @@ class OrcaSettings:
         check(self.neighbor_dist > 0, "orca.neighbor_dist", self.neighbor_dist, "must be > 0")
         check(0 <= self.max_neighbors <= 64, "orca.max_neighbors", self.max_neighbors, "must be in [0, 64]")
         check(self.time_horizon > 0, "orca.time_horizon", self.time_horizon, "must be > 0")
+        check(self.time_horizon_obst > 0, "orca.time_horizon_obst", self.time_horizon_obst, "must be > 0")
         check(self.radius_margin >= 0, "orca.radius_margin", self.radius_margin, "must be >= 0")
         check(self.safety_space >= 0, "orca.safety_space", self.safety_space, "must be >= 0")
 
@@ -54,9 +57,12 @@ class SocialForceSettings:
     fov_half_angle: float = 100.0  # phi [deg]
     outside_fov_weight: float = 0.5  # c
     max_speed_factor: float = 1.3  # v_max / v_desired
+    wall_u0: float = 10.0  # wall repulsion strength U0 [m^2/s^2] (Helbing & Molnár 1995)
+    wall_r: float = 0.2  # wall repulsion range R [m] (Helbing & Molnár 1995)
 
     def __post_init__(self) -> None:
-        for name in ("relaxation_time", "sigma", "step_time", "max_speed_factor"):
+        check(self.wall_u0 >= 0, "social_force.wall_u0", self.wall_u0, "must be >= 0")
+        for name in ("relaxation_time", "sigma", "step_time", "max_speed_factor", "wall_r"):
             value = getattr(self, name)
             check(value > 0, f"social_force.{name}", value, "must be > 0")
         check(self.v0 >= 0, "social_force.v0", self.v0, "must be >= 0")
@@ -76,9 +82,16 @@ class RewardSettings:
     collision_penalty: float = -0.25
     discomfort_dist: float = 0.2  # [m]
     discomfort_penalty_factor: float = 0.5
+    #: Reward when the robot touches a static obstacle; None: the same as collision_penalty.
+    obstacle_collision_penalty: float | None = None
 
     def __post_init__(self) -> None:
         check(self.discomfort_dist >= 0, "reward.discomfort_dist", self.discomfort_dist, "must be >= 0")
+
+    @property
+    def resolved_obstacle_collision_penalty(self) -> float:
+        p = self.obstacle_collision_penalty
+        return self.collision_penalty if p is None else p
 
 
 @dataclass(frozen=True)
@@ -99,6 +112,11 @@ class WorldSettings:
     continue_after_success: bool = False  # keep simulating humans after the robot arrives (M_III)
     continuation_cap: float = 100.0  # [s] since the episode's start
     threads: int = 0  # native worker threads; 0 = all cores (at most 8)
+    #: Bound on one episode's static-map vertices (a wall segment has 2); a larger map is refused.
+    max_obstacle_vertices: int = 4096
+    #: Touching a static obstacle ends the episode as a collision (else: the step's reward is
+    #: reward.obstacle_collision_penalty and the episode goes on).
+    obstacle_collision_ends: bool = True
 
     def __post_init__(self) -> None:
         check(math.isfinite(self.dt) and self.dt > 0, "dt", self.dt, "must be a finite number > 0")
@@ -150,6 +168,12 @@ class WorldSettings:
                 f"more than the {MAX_STEPS} allowed (raise dt or lower {name})"
             )
         check(0 <= self.threads <= MAX_THREADS, "threads", self.threads, f"must be in [0, {MAX_THREADS}]")
+        check(
+            0 <= self.max_obstacle_vertices <= MAX_OBSTACLE_VERTICES,
+            "max_obstacle_vertices",
+            self.max_obstacle_vertices,
+            f"must be in [0, {MAX_OBSTACLE_VERTICES}]",
+        )
 
     @property
     def resolved_threads(self) -> int:

@@ -18,13 +18,16 @@ import numpy as np
 from socialnav import _core
 from socialnav.scenarios import EpisodeBatch, Scenario, episode_seeds
 from socialnav.scenarios.native import native_config, raise_on_failure
-from socialnav.sim.observation import HUMAN_DIM, ROBOT_DIM, Observation, build_observation
+from socialnav.sim.observation import HUMAN_DIM, ROBOT_DIM, Observation, ObstacleArrays, build_observation
 from socialnav.sim.pool import shared_pool
-from socialnav.sim.recorder import OUTCOME_NAMES, Recorder
+from socialnav.sim.recorder import COLLISION_KIND_NAMES, OUTCOME_NAMES, Recorder
 from socialnav.sim.settings import WorldSettings
+from socialnav.static_map import StaticMap
 
 #: Memory one World may allocate for its state and recorded histories (docs/simulator.md, "Bounds").
 MAX_WORLD_BYTES = 4 * 2**30
+#: Native bytes per obstacle vertex and slot: every slot reserves room for the largest map set so far.
+OBSTACLE_VERTEX_BYTES = 128
 
 
 def world_bytes(settings: WorldSettings, batch_size: int, n_agents: int, record: bool = True) -> int:
@@ -162,6 +165,8 @@ class StepResult:
         outcome_code: (B,) int8 final status code where an episode ended (``_core.STATUS_*``; 0,
             running, elsewhere); ``outcome`` names it.
         observation: the observation after the step (``World.step(..., observe=True)`` only).
+        collision_kind_code: (B,) int8 ``_core.COLLISION_*`` where an episode ended in a collision
+            (1 human, 2 obstacle), 0 elsewhere; ``collision_kind`` names it.
     """
 
     reward: np.ndarray
@@ -173,6 +178,14 @@ class StepResult:
     final_dmin: np.ndarray | None = None
     final_episode: np.ndarray | None = None
     observation: Observation | None = None
+    collision_kind_code: np.ndarray | None = None
+
+    @property
+    def collision_kind(self) -> np.ndarray:
+        """(B,) "human" or "obstacle" where an episode ended in a collision, "" elsewhere."""
+        if self.collision_kind_code is None:
+            return np.full(len(self.reward), "", dtype=object)
+        return _COLLISION_KIND_BY_CODE[self.collision_kind_code]
 
     @property
     def outcome(self) -> np.ndarray:
@@ -184,6 +197,9 @@ class StepResult:
 #: Outcome name by final status code (an object array: one fancy-index per step, no Python loop).
 _OUTCOME_BY_STATUS = np.array(
     [OUTCOME_NAMES.get(code, "") for code in range(max(OUTCOME_NAMES) + 1)], dtype=object
+)
+_COLLISION_KIND_BY_CODE = np.array(
+    [COLLISION_KIND_NAMES.get(code, "") for code in range(max(COLLISION_KIND_NAMES) + 1)], dtype=object
 )
 
 
@@ -197,6 +213,13 @@ class World:
         split, start, count: The episode stream (see :class:`EpisodeStream`).
         record: Keep per-episode histories and emit trajectories when episodes finish.
         tags: Extra settings stored in every trajectory (policy name, information setting, …).
+        static_map: One static map for every episode of this world (e.g. a built-in scenario among
+            walls), in place of the scenario's own ``static_map`` attribute.
+
+    Static obstacles: each episode's map (a :class:`~socialnav.static_map.StaticMap`, or None for an
+    open floor) comes with the episode: from the episode batch's ``static_maps`` (one per episode)
+    when the scenario generates them, else the world's ``static_map`` argument, else the scenario's
+    ``static_map`` attribute (one map for all its episodes), else none.
     """
 
     def __init__(
@@ -210,6 +233,7 @@ class World:
         count: int | None = None,
         record: bool = True,
         tags: dict | None = None,
+        static_map: StaticMap | None = None,
     ):
         if not isinstance(batch_size, int | np.integer) or batch_size < 1:
             raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
@@ -234,6 +258,7 @@ class World:
         self.overlaps = np.zeros(B, dtype=np.int32)
         self.arrival = np.full((B, A), np.nan)
         self.end_step = np.full(B, -1, dtype=np.int32)
+        self.collision_kind = np.zeros(B, dtype=np.int8)
         self.episode_index = np.full(B, -1, dtype=np.int64)
         self.episode_seed = np.full(B, -1, dtype=np.int64)
         T = settings.history_length() if record else 0
@@ -258,7 +283,18 @@ class World:
             self.end_step,
             *hist,
             shared_pool(settings.resolved_threads),
+            self.collision_kind,
         )
+        #: (B,) each slot's static map (None: open floor); change it through `set_static_map` only.
+        self.static_maps: list[StaticMap | None] = [None] * B
+        self._obstacle_arrays: ObstacleArrays | None = None  # the flat form of static_maps, cached
+        if static_map is not None and not isinstance(static_map, StaticMap):
+            raise TypeError(f"static_map must be a StaticMap or None, got {type(static_map).__name__}")
+        self._fixed_map = (static_map or None) if static_map is not None else _scenario_map(scenario)
+        self._custom_maps: set[int] = set()  # slots whose map is not the scenario's fixed map
+        if self._fixed_map is not None:
+            for b in range(B):
+                self.set_static_map(b, self._fixed_map)
         self._actions = np.zeros((B, 2))
         self._failure = np.zeros(B, dtype=np.int32)  # refill_done's generation codes
         # Built-in scenarios are generated by the core in its worker threads (scenarios/native.py).
@@ -300,7 +336,56 @@ class World:
         c.social_force = social_force_params(s)
         c.continue_after_success = s.continue_after_success
         c.continuation_cap = s.continuation_cap
+        c.max_obstacle_vertices = s.max_obstacle_vertices
+        c.obstacle_collision_penalty = s.reward.resolved_obstacle_collision_penalty
+        c.obstacle_collision_ends = s.obstacle_collision_ends
         return c
+
+    def set_static_map(self, slot: int, static_map: StaticMap | None) -> None:
+        """Gives slot ``slot``'s current episode the static map ``static_map`` (None: an open floor);
+        the next episode loaded into the slot brings its own (see the class docstring). Raises
+        ValueError beyond ``max_obstacle_vertices``."""
+        if static_map is not None and not isinstance(static_map, StaticMap):
+            raise TypeError(f"a static map must be a StaticMap or None, got {type(static_map).__name__}")
+        static_map = static_map if static_map else None
+        if static_map is self.static_maps[slot]:
+            self._note_custom(slot, static_map)
+            return
+        if static_map is not None and static_map.n_vertices > self.settings.max_obstacle_vertices:
+            raise ValueError(
+                f"the static map of slot {slot} has {static_map.n_vertices} vertices, more than "
+                f"max_obstacle_vertices = {self.settings.max_obstacle_vertices} (raise that setting)"
+            )
+        if static_map is not None:
+            need = self.batch_size * static_map.n_vertices * OBSTACLE_VERTEX_BYTES
+            if need > MAX_WORLD_BYTES:
+                raise ValueError(
+                    f"a static map of {static_map.n_vertices} vertices in each of {self.batch_size} slots "
+                    f"needs {need / 2**30:.1f} GiB, more than the {MAX_WORLD_BYTES / 2**30:.0f} GiB allowed "
+                    "(lower the batch size or simplify the map)"
+                )
+        if static_map is None:
+            vertices, offsets = np.zeros((0, 2)), np.zeros(1, np.int64)
+        else:
+            vertices, offsets = static_map.to_flat()
+        self._core.set_obstacles(int(slot), vertices, offsets)
+        self.static_maps[slot] = static_map
+        self._obstacle_arrays = None
+        self._note_custom(slot, static_map)
+
+    def _note_custom(self, slot: int, static_map: StaticMap | None) -> None:
+        """Tracks the slots whose map is not the world's fixed one (native refills restore it)."""
+        if static_map is self._fixed_map:
+            self._custom_maps.discard(int(slot))
+        else:
+            self._custom_maps.add(int(slot))
+
+    @property
+    def obstacles(self) -> ObstacleArrays | None:
+        """The slots' static maps in flat form (None when every slot is an open floor)."""
+        if self._obstacle_arrays is None and any(m is not None for m in self.static_maps):
+            self._obstacle_arrays = ObstacleArrays.from_maps(self.static_maps)
+        return self._obstacle_arrays
 
     # -- episode management -------------------------------------------------------------------
     def reset(self) -> Observation:
@@ -353,6 +438,9 @@ class World:
     def _fill_native(self, slots: np.ndarray) -> None:
         """`_fill` for a built-in scenario: the core generates the episodes straight into the slots, in
         its worker threads, bit-identical to ``scenario.generate`` + `_load`."""
+        for b in slots:
+            if int(b) in self._custom_maps:
+                self.set_static_map(int(b), self._fixed_map)
         indices, seeds = self._next_episodes(len(slots))
         n = len(indices)
         if n:
@@ -385,6 +473,14 @@ class World:
                     f"scenario {type(self.scenario).__name__} produced a non-finite {name} "
                     f"for episode index {int(ep.indices[bad[0]])}"
                 )
+        maps = getattr(ep, "static_maps", None)
+        if maps is not None and len(maps) != len(ep.indices):
+            raise ValueError(
+                f"scenario {type(self.scenario).__name__} produced {len(maps)} static maps for "
+                f"{len(ep.indices)} episodes"
+            )
+        for j, slot in enumerate(slots):
+            self.set_static_map(int(slot), self._fixed_map if maps is None else maps[j])
         self.position[slots, 0] = ep.robot_start
         self.position[slots, 1:] = ep.human_start
         self.velocity[slots] = 0.0
@@ -404,6 +500,7 @@ class World:
         self.overlaps[slots] = 0
         self.arrival[slots] = np.nan
         self.end_step[slots] = -1
+        self.collision_kind[slots] = 0
         self.episode_index[slots] = ep.indices
         self.episode_seed[slots] = ep.seeds
         self.status[slots] = _core.STATUS_RUNNING
@@ -436,12 +533,13 @@ class World:
                 self.settings.dt,
                 self.settings.kinematics,
             )
+            obs = dataclasses.replace(obs, obstacles=self.obstacles)
         else:
             # The same arrays as build_observation, filled by the native core in its worker threads.
             # Fresh arrays every call: callers may keep an observation while the world steps on.
             arrays = self._observation_arrays()
             self._core.observe(*arrays)
-            obs = Observation(*arrays, self.settings.dt, self.settings.kinematics)
+            obs = Observation(*arrays, self.settings.dt, self.settings.kinematics, obstacles=self.obstacles)
         if oracle:
             nxt = np.zeros((self.batch_size, self.n_agents - 1, 5))
             self._core.preview_humans(nxt)
@@ -483,23 +581,25 @@ class World:
         reward, final_dmin = np.empty(b), np.empty(b)
         terminated, truncated = np.empty(b, dtype=bool), np.empty(b, dtype=bool)
         outcome_code, final_episode = np.empty(b, dtype=np.int8), np.empty(b, dtype=np.int64)
+        collision_kind = np.empty(b, dtype=np.int8)
         # The core writes the per-slot report in its step pass: no Python over the B slots here.
         n_done = self._core.step(
             self._actions, reward, terminated, truncated, outcome_code, final_dmin, final_episode,
-            self.episode_index,
+            self.episode_index, collision_kind,
         )
         finished: list = []
         final_obs = next_obs = None
         native = self._generates_natively
         # The core writes done as 0/1: a bool scan. The native refill finds the slots itself.
         done_slots = None
-        if n_done and (self._recorder is not None or not native):
+        if n_done and (self._recorder is not None or not native or self._custom_maps or
+                       (final_observation and self.obstacles)):
             done_slots = self.done.view(bool).nonzero()[0]
         if done_slots is not None and self._recorder is not None:
             finished = self._recorder.collect(done_slots)  # before the refill
         if native:
             if n_done or observe:
-                final_obs, next_obs = self._refill_natively(n_done, final_observation, observe)
+                final_obs, next_obs = self._refill_natively(n_done, final_observation, observe, done_slots)
         else:
             if n_done:
                 if final_observation:
@@ -509,11 +609,11 @@ class World:
                 next_obs = self.observe()
         return StepResult(
             reward, terminated, truncated, finished, final_obs, outcome_code, final_dmin, final_episode,
-            next_obs,
+            next_obs, collision_kind,
         )
 
     def _refill_natively(
-        self, n_done: int, final_observation: bool, observe: bool
+        self, n_done: int, final_observation: bool, observe: bool, done_slots: np.ndarray | None
     ) -> tuple[Observation | None, Observation | None]:
         """Refills the finished slots of a built-in scenario: the core picks the slots, generates and
         loads the stream's next episodes (`_fill_native`'s result, bit for bit) and writes the finished
@@ -528,10 +628,27 @@ class World:
         if failed:
             raise_on_failure(self.scenario, self._failure[: len(indices)], seeds)
         dt, kinematics = self.settings.dt, self.settings.kinematics
+        walls = self.obstacles
+        final_walls = None if walls is None or final is None else walls.take(done_slots)
+        if self._custom_maps and done_slots is not None:
+            for b in done_slots:  # the new episodes have the scenario's map
+                self.set_static_map(int(b), self._fixed_map)
+            walls = self.obstacles
         return (
-            None if final is None else Observation(*final, dt, kinematics),
-            None if nxt is None else Observation(*nxt, dt, kinematics),
+            None if final is None else Observation(*final, dt, kinematics, obstacles=final_walls),
+            None if nxt is None else Observation(*nxt, dt, kinematics, obstacles=walls),
         )
+
+
+def _scenario_map(scenario: Scenario) -> StaticMap | None:
+    """The scenario's one map for all its episodes (its ``static_map`` attribute), if it has one."""
+    fixed = getattr(scenario, "static_map", None)
+    if fixed is not None and not isinstance(fixed, StaticMap):
+        raise TypeError(
+            f"scenario {type(scenario).__name__}.static_map must be a StaticMap or None, "
+            f"got {type(fixed).__name__}"
+        )
+    return fixed if fixed else None
 
 
 def orca_params(settings: WorldSettings) -> _core.OrcaParams:
@@ -539,6 +656,7 @@ def orca_params(settings: WorldSettings) -> _core.OrcaParams:
     p.neighbor_dist = settings.orca.neighbor_dist
     p.max_neighbors = settings.orca.max_neighbors
     p.time_horizon = settings.orca.time_horizon
+    p.time_horizon_obst = settings.orca.time_horizon_obst
     return p
 
 
@@ -548,4 +666,5 @@ def social_force_params(settings: WorldSettings) -> _core.SocialForceParams:
     p.relaxation_time, p.v0, p.sigma, p.step_time = sf.relaxation_time, sf.v0, sf.sigma, sf.step_time
     p.fov_half_angle = np.deg2rad(sf.fov_half_angle)
     p.outside_fov_weight, p.max_speed_factor = sf.outside_fov_weight, sf.max_speed_factor
+    p.wall_u0, p.wall_r = sf.wall_u0, sf.wall_r
     return p

@@ -1,0 +1,112 @@
+#include "obstacles.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace socialnav {
+
+void build_obstacle_vertices(const double* vertices, const int64_t* offsets, int n_polygons,
+                             ObstacleVertex* out) {
+  for (int p = 0; p < n_polygons; ++p) {
+    const int64_t first = offsets[p];
+    const int k = static_cast<int>(offsets[p + 1] - first);
+    if (k < 2)
+      throw std::invalid_argument("obstacle polygon " + std::to_string(p) + " has " + std::to_string(k) +
+                                  " vertices; at least 2 are needed");
+    for (int i = 0; i < k; ++i) {
+      const int64_t v = first + i;
+      ObstacleVertex& o = out[v];
+      o.point = Vec2{vertices[2 * v], vertices[2 * v + 1]};
+      if (!std::isfinite(o.point.x) || !std::isfinite(o.point.y))
+        throw std::invalid_argument("obstacle polygon " + std::to_string(p) + ": vertex " + std::to_string(i) +
+                                    " is not finite");
+      o.next = static_cast<int32_t>(first + (i + 1) % k);
+      o.prev = static_cast<int32_t>(first + (i + k - 1) % k);
+      o.solid = k >= 3;
+      o.own_edge = k >= 3 || i == 0;
+    }
+    for (int i = 0; i < k; ++i) {
+      ObstacleVertex& o = out[first + i];
+      const Vec2 edge = out[o.next].point - o.point;
+      if (!(abs_sq(edge) > 0.0))
+        throw std::invalid_argument("obstacle polygon " + std::to_string(p) + ": vertices " + std::to_string(i) +
+                                    " and " + std::to_string((i + 1) % k) + " coincide");
+      o.unit_dir = normalize(edge);
+      o.edge = edge;
+      o.inv_edge_len_sq = 1.0 / abs_sq(edge);
+      // RVO2: a vertex is convex when the polygon turns left (or goes straight) there; both ends of
+      // a wall segment are convex.
+      o.convex = k == 2 || left_of(out[o.prev].point, o.point, out[o.next].point) >= 0.0;
+    }
+  }
+}
+
+void build_edge_arrays(const ObstacleVertex* vertex, int count, double* edges) {
+  for (int i = 0; i < count; ++i) {
+    edges[i] = vertex[i].point.x;
+    edges[count + i] = vertex[i].point.y;
+    edges[2 * count + i] = vertex[i].edge.x;
+    edges[3 * count + i] = vertex[i].edge.y;
+    edges[4 * count + i] = vertex[i].inv_edge_len_sq;
+  }
+}
+
+PreparedObstacles prepare_obstacles(const double* vertices, const int64_t* offsets, int n_polygons) {
+  PreparedObstacles out;
+  const int64_t count = n_polygons > 0 ? offsets[n_polygons] : 0;
+  out.vertex.resize(static_cast<size_t>(count));
+  out.edges.resize(static_cast<size_t>(5 * count));
+  build_obstacle_vertices(vertices, offsets, n_polygons, out.vertex.data());
+  build_edge_arrays(out.vertex.data(), static_cast<int>(count), out.edges.data());
+  return out;
+}
+
+double segment_segment_distance(Vec2 p0, Vec2 p1, Vec2 a, Vec2 b) {
+  const Vec2 d = p1 - p0;
+  if (abs_sq(d) > 0.0) {
+    // Proper crossing: a and b on strictly opposite sides of p0p1 and p0, p1 of ab.
+    const double s1 = det(d, a - p0), s2 = det(d, b - p0);
+    const double s3 = det(b - a, p0 - a), s4 = det(b - a, p1 - a);
+    if (((s1 > 0.0 && s2 < 0.0) || (s1 < 0.0 && s2 > 0.0)) && ((s3 > 0.0 && s4 < 0.0) || (s3 < 0.0 && s4 > 0.0)))
+      return 0.0;
+  }
+  double best = dist_sq_point_segment(a, b, p0);
+  if (abs_sq(d) > 0.0) {
+    best = std::min(best, dist_sq_point_segment(a, b, p1));
+    best = std::min(best, dist_sq_point_segment(p0, p1, a));
+    best = std::min(best, dist_sq_point_segment(p0, p1, b));
+  }
+  return std::sqrt(best);
+}
+
+bool inside_solid(const ObstacleView& obstacles, Vec2 c) {
+  bool parity = false;
+  for (int i = 0; i < obstacles.count; ++i) {
+    const ObstacleVertex& v = obstacles.vertex[i];
+    if (!v.solid) continue;
+    const Vec2 a = v.point, b = obstacles.vertex[v.next].point;
+    if ((a.y > c.y) != (b.y > c.y) && c.x < a.x + (c.y - a.y) * (b.x - a.x) / (b.y - a.y)) parity = !parity;
+    if (v.next < i) {  // the polygon's last vertex: decide for this polygon
+      if (parity) return true;
+      parity = false;
+    }
+  }
+  return false;
+}
+
+double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius) {
+  double best = std::numeric_limits<double>::infinity();
+  bool any_solid = false;
+  for (int i = 0; i < obstacles.count; ++i) {
+    const ObstacleVertex& v = obstacles.vertex[i];
+    any_solid = any_solid || v.solid;
+    if (!v.own_edge) continue;
+    best = std::min(best, segment_segment_distance(p0, p1, v.point, obstacles.vertex[v.next].point));
+  }
+  if (any_solid && best > 0.0 && inside_solid(obstacles, p1)) best = 0.0;
+  return best - radius;
+}
+
+}  // namespace socialnav

@@ -1,0 +1,103 @@
+// Static obstacles of one episode: the geometry shared by ORCA, social force and the collision test.
+//
+// An episode's map arrives as flat polygons (socialnav.static_map.StaticMap.to_flat: vertices (V, 2)
+// and offsets (P + 1,)): a polygon of k >= 3 vertices is solid and counter-clockwise, a 2-vertex
+// polygon is a wall segment. Each vertex is prepared the way van den Berg et al.'s obstacle
+// algorithm (ISRR 2011, Sec. 5; the RVO2 library) sees it: a directed edge to its successor, its
+// predecessor, and whether it is convex. A wall segment is RVO2's degenerate polygon a -> b -> a:
+// two vertices, both convex, whose edges are the two faces of the wall, so it blocks from both sides.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "vec2.hpp"
+
+namespace socialnav {
+
+struct ObstacleVertex {
+  Vec2 point;
+  Vec2 unit_dir;  // towards the next vertex
+  Vec2 edge;      // next point - point
+  double inv_edge_len_sq;  // 1 / |edge|^2
+  int32_t next;   // indices into the same episode's vertex array
+  int32_t prev;
+  bool convex;
+  bool solid;     // belongs to a polygon with an interior (k >= 3)
+  bool own_edge;  // the edge to `next` is an edge of its own (false for a wall's return face b -> a)
+};
+
+// One episode's prepared vertices (null/0 for an open floor). `edges` holds the same vertices'
+// edges as five arrays of `count` doubles (point x, point y, edge x, edge y, 1 / |edge|^2): the
+// structure of arrays the per-agent neighbour query scans without branches.
+struct ObstacleView {
+  const ObstacleVertex* vertex = nullptr;
+  int count = 0;
+  const double* edges = nullptr;
+};
+
+// Writes `count` vertices' edge arrays (ObstacleView::edges, 5 * count doubles).
+void build_edge_arrays(const ObstacleVertex* vertex, int count, double* edges);
+
+// Prepared obstacles that own their storage (one map, or many episodes' maps back to back).
+struct PreparedObstacles {
+  std::vector<ObstacleVertex> vertex;
+  std::vector<double> edges;  // 5 doubles per vertex, episode by episode
+  ObstacleView view() const {
+    return ObstacleView{vertex.data(), static_cast<int>(vertex.size()), edges.data()};
+  }
+};
+
+// Many episodes' prepared vertices: episode b owns vertex[first[b], first[b + 1]) and the edge
+// arrays at edges + 5 * first[b]; null for none.
+struct ObstacleBatchView {
+  const ObstacleVertex* vertex = nullptr;
+  const double* edges = nullptr;
+  const int64_t* first = nullptr;
+  ObstacleView episode(int b) const {
+    if (!first) return ObstacleView{};
+    return ObstacleView{vertex + first[b], static_cast<int>(first[b + 1] - first[b]), edges + 5 * first[b]};
+  }
+};
+
+// Prepares `offsets[n_polygons]` vertices from flat polygons; throws std::invalid_argument on a
+// polygon of fewer than 2 vertices, a non-finite vertex or coincident consecutive vertices.
+void build_obstacle_vertices(const double* vertices, const int64_t* offsets, int n_polygons,
+                             ObstacleVertex* out);
+
+// One map prepared from flat polygons (build_obstacle_vertices + build_edge_arrays).
+PreparedObstacles prepare_obstacles(const double* vertices, const int64_t* offsets, int n_polygons);
+
+// RVO2's leftOf(a, b, c): > 0 when c lies to the left of the directed line a -> b.
+inline double left_of(Vec2 a, Vec2 b, Vec2 c) { return det(a - c, b - a); }
+
+// Squared distance from point c to segment [a, b].
+inline double dist_sq_point_segment(Vec2 a, Vec2 b, Vec2 c) {
+  const Vec2 ab = b - a;
+  const double r = dot(c - a, ab) / abs_sq(ab);
+  if (r < 0.0) return abs_sq(c - a);
+  if (r > 1.0) return abs_sq(c - b);
+  return abs_sq(c - (a + r * ab));
+}
+
+// Closest point of segment [a, b] to c.
+inline Vec2 closest_point_segment(Vec2 a, Vec2 b, Vec2 c) {
+  const Vec2 ab = b - a;
+  double r = dot(c - a, ab) / abs_sq(ab);
+  r = r < 0.0 ? 0.0 : (r > 1.0 ? 1.0 : r);
+  return a + r * ab;
+}
+
+// Distance between segments [p0, p1] and [a, b] (0 when they cross); p0 == p1 is allowed.
+double segment_segment_distance(Vec2 p0, Vec2 p1, Vec2 a, Vec2 b);
+
+// True when c lies inside one of the solid polygons (even-odd rule; segments contain nothing).
+bool inside_solid(const ObstacleView& obstacles, Vec2 c);
+
+// Smallest clearance between a disc of radius `radius` whose centre moves from p0 to p1 in a straight
+// line and the obstacles: min distance from the path to any edge minus the radius, or -radius where
+// the path ends inside a solid polygon; +inf without obstacles. < 0 means the disc touched an
+// obstacle during the move (a thin wall crossed within one step included).
+double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius);
+
+}  // namespace socialnav

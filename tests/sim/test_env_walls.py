@@ -1,0 +1,67 @@
+"""The Gymnasium envs in worlds with walls: obstacles in the observation, collision_kind in info."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from tests.sim._walls import pillars_and_walls
+
+from socialnav.sim.env import SocialNavEnv, SocialNavVectorEnv
+from socialnav.static_map import StaticMap
+
+ACROSS = StaticMap(([[-2.0, 0.0], [2.0, 0.0]],))  # across the robot's straight route (0, -4) -> (0, 4)
+
+
+def test_env_checker_passes_with_obstacles():
+    check_env(SocialNavEnv(static_map=pillars_and_walls()), skip_render_check=True)
+    check_env(gym.make("socialnav/CircleCrossing-v0", static_map=ACROSS.to_dict()).unwrapped,
+              skip_render_check=True)
+
+
+def test_observation_carries_the_padded_obstacle_edges():
+    static_map = pillars_and_walls()  # a square (4 edges), an L block (6) and two walls (1 each)
+    env = SocialNavEnv(static_map=static_map, max_obstacle_edges=16)
+    obs, _ = env.reset(seed=3)
+    assert obs["obstacles"].shape == (16, 4) and env.observation_space.contains(obs)
+    start, end = static_map.edges()
+    np.testing.assert_array_equal(obs["obstacles"][:12], np.hstack([start, end]))
+    np.testing.assert_array_equal(obs["obstacle_mask"], [1] * 12 + [0] * 4)
+    assert not obs["obstacles"][12:].any()
+    open_floor = SocialNavEnv()
+    assert "obstacles" not in open_floor.reset(seed=3)[0]
+
+
+def test_a_map_larger_than_the_bound_is_refused():
+    with pytest.raises(ValueError, match="12 edges, more than max_obstacle_edges = 4"):
+        SocialNavEnv(static_map=pillars_and_walls(), max_obstacle_edges=4)
+    with pytest.raises(ValueError, match="max_obstacle_edges must be an integer >= 0"):
+        SocialNavEnv(max_obstacle_edges=-1)
+    padded = SocialNavEnv(max_obstacle_edges=8)  # room for maps, none given: all padding
+    obs, _ = padded.reset(seed=0)
+    assert obs["obstacles"].shape == (8, 4) and not obs["obstacle_mask"].any()
+
+
+def test_collision_with_a_wall_is_reported_in_info():
+    env = SocialNavEnv(static_map=ACROSS, scenario_params={"n_humans": 1})
+    env.reset(seed=0)
+    info = {"outcome": "running"}
+    while info["outcome"] == "running":
+        _, reward, terminated, _, info = env.step(np.array([0.0, 1.0]))
+    assert terminated and info["outcome"] == "collision" and info["collision_kind"] == "obstacle"
+    assert reward == -0.25
+
+
+def test_vector_env_carries_obstacles_in_observations_and_final_observations():
+    env = SocialNavVectorEnv(num_envs=3, static_map=ACROSS, scenario_params={"n_humans": 1})
+    obs, info = env.reset(seed=0)
+    assert obs["obstacles"].shape == (3, 1, 4) and obs["obstacle_mask"].all()
+    assert env.observation_space.contains(obs)
+    for _ in range(40):
+        obs, _, term, trunc, info = env.step(np.tile([0.0, 1.0], (3, 1)))
+        if (term | trunc).any():
+            break
+    done = np.flatnonzero(term | trunc)
+    assert len(done)
+    for b in done:
+        assert info["final_info"]["collision_kind"][b] == "obstacle"
+        np.testing.assert_array_equal(info["final_obs"][b]["obstacles"], [[-2.0, 0.0, 2.0, 0.0]])
