@@ -57,9 +57,9 @@ def test_bfs_helper_sees_a_blocked_passage() -> None:
     closed = StaticMap.from_polygons([[[-2, 0], [2, 0]], [[2, 0], [2, 4]], [[2, 4], [-2, 4]],
                                       [[-2, 4], [-2, 0]]])
     assert not _reachable(closed, np.array([0.0, -2.0]), np.array([0.0, 2.0]), 0.3)  # the goal is walled in
-    door = make_scenario("narrow_doorway").layout  # closed enclosure, 1 m door
+    door = make_scenario("narrow_doorway").layout  # closed enclosure, 1.2 m door
     assert _reachable(door, np.array([0.0, -2.0]), np.array([0.0, 2.0]), 0.3)
-    assert not _reachable(door, np.array([0.0, -2.0]), np.array([0.0, 2.0]), 0.55)  # 1 m door, 1.1 m body
+    assert not _reachable(door, np.array([0.0, -2.0]), np.array([0.0, 2.0]), 0.65)  # 1.2 m door, 1.3 m body
 
 
 @pytest.mark.parametrize("name", FRANCIS_SCENARIOS)
@@ -126,7 +126,9 @@ def test_geometry_by_hand() -> None:
     hallway = _batches("narrow_hallway", corridor_width=1.6)
     walls = [p.tolist() for p in hallway.static_maps[0].polygons]
     assert walls == [[[-0.8, -5.0], [-0.8, 5.0]], [[0.8, -5.0], [0.8, 5.0]]]
-    np.testing.assert_array_equal(hallway.human_goal[:, 0], hallway.human_start[:, 0] * [1, -1])  # head-on
+    # head-on, and out of the corridor (1 m past its 5 m half-length) instead of at the robot's start
+    np.testing.assert_array_equal(hallway.human_goal[:, 0, 0], hallway.human_start[:, 0, 0])
+    np.testing.assert_array_equal(hallway.human_goal[:, 0, 1], -6.0)
     assert np.all(np.abs(hallway.human_start[:, 0, 0]) <= 0.2)
     assert np.all(np.abs(hallway.human_start[:, 0, 1] - 4) <= 0.5)
     door = make_scenario("narrow_doorway", door_width=0.9).layout
@@ -134,7 +136,8 @@ def test_geometry_by_hand() -> None:
     assert len(door) == 6  # and the closed enclosure
     corner = _batches("blind_corner")
     assert corner.robot_goal[0].tolist() == [4.0, 0.0] and np.allclose(corner.robot_theta, np.pi / 2)
-    np.testing.assert_array_equal(corner.human_goal[:, 0], corner.human_start[:, 0, ::-1] * [1, -1])
+    np.testing.assert_array_equal(corner.human_goal[:, 0, 0], corner.human_start[:, 0, 1])  # round the corner
+    np.testing.assert_array_equal(corner.human_goal[:, 0, 1], -6.0)  # and out of the vertical leg
     assert corner.static_maps[0].contains(np.array([3.0, -3.0]))  # the inner corner is solid
     crossing = _batches("intersection")
     assert len(crossing.static_maps[0]) == 4 and np.all(crossing.human_start[:, 0, 0] < -3.4)
@@ -205,7 +208,7 @@ def test_listed_with_parameters_and_in_the_preset() -> None:
     for name in FRANCIS_SCENARIOS:
         assert name in listed
     door = {p.name: p for p in listed["narrow_doorway"]}
-    assert door["door_width"].default == 1.0 and door["door_width"].unit == "m"
+    assert door["door_width"].default == 1.2 and door["door_width"].unit == "m"
     preset = load_preset("francis2023")
     assert preset.evaluation.multi_human == FRANCIS_SCENARIOS and preset.evaluation.single_human == ()
     cells = plan_cells(preset)

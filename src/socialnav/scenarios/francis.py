@@ -62,8 +62,13 @@ class _Hallway(WalledScenario):
         return [np.array([[-h, -half], [-h, half]]), np.array([[h, -half], [h, half]])]
 
     def flows(self) -> list[Flow]:
+        # The human walks the corridor's whole length and leaves it (1 m past its end): a goal at the
+        # robot's start, as in the open-floor `passing`, would park the human in the corridor, where
+        # it blocks the robot for the rest of the episode.
         r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
-        return [Flow((-o, o, r - s, r + s), goal=_mirror_y)]
+        beyond = self.corridor_length / 2 + 1
+        return [Flow((-o, o, r - s, r + s), goal=lambda start: np.stack(
+            [start[:, 0], np.full(len(start), -beyond)], axis=1))]
 
 
 @register_scenario("narrow_hallway")
@@ -146,7 +151,7 @@ class NarrowDoorway(WalledScenario):
     """
 
     n_humans: int = param(4, "humans per episode, alternately against and with the robot", ge=0)
-    door_width: float = param(1.0, "width of the door", unit="m", gt=0)
+    door_width: float = param(1.2, "width of the door", unit="m", gt=0)
     area_width: float = param(6.0, "distance between the side walls", unit="m", gt=0)
 
     def __post_init__(self) -> None:
@@ -174,7 +179,7 @@ class BlindCorner(WalledScenario):
     """Francis (i): an L-shaped corridor; the robot goes up and turns right, a human comes the other
     way round the corner. The inner corner is a solid block (the occluder); the outer wall a polyline.
 
-    Robot (0, −R) → (R, 0); human start (R ± s, o), goal (o, −R) with o, s jitters.
+    Robot (0, −R) → (R, 0); human start (R ± s, o), goal (o, −R − 2), out of the vertical leg.
     """
 
     fixed_n_humans = True
@@ -198,8 +203,12 @@ class BlindCorner(WalledScenario):
         return [*polyline((-h, -length), (-h, h), (length, h)), box(h, length, -length, -h)]
 
     def flows(self) -> list[Flow]:
+        # Round the corner and out of the vertical leg (1 m past its end), not to the robot's start,
+        # where it would block the leg (see _Hallway.flows).
         r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
-        return [Flow((r - s, r + s, -o, o), goal=lambda start: np.stack([start[:, 1], -start[:, 0]], axis=1))]
+        beyond = self.circle_radius + 2.0
+        return [Flow((r - s, r + s, -o, o), goal=lambda start: np.stack(
+            [start[:, 1], np.full(len(start), -beyond)], axis=1))]
 
 
 @register_scenario("intersection")
@@ -237,7 +246,7 @@ class _Room(WalledScenario):
     n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
     room_width: float = param(4.0, "inside width of the room", unit="m", gt=0)
     room_depth: float = param(4.0, "inside depth of the room", unit="m", gt=0)
-    door_width: float = param(1.0, "width of the door", unit="m", gt=0)
+    door_width: float = param(1.2, "width of the door", unit="m", gt=0)
     outside_distance: float = param(3.0, "distance from the door of the point outside", unit="m", gt=0)
 
     def __post_init__(self) -> None:
