@@ -28,12 +28,10 @@ import numpy as np
 from tests.reference.navground_orca import max_violation
 
 
-def navground_wall_velocity(position, velocity, radius, pref_velocity, neighbor_positions,
-                            neighbor_velocities, neighbor_radii, walls, *, time_horizon=5.0,
-                            time_horizon_obst=5.0, time_step=0.25, neighbor_dist=10.0,
-                            max_neighbors=10):
-    """navground's new velocity (RVO2 with ``maxSpeed = |pref|``) and whether its 2-D LP was
-    feasible. ``walls``: (W, 2, 2) segment end points."""
+def _navground_query(position, velocity, radius, pref_velocity, neighbor_positions, neighbor_velocities,
+                     neighbor_radii, walls, *, time_horizon=5.0, time_horizon_obst=5.0, time_step=0.25,
+                     neighbor_dist=10.0, max_neighbors=10):
+    """navground's ORCA behaviour after one query: (new velocity, half-planes, |pref|)."""
     import navground.core as core
     from navground.core.behaviors import ORCABehavior
     from navground.core.kinematics import OmnidirectionalKinematics
@@ -57,7 +55,16 @@ def navground_wall_velocity(position, velocity, radius, pref_velocity, neighbor_
         core.LineSegment(np.asarray(w[0], float), np.asarray(w[1], float)) for w in walls]
     u = np.array(b.desired_velocity_towards_velocity(pref, float(time_step)), dtype=float)
     lines = [(np.array(ln.point, float), np.array(ln.direction, float)) for ln in b.lines]
-    return u, max_violation(u, lines) <= 1e-6 * max(1.0, float(np.hypot(*pref)))
+    return u, lines, float(np.hypot(*pref))
+
+
+def navground_wall_velocity(*args, **kwargs):
+    """navground's new velocity (RVO2 with ``maxSpeed = |pref|``) and whether its 2-D LP was
+    feasible. Arguments: position, velocity, radius, pref_velocity, neighbor_positions,
+    neighbor_velocities, neighbor_radii, walls ((W, 2, 2) segment end points), then the ORCA
+    parameters as keywords."""
+    u, lines, speed = _navground_query(*args, **kwargs)
+    return u, max_violation(u, lines) <= 1e-6 * max(1.0, speed)
 
 
 def random_wall_layout(rng: np.random.Generator, n_walls: int, n_agents: int) -> dict:
@@ -129,29 +136,6 @@ def solve_with_hard_lines(lines, n_hard: int, max_speed: float, pref_velocity) -
     return np.array(result)
 
 
-def navground_lines(position, velocity, radius, pref_velocity, neighbor_positions, neighbor_velocities,
-                    neighbor_radii, walls, **kwargs):
+def navground_lines(*args, **kwargs):
     """The half-planes navground built for the same query (obstacle lines first)."""
-    import navground.core as core
-    from navground.core.behaviors import ORCABehavior
-    from navground.core.kinematics import OmnidirectionalKinematics
-
-    pref = np.asarray(pref_velocity, dtype=float)
-    b = ORCABehavior(kinematics=OmnidirectionalKinematics(max_speed=float(np.hypot(*pref)) + 1.0),
-                     radius=float(radius))
-    b.safety_margin = 0.0
-    b.time_horizon = float(kwargs.get("time_horizon", 5.0))
-    b.static_time_horizon = float(kwargs.get("time_horizon_obst", 5.0))
-    b.max_number_of_neighbors = int(kwargs.get("max_neighbors", 10))
-    b.horizon = 0.5 * float(kwargs.get("neighbor_dist", 10.0))
-    b.position = np.asarray(position, dtype=float)
-    b.velocity = np.asarray(velocity, dtype=float)
-    b.social_margin.set(0.0)
-    b.environment_state.neighbors = [
-        core.Neighbor(np.asarray(neighbor_positions[i], float), float(neighbor_radii[i]),
-                      np.asarray(neighbor_velocities[i], float), i)
-        for i in range(len(neighbor_radii))]
-    b.environment_state.line_obstacles = [
-        core.LineSegment(np.asarray(w[0], float), np.asarray(w[1], float)) for w in walls]
-    b.desired_velocity_towards_velocity(pref, float(kwargs.get("time_step", 0.25)))
-    return [(np.array(ln.point, float), np.array(ln.direction, float)) for ln in b.lines]
+    return _navground_query(*args, **kwargs)[1]

@@ -36,6 +36,13 @@ FRANCIS_SCENARIOS = (
 )
 
 
+def _door_fits(scenario: WalledScenario, wall: str) -> None:
+    width = getattr(scenario, wall)
+    if not scenario.door_width < width:
+        raise ValueError(f"{type(scenario).__name__}.door_width must be < {wall} = {width} m, "
+                         f"got {scenario.door_width}")
+
+
 def _mirror_y(start: np.ndarray) -> np.ndarray:
     return start * np.array([1.0, -1.0])
 
@@ -156,9 +163,7 @@ class NarrowDoorway(WalledScenario):
 
     def __post_init__(self) -> None:
         """Validate settings; the door must fit in its wall."""
-        if not self.door_width < self.area_width:
-            raise ValueError(f"NarrowDoorway.door_width must be < area_width = {self.area_width} m, "
-                             f"got {self.door_width}")
+        _door_fits(self, "area_width")
         super().__post_init__()
 
     def walls(self) -> list[np.ndarray]:
@@ -251,9 +256,7 @@ class _Room(WalledScenario):
 
     def __post_init__(self) -> None:
         """Validate settings; the door must fit in its wall."""
-        if not self.door_width < self.room_width:
-            raise ValueError(f"{type(self).__name__}.door_width must be < room_width = {self.room_width} m, "
-                             f"got {self.door_width}")
+        _door_fits(self, "room_width")
         super().__post_init__()
 
     def _inside(self) -> np.ndarray:

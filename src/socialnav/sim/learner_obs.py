@@ -177,10 +177,7 @@ class ObservationTransform:
         """
         if not self.rotates_actions:
             return actions
-        a = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
-        robot = np.asarray(robot, dtype=np.float64).reshape(-1, 9)
-        rot = np.arctan2(robot[:, 6] - robot[:, 1], robot[:, 5] - robot[:, 0])
-        c, s = np.cos(rot), np.sin(rot)
+        a, c, s = _actions_and_goal_heading(actions, robot)
         return np.stack([a[:, 0] * c - a[:, 1] * s, a[:, 0] * s + a[:, 1] * c], axis=1)
 
     def actions_from_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
@@ -188,10 +185,7 @@ class ObservationTransform:
         imitation) as the learner gives it."""
         if not self.rotates_actions:
             return actions
-        a = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
-        robot = np.asarray(robot, dtype=np.float64).reshape(-1, 9)
-        rot = np.arctan2(robot[:, 6] - robot[:, 1], robot[:, 5] - robot[:, 0])
-        c, s = np.cos(rot), np.sin(rot)
+        a, c, s = _actions_and_goal_heading(actions, robot)
         return np.stack([a[:, 0] * c + a[:, 1] * s, a[:, 1] * c - a[:, 0] * s], axis=1)
 
 
@@ -247,3 +241,11 @@ def _robot_frame(robot: np.ndarray, humans: np.ndarray, kinematics: str):
         axis=-1,
     )
     return r, h
+
+
+def _actions_and_goal_heading(actions: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(B, 2) actions and the cosine and sine of each robot's heading towards its goal."""
+    a = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
+    robot = np.asarray(robot, dtype=np.float64).reshape(-1, 9)
+    rot = np.arctan2(robot[:, 6] - robot[:, 1], robot[:, 5] - robot[:, 0])
+    return a, np.cos(rot), np.sin(rot)
