@@ -84,11 +84,12 @@ def wall_collision(traj: Trajectory) -> dict[str, float]:
     The cause is ``settings["collision_kind"]`` (``"obstacle"`` or ``"human"``, recorded by the
     simulator); a collision episode without it counts as an obstacle collision when the robot's
     clearance to the map went below zero. NaN when the outcome is unknown, and on an open floor (no
-    map and no ``collision_kind``), where the rate would be a meaningless 0. The ``collision`` rate
-    keeps counting every collision; this one is the part of it caused by walls.
+    map, and no log saying the robot hit an obstacle), where the rate would be a meaningless 0: the
+    simulator records ``collision_kind`` in every world, walls or not. The ``collision`` rate keeps
+    counting every collision; this one is the part of it caused by walls.
     """
     kind = traj.settings.get(COLLISION_KIND_KEY)
-    if traj.outcome == "unknown" or (traj.static_map is None and kind is None):
+    if traj.outcome == "unknown" or (traj.static_map is None and kind != "obstacle"):
         return {"value": float("nan")}
     if traj.outcome != "collision":
         return {"value": 0.0}
