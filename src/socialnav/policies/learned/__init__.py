@@ -1,10 +1,12 @@
-"""Learned value-based navigation policies (PyTorch): CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL,
-RGL and model-predictive RGL (with the learned state predictor).
+"""Learned navigation policies (PyTorch): the value-based CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL,
+RGL and model-predictive RGL (with the learned state predictor), and CrowdNav++'s attention-graph
+actor-critic trained with PPO (``crowdnav_pp``).
 
 Importing this package registers the networks in :data:`LEARNED_POLICIES`. See docs/policies_learned.md.
 """
 
 from socialnav.policies.learned.actions import discrete_actions
+from socialnav.policies.learned.attn_graph import AttnGraphNet
 from socialnav.policies.learned.cadrl import CADRL
 from socialnav.policies.learned.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from socialnav.policies.learned.lstm_rl import LSTMRL
@@ -25,6 +27,7 @@ from socialnav.policies.learned.state import (
 from socialnav.policies.learned.value_policy import ValuePolicy
 
 __all__ = [
+    "AttnGraphNet",
     "CADRL",
     "LSTMRL",
     "SARL",
