@@ -291,7 +291,6 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
     )
     success_reward = preset.world.reward.success_reward
     obs = world.observe()
-    v_pref = obs.robot[:, 7].copy()
     # The curves' window (training outcomes, returns, losses since the last row) is saved with last.pt
     # too, so that a resumed run writes the rows an uninterrupted one would.
     stats, returns_sum, returns_n = EpisodeStats(), 0.0, 0
@@ -342,10 +341,15 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
                 raw = mean + torch.randn(mean.shape, generator=action_gen).to(device) * net.log_std.exp()
                 raws[t], values[t] = raw, value
                 logps[t] = gaussian_log_prob(raw, mean, net.log_std)
-                action = squash_actions(raw.double().cpu().numpy(), kinematics, v_pref, rotation_limit)
+                action = squash_actions(
+                    raw.double().cpu().numpy(), kinematics, obs.robot[:, 7], rotation_limit
+                )
+                goal_before = goal_distance(obs.robot)
                 reward, term, trunc, final, obs = step_worlds(world, action)
                 done = term | trunc
-                r = torch.as_tensor(reward, dtype=torch.float32, device=device)
+                # CrowdNav++'s potential term: goal_shaping x (metres gained towards the goal this step)
+                shaped = reward + s.goal_shaping * (goal_before - goal_distance(final.robot))
+                r = torch.as_tensor(shaped, dtype=torch.float32, device=device)
                 if s.bootstrap_timeouts and trunc.any():
                     rows = np.flatnonzero(trunc)
                     frf, fhf, fmk = observation_tensors(final.take(rows), dt, steps_ahead, device)
@@ -413,7 +417,7 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
                     ("approx_kl", loss.approx_kl),
                     ("clip_fraction", loss.clip_fraction),
                 ):
-                    sums[k] += float(v)
+                    sums[k] += float(v.detach())
                 n_steps += 1
         update_time += time.perf_counter() - t1
         state["update"] += 1
@@ -454,7 +458,7 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
                 "train_return": returns_sum / returns_n if returns_n else math.nan,
                 **{k: v / n for k, v in window.items()},
                 "explained_variance": explained_variance(values.flatten(), returns.flatten()),
-                "std": float(net.log_std.exp().mean()),
+                "std": float(net.log_std.detach().exp().mean()),
                 "lr": lr_now,
                 "env_steps_per_s": (n_envs * T * updates_this_call) / max(collect_time + update_time, 1e-9),
                 "wall_time": wall(),
@@ -492,6 +496,11 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
         collect_time,
         update_time,
     )
+
+
+def goal_distance(robot: np.ndarray) -> np.ndarray:
+    """(B,) distance from the robot to its goal [m] of (B, 9) observation rows."""
+    return np.hypot(robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1])
 
 
 def train_ppo_from_args(args) -> int:

@@ -84,6 +84,9 @@ class PPOSettings:
         value_coef, entropy_coef, max_grad_norm: loss weights and gradient-norm clipping (0: off).
         normalize_advantages: standardise advantages per minibatch.
         normalize_obs: running mean/variance normalisation of the network's inputs.
+        goal_shaping: weight of CrowdNav++'s potential reward, added to the world's (CrowdSim's)
+            reward in training only: goal_shaping · (d_goal before the step − d_goal after it) [per m].
+            Liu et al. use 2 (DS-RNN, CrowdNav++); 0 trains on CrowdSim's sparse reward alone.
         bootstrap_timeouts: add γ·V(final state) to the reward of a step that ends an episode by the
             time limit (a truncation, not a terminal state).
         validate_every, val_episodes: deterministic validation every this many updates, on this many
@@ -110,6 +113,7 @@ class PPOSettings:
     max_grad_norm: float = 0.5
     normalize_advantages: bool = True
     normalize_obs: bool = True
+    goal_shaping: float = 2.0
     bootstrap_timeouts: bool = True
     validate_every: int = 50
     val_episodes: int = 100
@@ -135,6 +139,7 @@ class PPOSettings:
         check(self.value_coef >= 0, "value_coef", self.value_coef, "must be >= 0")
         check(self.entropy_coef >= 0, "entropy_coef", self.entropy_coef, "must be >= 0")
         check(self.max_grad_norm >= 0, "max_grad_norm", self.max_grad_norm, "must be >= 0 (0: off)")
+        check(self.goal_shaping >= 0, "goal_shaping", self.goal_shaping, "must be >= 0 (0: off)")
         check(self.validate_every >= 1, "validate_every", self.validate_every, "must be >= 1")
         check(self.val_episodes >= 1, "val_episodes", self.val_episodes, "must be >= 1")
         check(self.checkpoint_every >= 1, "checkpoint_every", self.checkpoint_every, "must be >= 1")
