@@ -107,7 +107,8 @@ def test_settings_errors_name_field_and_value(tmp_path):
     with pytest.raises(ConfigError, match="rolout_steps"):
         load_ppo_settings(bad)
     assert load_ppo_settings("ppo_smoke").total_env_steps == 256
-    assert load_ppo_settings("ppo").network == NetworkSettings()
+    assert load_ppo_settings("ppo_repo").network == NetworkSettings()  # the repository's sizes
+    assert load_ppo_settings("ppo").network.attn_size == 64
 
 
 @pytest.fixture()
