@@ -72,6 +72,17 @@ def world_only(n_envs: int, steps: int) -> float:
         world.close()
 
 
+def cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--config", default="ppo", help="PPO config (default: the shipped default schedule)")
@@ -118,7 +129,7 @@ def main() -> None:
                 "threads": args.threads,
                 "load_average_1min": round(load, 2),
                 "load_average_1min_after": round(os.getloadavg()[0], 2),
-                "cpu": platform.processor() or platform.machine(),
+                "cpu": cpu_model(),
                 "cpu_count": os.cpu_count(),
             }
         )

@@ -93,6 +93,8 @@ class PPOSettings:
             ``val`` episodes (split over the training mix).
         checkpoint_every, log_every: write last.pt / one curves.csv row every this many updates.
         seed, device, threads: master seed; "cpu", "cuda" or "auto"; torch threads (0: all cores, ≤ 8).
+            Default 1: the network's matrices are small, and 2 threads made training 4x slower on the
+            2-core VM (benchmarks/bench_ppo_trainer.py --threads 2); run one training per core instead.
     """
 
     policy: str = "crowdnav_pp"
@@ -121,7 +123,7 @@ class PPOSettings:
     log_every: int = 1
     seed: int = 0
     device: str = "cpu"
-    threads: int = 0
+    threads: int = 1
     network: NetworkSettings = field(default_factory=NetworkSettings)
 
     def __post_init__(self) -> None:
