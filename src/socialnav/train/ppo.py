@@ -57,7 +57,14 @@ from socialnav.train.ppo_objective import (
     gaussian_log_prob,
     ppo_loss,
 )
-from socialnav.train.ppo_worlds import restore_worlds, step_worlds, world_snapshot
+from socialnav.train.ppo_worlds import (
+    GreedyActor,
+    goal_distance,
+    ppo_policy_config,
+    restore_worlds,
+    step_worlds,
+    world_snapshot,
+)
 from socialnav.train.rl import EpisodeStats, TrainingDiverged, validate
 
 PPO_STREAM_OFFSET = 5_000_000  # training episodes start here within the seed's range (as the RL stream)
@@ -106,33 +113,6 @@ class PPOResult:
     update_time: float  # [s] in this call: GAE and the gradient steps
 
 
-class _Greedy:
-    """The deterministic actor as ``rl.validate`` calls it: ``act(obs, next_humans) -> (_, actions)``."""
-
-    def __init__(self, policy) -> None:
-        self.policy = policy
-
-    def act(self, obs, next_humans=None):
-        return None, self.policy.act(obs)
-
-
-def ppo_policy_config(preset: Preset) -> dict[str, Any]:
-    """The world the actor is trained for (checked against the preset at evaluation)."""
-    w = preset.world
-    return {
-        "kinematics": w.kinematics,
-        "rotation_limit": w.rotation_limit,
-        "dt": w.dt,
-        "reward": {
-            "success_reward": w.reward.success_reward,
-            "collision_penalty": w.reward.collision_penalty,
-            "discomfort_dist": w.reward.discomfort_dist,
-            "discomfort_penalty_factor": w.reward.discomfort_penalty_factor,
-            "time_step": w.dt,
-        },
-    }
-
-
 def train_ppo(
     preset: Preset | str,
     out_dir: str | Path,
@@ -157,10 +137,15 @@ def train_ppo(
 
 def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) -> PPOResult:
     from socialnav.policies.learned import build, load_checkpoint, save_checkpoint
-    from socialnav.policies.learned.attn_graph import observation_tensors, squash_actions
+    from socialnav.policies.learned.attn_graph import ROBOT_FEATURES, observation_tensors, squash_actions
     from socialnav.policies.learned.ppo_policy import RecurrentActorPolicy
+    from socialnav.policies.learned_entries import PPO_POLICIES
     from socialnav.train.trainer import resolve_device
 
+    if s.policy not in PPO_POLICIES:
+        raise ConfigError(
+            f"policy: {s.policy!r} is not trained with PPO (PPO policies: {', '.join(PPO_POLICIES)})"
+        )
     t_call = time.perf_counter()
     say = log or (lambda line: print(line, file=sys.stderr, flush=True))
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset
@@ -319,7 +304,7 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
         t0 = time.perf_counter()
         net.eval()
         h0, starts = h.clone(), torch.zeros(T, n_envs, dtype=torch.bool, device=device)
-        robots = torch.zeros(T, n_envs, net.robot_embed[0].in_features, device=device)
+        robots = torch.zeros(T, n_envs, ROBOT_FEATURES, device=device)
         humans = torch.zeros(T, n_envs, n_humans, net.input_dim, device=device)
         masks = torch.zeros(T, n_envs, n_humans, dtype=torch.bool, device=device)
         raws, logps, values = (
@@ -433,7 +418,7 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
         if u % s.validate_every == 0 or u == n_updates:
             actor.reset()
             net.eval()
-            val = validate(_Greedy(actor), val_world, False, success_reward)
+            val = validate(GreedyActor(actor), val_world, False, success_reward)
             val["update"] = u
             state["last_val"] = val
             if better(val, state["best_val"]):
@@ -496,11 +481,6 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
         collect_time,
         update_time,
     )
-
-
-def goal_distance(robot: np.ndarray) -> np.ndarray:
-    """(B,) distance from the robot to its goal [m] of (B, 9) observation rows."""
-    return np.hypot(robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1])
 
 
 def train_ppo_from_args(args) -> int:

@@ -1,5 +1,6 @@
-"""The PPO trainer's view of the training worlds: one lockstep step of the whole mix, and the saved
-state of the episodes in flight (resumption mid-episode, bit-identical on CPU)."""
+"""The PPO trainer's view of the worlds: one lockstep step of the whole training mix, the saved state
+of the episodes in flight (resumption mid-episode, bit-identical on CPU), the world a checkpoint records,
+the goal distance of the reward term, and the actor in the shape the validation loop calls."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import numpy as np
 import torch
 
 from socialnav.config import ConfigError
+from socialnav.presets import Preset
 from socialnav.sim.observation import Observation
 from socialnav.sim.world import EpisodeStream
 from socialnav.train.envs import MultiWorld
@@ -96,3 +98,35 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         first.kinematics,
     )
     return reward, term, trunc, final, nxt
+
+
+def goal_distance(robot: np.ndarray) -> np.ndarray:
+    """(B,) distance from the robot to its goal [m] of (B, 9) observation rows."""
+    return np.hypot(robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1])
+
+
+def ppo_policy_config(preset: Preset) -> dict[str, Any]:
+    """The world the actor is trained for (checked against the preset at evaluation)."""
+    w = preset.world
+    return {
+        "kinematics": w.kinematics,
+        "rotation_limit": w.rotation_limit,
+        "dt": w.dt,
+        "reward": {
+            "success_reward": w.reward.success_reward,
+            "collision_penalty": w.reward.collision_penalty,
+            "discomfort_dist": w.reward.discomfort_dist,
+            "discomfort_penalty_factor": w.reward.discomfort_penalty_factor,
+            "time_step": w.dt,
+        },
+    }
+
+
+class GreedyActor:
+    """The deterministic actor as ``rl.validate`` calls it: ``act(obs, next_humans) -> (_, actions)``."""
+
+    def __init__(self, policy) -> None:
+        self.policy = policy
+
+    def act(self, obs, next_humans=None):
+        return None, self.policy.act(obs)
