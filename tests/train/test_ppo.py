@@ -211,6 +211,29 @@ def test_resume_with_other_settings_is_refused(tmp_path):
         train_ppo("wang2022", tmp_path / "run", PPOSettings(**{**s.__dict__, "lr": 1e-2}), progress=False)
 
 
+def test_first_gradient_step_starts_from_the_collecting_policy(tmp_path):
+    """The rollout is re-evaluated with the network (and observation statistics) that collected it:
+    with one epoch of one minibatch, the only gradient step sees probability ratios of 1."""
+    from socialnav.train.ppo import train_ppo
+
+    s = PPOSettings(
+        n_envs=8,
+        rollout_steps=6,
+        total_env_steps=8 * 6 * 2,
+        epochs=1,
+        minibatches=1,
+        validate_every=10,
+        val_episodes=2,
+        threads=1,
+        network=SMALL,
+    )
+    result = train_ppo("wang2022", tmp_path / "run", s, progress=False, log=lambda _: None)
+    rows = list(csv.DictReader(open(result.curves)))
+    assert len(rows) == 2
+    for row in rows:
+        assert abs(float(row["approx_kl"])) < 1e-6 and float(row["clip_fraction"]) == 0.0
+
+
 def test_value_trainer_refuses_the_ppo_policy(tmp_path):
     from socialnav.train.trainer import train
 

@@ -290,6 +290,8 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
             dict(saved["losses"]),
         )
         episode_return = saved["episode_return"].numpy().copy()
+    if resume is None and s.normalize_obs:  # statistics of the first observation for the first rollout
+        net.update_obs_stats(*observation_tensors(obs, dt, steps_ahead, device))
     collect_time = update_time = 0.0
     updates_this_call = 0
     bar = progress_bar(n_updates, int(state["update"]), f"{s.policy} PPO", progress)
@@ -319,8 +321,6 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
         with torch.no_grad():
             for t in range(T):
                 rf, hf, mk = observation_tensors(obs, dt, steps_ahead, device)
-                if s.normalize_obs:
-                    net.update_obs_stats(rf, hf, mk)
                 robots[t], humans[t], masks[t], starts[t] = rf, hf, mk, start
                 mean, value, h = net.step(rf, hf, mk, h, start)
                 raw = mean + torch.randn(mean.shape, generator=action_gen).to(device) * net.log_std.exp()
@@ -404,6 +404,10 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
                 ):
                     sums[k] += float(v.detach())
                 n_steps += 1
+        # The observation statistics change only here, after the update: the rollout was collected
+        # and is re-evaluated with the same ones, so the first minibatch's probability ratio is 1.
+        if s.normalize_obs:
+            net.update_obs_stats(robots.flatten(0, 1), humans.flatten(0, 1), masks.flatten(0, 1))
         update_time += time.perf_counter() - t1
         state["update"] += 1
         updates_this_call += 1

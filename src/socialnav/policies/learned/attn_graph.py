@@ -29,7 +29,7 @@ constant-velocity extrapolation p_i + k·dt·v_i, k = 1..K (K = ``prediction_ste
 
 Observation normalisation (optional, ``normalize_obs``): running mean and variance of the robot
 features and of the real humans' features, kept as buffers so that they travel with the checkpoint;
-they are updated by the trainer during collection only (:meth:`update_obs_stats`).
+the trainer updates them after each update with that rollout's observations (:meth:`update_obs_stats`).
 """
 
 from __future__ import annotations
