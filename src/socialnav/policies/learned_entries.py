@@ -269,6 +269,8 @@ for _name, _description in _DESCRIPTIONS.items():
 PPO_POLICIES = {
     "crowdnav_pp": "CrowdNav++ attention graph (Liu et al., ICRA 2023): robot-human and human-human "
     "attention, GRU over time, continuous actions, trained with PPO; constant-velocity prediction",
+    "ppo_mlp": "plain MLP actor-critic over the robot and the nearest humans, continuous actions, trained "
+    "with PPO (the reference for crowdnav_pp)",
 }
 #: What a PPO checkpoint's ``ppo_policy`` holds (the world the actor was trained for).
 PPO_POLICY_KEYS = ("kinematics", "rotation_limit", "dt", "reward")

@@ -14,7 +14,7 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         "--policy",
         required=True,
         help="cadrl, lstm_rl (ga3c_cadrl), sarl, om_sarl, rgl or mp_rgl (value-based, docs/training.md); "
-        "crowdnav_pp (PPO, docs/ppo.md)",
+        "crowdnav_pp or ppo_mlp (PPO, docs/ppo.md)",
     )
     tr.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
     tr.add_argument(

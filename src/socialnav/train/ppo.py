@@ -113,6 +113,21 @@ class PPOResult:
     update_time: float  # [s] in this call: GAE and the gradient steps
 
 
+def network_kwargs(s: PPOSettings, n_humans: int) -> dict[str, Any]:
+    """The constructor arguments of the policy's network: ``network`` for crowdnav_pp; for ppo_mlp the
+    shared prediction steps and initial σ, ``mlp_hidden``, and the training mix's number of humans."""
+    if s.policy == "ppo_mlp":
+        n = s.network
+        return dict(
+            prediction_steps=n.prediction_steps,
+            max_humans=n_humans,
+            hidden=s.mlp_hidden,
+            normalize_obs=s.normalize_obs,
+            log_std_init=n.log_std_init,
+        )
+    return dict(normalize_obs=s.normalize_obs, **dataclasses.asdict(s.network))
+
+
 def train_ppo(
     preset: Preset | str,
     out_dir: str | Path,
@@ -175,7 +190,7 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
     # -- network, optimizer, generators ---------------------------------------------------------
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seeds["init"])
-        net = build(s.policy, normalize_obs=s.normalize_obs, **dataclasses.asdict(s.network))
+        net = build(s.policy, **network_kwargs(s, n_humans))
     net.to(device)
     steps_ahead = net.prediction_steps
     optimizer = torch.optim.Adam(net.parameters(), lr=s.lr, eps=s.adam_eps)

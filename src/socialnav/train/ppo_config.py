@@ -92,6 +92,9 @@ class PPOSettings:
         validate_every, val_episodes: deterministic validation every this many updates, on this many
             ``val`` episodes (split over the training mix).
         checkpoint_every, log_every: write last.pt / one curves.csv row every this many updates.
+        network: the attention graph's sizes (crowdnav_pp); ppo_mlp uses its ``prediction_steps`` and
+            ``log_std_init`` only.
+        mlp_hidden: ppo_mlp's hidden width (two tanh layers for the actor, two for the critic).
         seed, device, threads: master seed; "cpu", "cuda" or "auto"; torch threads (0: all cores, ≤ 8).
             Default 1: the network's matrices are small, and 2 threads made training 4x slower on the
             2-core VM (benchmarks/bench_ppo_trainer.py --threads 2); run one training per core instead.
@@ -125,6 +128,7 @@ class PPOSettings:
     device: str = "cpu"
     threads: int = 1
     network: NetworkSettings = field(default_factory=NetworkSettings)
+    mlp_hidden: int = 256
 
     def __post_init__(self) -> None:
         check(self.n_envs >= 1, "n_envs", self.n_envs, "must be >= 1")
@@ -149,6 +153,7 @@ class PPOSettings:
         check(self.seed >= 0, "seed", self.seed, "must be >= 0")
         check(self.device in DEVICES, "device", self.device, f"must be one of {', '.join(DEVICES)}")
         check(self.threads >= 0, "threads", self.threads, "must be >= 0")
+        check(self.mlp_hidden >= 1, "mlp_hidden", self.mlp_hidden, "must be >= 1")
 
     @property
     def batch_steps(self) -> int:

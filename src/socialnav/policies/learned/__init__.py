@@ -1,6 +1,6 @@
 """Learned navigation policies (PyTorch): the value-based CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL,
 RGL and model-predictive RGL (with the learned state predictor), and CrowdNav++'s attention-graph
-actor-critic trained with PPO (``crowdnav_pp``).
+actor-critic trained with PPO (``crowdnav_pp``), with a plain MLP actor-critic beside it (``ppo_mlp``).
 
 Importing this package registers the networks in :data:`LEARNED_POLICIES`. See docs/policies_learned.md.
 """
@@ -11,6 +11,7 @@ from socialnav.policies.learned.cadrl import CADRL
 from socialnav.policies.learned.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from socialnav.policies.learned.lstm_rl import LSTMRL
 from socialnav.policies.learned.networks import ValueNetwork
+from socialnav.policies.learned.ppo_mlp import MLPActorCritic
 from socialnav.policies.learned.predictor import StatePredictor
 from socialnav.policies.learned.registry import LEARNED_POLICIES, build
 from socialnav.policies.learned.rgl import RGL, mp_rgl
@@ -28,6 +29,7 @@ from socialnav.policies.learned.value_policy import ValuePolicy
 
 __all__ = [
     "AttnGraphNet",
+    "MLPActorCritic",
     "CADRL",
     "LSTMRL",
     "SARL",

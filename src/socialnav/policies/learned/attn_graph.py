@@ -42,7 +42,14 @@ from torch import nn
 
 from socialnav.policies.learned.registry import register_learned
 
-__all__ = ["AttnGraphNet", "ROBOT_FEATURES", "robot_features", "human_features", "observation_tensors"]
+__all__ = [
+    "AttnGraphNet",
+    "ObservationStatistics",
+    "ROBOT_FEATURES",
+    "robot_features",
+    "human_features",
+    "observation_tensors",
+]
 
 #: Robot features: goal offset (2), distance to goal, velocity (2), radius, v_pref, cos θ, sin θ.
 ROBOT_FEATURES = 9
@@ -117,8 +124,40 @@ class _SelfAttention(nn.Module):
         return self.out(z) * mask[..., None]
 
 
+class ObservationStatistics(nn.Module):
+    """Running mean and variance of the robot features and of the real humans' features (float64,
+    buffers: they travel with the checkpoint), and the normalisation they define."""
+
+    input_dim: int
+    normalize_obs: bool
+
+    def _init_obs_stats(self) -> None:
+        self.register_buffer("obs_count", torch.zeros((), dtype=torch.float64))
+        self.register_buffer("robot_mean", torch.zeros(ROBOT_FEATURES, dtype=torch.float64))
+        self.register_buffer("robot_var", torch.ones(ROBOT_FEATURES, dtype=torch.float64))
+        self.register_buffer("human_count", torch.zeros((), dtype=torch.float64))
+        self.register_buffer("human_mean", torch.zeros(self.input_dim, dtype=torch.float64))
+        self.register_buffer("human_var", torch.ones(self.input_dim, dtype=torch.float64))
+
+    @torch.no_grad()
+    def update_obs_stats(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> None:
+        """Folds a batch into the running mean/variance (Chan et al.'s parallel update); padded
+        human slots are left out."""
+        _fold(self.obs_count, self.robot_mean, self.robot_var, robot.reshape(-1, ROBOT_FEATURES))
+        _fold(self.human_count, self.human_mean, self.human_var, humans[mask])
+
+    def _normalized(self, robot: torch.Tensor, humans: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        if not self.normalize_obs:
+            return robot, humans
+
+        def norm(x, mean, var):
+            return ((x - mean.to(x.dtype)) / torch.sqrt(var.to(x.dtype) + 1e-8)).clamp(-OBS_CLIP, OBS_CLIP)
+
+        return norm(robot, self.robot_mean, self.robot_var), norm(humans, self.human_mean, self.human_var)
+
+
 @register_learned("crowdnav_pp")
-class AttnGraphNet(nn.Module):
+class AttnGraphNet(ObservationStatistics):
     """CrowdNav++'s attention-graph actor-critic (module docstring); sizes default to the repository's.
 
     ``input_dim`` is the per-human feature size, 2(1 + prediction_steps).
@@ -199,33 +238,10 @@ class AttnGraphNet(nn.Module):
         self.mean = _init(nn.Linear(head_hidden, 2), 0.01)  # near-zero initial actions (CleanRL)
         self.value_head = _init(nn.Linear(head_hidden, 1), 1.0)
         self.log_std = nn.Parameter(torch.full((2,), float(log_std_init)))
-        # Running observation statistics (float64 sums for a stable, order-exact update).
-        self.register_buffer("obs_count", torch.zeros((), dtype=torch.float64))
-        self.register_buffer("robot_mean", torch.zeros(ROBOT_FEATURES, dtype=torch.float64))
-        self.register_buffer("robot_var", torch.ones(ROBOT_FEATURES, dtype=torch.float64))
-        self.register_buffer("human_count", torch.zeros((), dtype=torch.float64))
-        self.register_buffer("human_mean", torch.zeros(self.input_dim, dtype=torch.float64))
-        self.register_buffer("human_var", torch.ones(self.input_dim, dtype=torch.float64))
+        self._init_obs_stats()
 
     def model_kwargs(self) -> dict:
         return dict(self._kwargs)
-
-    # -- observation statistics ------------------------------------------------------------------
-    @torch.no_grad()
-    def update_obs_stats(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> None:
-        """Folds a batch into the running mean/variance (Chan et al.'s parallel update); padded
-        human slots are left out."""
-        _fold(self.obs_count, self.robot_mean, self.robot_var, robot.reshape(-1, ROBOT_FEATURES))
-        _fold(self.human_count, self.human_mean, self.human_var, humans[mask])
-
-    def _normalized(self, robot: torch.Tensor, humans: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        if not self.normalize_obs:
-            return robot, humans
-
-        def norm(x, mean, var):
-            return ((x - mean.to(x.dtype)) / torch.sqrt(var.to(x.dtype) + 1e-8)).clamp(-OBS_CLIP, OBS_CLIP)
-
-        return norm(robot, self.robot_mean, self.robot_var), norm(humans, self.human_mean, self.human_var)
 
     # -- forward passes --------------------------------------------------------------------------
     def encode(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
