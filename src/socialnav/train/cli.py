@@ -30,7 +30,7 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr.add_argument(
         "--config",
         help="YAML file or shipped config name overriding training settings (docs/training.md; PPO: "
-        "docs/ppo.md, e.g. ppo or ppo_smoke)",
+        "docs/ppo.md, default ppo, or ppo_repo, ppo_smoke)",
     )
     tr.add_argument(
         "--env-steps",
@@ -48,7 +48,7 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         "--collection-batch",
         type=int,
         dest="collection_batch",
-        help="episodes stepped in lockstep while collecting (default 128; PPO: n_envs, default 64)",
+        help="episodes stepped in lockstep while collecting (default 128; PPO: n_envs)",
     )
     tr.add_argument("--rl-episodes", type=int, dest="rl_episodes", help="RL episodes (default 10000)")
     tr.add_argument(

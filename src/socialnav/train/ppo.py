@@ -521,7 +521,7 @@ def train_ppo_from_args(args) -> int:
             "see docs/ppo.md for its settings"
         )
     settings = load_ppo_settings(
-        getattr(args, "config", None),
+        getattr(args, "config", None) or "ppo",  # the shipped default schedule
         seed=args.seed,
         device=args.device,
         n_envs=getattr(args, "collection_batch", None),

@@ -101,9 +101,9 @@ class PPOSettings:
     """
 
     policy: str = "crowdnav_pp"
-    n_envs: int = 64
+    n_envs: int = 128
     rollout_steps: int = 30
-    total_env_steps: int = 5_000_000
+    total_env_steps: int = 10_000_000
     epochs: int = 5
     minibatches: int = 2
     lr: float = 3e-4
