@@ -2,6 +2,7 @@
 resumption, settings validation and the CLI end to end."""
 
 import csv
+import dataclasses
 import json
 import math
 from importlib import resources
@@ -306,3 +307,33 @@ def test_squashed_actions_stay_in_the_action_set():
     assert np.hypot(*hol[2]) == pytest.approx(1.5)
     uni = squash_actions(raw, "unicycle", np.array([1.0, 1.0, 1.5]), math.pi / 4)
     np.testing.assert_allclose(uni, [[1.0, math.pi / 4], [0.3, -0.4], [0.0, math.pi / 4]])
+
+
+def test_cuda_device_is_refused_clearly_without_a_gpu(tmp_path, capsys):
+    from socialnav.cli import main
+
+    if torch.cuda.is_available():
+        pytest.skip("a GPU is present: test_ppo_trains_on_cuda covers it")
+    args = [
+        "train",
+        "--policy",
+        "crowdnav_pp",
+        "--config",
+        "ppo_smoke",
+        "--device",
+        "cuda",
+        "--out",
+        str(tmp_path / "r"),
+    ]
+    assert main(args) == 2
+    assert "device 'cuda' requested but torch.cuda.is_available() is False" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a GPU")
+def test_ppo_trains_on_cuda(tmp_path):
+    from socialnav.train.ppo import train_ppo
+
+    s = dataclasses.replace(load_ppo_settings("ppo_smoke"), device="cuda")
+    result = train_ppo("wang2022", tmp_path / "run", s, progress=False, log=lambda _: None)
+    assert result.finished and result.updates == 4
