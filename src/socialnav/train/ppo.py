@@ -1,4 +1,4 @@
-"""`socialnav train --policy crowdnav_pp`: PPO with a recurrent attention-graph actor-critic.
+"""`socialnav train --policy crowdnav_pp` (or `ppo_mlp`): PPO with a recurrent actor-critic.
 
 Reads top to bottom like a CleanRL script (Huang et al., "CleanRL", JMLR 2022): settings and seeds,
 the network and the worlds, then per update a rollout collected from every environment in lockstep
