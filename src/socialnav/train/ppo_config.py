@@ -86,7 +86,8 @@ class PPOSettings:
         normalize_obs: running mean/variance normalisation of the network's inputs.
         goal_shaping: weight of CrowdNav++'s potential reward, added to the world's (CrowdSim's)
             reward in training only: goal_shaping · (d_goal before the step − d_goal after it) [per m].
-            Liu et al. use 2 (DS-RNN, CrowdNav++); 0 trains on CrowdSim's sparse reward alone.
+            Liu et al. use 2 with a collision penalty of −20; 0.025 keeps that ratio to the world's
+            −0.25 (docs/ppo.md, "Reward"); 0 trains on CrowdSim's sparse reward alone.
         bootstrap_timeouts: add γ·V(final state) to the reward of a step that ends an episode by the
             time limit (a truncation, not a terminal state).
         validate_every, val_episodes: deterministic validation every this many updates, on this many
@@ -118,7 +119,7 @@ class PPOSettings:
     max_grad_norm: float = 0.5
     normalize_advantages: bool = True
     normalize_obs: bool = True
-    goal_shaping: float = 2.0
+    goal_shaping: float = 0.025
     bootstrap_timeouts: bool = True
     validate_every: int = 50
     val_episodes: int = 100
