@@ -116,7 +116,8 @@ def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
     actions with them) and the robot's v_pref (it scales the action set). A difference makes the
     policy act on a model of the world that is not the one simulated.
     """
-    vp = config.get("value_policy", {})
+    # A value-based checkpoint records its world under value_policy, a PPO one under ppo_policy.
+    vp = config.get("value_policy") or config.get("ppo_policy") or {}
     reward = vp.get("reward", {})
     world = preset.world
     pairs: list[tuple[str, Any, Any]] = [
@@ -262,3 +263,74 @@ for _name, _description in _DESCRIPTIONS.items():
             "scorer": "auto",
         },
     )(_factory(_name))
+
+
+#: Policy-gradient actors trained by ``socialnav train`` with PPO (train/ppo.py), and their descriptions.
+PPO_POLICIES = {
+    "crowdnav_pp": "CrowdNav++ attention graph (Liu et al., ICRA 2023): robot-human and human-human "
+    "attention, GRU over time, continuous actions, trained with PPO; constant-velocity prediction",
+    "ppo_mlp": "plain MLP actor-critic over the robot and the nearest humans, continuous actions, trained "
+    "with PPO (the reference for crowdnav_pp)",
+}
+#: What a PPO checkpoint's ``ppo_policy`` holds (the world the actor was trained for).
+PPO_POLICY_KEYS = ("kinematics", "rotation_limit", "dt", "reward")
+
+
+def load_ppo_policy(
+    name: str,
+    checkpoint: str | Path,
+    device: str = "cpu",
+    preset: Any = None,
+    allow_preset_mismatch: bool = False,
+    deterministic: bool = True,
+):
+    """Loads a PPO checkpoint of ``name`` into a :class:`RecurrentActorPolicy` (mean actions unless
+    ``deterministic`` is False).
+
+    Raises:
+        CheckpointError: unreadable, another policy, or malformed ``config.ppo_policy``.
+        PresetMismatchError: trained for another world than ``preset`` (unless ``allow_preset_mismatch``).
+    """
+    from socialnav.policies.learned import load_checkpoint
+    from socialnav.policies.learned.checkpoint import CheckpointError
+    from socialnav.policies.learned.ppo_policy import RecurrentActorPolicy
+
+    ckpt = load_checkpoint(checkpoint, name, expected_input_dim=-1, map_location=device)
+    settings = ckpt.config.get("ppo_policy")
+    where = f"checkpoint {checkpoint}: config.ppo_policy"
+    if not isinstance(settings, dict) or sorted(settings) != sorted(PPO_POLICY_KEYS):
+        raise CheckpointError(
+            f"{where} must be a mapping of {', '.join(PPO_POLICY_KEYS)} (a checkpoint written by "
+            f"`socialnav train --policy {name}`), got {settings!r}"
+        )
+    mismatch = preset_mismatches(ckpt.config, preset) if preset is not None else []
+    if mismatch and not allow_preset_mismatch:
+        raise PresetMismatchError(
+            f"checkpoint {checkpoint} was trained for another world: {'; '.join(mismatch)}; "
+            "evaluate it under a matching preset, or pass --allow-preset-mismatch (recorded in the results)"
+        )
+    return RecurrentActorPolicy(
+        name, ckpt.model, kinematics=settings["kinematics"], rotation_limit=settings["rotation_limit"],
+        dt=settings["dt"], device=device, deterministic=deterministic, checkpoint=Path(checkpoint),
+        preset_mismatch=mismatch,
+    )
+
+
+def _ppo_factory(name: str):
+    def make(
+        checkpoint: Path,
+        preset: Any = None,
+        device: str = "cpu",
+        deterministic: bool = True,
+        allow_preset_mismatch: bool = False,
+        **_: Any,
+    ):
+        return load_ppo_policy(name, checkpoint, device, preset, allow_preset_mismatch, deterministic)
+
+    return make
+
+
+for _name, _description in PPO_POLICIES.items():
+    register_policy(
+        _name, description=_description, learned=True, parameters={"device": "cpu", "deterministic": True}
+    )(_ppo_factory(_name))

@@ -28,6 +28,8 @@ DEFAULT_LABELS = {
     "om_sarl": "OM-SARL",
     "rgl": "RGL",
     "mp_rgl": "MP-RGL",
+    "crowdnav_pp": "CrowdNav++ (attention graph, PPO)",
+    "ppo_mlp": "MLP (PPO)",
 }
 DEFAULT_PAPER_ROWS = {"cadrl": "CADRL", "lstm_rl": "GA3C-CADRL", "ga3c_cadrl": "GA3C-CADRL",
                       "om_sarl": "OM-SARL", "rgl": "RGL"}

@@ -6,9 +6,15 @@ import argparse
 
 
 def add_train_parser(sub: argparse._SubParsersAction) -> None:
-    tr = sub.add_parser("train", help="train a learned policy (imitation from ORCA, then value-based RL)")
+    tr = sub.add_parser(
+        "train",
+        help="train a learned policy (value-based: imitation from ORCA, then RL; crowdnav_pp: PPO)",
+    )
     tr.add_argument(
-        "--policy", required=True, help="cadrl, lstm_rl (ga3c_cadrl), sarl, om_sarl, rgl or mp_rgl"
+        "--policy",
+        required=True,
+        help="cadrl, lstm_rl (ga3c_cadrl), sarl, om_sarl, rgl or mp_rgl (value-based, docs/training.md); "
+        "crowdnav_pp or ppo_mlp (PPO, docs/ppo.md)",
     )
     tr.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
     tr.add_argument(
@@ -21,7 +27,17 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         choices=["cpu", "cuda", "auto"],
         help="cpu (default), cuda, or auto (cuda when available)",
     )
-    tr.add_argument("--config", help="YAML file overriding training settings (see docs/training.md)")
+    tr.add_argument(
+        "--config",
+        help="YAML file or shipped config name overriding training settings (docs/training.md; PPO: "
+        "docs/ppo.md, default ppo, or ppo_repo, ppo_smoke)",
+    )
+    tr.add_argument(
+        "--env-steps",
+        type=int,
+        dest="env_steps",
+        help="PPO only: total environment steps (default: the config's total_env_steps)",
+    )
     tr.add_argument(
         "--information",
         choices=["constant_velocity", "oracle", "learned"],
@@ -32,7 +48,7 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         "--collection-batch",
         type=int,
         dest="collection_batch",
-        help="episodes stepped in lockstep while collecting (default 128)",
+        help="episodes stepped in lockstep while collecting (default 128; PPO: n_envs)",
     )
     tr.add_argument("--rl-episodes", type=int, dest="rl_episodes", help="RL episodes (default 10000)")
     tr.add_argument(
@@ -49,6 +65,16 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from socialnav.policies.learned_entries import PPO_POLICIES
+
+    if args.policy in PPO_POLICIES:
+        from socialnav.train.ppo import train_ppo_from_args
+
+        return train_ppo_from_args(args)
+    if getattr(args, "env_steps", None) is not None:
+        from socialnav.config import ConfigError
+
+        raise ConfigError(f"--env-steps: a PPO setting; {args.policy} trains by episodes (--rl-episodes)")
     from socialnav.train.trainer import train_from_args
 
     return train_from_args(args)

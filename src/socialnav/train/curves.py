@@ -34,22 +34,31 @@ CURVE_COLUMNS = (
 class Curves:
     """curves.csv (appended) and optional TensorBoard scalars."""
 
-    def __init__(self, path: Path, resume_episode: int | None) -> None:
+    def __init__(
+        self,
+        path: Path,
+        resume_episode: int | None,
+        columns: tuple[str, ...] = CURVE_COLUMNS,
+        key: str = "episode",
+    ) -> None:
+        """``columns``: the CSV's columns; ``key``: the counter rows are trimmed by on resumption
+        (``episode`` for the value-based trainer, ``update`` for PPO's rows of phase ``ppo``)."""
         self.path = path
+        self.columns = columns
         self.dropped = 0  # damaged rows left out on resumption
         if resume_episode is not None and path.exists():  # drop rows written after the resumed checkpoint
             with open(path, newline="", encoding="utf-8", errors="replace") as f:
                 rows = []
                 for r in csv.DictReader(f):
-                    episode = row_episode(r)
+                    episode = row_episode(r, key)
                     if episode is None:
                         self.dropped += 1  # a damaged row (e.g. cut short by a kill) is not fatal
-                    elif r["phase"] != "rl" or episode <= resume_episode:
+                    elif r["phase"] not in ("rl", "ppo") or episode <= resume_episode:
                         rows.append(r)
-            lines = [",".join(CURVE_COLUMNS)] + [",".join(r.get(c, "") for c in CURVE_COLUMNS) for r in rows]
+            lines = [",".join(columns)] + [",".join(r.get(c, "") for c in columns) for r in rows]
             atomic_write_text(path, "\n".join(lines) + "\n")
         elif not path.exists() or resume_episode is None:
-            atomic_write_text(path, ",".join(CURVE_COLUMNS) + "\n")
+            atomic_write_text(path, ",".join(columns) + "\n")
         self.tb = None
         try:
             from torch.utils.tensorboard import SummaryWriter
@@ -65,9 +74,9 @@ class Curves:
             return f"{v:.6g}" if isinstance(v, float) else str(v)
 
         with open(self.path, "a", newline="") as f:
-            f.write(",".join(fmt(row.get(c)) for c in CURVE_COLUMNS) + "\n")
+            f.write(",".join(fmt(row.get(c)) for c in self.columns) + "\n")
         if self.tb is not None:
-            step = int(row.get("episode", 0))
+            step = int(row.get("episode", row.get("update", 0)))
             for k, v in row.items():
                 if (
                     k not in ("phase", "episode")
@@ -82,11 +91,11 @@ class Curves:
             self.tb.close()
 
 
-def row_episode(row: dict[str, Any]) -> int | None:
-    """The episode of a curves.csv row, or None when the row is damaged."""
-    if row.get("phase") not in ("il", "rl") or None in row or None in row.values():
+def row_episode(row: dict[str, Any], key: str = "episode") -> int | None:
+    """The episode (or other ``key`` counter) of a curves.csv row, or None when the row is damaged."""
+    if row.get("phase") not in ("il", "rl", "ppo") or None in row or None in row.values():
         return None
     try:
-        return int(row["episode"])
+        return int(row[key])
     except (TypeError, ValueError):
         return None

@@ -195,6 +195,10 @@ def _train(
     t_call = time.perf_counter()
     say = log or (lambda s: print(s, file=sys.stderr, flush=True))
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset
+    from socialnav.policies.learned_entries import PPO_POLICIES
+
+    if policy_name in PPO_POLICIES:
+        raise ValueError(f"{policy_name} is trained with PPO: socialnav.train.ppo.train_ppo (docs/ppo.md)")
     if canonical_name(policy_name) not in LEARNED_POLICIES:
         raise KeyError(
             f"unknown learned policy {policy_name!r}; known: {', '.join(sorted(LEARNED_POLICIES))}"

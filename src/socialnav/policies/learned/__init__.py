@@ -1,14 +1,17 @@
-"""Learned value-based navigation policies (PyTorch): CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL,
-RGL and model-predictive RGL (with the learned state predictor).
+"""Learned navigation policies (PyTorch): the value-based CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL,
+RGL and model-predictive RGL (with the learned state predictor), and CrowdNav++'s attention-graph
+actor-critic trained with PPO (``crowdnav_pp``), with a plain MLP actor-critic beside it (``ppo_mlp``).
 
 Importing this package registers the networks in :data:`LEARNED_POLICIES`. See docs/policies_learned.md.
 """
 
 from socialnav.policies.learned.actions import discrete_actions
+from socialnav.policies.learned.attn_graph import AttnGraphNet
 from socialnav.policies.learned.cadrl import CADRL
 from socialnav.policies.learned.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from socialnav.policies.learned.lstm_rl import LSTMRL
 from socialnav.policies.learned.networks import ValueNetwork
+from socialnav.policies.learned.ppo_mlp import MLPActorCritic
 from socialnav.policies.learned.predictor import StatePredictor
 from socialnav.policies.learned.registry import LEARNED_POLICIES, build
 from socialnav.policies.learned.rgl import RGL, mp_rgl
@@ -25,6 +28,8 @@ from socialnav.policies.learned.state import (
 from socialnav.policies.learned.value_policy import ValuePolicy
 
 __all__ = [
+    "AttnGraphNet",
+    "MLPActorCritic",
     "CADRL",
     "LSTMRL",
     "SARL",

@@ -212,7 +212,8 @@ def load_checkpoint(
         path: checkpoint file.
         expected_policy: the policy the caller wants (``ga3c_cadrl`` and ``lstm_rl`` are the same).
         expected_input_dim: per-human input size wanted; default: that of a freshly built
-            ``expected_policy`` with default settings (13, or 61 for om_sarl).
+            ``expected_policy`` with default settings (13, or 61 for om_sarl); -1 accepts any size
+            (networks whose input size is a constructor setting, e.g. crowdnav_pp's prediction steps).
         map_location: device for the tensors.
 
     Raises:
@@ -227,6 +228,8 @@ def load_checkpoint(
     if expected_input_dim is None:
         expected_input_dim = int(build(want).input_dim)  # type: ignore[arg-type]
     got, got_dim = payload["policy"], payload["input_dim"]
+    if expected_input_dim == -1 and got == want:
+        expected_input_dim = got_dim
     if got != want or got_dim != expected_input_dim:
         raise CheckpointError(
             f"checkpoint {path.name} holds policy {got!r} (input {got_dim}), "

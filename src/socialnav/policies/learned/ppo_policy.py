@@ -1,0 +1,89 @@
+"""A trained policy-gradient actor (``socialnav train`` with PPO) behind the project's ``Policy`` interface.
+
+The network is recurrent over time, while ``Policy.act`` receives one batched observation per step
+and no episode boundaries: the GRU state is kept per batch slot and zeroed wherever a slot's episode
+time is 0 (the world refills a finished slot with a fresh episode at time 0), or when the batch size
+changes. Deterministic evaluation acts with the mean of the Gaussian, squashed as in training.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from socialnav.policies.learned.attn_graph import observation_tensors, squash_actions
+from socialnav.sim.observation import Observation
+
+
+class RecurrentActorPolicy:
+    """Acts with a recurrent actor-critic (e.g. :class:`AttnGraphNet`) one step at a time.
+
+    Args:
+        name: the registered policy name.
+        network: the actor-critic.
+        kinematics, rotation_limit, dt: the world the network was trained for.
+        deterministic: act with the mean action (evaluation); False samples from the Gaussian with
+            ``generator``.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        network: torch.nn.Module,
+        *,
+        kinematics: str,
+        rotation_limit: float,
+        dt: float,
+        device: str | torch.device = "cpu",
+        deterministic: bool = True,
+        generator: torch.Generator | None = None,
+        checkpoint: Path | None = None,
+        preset_mismatch: list[str] | None = None,
+    ) -> None:
+        self.name = name
+        self.network = network
+        self.kinematics = kinematics
+        self.rotation_limit = float(rotation_limit)
+        self.dt = float(dt)
+        self.device = torch.device(device)
+        self.deterministic = deterministic
+        self.generator = generator
+        self.checkpoint = checkpoint
+        self.preset_mismatch = list(preset_mismatch or [])
+        self.information = "constant_velocity" if network.prediction_steps else "none"
+        self._h: torch.Tensor | None = None
+
+    def reset(self) -> None:
+        """Forgets every slot's recurrent state."""
+        self._h = None
+
+    @torch.no_grad()
+    def act(self, observation: Observation) -> np.ndarray:
+        net = self.network
+        b = observation.batch_size
+        if self._h is None or self._h.shape[0] != b:
+            self._h = net.initial_state(b, self.device)
+        start = torch.as_tensor(observation.time == 0.0, device=self.device)
+        robot, humans, mask = observation_tensors(observation, self.dt, net.prediction_steps, self.device)
+        mean, _, self._h = net.step(robot, humans, mask, self._h, start)
+        raw = mean
+        if not self.deterministic:
+            noise = torch.randn(mean.shape, generator=self.generator, dtype=mean.dtype)
+            raw = mean + noise.to(self.device) * net.log_std.exp()
+        actions = squash_actions(
+            raw.double().cpu().numpy(), self.kinematics, observation.robot[:, 7], self.rotation_limit
+        )
+        actions[~observation.active] = 0.0
+        return actions
+
+    def describe(self) -> dict[str, Any]:
+        return {
+            "policy": self.name,
+            "information": self.information,
+            "checkpoint": None if self.checkpoint is None else str(self.checkpoint),
+            "deterministic": self.deterministic,
+            **({"preset_mismatch_allowed": self.preset_mismatch} if self.preset_mismatch else {}),
+        }

@@ -1,0 +1,132 @@
+"""The PPO trainer's view of the worlds: one lockstep step of the whole training mix, the saved state
+of the episodes in flight (resumption mid-episode, bit-identical on CPU), the world a checkpoint records,
+the goal distance of the reward term, and the actor in the shape the validation loop calls."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from socialnav.config import ConfigError
+from socialnav.presets import Preset
+from socialnav.sim.observation import Observation
+from socialnav.sim.world import EpisodeStream
+from socialnav.train.envs import MultiWorld
+
+#: The World arrays that hold an episode's state (saved with last.pt so that a resumed run goes on
+#: with the same episodes in flight).
+WORLD_STATE = (
+    "position",
+    "velocity",
+    "goal",
+    "radius",
+    "v_pref",
+    "mask",
+    "theta",
+    "steps",
+    "status",
+    "reward",
+    "dmin",
+    "done",
+    "overlaps",
+    "arrival",
+    "end_step",
+    "episode_index",
+    "episode_seed",
+)
+
+
+def world_snapshot(world: MultiWorld) -> list[dict[str, Any]]:
+    """The state of every world's episodes in flight and its stream position (plain tensors)."""
+    return [
+        {
+            **{k: torch.from_numpy(np.array(getattr(w, k))) for k in WORLD_STATE},
+            "next_index": int(w.stream.next_index),
+        }
+        for w in world.worlds
+    ]
+
+
+def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
+    """Puts the worlds back into a :func:`world_snapshot` state (their streams continue from it)."""
+    if len(snapshot) != len(world.worlds):
+        raise ConfigError(f"the saved run has {len(snapshot)} worlds, this one {len(world.worlds)}")
+    for w, saved in zip(world.worlds, snapshot, strict=True):
+        w.stream = EpisodeStream(w.scenario, w.stream.split, int(saved["next_index"]))
+        for k in WORLD_STATE:
+            np.copyto(getattr(w, k), saved[k].numpy())
+
+
+def step_worlds(world: MultiWorld, actions: np.ndarray):
+    """Steps every world of the mix once (one native call each): reward, terminated, truncated, the
+    finished slots' final observation (every slot's state right after the step, before refills) and
+    the observation the policy sees next (refilled slots at time 0)."""
+    parts = []
+    for w, lo, hi in zip(world.worlds, world.offsets[:-1], world.offsets[1:], strict=True):
+        res = w.step(actions[lo:hi], final_observation=True, observe=True)
+        nxt = res.observation
+        final = [nxt.robot.copy(), nxt.humans.copy(), nxt.human_mask.copy(), nxt.time.copy()]
+        done = np.flatnonzero(res.terminated | res.truncated)
+        if done.size:
+            fo = res.final_observation
+            final[0][done], final[1][done], final[2][done], final[3][done] = (
+                fo.robot,
+                fo.humans,
+                fo.human_mask,
+                fo.time,
+            )
+        parts.append((res.reward, res.terminated, res.truncated, final, nxt))
+    cat = np.concatenate
+    reward, term, trunc = (cat([p[i] for p in parts]) for i in range(3))
+    first = parts[0][4]
+    final = Observation(
+        *(cat([p[3][i] for p in parts]) for i in range(3)),
+        np.ones(len(reward), dtype=bool),
+        cat([p[3][3] for p in parts]),
+        first.dt,
+        first.kinematics,
+    )
+    nxt = Observation(
+        cat([p[4].robot for p in parts]),
+        cat([p[4].humans for p in parts]),
+        cat([p[4].human_mask for p in parts]),
+        cat([p[4].active for p in parts]),
+        cat([p[4].time for p in parts]),
+        first.dt,
+        first.kinematics,
+    )
+    return reward, term, trunc, final, nxt
+
+
+def goal_distance(robot: np.ndarray) -> np.ndarray:
+    """(B,) distance from the robot to its goal [m] of (B, 9) observation rows."""
+    return np.hypot(robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1])
+
+
+def ppo_policy_config(preset: Preset) -> dict[str, Any]:
+    """The world the actor is trained for (checked against the preset at evaluation)."""
+    w = preset.world
+    return {
+        "kinematics": w.kinematics,
+        "rotation_limit": w.rotation_limit,
+        "dt": w.dt,
+        "reward": {
+            "success_reward": w.reward.success_reward,
+            "collision_penalty": w.reward.collision_penalty,
+            "discomfort_dist": w.reward.discomfort_dist,
+            "discomfort_penalty_factor": w.reward.discomfort_penalty_factor,
+            "time_step": w.dt,
+        },
+    }
+
+
+class GreedyActor:
+    """The deterministic actor as ``rl.validate`` calls it: ``act(obs, next_humans) -> (_, actions)``."""
+
+    def __init__(self, policy) -> None:
+        self.policy = policy
+
+    def act(self, obs, next_humans=None):
+        return None, self.policy.act(obs)
