@@ -89,9 +89,10 @@ def main() -> None:
     ap.add_argument("--updates", type=int, default=4, help="updates timed per configuration")
     ap.add_argument("--threads", type=int, default=1, help="torch threads (1: best on a shared 2-core VM)")
     ap.add_argument("--skip-repo-sizes", action="store_true")
+    ap.add_argument("--device", default="cpu", help="where the network runs: cpu, cuda or auto (world: CPU)")
     args = ap.parse_args()
     load = os.getloadavg()[0]
-    settings = dataclasses.replace(load_ppo_settings(args.config), threads=args.threads)
+    settings = dataclasses.replace(load_ppo_settings(args.config), threads=args.threads, device=args.device)
     default = measure(settings, args.updates)
     print(
         f"default schedule ({settings.n_envs} envs x {settings.rollout_steps} steps): {default}", flush=True
@@ -127,6 +128,7 @@ def main() -> None:
                 "paper_budget_env_steps": 20_000_000,
                 "paper_budget_hours": round(2e7 / rate / 3600, 2),
                 "threads": args.threads,
+                "device": args.device,
                 "load_average_1min": round(load, 2),
                 "load_average_1min_after": round(os.getloadavg()[0], 2),
                 "cpu": cpu_model(),
