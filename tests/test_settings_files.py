@@ -51,7 +51,7 @@ def test_pyyaml_unsigned_exponents_are_numbers(tmp_path):
     "key, value, match",
     [
         ("scenarios", ["circle_crossing", "doom"], "training.scenarios: unknown scenario 'doom'"),
-        ("n_humans", -3, r"training.n_humans must be in \[1, 1000\], got -3"),
+        ("n_humans", -3, r"training.n_humans must be in \[0, 1000\], got -3"),
         ("scenarios", [], "training.scenarios must name a scenario"),
         ("visibility", "both", "training.visibility must be one of"),
     ],

@@ -95,7 +95,7 @@ class TrainingScenarios:
                 get_scenario(name)
             except UnknownScenarioError as err:
                 raise ConfigError(f"training.scenarios: {err}") from None
-        check(1 <= self.n_humans <= 1000, "training.n_humans", self.n_humans, "must be in [1, 1000]")
+        check(0 <= self.n_humans <= 1000, "training.n_humans", self.n_humans, "must be in [0, 1000]")
         check(
             self.visibility in VISIBILITIES,
             "training.visibility",

@@ -63,6 +63,15 @@ def test_m1_invariant_under_rigid_motion(traj: Trajectory, angle: float, dx: flo
                                   comfort.personal_space_flags(traj, eps))
 
 
+def _flags_with_touch_tolerance(traj: Trajectory, tau: float, anchor: str, tol: float) -> np.ndarray:
+    saved = comfort.TOUCH_TOL
+    comfort.TOUCH_TOL = tol
+    try:
+        return comfort.projected_path_flags(traj, tau, anchor)
+    finally:
+        comfort.TOUCH_TOL = saved
+
+
 @given(scenes(), st.floats(0.0, 2 * math.pi), coords, coords, st.sampled_from([0.5, 1.0, 2.0]),
        st.sampled_from(["rear", "front"]))
 @settings(max_examples=60, deadline=None)
@@ -70,6 +79,10 @@ def test_m2_invariant_under_rigid_motion(traj: Trajectory, angle: float, dx: flo
                                          tau: float, anchor: str) -> None:
     speeds = np.linalg.norm(traj.executed_velocities(), axis=-1)
     assume(np.all(np.abs(speeds - comfort.STOPPED_SPEED) > 1e-9))
+    # rounding can legitimately flip rectangles that just touch (corner on corner, a gap at the touch
+    # tolerance): only cases whose flags do not depend on the tolerance between 0 and 1 µm are compared
+    assume(np.array_equal(_flags_with_touch_tolerance(traj, tau, anchor, 0.0),
+                          _flags_with_touch_tolerance(traj, tau, anchor, 1e-6)))
     moved = _transformed(traj, angle, (dx, dy))
     np.testing.assert_array_equal(comfort.projected_path_flags(moved, tau, anchor),
                                   comfort.projected_path_flags(traj, tau, anchor))
