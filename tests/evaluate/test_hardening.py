@@ -176,3 +176,33 @@ def test_checkpoint_under_mismatching_preset_is_refused_naming_both_values(tmp_p
     assert manifest["policy"]["preset_mismatch_allowed"] == [
         "dt 0.25 in the checkpoint, 0.1 in preset 'fast'"
     ]
+
+
+def test_a_checkpoint_trained_without_walls_is_refused_among_walls_naming_both(tmp_path, capsys):
+    """The value networks have no obstacle input: a checkpoint trained on open floors is refused on
+    scenarios with walls (here francis2023's world with wang2022's robot, so walls are the only
+    difference) unless the mismatch is allowed, which is recorded."""
+    pytest.importorskip("torch")
+    from importlib import resources
+
+    import yaml
+
+    data = yaml.safe_load((resources.files("socialnav.configs") / "francis2023.yaml").read_text())
+    data["robot"]["v_pref"] = 1.5
+    data["name"] = "walls_fast"
+    preset = tmp_path / "walls_fast.yaml"
+    preset.write_text(yaml.safe_dump(data))
+    argv = ["evaluate", "--policy", "sarl", "--preset", str(preset), "--scenario", "narrow_doorway",
+            "--visibility", "invisible", "--episodes", "2", "--out", str(tmp_path / "o"), "--no-progress"]
+    from socialnav.policies.loading import shipped_checkpoint
+
+    argv += ["--checkpoint", str(shipped_checkpoint("sarl", "wang2022"))]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert ("walls: the checkpoint was trained without walls (on circle_crossing, random, "
+            "parallel_traffic, perpendicular_traffic), preset 'walls_fast' evaluates scenarios with "
+            "walls (frontal_approach") in err
+    assert "dt " not in err and "robot.v_pref" not in err  # nothing else differs
+    assert main([*argv, "--allow-preset-mismatch"]) == 0
+    manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    assert manifest["policy"]["preset_mismatch_allowed"][0].startswith("walls: the checkpoint was trained")

@@ -109,12 +109,44 @@ class PresetMismatchError(ValueError):
     """A checkpoint trained for another world than the preset it is evaluated under."""
 
 
+def _walled_scenarios(names: Any) -> list[str]:
+    """The names among ``names`` whose registered scenario has walls (unknown names are left out)."""
+    from socialnav.scenarios.registry import UnknownScenarioError, get_scenario
+    from socialnav.scenarios.walls import WalledScenario
+
+    out = []
+    for name in names or ():
+        try:
+            if issubclass(get_scenario(str(name)), WalledScenario):
+                out.append(str(name))
+        except UnknownScenarioError:
+            continue
+    return out
+
+
+def _walls_mismatch(trained: Any, preset: Any) -> list[str]:
+    """A network trained without walls cannot see them (its input has no obstacles): evaluating it
+    among walls is refused like any other world mismatch, naming both sides."""
+    training = trained.get("training") if isinstance(trained, dict) else None
+    if not isinstance(training, dict) or "scenarios" not in training:
+        return []  # the checkpoint does not record what it was trained on
+    evaluated = _walled_scenarios((*preset.evaluation.multi_human, *preset.evaluation.single_human))
+    if not evaluated or _walled_scenarios(training["scenarios"]):
+        return []
+    return [
+        f"walls: the checkpoint was trained without walls (on {', '.join(map(str, training['scenarios']))}), "
+        f"preset {preset.name!r} evaluates scenarios with walls ({', '.join(evaluated)}) that its network "
+        "cannot see"
+    ]
+
+
 def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
     """Where the world a checkpoint was trained for differs from ``preset``'s, one phrase each.
 
     Compared: dt, kinematics, the unicycle rotation limit, the reward constants (the lookahead scores
-    actions with them) and the robot's v_pref (it scales the action set). A difference makes the
-    policy act on a model of the world that is not the one simulated.
+    actions with them), the robot's v_pref (it scales the action set), and walls (a checkpoint
+    trained without walls, evaluated on scenarios with walls). A difference makes the policy act on a
+    model of the world that is not the one simulated.
     """
     # A value-based checkpoint records its world under value_policy, a PPO one under ppo_policy.
     vp = config.get("value_policy") or config.get("ppo_policy") or {}
@@ -132,7 +164,7 @@ def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
     robot = trained.get("robot", {}) if isinstance(trained, dict) else {}
     if isinstance(robot, dict) and "v_pref" in robot:
         pairs.append(("robot.v_pref", robot["v_pref"], preset.robot.v_pref))
-    out = []
+    out = _walls_mismatch(trained, preset)
     for name, ours, theirs in pairs:
         if ours is None:
             continue  # not recorded by this checkpoint: nothing to compare
