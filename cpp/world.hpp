@@ -3,7 +3,7 @@
 // State lives in caller-owned, C-contiguous arrays (structure of arrays, SI units); the world
 // keeps raw pointers to them and writes in place, so the Python side reads the state without
 // copies and resets finished episodes by writing into the same arrays. Semantics follow
-// CrowdSim (Chen et al., ICRA 2019) as described in the project's spec/simulator.md.
+// CrowdSim (Chen et al., ICRA 2019) as described in docs/simulator.md.
 #pragma once
 
 #include <cstdint>
