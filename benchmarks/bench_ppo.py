@@ -34,12 +34,14 @@ import argparse
 import json
 import multiprocessing
 import os
-import platform
 import statistics
 import sys
 import time
 
 import torch
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import cpu_model  # noqa: E402  (benchmarks/ is not a package)
 
 SCENARIO = {"scenario": "circle_crossing", "scenario_params": {"n_humans": 5}}
 
@@ -139,15 +141,6 @@ class SB3Run:
         }
 
 
-def _cpu_name() -> str:
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -202,7 +195,7 @@ def main(argv: list[str] | None = None) -> int:
         )
     out: dict = {
         "benchmark": "bench_ppo",
-        "cpu": _cpu_name(),
+        "cpu": cpu_model(),
         "cores": os.cpu_count(),
         "torch": torch.__version__,
         "torch_threads": args.torch_threads,

@@ -24,8 +24,8 @@ import argparse
 import dataclasses
 import json
 import os
-import platform
 import shutil
+import sys
 import tempfile
 import time
 
@@ -35,6 +35,9 @@ from socialnav.presets import load_preset
 from socialnav.train.envs import MultiWorld
 from socialnav.train.ppo import train_ppo
 from socialnav.train.ppo_config import NetworkSettings, load_ppo_settings
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import cpu_model  # noqa: E402  (benchmarks/ is not a package)
 
 
 def measure(settings, updates: int) -> dict:
@@ -72,15 +75,6 @@ def world_only(n_envs: int, steps: int) -> float:
         world.close()
 
 
-def cpu_model() -> str:
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def main() -> None:

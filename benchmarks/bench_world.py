@@ -37,6 +37,9 @@ from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
 from socialnav.static_map import StaticMap
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import cpu_model  # noqa: E402  (benchmarks/ is not a package)
+
 CROWDNAV_ENV_STEPS_PER_S = 4134  # CrowdNav's simulator on a 2-core machine (issue #2)
 
 
@@ -129,12 +132,6 @@ def state_digest(batch: int, threads: int, steps: int = 300) -> str:
     return h.hexdigest()
 
 
-def _cpu_model() -> str:
-    try:
-        with open("/proc/cpuinfo") as f:
-            return next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), "")
-    except OSError:
-        return ""
 
 
 def main_obstacles(args: argparse.Namespace) -> None:
@@ -159,7 +156,7 @@ def main_obstacles(args: argparse.Namespace) -> None:
     result = {
         "batch": args.batch,
         "cpu_count": os.cpu_count(),
-        "cpu_model": _cpu_model(),
+        "cpu_model": cpu_model(),
         "threads": threads,
         "walls": len(walls),
         "map": args.map,

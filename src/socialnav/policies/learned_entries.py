@@ -178,6 +178,20 @@ def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
     return out
 
 
+def checked_preset_mismatches(
+    checkpoint: Any, config: dict[str, Any], preset: Any, allow: bool
+) -> list[str]:
+    """The world differences of a checkpoint under ``preset``; a :class:`PresetMismatchError` naming
+    them unless ``allow`` (then the caller records them)."""
+    mismatch = preset_mismatches(config, preset) if preset is not None else []
+    if mismatch and not allow:
+        raise PresetMismatchError(
+            f"checkpoint {checkpoint} was trained for another world: {'; '.join(mismatch)}; "
+            "evaluate it under a matching preset, or pass --allow-preset-mismatch (recorded in the results)"
+        )
+    return mismatch
+
+
 def load_learned_policy(
     name: str,
     checkpoint: str | Path,
@@ -219,12 +233,7 @@ def load_learned_policy(
         raise CheckpointError(
             f"{where}.reward must be a mapping of {', '.join(_REWARD_KEYS)}, got {reward!r}"
         )
-    mismatch = preset_mismatches(ckpt.config, preset) if preset is not None else []
-    if mismatch and not allow_preset_mismatch:
-        raise PresetMismatchError(
-            f"checkpoint {checkpoint} was trained for another world: {'; '.join(mismatch)}; "
-            "evaluate it under a matching preset, or pass --allow-preset-mismatch (recorded in the results)"
-        )
+    mismatch = checked_preset_mismatches(checkpoint, ckpt.config, preset, allow_preset_mismatch)
     settings = dict(settings)
     settings.pop("reward", None)
     for key, value in (
@@ -335,12 +344,7 @@ def load_ppo_policy(
             f"{where} must be a mapping of {', '.join(PPO_POLICY_KEYS)} (a checkpoint written by "
             f"`socialnav train --policy {name}`), got {settings!r}"
         )
-    mismatch = preset_mismatches(ckpt.config, preset) if preset is not None else []
-    if mismatch and not allow_preset_mismatch:
-        raise PresetMismatchError(
-            f"checkpoint {checkpoint} was trained for another world: {'; '.join(mismatch)}; "
-            "evaluate it under a matching preset, or pass --allow-preset-mismatch (recorded in the results)"
-        )
+    mismatch = checked_preset_mismatches(checkpoint, ckpt.config, preset, allow_preset_mismatch)
     return RecurrentActorPolicy(
         name, ckpt.model, kinematics=settings["kinematics"], rotation_limit=settings["rotation_limit"],
         dt=settings["dt"], device=device, deterministic=deterministic, checkpoint=Path(checkpoint),

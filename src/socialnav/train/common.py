@@ -186,3 +186,15 @@ def _dotted(data: Any, key: str) -> Any:
     for part in key.split("."):
         data = data.get(part) if isinstance(data, dict) else None
     return data
+
+
+def reward_config(world: Any) -> dict[str, float]:
+    """The reward constants a checkpoint records for ``world`` (a preset's WorldSettings), as the
+    evaluator compares them (policies/learned_entries.py)."""
+    return {
+        "success_reward": world.reward.success_reward,
+        "collision_penalty": world.reward.collision_penalty,
+        "discomfort_dist": world.reward.discomfort_dist,
+        "discomfort_penalty_factor": world.reward.discomfort_penalty_factor,
+        "time_step": world.dt,
+    }

@@ -13,7 +13,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import yaml
@@ -61,6 +61,9 @@ DEVICES = ("cpu", "cuda", "auto")
 RESUMABLE_CHANGES = (
     "device", "threads", "compile", "checkpoint_every", "log_every", "rl.episodes", "progress"
 )
+
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -266,6 +269,12 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
         **overrides: top-level fields applied after the file (e.g. ``seed`` from the command line);
             None values are ignored.
     """
+    return load_settings_file(TrainSettings, path, overrides)
+
+
+def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[str, Any]) -> T:
+    """``cls`` from a YAML file (a path or a shipped config's name) with top-level ``overrides``
+    applied after it (None values ignored); errors name the file and the field."""
     data: dict[str, Any] = {}
     if path is not None:
         path = _resolve_config(path)
@@ -281,7 +290,7 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
             raise ConfigError(f"{path}: expected a mapping of settings, got {type(data).__name__}")
     data.update({k: v for k, v in overrides.items() if v is not None})
     try:
-        return from_dict(TrainSettings, data)
+        return from_dict(cls, data)
     except ConfigError as err:
         raise ConfigError(f"{path}: {err}" if path is not None else str(err)) from None
 

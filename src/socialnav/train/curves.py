@@ -31,6 +31,28 @@ CURVE_COLUMNS = (
 #: Offset of the RL episode stream after the imitation episodes (same scenario_start).
 
 
+def window_columns(rates: dict[str, float], episodes: int) -> dict[str, Any]:
+    """A row's columns for the training episodes of the window it closes."""
+    return {
+        "train_episodes": episodes,
+        "train_success": rates["success"],
+        "train_collision": rates["collision"],
+        "train_timeout": rates["timeout"],
+    }
+
+
+def validation_columns(val: dict[str, Any] | None) -> dict[str, Any]:
+    """A row's columns for the validation it reports (none without one)."""
+    if val is None:
+        return {}
+    return {
+        "val_success": val["success"],
+        "val_collision": val["collision"],
+        "val_timeout": val["timeout"],
+        "val_nav_time": val["nav_time"],
+    }
+
+
 class Curves:
     """curves.csv (appended) and optional TensorBoard scalars."""
 

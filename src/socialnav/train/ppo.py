@@ -47,7 +47,7 @@ from socialnav.evaluate.files import (
 from socialnav.presets import Preset, load_preset
 from socialnav.train.common import better, load_optimizer_state, optimizer_state, progress_bar
 from socialnav.train.config import derive_seeds, flat_diff
-from socialnav.train.curves import Curves
+from socialnav.train.curves import Curves, validation_columns, window_columns
 from socialnav.train.envs import MultiWorld
 from socialnav.train.ppo_config import PPO_RESUMABLE_CHANGES, PPOSettings
 from socialnav.train.ppo_objective import (
@@ -455,10 +455,7 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
                 "update": u,
                 "env_steps": state["env_steps"],
                 "episodes": state["episodes"],
-                "train_episodes": stats.total,
-                "train_success": rates["success"],
-                "train_collision": rates["collision"],
-                "train_timeout": rates["timeout"],
+                **window_columns(rates, stats.total),
                 "train_return": returns_sum / returns_n if returns_n else math.nan,
                 **{k: v / n for k, v in window.items()},
                 "explained_variance": explained_variance(values.flatten(), returns.flatten()),
@@ -467,13 +464,7 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
                 "env_steps_per_s": (n_envs * T * updates_this_call) / max(collect_time + update_time, 1e-9),
                 "wall_time": wall(),
             }
-            if val is not None:
-                row.update(
-                    val_success=val["success"],
-                    val_collision=val["collision"],
-                    val_timeout=val["timeout"],
-                    val_nav_time=val["nav_time"],
-                )
+            row.update(validation_columns(val))
             curves.write(row)
             bar.set_postfix(succ=f"{rates['success']:.2f}", kl=f"{row['approx_kl']:.3g}")
             stats, returns_sum, returns_n, window = EpisodeStats(), 0.0, 0, {}

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from socialnav.config import ConfigError, check, from_dict
-from socialnav.train.config import DEVICES, _resolve_config
+from socialnav.config import check
+from socialnav.train.config import DEVICES, load_settings_file
 
 #: PPO-setting keys that may change between a run and its resumption (everything else must match).
 PPO_RESUMABLE_CHANGES = ("device", "threads", "checkpoint_every", "log_every", "total_env_steps")
@@ -168,21 +168,4 @@ class PPOSettings:
 def load_ppo_settings(path: str | Path | None = None, **overrides: Any) -> PPOSettings:
     """PPO settings from a YAML file (or a shipped config's name, e.g. ``ppo_smoke``), then the
     top-level ``overrides`` (None values ignored). Unknown keys are an error naming the valid ones."""
-    import yaml
-
-    data: dict[str, Any] = {}
-    if path is not None:
-        path = _resolve_config(path)
-        if path.is_dir():
-            raise ConfigError(f"training config {path} is a directory, not a YAML file")
-        try:
-            data = yaml.safe_load(path.read_text()) or {}
-        except (UnicodeDecodeError, yaml.YAMLError) as err:
-            raise ConfigError(f"{path}: not a valid YAML file ({' '.join(str(err).split())})") from None
-        if not isinstance(data, dict):
-            raise ConfigError(f"{path}: expected a mapping of settings, got {type(data).__name__}")
-    data.update({k: v for k, v in overrides.items() if v is not None})
-    try:
-        return from_dict(PPOSettings, data)
-    except ConfigError as err:
-        raise ConfigError(f"{path}: {err}" if path is not None else str(err)) from None
+    return load_settings_file(PPOSettings, path, overrides)

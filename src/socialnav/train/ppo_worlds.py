@@ -13,6 +13,7 @@ from socialnav.config import ConfigError
 from socialnav.presets import Preset
 from socialnav.sim.observation import Observation
 from socialnav.sim.world import EpisodeStream
+from socialnav.train.common import reward_config
 from socialnav.train.envs import MultiWorld
 
 #: The World arrays that hold an episode's state (saved with last.pt so that a resumed run goes on
@@ -112,13 +113,7 @@ def ppo_policy_config(preset: Preset) -> dict[str, Any]:
         "kinematics": w.kinematics,
         "rotation_limit": w.rotation_limit,
         "dt": w.dt,
-        "reward": {
-            "success_reward": w.reward.success_reward,
-            "collision_penalty": w.reward.collision_penalty,
-            "discomfort_dist": w.reward.discomfort_dist,
-            "discomfort_penalty_factor": w.reward.discomfort_penalty_factor,
-            "time_step": w.dt,
-        },
+        "reward": reward_config(w),
     }
 
 

@@ -48,9 +48,10 @@ from socialnav.train.common import (
     make_optimizer,
     optimizer_state,
     progress_bar,
+    reward_config,
 )
 from socialnav.train.config import TrainSettings, derive_seeds, resolve_train_settings
-from socialnav.train.curves import Curves
+from socialnav.train.curves import Curves, validation_columns, window_columns
 from socialnav.train.envs import MultiWorld, training_n_humans
 from socialnav.train.fused_step import FusedTDStep
 from socialnav.train.imitation_phase import run_imitation
@@ -107,13 +108,7 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
         "reward_rule": settings.reward_rule,
         "rotation_limit": w.rotation_limit,
         "dt": w.dt,
-        "reward": {
-            "success_reward": w.reward.success_reward,
-            "collision_penalty": w.reward.collision_penalty,
-            "discomfort_dist": w.reward.discomfort_dist,
-            "discomfort_penalty_factor": w.reward.discomfort_penalty_factor,
-            "time_step": w.dt,
-        },
+        "reward": reward_config(w),
     }
 
 
@@ -534,10 +529,7 @@ def _train(
                     "phase": "rl",
                     "episode": ep,
                     "epsilon": eps,
-                    "train_episodes": window.total,
-                    "train_success": rates["success"],
-                    "train_collision": rates["collision"],
-                    "train_timeout": rates["timeout"],
+                    **window_columns(rates, window.total),
                     "loss": window_loss / window_steps if window_steps else math.nan,
                     "predictor_loss": window_pred / window_steps
                     if window_steps and predictor is not None
@@ -546,13 +538,7 @@ def _train(
                     "transitions": state["transitions"],
                     "wall_time": wall(),
                 }
-                if val is not None:
-                    row.update(
-                        val_success=val["success"],
-                        val_collision=val["collision"],
-                        val_timeout=val["timeout"],
-                        val_nav_time=val["nav_time"],
-                    )
+                row.update(validation_columns(val))
                 curves.write(row)
                 bar.set_postfix(eps=f"{eps:.2f}", succ=f"{rates['success']:.2f}", loss=f"{row['loss']:.3g}")
                 window, window_loss, window_steps, window_pred = EpisodeStats(), 0.0, 0, 0.0
