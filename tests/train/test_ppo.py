@@ -112,6 +112,12 @@ def test_settings_errors_name_field_and_value(tmp_path):
     assert load_ppo_settings("ppo").network.attn_size == 64
 
 
+def _tiny(**settings) -> PPOSettings:
+    """A few tiny updates of the small network on one thread (validation rare unless given)."""
+    defaults = {"validate_every": 10, "val_episodes": 2, "threads": 1, "network": SMALL}
+    return PPOSettings(**{**defaults, **settings})
+
+
 @pytest.fixture()
 def empty_preset(tmp_path):
     """wang2022 without humans and a 10 s time limit: the robot has only to reach its goal."""
@@ -161,18 +167,8 @@ def test_resumed_run_equals_an_uninterrupted_one_bit_for_bit(tmp_path):
     from socialnav.train.ppo import train_ppo
 
     # 5 humans, 30 s episodes: the stop falls in the middle of episodes, whose state is restored.
-    s = PPOSettings(
-        n_envs=8,
-        rollout_steps=8,
-        total_env_steps=8 * 8 * 6,
-        epochs=2,
-        minibatches=2,
-        validate_every=4,
-        val_episodes=4,
-        checkpoint_every=5,
-        threads=1,
-        network=SMALL,
-    )
+    s = _tiny(n_envs=8, rollout_steps=8, total_env_steps=8 * 8 * 6, epochs=2, minibatches=2,
+              validate_every=4, val_episodes=4, checkpoint_every=5)
     whole = train_ppo("wang2022", tmp_path / "whole", s, progress=False, log=lambda _: None)
     first = train_ppo("wang2022", tmp_path / "split", s, progress=False, stop_after=3, log=lambda _: None)
     assert not first.finished and first.updates == 3
@@ -196,17 +192,7 @@ def test_resumed_run_equals_an_uninterrupted_one_bit_for_bit(tmp_path):
 def test_resume_with_other_settings_is_refused(tmp_path):
     from socialnav.train.ppo import train_ppo
 
-    s = PPOSettings(
-        n_envs=4,
-        rollout_steps=4,
-        total_env_steps=32,
-        epochs=1,
-        minibatches=1,
-        validate_every=10,
-        val_episodes=2,
-        threads=1,
-        network=SMALL,
-    )
+    s = _tiny(n_envs=4, rollout_steps=4, total_env_steps=32, epochs=1, minibatches=1)
     train_ppo("wang2022", tmp_path / "run", s, progress=False, stop_after=1, log=lambda _: None)
     with pytest.raises(ConfigError, match="train.lr"):
         train_ppo("wang2022", tmp_path / "run", PPOSettings(**{**s.__dict__, "lr": 1e-2}), progress=False)
@@ -217,17 +203,7 @@ def test_first_gradient_step_starts_from_the_collecting_policy(tmp_path):
     with one epoch of one minibatch, the only gradient step sees probability ratios of 1."""
     from socialnav.train.ppo import train_ppo
 
-    s = PPOSettings(
-        n_envs=8,
-        rollout_steps=6,
-        total_env_steps=8 * 6 * 2,
-        epochs=1,
-        minibatches=1,
-        validate_every=10,
-        val_episodes=2,
-        threads=1,
-        network=SMALL,
-    )
+    s = _tiny(n_envs=8, rollout_steps=6, total_env_steps=8 * 6 * 2, epochs=1, minibatches=1)
     result = train_ppo("wang2022", tmp_path / "run", s, progress=False, log=lambda _: None)
     rows = list(csv.DictReader(open(result.curves)))
     assert len(rows) == 2
