@@ -125,7 +125,11 @@ def test_fixed_layouts_are_shared_and_pillars_drawn_per_episode() -> None:
 def test_geometry_by_hand() -> None:
     hallway = _batches("narrow_hallway", corridor_width=1.6)
     walls = [p.tolist() for p in hallway.static_maps[0].polygons]
-    assert walls == [[[-0.8, -5.0], [-0.8, 5.0]], [[0.8, -5.0], [0.8, 5.0]]]
+    assert walls == [[[-0.8, -5.0], [-0.8, 5.0]], [[0.8, -5.0], [0.8, 5.0]],  # the corridor's sides
+                     [[-0.8, -5.0], [-3.8, -5.0]], [[-0.8, 5.0], [-3.8, 5.0]],  # the halls' walls, 3 m
+                     [[0.8, -5.0], [3.8, -5.0]], [[0.8, 5.0], [3.8, 5.0]]]
+    bare = _batches("narrow_hallway", corridor_width=1.6, end_wall=0.0)
+    assert len(bare.static_maps[0]) == 2  # a free-standing corridor
     # head-on, and out of the corridor (1 m past its 5 m half-length) instead of at the robot's start
     np.testing.assert_array_equal(hallway.human_goal[:, 0, 0], hallway.human_start[:, 0, 0])
     np.testing.assert_array_equal(hallway.human_goal[:, 0, 1], -6.0)

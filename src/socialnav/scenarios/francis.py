@@ -43,6 +43,18 @@ def _door_fits(scenario: WalledScenario, wall: str) -> None:
                          f"got {scenario.door_width}")
 
 
+def _corridor_walls(width: float, length: float, end_wall: float) -> list[np.ndarray]:
+    """A straight corridor along y between two halls: its two side walls and, at each end, walls
+    turning outwards (``end_wall`` long each side), so that an agent pushed out of the corridor
+    comes back through it instead of walking round the outside of a free-standing pair of walls."""
+    h, half = width / 2, length / 2
+    sides = [np.array([[-h, -half], [-h, half]]), np.array([[h, -half], [h, half]])]
+    if end_wall <= 0:
+        return sides
+    return sides + [np.array([[sx * h, sy * half], [sx * (h + end_wall), sy * half]])
+                    for sx in (-1, 1) for sy in (-1, 1)]
+
+
 def _mirror_y(start: np.ndarray) -> np.ndarray:
     return start * np.array([1.0, -1.0])
 
@@ -63,10 +75,11 @@ class _Hallway(WalledScenario):
     lateral_jitter: float = param(0.2, "human start and goal offset o ~ U(-j, j) across the corridor",
                                   unit="m", ge=0)
     start_jitter: float = param(0.5, "human start distance R ± U(-j, j) along the corridor", unit="m", ge=0)
+    end_wall: float = param(3.0, "length of the hall walls at each end of the corridor, each side (0: none)",
+                            unit="m", ge=0)
 
     def walls(self) -> list[np.ndarray]:
-        h, half = self.corridor_width / 2, self.corridor_length / 2
-        return [np.array([[-h, -half], [-h, half]]), np.array([[h, -half], [h, half]])]
+        return _corridor_walls(self.corridor_width, self.corridor_length, self.end_wall)
 
     def flows(self) -> list[Flow]:
         # The human walks the corridor's whole length and leaves it (1 m past its end): a goal at the
@@ -113,6 +126,8 @@ class PedestrianObstruction(WalledScenario):
     corridor_width: float = param(3.0, "distance between the two walls", unit="m", gt=0)
     corridor_length: float = param(10.0, "length of the walls, centred on the origin", unit="m", gt=0)
     group_offset: float = param(0.5, "the group's centre across the corridor ~ U(-g, g)", unit="m", ge=0)
+    end_wall: float = param(3.0, "length of the hall walls at each end of the corridor, each side (0: none)",
+                            unit="m", ge=0)
 
     def __post_init__(self) -> None:
         """Validate settings; the formation fixes the group's size and geometry."""
@@ -125,8 +140,7 @@ class PedestrianObstruction(WalledScenario):
                              "formation is designed for the fixed radius)")
 
     def walls(self) -> list[np.ndarray]:
-        h, half = self.corridor_width / 2, self.corridor_length / 2
-        return [np.array([[-h, -half], [-h, half]]), np.array([[h, -half], [h, half]])]
+        return _corridor_walls(self.corridor_width, self.corridor_length, self.end_wall)
 
     def flows(self) -> list[Flow]:
         """The group's centre, drawn as human 0's standing position; the others keep the formation."""
