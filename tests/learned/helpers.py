@@ -5,6 +5,19 @@ from __future__ import annotations
 import numpy as np
 
 NETWORKS = ["cadrl", "lstm_rl", "sarl", "om_sarl", "rgl", "mp_rgl"]
+#: A small attention-graph network (crowdnav_pp) for fast tests; the layer widths of AttnGraphNet.
+SMALL_ATTN_GRAPH = dict(
+    robot_embed=32,
+    human_hidden=16,
+    attn_size=32,
+    attn_heads=4,
+    human_out=32,
+    rh_attention=16,
+    gru_input=16,
+    gru_hidden=32,
+    node_out=32,
+    head_hidden=32,
+)
 
 
 def random_scene(rng: np.random.Generator, b: int, n: int, p_real: float = 0.7, garbage: float = 0.0):

@@ -12,18 +12,7 @@ from hypothesis import strategies as st
 from socialnav.policies.learned.attn_graph import AttnGraphNet, human_features, robot_features
 from socialnav.sim.observation import Observation
 
-SMALL = dict(
-    robot_embed=32,
-    human_hidden=16,
-    attn_size=32,
-    attn_heads=4,
-    human_out=32,
-    rh_attention=16,
-    gru_input=16,
-    gru_hidden=32,
-    node_out=32,
-    head_hidden=32,
-)
+from .helpers import SMALL_ATTN_GRAPH as SMALL
 
 
 def _net(seed=0, **kw):

@@ -15,19 +15,9 @@ import yaml
 from socialnav.config import ConfigError
 from socialnav.train.ppo_config import NetworkSettings, PPOSettings, load_ppo_settings
 from socialnav.train.ppo_objective import gae, gaussian_entropy, gaussian_log_prob, ppo_loss
+from tests.learned.helpers import SMALL_ATTN_GRAPH
 
-SMALL = NetworkSettings(
-    robot_embed=32,
-    human_hidden=16,
-    attn_size=32,
-    attn_heads=4,
-    human_out=32,
-    rh_attention=16,
-    gru_input=16,
-    gru_hidden=32,
-    node_out=32,
-    head_hidden=32,
-)
+SMALL = NetworkSettings(**SMALL_ATTN_GRAPH)
 
 
 def test_gae_matches_hand_computed_values():
