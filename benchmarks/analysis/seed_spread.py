@@ -18,7 +18,7 @@ import math
 import statistics
 from pathlib import Path
 
-POLICIES = ("cadrl", "lstm_rl", "sarl", "om_sarl", "rgl", "mp_rgl")
+POLICIES = ("cadrl", "lstm_rl", "sarl", "om_sarl", "rgl", "mp_rgl", "crowdnav_pp")
 NAMES = {
     "cadrl": "CADRL",
     "lstm_rl": "GA3C-CADRL",
@@ -26,6 +26,7 @@ NAMES = {
     "om_sarl": "OM-SARL",
     "rgl": "RGL",
     "mp_rgl": "MP-RGL",
+    "crowdnav_pp": "CrowdNav++ attention graph (PPO)",
 }
 #: (column, summary key, visibility, scale): the pooled columns of Table II.
 COLUMNS = (

@@ -16,7 +16,9 @@ from socialnav.trajectory import Trajectory
 __all__ = [
     "SPEED_TOL",
     "WalkingSpeedWarning",
+    "JERK_DIFFERENCES",
     "jerk",
+    "jerk_variant",
     "squared_jerk",
     "walking_speed",
     "walking_speed_flags",
@@ -65,24 +67,76 @@ def jerk(positions: np.ndarray, dt: float) -> np.ndarray:
     return (p[3:] - 3.0 * p[2:-1] + 3.0 * p[1:-2] - p[:-3]) / dt**3
 
 
+JERK_DIFFERENCES = ("forward", "central", "commanded")
+"""How M_IV's jerk is discretised (the paper says only that it "is computed in discrete time"):
+
+- ``forward`` (default): third forward differences of the positions, j_k = Δ³p_k / dt^q, k = 0..N−3;
+- ``central``: ``np.gradient`` (central differences, first-order one-sided at both ends) applied three
+  times to the positions, one value per sample, times dt^(3−q);
+- ``commanded``: second forward differences of the commanded velocities u_0..u_N (u_0 the initial
+  velocity), j_k = Δ²u_k / dt^(q−1), k = 0..N−2.
+
+q is the ``dt_power`` parameter: 3 is the dimensionally correct jerk [m/s³]; 2 is the variant with one
+power of dt fewer that a reader of the paper could also have used (values dt² times today's M_IV)."""
+
+
+def jerk_variant(positions: np.ndarray, velocities: np.ndarray | None, dt: float,
+                 difference: str = "forward", dt_power: int = 3) -> np.ndarray:
+    """Jerk samples of one agent under one discretisation (see :data:`JERK_DIFFERENCES`).
+
+    Args:
+        positions: [m], shape (N+1, 2).
+        velocities: Commanded velocities u_0..u_N [m/s], shape (N+1, 2); only read by ``commanded``.
+        dt: Step [s].
+        difference: One of :data:`JERK_DIFFERENCES`.
+        dt_power: 3 (jerk in m/s³) or 2.
+
+    Returns:
+        Shape (M, 2): M = N−2 (forward), N+1 (central), N−1 (commanded); (0, 2) when N < 3.
+
+    Raises:
+        ValueError: Unknown ``difference`` or ``dt_power`` not 2 or 3.
+    """
+    if difference not in JERK_DIFFERENCES:
+        raise ValueError(f"m4_jerk: difference must be one of {JERK_DIFFERENCES}, got {difference!r}")
+    if dt_power not in (2, 3) or isinstance(dt_power, bool):
+        raise ValueError(f"m4_jerk: dt_power must be 2 or 3, got {dt_power!r}")
+    p = np.asarray(positions, dtype=np.float64)
+    if p.shape[0] < 4:
+        return np.zeros((0, 2))
+    scale = dt ** (3 - dt_power)  # 1 for dt³; dt for dt² (one power of dt fewer in the denominator)
+    if difference == "forward":
+        return jerk(p, dt) * scale
+    if difference == "central":
+        j = np.gradient(np.gradient(np.gradient(p, dt, axis=0), dt, axis=0), dt, axis=0)
+        return j * scale
+    if velocities is None:
+        raise ValueError("m4_jerk: difference='commanded' needs the commanded velocities")
+    u = np.asarray(velocities, dtype=np.float64)
+    return (u[2:] - 2.0 * u[1:-1] + u[:-2]) / dt**2 * scale
+
+
 @register_metric(
     "m4_jerk", unit="(m/s^3)^2", direction="lower",
     outputs={"mean_sq": "(m/s^3)^2", "integral": "m^2/s^5"}, social=True,
+    parameters={"difference": "forward", "dt_power": 3}, quiet_parameters=("difference", "dt_power"),
     reference=WANG2022 + ", definition of M_IV, Table II",
 )
-def squared_jerk(traj: Trajectory) -> dict[str, float]:
+def squared_jerk(traj: Trajectory, difference: str = "forward", dt_power: int = 3) -> dict[str, float]:
     """M_IV squared jerk of the robot's path.
 
-    Wang et al., ARSO 2022 (arXiv 2202.01045), definition of M_IV: the mean of |j_k|² over
-    k = 0..N−3 with j_k the third finite difference of the robot's positions (see :func:`jerk`).
-    Also reports the integral Σ|j_k|²·dt. Both NaN when N < 3.
+    Wang et al., ARSO 2022 (arXiv 2202.01045), definition of M_IV: the mean of |j_k|² over the
+    jerk samples of the robot (by default the third forward differences of its positions, k = 0..N−3;
+    :data:`JERK_DIFFERENCES` lists the other discretisations, chosen with ``difference`` and
+    ``dt_power``). Also reports the integral Σ|j_k|²·dt. Both NaN when N < 3.
 
     Returns:
-        ``mean_sq`` [(m/s³)²] and ``integral`` [(m/s³)²·s].
+        ``mean_sq`` [(m/s³)²] and ``integral`` [(m/s³)²·s] (other units when ``dt_power`` is 2).
     """
     if traj.n_steps < 3:
         return {"mean_sq": float("nan"), "integral": float("nan")}
-    sq = np.sum(jerk(traj.positions[:, 0], traj.dt) ** 2, axis=-1)
+    commanded = traj.velocities[:, 0] if difference == "commanded" else None
+    sq = np.sum(jerk_variant(traj.positions[:, 0], commanded, traj.dt, difference, dt_power) ** 2, axis=-1)
     return {"mean_sq": float(sq.mean()), "integral": float(sq.sum() * traj.dt)}
 
 

@@ -10,6 +10,10 @@ The output part is omitted for single-valued metrics (output ``value``) and the 
 the metric has no parameters; all parameters are listed, in declaration order, so that values
 computed under different settings never share a key. Examples: ``success``,
 ``m1_personal_space.duration_s@eps=0.2,distance=clearance``, ``m4_jerk.mean_sq``.
+
+One exception keeps published keys stable: a parameter added to a metric after its keys appeared in
+result files is declared *quiet* (``quiet_parameters``) and is listed only when it differs from its
+default. ``m4_jerk.mean_sq`` is M_IV as it always was; ``m4_jerk.mean_sq@dt_power=2`` is a variant.
 """
 
 from __future__ import annotations
@@ -61,6 +65,8 @@ class Metric:
         social: Only meaningful on successful episodes (NaN otherwise in ``score_episode``).
         population: Episodes whose values enter a mean: ``"all"``, ``"success"`` (social metrics and
             navigation time) or ``"known_outcome"`` (outcome rates; NaN when the outcome is unknown).
+        quiet_parameters: Parameters listed in a key only when they differ from their default
+            (parameters added after the metric's keys were published; see the module docstring).
         fn: ``fn(traj, **params) -> {output: value}``.
     """
 
@@ -74,6 +80,7 @@ class Metric:
     variants: tuple[Mapping[str, Any], ...] = ({},)
     social: bool = False
     population: str = "all"
+    quiet_parameters: frozenset[str] = frozenset()
     fn: MetricFn = field(default=lambda traj: {}, repr=False)
 
     def resolve(self, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -96,9 +103,15 @@ class Metric:
         cache_key = tuple((k, repr(v)) for k, v in resolved.items())
         cached = _KEY_CACHE.get((self.name, cache_key))
         if cached is None:
-            cached = [_format_key(self.name, out, resolved) for out in self.outputs]
+            cached = [_format_key(self.name, out, self._key_params(resolved)) for out in self.outputs]
             _KEY_CACHE[(self.name, cache_key)] = cached
         return list(cached)
+
+
+    def _key_params(self, resolved: Mapping[str, Any]) -> dict[str, Any]:
+        """The parameters a key lists: all of them, except quiet ones at their default."""
+        return {k: v for k, v in resolved.items()
+                if k not in self.quiet_parameters or _format_value(v) != _format_value(self.parameters[k])}
 
 
 _KEY_CACHE: dict[tuple[str, tuple], list[str]] = {}
@@ -116,7 +129,8 @@ def metric_key(name: str, output: str = "value", params: Mapping[str, Any] | Non
     """Build the flat key ``<name>[.<output>][@k=v,...]`` that :func:`score_episode` rows use.
 
     Parameters are resolved against the registered metric: omitted ones take their defaults and all
-    are listed in declaration order, so ``metric_key("m2_projected_path", "count", {"tau": 1.0})``
+    (quiet parameters at their default aside) are listed in declaration order, so
+    ``metric_key("m2_projected_path", "count", {"tau": 1.0})``
     is ``m2_projected_path.count@tau=1,anchor=rear``, exactly the row's key.
 
     Args:
@@ -133,7 +147,7 @@ def metric_key(name: str, output: str = "value", params: Mapping[str, Any] | Non
     metric = get_metric(name)
     if output not in metric.outputs:
         raise KeyError(f"metric {name!r} has no output {output!r}; outputs: {list(metric.outputs)}")
-    return _format_key(name, output, metric.resolve(params))
+    return _format_key(name, output, metric._key_params(metric.resolve(params)))
 
 
 def _format_key(name: str, output: str, params: Mapping[str, Any]) -> str:
@@ -163,6 +177,7 @@ def register_metric(
     social: bool = False,
     description: str | None = None,
     population: str | None = None,
+    quiet_parameters: tuple[str, ...] = (),
 ) -> Callable[[MetricFn], MetricFn]:
     """Decorator registering ``fn(traj, **params) -> {output: value}`` as a metric.
 
@@ -178,6 +193,10 @@ def register_metric(
     if population not in POPULATIONS:
         raise ValueError(f"metric {name!r}: population must be one of {POPULATIONS}, got {population!r}")
 
+    unknown_quiet = set(quiet_parameters) - set(parameters or {})
+    if unknown_quiet:
+        raise ValueError(f"metric {name!r}: quiet parameter(s) {sorted(unknown_quiet)} are not parameters")
+
     def wrap(fn: MetricFn) -> MetricFn:
         if name in _REGISTRY:
             raise ValueError(f"metric {name!r} is already registered")
@@ -185,7 +204,7 @@ def register_metric(
             name=name, unit=unit, direction=direction, parameters=dict(parameters or {}),
             description=description or (fn.__doc__ or "").strip().splitlines()[0],
             reference=reference, outputs=dict(outputs), variants=tuple(variants), social=social,
-            population=population, fn=fn,
+            population=population, quiet_parameters=frozenset(quiet_parameters), fn=fn,
         )
         for variant in metric.variants:
             metric.resolve(variant)  # fail at import time on a misspelt variant parameter
