@@ -9,7 +9,7 @@ import pytest
 import torch
 
 from socialnav.policies.learned import ValuePolicy, build
-from socialnav.sim.observation import ObstacleArrays, Observation
+from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.static_map import StaticMap
 
