@@ -134,3 +134,19 @@ def test_points_do_not_move_under_prediction(information):
     m = torch.as_tensor(obs.human_mask)
     nxt = pol.predict_humans(torch.as_tensor(robot), h, m, 0.25, static=16)
     torch.testing.assert_close(nxt[:, 3:], h[:, 3:], rtol=0, atol=0)
+
+
+@pytest.mark.parametrize("name", ["sarl", "om_sarl"])
+def test_the_native_scorer_scores_wall_points_like_the_torch_module(name):
+    from socialnav import _core
+
+    if not _core.SarlScorer.supported():
+        pytest.skip("CPU without AVX2/FMA")
+    torch.manual_seed(5)
+    net = build(name)
+    robot, humans, mask = random_scene(np.random.default_rng(6), 5, 4)
+    obs = _obs(robot, humans, mask, [WALL_AHEAD, None, WALL_AHEAD, WALL_AHEAD, None])
+    native = ValuePolicy(net, obstacle_encoding=ENCODING, scorer="native")
+    module = ValuePolicy(net, obstacle_encoding=ENCODING, scorer="torch")
+    assert native.active_scorer == "native"
+    np.testing.assert_allclose(native.values(obs), module.values(obs), rtol=1e-4, atol=1e-5)
