@@ -150,3 +150,16 @@ def test_the_native_scorer_scores_wall_points_like_the_torch_module(name):
     module = ValuePolicy(net, obstacle_encoding=ENCODING, scorer="torch")
     assert native.active_scorer == "native"
     np.testing.assert_allclose(native.values(obs), module.values(obs), rtol=1e-4, atol=1e-5)
+
+
+def test_a_checkpoint_with_a_bad_obstacle_encoding_is_refused_by_name(tmp_path):
+    from socialnav.policies.learned.checkpoint import CheckpointError, save_checkpoint
+    from socialnav.policies.learned_entries import load_learned_policy
+
+    good = {"kinematics": "holonomic", "obstacle_encoding": ObstaclePoints(count=4).to_dict()}
+    save_checkpoint(tmp_path / "good.pt", "rgl", build("rgl"), config={"value_policy": good})
+    assert load_learned_policy("rgl", tmp_path / "good.pt").value_policy.obstacle_encoding.count == 4
+    bad = {"kinematics": "holonomic", "obstacle_encoding": {"kind": "outline_points", "count": 0}}
+    save_checkpoint(tmp_path / "bad.pt", "rgl", build("rgl"), config={"value_policy": bad})
+    with pytest.raises(CheckpointError, match=r"config.value_policy is invalid: obstacle_encoding.count"):
+        load_learned_policy("rgl", tmp_path / "bad.pt")
