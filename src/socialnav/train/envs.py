@@ -31,7 +31,7 @@ def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True)
 
 def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
     """The ``n_humans`` keyword for scenario ``name``: none where the scenario fixes its own crowd
-    (the francis2023 hallway, doorway and group scenarios refuse any other count)."""
+    (the francis2023 scenarios with one person or a standing group refuse any other count)."""
     return {} if get_scenario(name).fixed_n_humans else {"n_humans": int(n_humans)}
 
 

@@ -21,8 +21,9 @@ Obstacles (``obstacle_encoding``, :mod:`socialnav.sim.obstacle_points`): the nea
 episode's obstacle outlines are appended after the human slots as standing agents, so the networks
 read them like humans; the last ``static_slots`` slots of a state are such points. They do not move
 under any information setting, and the lookahead's reward counts them for collisions only (the world
-has no discomfort term for walls). Without obstacles in the observation nothing is appended and the
-computation is today's, bit for bit.
+has no discomfort term for walls). A policy without an encoding (every checkpoint trained on open
+floors) ignores obstacles and computes what it always did; with one, an open floor gives K padded
+slots, which no network reads.
 
 Reward rule of the lookahead: ``end`` (CrowdNav's and RGL's one-step estimate: clearances at the end
 positions only) or ``swept`` (the world's rule: swept collision and discomfort over the step).
