@@ -86,7 +86,9 @@ class SB3Policy:
         if rows.size == 0:
             return actions
         robot = observation.robot[rows]
-        obs = self.transform(robot, observation.humans[rows], observation.human_mask[rows])
+        walls = observation.obstacles
+        maps = [None] * rows.size if walls is None else [walls.maps[int(b)] for b in rows]
+        obs = self.transform(robot, observation.humans[rows], observation.human_mask[rows], maps)
         chosen, _ = self.model.predict(obs, deterministic=True)
         if self._table is not None:
             actions[rows] = self._table[np.asarray(chosen, dtype=np.int64).reshape(-1)]

@@ -95,6 +95,7 @@ _VALUE_POLICY_KEYS = (
     "planning_depth",
     "planning_width",
     "reward_rule",
+    "obstacle_encoding",
 )
 _REWARD_KEYS = (
     "success_reward",

@@ -29,6 +29,21 @@ both       human_mask (K,) int8, 1 for a real human
 
 Lengths (positions, radii, dg, da) are in units of ``length_scale``, speeds (velocities, v_pref) in
 units of ``speed_scale``; angles in radians. rot = atan2(gy - py, gx - px).
+
+Obstacles (``obstacle_points`` = P > 0; 0, the default, adds no key): the P points of the obstacle
+outlines nearest to the robot within ``obstacle_range``, sampled every ``obstacle_spacing`` at most
+along each edge with every vertex included (:mod:`socialnav.sim.obstacle_points`, the encoding the
+value networks use), nearest first, zero rows where padded:
+
+=========  ===================  ===========================================================
+frame      key                  columns
+=========  ===================  ===========================================================
+world      obstacle_points      (P, 2) px, py
+robot      obstacle_points      (P, 3) px', py', distance to the robot's centre
+both       obstacle_point_mask  (P,) int8, 1 for a real point
+=========  ===================  ===========================================================
+
+in units of ``length_scale``, dtype ``dtype``.
 """
 
 from __future__ import annotations
@@ -42,6 +57,8 @@ import numpy as np
 from gymnasium import spaces
 
 from socialnav.config import check
+from socialnav.sim.obstacle_points import ObstaclePoints
+from socialnav.static_map import StaticMap
 
 FRAMES = ("world", "robot")
 DTYPES = ("float32", "float64")
@@ -53,6 +70,7 @@ HUMAN_COLUMNS = {
     "world": ("px", "py", "vx", "vy", "radius"),
     "robot": ("px", "py", "vx", "vy", "radius", "da", "radius_sum"),
 }
+OBSTACLE_COLUMNS = {"world": ("px", "py"), "robot": ("px", "py", "distance")}
 _BOUND = 1e6  # the raw env's Box bound, kept for every layout
 
 
@@ -69,6 +87,9 @@ class ObservationSettings:
     length_scale: float = 1.0  # [m]
     speed_scale: float = 1.0  # [m/s]
     dtype: str = "float32"
+    obstacle_points: int = 0  # P; 0: no obstacle keys (the layout of open-floor models)
+    obstacle_spacing: float = 0.5  # [m]
+    obstacle_range: float = 4.0  # [m]
 
     def __post_init__(self) -> None:
         check(self.frame in FRAMES, "observation.frame", self.frame, f"must be one of {', '.join(FRAMES)}")
@@ -87,6 +108,30 @@ class ObservationSettings:
                 "must be a finite number > 0",
             )
         check(self.dtype in DTYPES, "observation.dtype", self.dtype, f"must be one of {', '.join(DTYPES)}")
+        check(
+            isinstance(self.obstacle_points, int) and not isinstance(self.obstacle_points, bool)
+            and self.obstacle_points >= 0,
+            "observation.obstacle_points",
+            self.obstacle_points,
+            "must be an integer >= 0",
+        )
+        for name in ("obstacle_spacing", "obstacle_range"):
+            value = getattr(self, name)
+            check(
+                isinstance(value, int | float) and math.isfinite(value) and value > 0,
+                f"observation.{name}",
+                value,
+                "must be a finite number > 0",
+            )
+
+    @property
+    def obstacle_encoding(self) -> ObstaclePoints | None:
+        """The point encoding of the obstacle keys, None without them."""
+        if not self.obstacle_points:
+            return None
+        return ObstaclePoints(
+            self.obstacle_points, float(self.obstacle_spacing), float(self.obstacle_range), 0.0
+        )
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -107,10 +152,16 @@ class ObservationTransform:
         kinematics: "holonomic" or "unicycle" (decides theta' and whether actions are rotated).
         action_set: "continuous" or "discrete"; a discrete holonomic action is a world-frame heading,
             which a robot-frame policy cannot aim, so that combination is refused.
+        static_map: the env's map (one for every episode), used when a call passes no ``maps``.
     """
 
     def __init__(
-        self, settings: ObservationSettings, n_humans: int, kinematics: str, action_set: str = "continuous"
+        self,
+        settings: ObservationSettings,
+        n_humans: int,
+        kinematics: str,
+        action_set: str = "continuous",
+        static_map: StaticMap | None = None,
     ):
         if settings.max_humans is None:  # a crowd-free env keeps one (padded) slot: networks need inputs
             settings = dataclasses.replace(settings, max_humans=max(int(n_humans), 1))
@@ -126,6 +177,7 @@ class ObservationTransform:
             settings.frame == "robot" and kinematics == "holonomic" and action_set != "discrete"
         )
         self.dtype = np.dtype(settings.dtype)
+        self.static_map = static_map or None
 
     @property
     def max_humans(self) -> int:
@@ -134,16 +186,26 @@ class ObservationTransform:
     def single_space(self) -> spaces.Dict:
         """The space of one episode's transformed observation."""
         k, frame = self.max_humans, self.settings.frame
-        return spaces.Dict(
-            {
-                "robot": spaces.Box(-_BOUND, _BOUND, shape=(len(ROBOT_COLUMNS[frame]),), dtype=self.dtype),
-                "humans": spaces.Box(-_BOUND, _BOUND, shape=(k, len(HUMAN_COLUMNS[frame])), dtype=self.dtype),
-                "human_mask": spaces.MultiBinary(k),
-            }
-        )
+        entries = {
+            "robot": spaces.Box(-_BOUND, _BOUND, shape=(len(ROBOT_COLUMNS[frame]),), dtype=self.dtype),
+            "humans": spaces.Box(-_BOUND, _BOUND, shape=(k, len(HUMAN_COLUMNS[frame])), dtype=self.dtype),
+            "human_mask": spaces.MultiBinary(k),
+        }
+        p = self.settings.obstacle_points
+        if p:
+            shape = (p, len(OBSTACLE_COLUMNS[frame]))
+            entries["obstacle_points"] = spaces.Box(-_BOUND, _BOUND, shape=shape, dtype=self.dtype)
+            entries["obstacle_point_mask"] = spaces.MultiBinary(p)
+        return spaces.Dict(entries)
 
-    def __call__(self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray]:
-        """``robot`` (B, 9), ``humans`` (B, N, 5), ``mask`` (B, N) -> the learner's (B, …) arrays."""
+    def __call__(
+        self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray, maps: Any = None
+    ) -> dict[str, np.ndarray]:
+        """``robot`` (B, 9), ``humans`` (B, N, 5), ``mask`` (B, N) -> the learner's (B, …) arrays.
+
+        ``maps``: each episode's :class:`~socialnav.static_map.StaticMap` or None, (B,); None: the
+        transform's own ``static_map`` for every episode (only read with ``obstacle_points`` > 0).
+        """
         robot = np.asarray(robot, dtype=np.float64)
         humans, mask = _fixed_count(
             robot, np.asarray(humans, np.float64), np.asarray(mask, bool), self.max_humans
@@ -163,11 +225,33 @@ class ObservationTransform:
             h[..., [0, 1, 4, 5, 6]] /= s.length_scale
             h[..., [2, 3]] /= s.speed_scale
         h[~mask] = 0.0
-        return {
+        out = {
             "robot": r.astype(self.dtype),
             "humans": h.astype(self.dtype),
             "human_mask": mask.astype(np.int8),
         }
+        encoding = s.obstacle_encoding
+        if encoding is not None:
+            if maps is None:
+                maps = [self.static_map] * robot.shape[0]
+            points, point_mask = encoding.nearest(robot[:, :2], maps)
+            out["obstacle_points"] = self._points(robot, points, point_mask).astype(self.dtype)
+            out["obstacle_point_mask"] = point_mask.astype(np.int8)
+        return out
+
+    def _points(self, robot: np.ndarray, points: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """(B, P, 2|3) obstacle points in the learner's frame and units, zero where padded."""
+        if self.settings.frame == "world":
+            out = points.copy()
+        else:
+            dx = points[..., 0] - robot[:, None, 0]
+            dy = points[..., 1] - robot[:, None, 1]
+            rot = np.arctan2(robot[:, 6] - robot[:, 1], robot[:, 5] - robot[:, 0])
+            c, s = np.cos(rot)[:, None], np.sin(rot)[:, None]
+            out = np.stack([dx * c + dy * s, dy * c - dx * s, np.hypot(dx, dy)], axis=-1)
+        out /= self.settings.length_scale
+        out[~mask] = 0.0
+        return out
 
     def actions_to_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
         """The simulator's actions for ``actions`` chosen on the observation of raw ``robot`` (B, 9).

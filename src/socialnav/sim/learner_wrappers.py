@@ -37,7 +37,8 @@ def env_config(env: Any) -> Any:
 
 def make_transform(cfg: Any, settings: ObservationSettings | None) -> ObservationTransform:
     return ObservationTransform(
-        settings or ObservationSettings(), cfg.scenario.n_humans, cfg.settings.kinematics, cfg.action_set
+        settings or ObservationSettings(), cfg.scenario.n_humans, cfg.settings.kinematics, cfg.action_set,
+        static_map=getattr(cfg, "static_map", None),
     )
 
 

@@ -107,6 +107,9 @@ class Observation:
             observation was requested with the "oracle" information setting.
         obstacles: the episodes' static maps (:class:`ObstacleArrays`), or None when every episode
             is an open floor. The native robot policies (ORCA, social force) avoid them.
+        static_slots: how many of the last human slots are not humans but obstacle points appended
+            by a value policy's obstacle encoding (:mod:`socialnav.sim.obstacle_points`); 0 in what
+            the world observes.
     """
 
     robot: np.ndarray
@@ -118,6 +121,7 @@ class Observation:
     kinematics: str
     next_humans: np.ndarray | None = None
     obstacles: ObstacleArrays | None = None
+    static_slots: int = 0
 
     @property
     def batch_size(self) -> int:
@@ -129,7 +133,7 @@ class Observation:
         walls = None if self.obstacles is None else self.obstacles.take(index)
         return Observation(self.robot[index].copy(), self.humans[index].copy(), self.human_mask[index].copy(),
                            self.active[index].copy(), self.time[index].copy(), self.dt, self.kinematics, nxt,
-                           walls)
+                           walls, self.static_slots)
 
 
 def build_observation(position: np.ndarray, velocity: np.ndarray, goal: np.ndarray, radius: np.ndarray,

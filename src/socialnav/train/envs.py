@@ -1,7 +1,10 @@
 """The training scenario mix as one batch: one World per scenario, stepped together.
 
-``MultiWorld`` concatenates the observations of its worlds (all share N human slots) so that the
-policy scores every slot of every scenario in one call, and splits the actions back.
+``MultiWorld`` concatenates the observations of its worlds so that the policy scores every slot of
+every scenario in one call, and splits the actions back. Scenarios whose design fixes the crowd (one
+person head-on in a hallway, a standing group) keep their own human count, as in evaluation; the
+worlds' human slots are then zero-padded to the largest count (mask False). The episodes' obstacles
+come with the observation (``obstacles``) and with the state after each step (``final_maps``).
 """
 
 from __future__ import annotations
@@ -13,16 +16,40 @@ import numpy as np
 
 from socialnav.presets import Preset
 from socialnav.scenarios import make_scenario
-from socialnav.sim.observation import Observation
+from socialnav.scenarios.registry import get_scenario
+from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.world import World
 
 
 def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True) -> int:
     """Humans per training episode: the preset's, or 1 for CADRL (trained with one human, as its
-    authors did)."""
+    authors did). Scenarios that fix their own crowd keep it (:func:`scenario_crowd`)."""
     if policy == "cadrl" and cadrl_one_human:
         return 1
     return int(preset.training.n_humans)
+
+
+def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
+    """The ``n_humans`` keyword for scenario ``name``: none where the scenario fixes its own crowd
+    (the francis2023 scenarios with one person or a standing group refuse any other count)."""
+    return {} if get_scenario(name).fixed_n_humans else {"n_humans": int(n_humans)}
+
+
+def _pad_humans(humans: np.ndarray, mask: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(B, m, 5), (B, m) zero-padded to n >= m human slots (mask False)."""
+    m = humans.shape[1]
+    if m == n:
+        return humans, mask
+    return (np.concatenate([humans, np.zeros((humans.shape[0], n - m, humans.shape[2]))], axis=1),
+            np.concatenate([mask, np.zeros((mask.shape[0], n - m), dtype=bool)], axis=1))
+
+
+def _concat_obstacles(parts: list[ObstacleArrays | None], sizes: list[int]) -> ObstacleArrays | None:
+    if all(p is None for p in parts):
+        return None
+    maps = [m for p, size in zip(parts, sizes, strict=True)
+            for m in (p.maps if p is not None else [None] * size)]
+    return ObstacleArrays.from_maps(maps)
 
 
 def split_counts(total: int, parts: int) -> list[int]:
@@ -42,6 +69,7 @@ class MultiStep:
     final_humans: np.ndarray  # (B, N, 5)
     final_mask: np.ndarray  # (B, N)
     final_time: np.ndarray  # (B,)
+    final_maps: tuple | None = None  # (B,) the stepped episodes' StaticMap or None; None: open floors
 
 
 class MultiWorld:
@@ -49,7 +77,7 @@ class MultiWorld:
 
     Args:
         preset: world semantics, robot and training scenario mix.
-        n_humans: humans per episode.
+        n_humans: humans per episode (scenarios that fix their own crowd keep it).
         batch_size: total slots, split evenly over the scenarios (at least one each).
         split: "train" (endless stream from ``start``) or "val" (``count`` episodes in all).
         start: first episode index of every scenario's stream.
@@ -85,7 +113,8 @@ class MultiWorld:
             if cnt == 0:
                 continue
             scenario = make_scenario(
-                name, n_humans=n_humans, robot_v_pref=preset.robot.v_pref, robot_radius=preset.robot.radius
+                name, **scenario_crowd(name, n_humans), robot_v_pref=preset.robot.v_pref,
+                robot_radius=preset.robot.radius,
             )
             b = size if cnt is None else max(1, min(size, cnt))
             self.worlds.append(
@@ -95,6 +124,8 @@ class MultiWorld:
         self.offsets = np.cumsum([0, *self.sizes])
         self.batch_size = int(self.offsets[-1])
         self.dt = settings.dt
+        #: human slots of every observation: the largest crowd of the mix
+        self.n_human_slots = max(w.n_agents - 1 for w in self.worlds)
 
     def close(self) -> None:
         """Stops every world's native threads now (see World.close)."""
@@ -118,23 +149,29 @@ class MultiWorld:
         obs = [w.observe(oracle=oracle) for w in self.worlds]
         if len(obs) == 1:
             return obs[0]
-        nxt = None if not oracle else np.concatenate([o.next_humans for o in obs])
+        n = self.n_human_slots
+        padded = [_pad_humans(o.humans, o.human_mask, n) for o in obs]
+        nxt = None
+        if oracle:
+            nxt = np.concatenate([_pad_humans(o.next_humans, o.human_mask, n)[0] for o in obs])
         return Observation(
             np.concatenate([o.robot for o in obs]),
-            np.concatenate([o.humans for o in obs]),
-            np.concatenate([o.human_mask for o in obs]),
+            np.concatenate([h for h, _ in padded]),
+            np.concatenate([m for _, m in padded]),
             np.concatenate([o.active for o in obs]),
             np.concatenate([o.time for o in obs]),
             obs[0].dt,
             obs[0].kinematics,
             nxt,
+            _concat_obstacles([o.obstacles for o in obs], self.sizes),
         )
 
     def step(self, actions: np.ndarray) -> MultiStep:
         """Steps every world; the ``final_*`` arrays hold each slot's state right after the step
         (before the auto-reset of finished slots)."""
-        parts = []
+        parts, walls = [], []
         for w, lo, hi in zip(self.worlds, self.offsets[:-1], self.offsets[1:], strict=True):
+            stepped = tuple(w.static_maps)  # before the refill of finished slots
             res = w.step(actions[lo:hi], final_observation=True, observe=True)
             obs = res.observation
             robot, humans, mask, time = obs.robot, obs.humans, obs.human_mask, obs.time
@@ -147,6 +184,8 @@ class MultiWorld:
                     fo.human_mask,
                     fo.time,
                 )
+            humans, mask = _pad_humans(humans, mask, self.n_human_slots)
             parts.append((res.reward, res.terminated, res.truncated, robot, humans, mask, time))
+            walls.extend(stepped)
         cat = [np.concatenate([p[i] for p in parts]) for i in range(7)]
-        return MultiStep(*cat)
+        return MultiStep(*cat, tuple(walls) if any(m is not None for m in walls) else None)

@@ -59,8 +59,15 @@ def collect_demonstrations(
     gamma: float,
     success_reward: float,
     progress: Callable[[int], None] | None = None,
+    policy=None,
 ) -> Demonstrations:
-    """Runs the teacher until ``episodes`` episodes have finished; keeps successes and collisions."""
+    """Runs the teacher until ``episodes`` episodes have finished; keeps successes and collisions.
+
+    ``policy``: the value policy being trained; its obstacle encoding (if any) is applied to the
+    stored states (the teacher itself sees the raw observation and its obstacles).
+    """
+    from socialnav.train.rl import encoded_step
+
     obs = world.observe()
     B = world.batch_size
     traj: list[list[tuple[np.ndarray, ...]]] = [[] for _ in range(B)]
@@ -69,13 +76,16 @@ def collect_demonstrations(
     done_count = 0
     while done_count < episodes:
         actions = teacher.act(obs)
+        seen = obs if policy is None else policy.encode(obs)
         res = world.step(actions)
+        if policy is not None:
+            res = encoded_step(policy, res)
         for b in range(B):
             traj[b].append(
                 (
-                    obs.robot[b],
-                    obs.humans[b],
-                    obs.human_mask[b],
+                    seen.robot[b],
+                    seen.humans[b],
+                    seen.human_mask[b],
                     float(res.reward[b]),
                     res.final_humans[b],
                     res.final_mask[b],
@@ -105,7 +115,8 @@ def collect_demonstrations(
         if progress is not None:
             progress(0)
         obs = world.observe()
-    n = world.worlds[0].n_agents - 1
+    encoding = None if policy is None else policy.obstacle_encoding
+    n = world.n_human_slots + (0 if encoding is None else encoding.count)
     if not values:
         return Demonstrations(
             np.zeros((0, 9)), np.zeros((0, n, 5)), np.zeros((0, n), bool), np.zeros(0), done_count, outcomes

@@ -83,6 +83,7 @@ def run_imitation(
             rl.gamma,
             success_reward,
             progress=lambda k: bar.update(k) if k else None,
+            policy=policy,
         )
         bar.close()
         save_demonstrations(demos_path, demos, config_json)

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -149,7 +150,7 @@ def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> 
     world.reset()
     stats = EpisodeStats()
     while world.busy:
-        obs = world.observe(oracle=oracle)
+        obs = policy.encode(world.observe(oracle=oracle))
         _, actions = policy.act(obs, next_humans=obs.next_humans if oracle else None)
         actions = np.asarray(actions, dtype=np.float64)
         actions[~obs.active] = 0.0
@@ -159,6 +160,15 @@ def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> 
     out = stats.rates()
     out["episodes"] = stats.total
     return out
+
+
+def encoded_step(policy, res):
+    """``res`` (a MultiStep) with the policy's obstacle points appended to the states after the step
+    (``final_humans``/``final_mask``; each episode's own map, also where the slot was refilled)."""
+    if getattr(policy, "obstacle_encoding", None) is None:
+        return res
+    humans, mask = policy.encode_arrays(res.final_robot, res.final_humans, res.final_mask, res.final_maps)
+    return dataclasses.replace(res, final_humans=humans, final_mask=mask)
 
 
 def push_step(memory: ReplayMemory, obs, res) -> None:

@@ -60,6 +60,7 @@ from socialnav.train.rl import (
     EpisodeStats,
     RGLRepoEpisodes,
     TrainingDiverged,
+    encoded_step,
     epsilon_at,
     push_step,
     replay_td_loss,
@@ -96,9 +97,24 @@ def resolve_device(name: str) -> torch.device:
     return torch.device(name)
 
 
+def trains_among_walls(preset: Preset) -> bool:
+    """Whether the preset's training mix has a scenario with walls."""
+    from socialnav.scenarios.registry import get_scenario
+    from socialnav.scenarios.walls import WalledScenario
+
+    return any(issubclass(get_scenario(name), WalledScenario) for name in preset.training.scenarios)
+
+
 def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, Any]:
-    """The keyword arguments the evaluator passes to ValuePolicy (learned_entries.py)."""
+    """The keyword arguments the evaluator passes to ValuePolicy (learned_entries.py). A network
+    trained among walls records the obstacle encoding it saw (docs/walls_learned.md); one trained on
+    open floors records none, as before."""
     w = preset.world
+    walls = {}
+    if trains_among_walls(preset):
+        from socialnav.sim.obstacle_points import ObstaclePoints
+
+        walls = {"obstacle_encoding": ObstaclePoints().to_dict()}
     return {
         "kinematics": w.kinematics,
         "gamma": settings.rl.gamma,
@@ -109,6 +125,7 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
         "rotation_limit": w.rotation_limit,
         "dt": w.dt,
         "reward": reward_config(w),
+        **walls,
     }
 
 
@@ -249,6 +266,7 @@ def _train(
         planning_width=settings.planning_width,
         reward_rule=settings.reward_rule,
         predictor=predictor,
+        obstacle_encoding=vp_config.get("obstacle_encoding"),
     )
     target = build(canonical_name(policy_name)).to(device)
     explore_gen = torch.Generator().manual_seed(seeds["exploration"])
@@ -399,7 +417,9 @@ def _train(
     )
     stack.callback(world.close)
     world.reset(state["stream_positions"])
-    memory = ReplayMemory(rl.capacity, n_humans, device=device)
+    encoding = policy.obstacle_encoding
+    slots = world.n_human_slots + (0 if encoding is None else encoding.count)
+    memory = ReplayMemory(rl.capacity, slots, device=device)
     fixed_targets = rl.td_targets == "rgl_repo"
     # compile: the whole gradient step as one compiled graph where the network traces into one
     # (train/fused_step.py), else the loss alone compiled
@@ -428,7 +448,7 @@ def _train(
     bar = progress_bar(rl.episodes, int(state["episode"]), f"{policy_name} RL", progress)
     episodes_this_call = 0
     stopped_early = stop_now
-    obs = world.observe(oracle=oracle)
+    obs = policy.encode(world.observe(oracle=oracle))  # obstacle points appended, if any
     dt = preset.world.dt
 
     def check_loss(value: float, gradient_step: int) -> None:
@@ -444,7 +464,7 @@ def _train(
             _, actions = policy.act(
                 obs, epsilon=eps, generator=explore_gen, next_humans=obs.next_humans if oracle else None
             )
-            res = world.step(np.asarray(actions, dtype=np.float64))
+            res = encoded_step(policy, world.step(np.asarray(actions, dtype=np.float64)))
             if rgl_repo_episodes is not None:
                 rgl_repo_episodes.add_step(obs, res)
                 rgl_repo_episodes.finish(memory, res, policy, target, rl.gamma, dt)
@@ -560,7 +580,7 @@ def _train(
             if stop_after is not None and episodes_this_call >= stop_after and ep < rl.episodes:
                 stopped_early = True
                 break
-            obs = world.observe(oracle=oracle)
+            obs = policy.encode(world.observe(oracle=oracle))
         if not stopped_early and state["episode"] >= rl.episodes and not last_path.exists():
             save_last()
     finally:

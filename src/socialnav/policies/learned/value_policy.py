@@ -17,6 +17,14 @@ All are shared by all candidate actions, so the humans' next states, the occupan
 the human part of the geometry are computed once per episode, and every candidate action of every
 episode goes through the network in ONE forward pass of B·81 joint states.
 
+Obstacles (``obstacle_encoding``, :mod:`socialnav.sim.obstacle_points`): the nearest points of the
+episode's obstacle outlines are appended after the human slots as standing agents, so the networks
+read them like humans; the last ``static_slots`` slots of a state are such points. They do not move
+under any information setting, and the lookahead's reward counts them for collisions only (the world
+has no discomfort term for walls). A policy without an encoding (every checkpoint trained on open
+floors) ignores obstacles and computes what it always did; with one, an open floor gives K padded
+slots, which no network reads.
+
 Reward rule of the lookahead: ``end`` (CrowdNav's and RGL's one-step estimate: clearances at the end
 positions only) or ``swept`` (the world's rule: swept collision and discomfort over the step).
 
@@ -33,6 +41,7 @@ lookahead. Every level is batched over episodes and actions (B·w^level·K state
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from typing import Any, Literal
@@ -57,6 +66,7 @@ from socialnav.policies.learned.state import (
     rotate,
     swept_reward,
 )
+from socialnav.sim.obstacle_points import ObstaclePoints, append_obstacle_agents
 
 __all__ = ["ValuePolicy", "Information"]
 
@@ -69,6 +79,11 @@ def _field(obs: Any, name: str) -> Any:
     if isinstance(obs, Mapping):
         return obs[name]
     return getattr(obs, name)
+
+
+def _static_slots(obs: Any) -> int:
+    value = obs.get("static_slots", 0) if isinstance(obs, Mapping) else getattr(obs, "static_slots", 0)
+    return int(value or 0)
 
 
 class ValuePolicy:
@@ -95,6 +110,9 @@ class ValuePolicy:
             rounding) or "auto" (native where it applies, torch otherwise; what ``socialnav
             evaluate`` uses). Gradients never flow through the native scorer: with autograd on, the
             module is used.
+        obstacle_encoding: how the observation's obstacles reach the network
+            (:class:`~socialnav.sim.obstacle_points.ObstaclePoints` or its dict); None: the network
+            does not see obstacles (every checkpoint trained without walls).
     """
 
     def __init__(
@@ -115,6 +133,7 @@ class ValuePolicy:
         planning_width: int = 1,
         reward_rule: str = "end",
         scorer: str = "torch",
+        obstacle_encoding: ObstaclePoints | dict | None = None,
     ) -> None:
         if kinematics not in ("holonomic", "unicycle"):
             raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic' or 'unicycle'")
@@ -137,6 +156,9 @@ class ValuePolicy:
         if int(planning_depth) > 1 and information == "oracle":
             raise ValueError("planning_depth > 1 needs a predictor of later steps: the oracle knows one step")
         self.network = network
+        self.obstacle_encoding = (
+            None if obstacle_encoding is None else ObstaclePoints.from_dict(obstacle_encoding)
+        )
         self.predictor = predictor
         self.planning_depth = int(planning_depth)
         self.planning_width = int(planning_width)
@@ -186,12 +208,37 @@ class ValuePolicy:
         return p.dtype if p is not None else torch.float32
 
     # ------------------------------------------------------------------ helpers
+    def encode(self, obs: Any) -> Any:
+        """``obs`` with the obstacle encoding's point slots appended (``static_slots`` set; all
+        padded on an open floor) when this policy has an encoding; otherwise ``obs`` itself. An
+        observation already encoded, or given as a mapping, is returned as it is."""
+        if self.obstacle_encoding is None or isinstance(obs, Mapping) or _static_slots(obs):
+            return obs
+        walls = getattr(obs, "obstacles", None)
+        humans, mask = self.encode_arrays(obs.robot, obs.humans, obs.human_mask,
+                                          None if walls is None else walls.maps)
+        nxt = obs.next_humans
+        if nxt is not None:  # the oracle's next humans, with the points where they are now
+            nxt = np.concatenate([nxt, humans[:, nxt.shape[1]:]], axis=1)
+        return dataclasses.replace(obs, humans=humans, human_mask=mask, next_humans=nxt,
+                                   static_slots=self.obstacle_encoding.count)
+
+    def encode_arrays(self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray,
+                      maps: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Raw state arrays (B, 9), (B, N, 5), (B, N) with the obstacle points of ``maps`` ((B,)
+        StaticMap or None each; None: open floors) appended (see :meth:`encode`); unchanged when this
+        policy has no encoding."""
+        if self.obstacle_encoding is None:
+            return humans, mask
+        return append_obstacle_agents(robot, humans, mask, maps, self.obstacle_encoding)
+
     def _tensor(self, x: Any, dtype: torch.dtype = torch.float64) -> torch.Tensor:
         return torch.as_tensor(np.asarray(x) if not torch.is_tensor(x) else x, device=self.device).to(dtype)
 
     def _inputs(
         self, obs: Any, next_humans: Any
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor | None, float, bool]:
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor | None, float, bool, int]:
+        static = _static_slots(obs)
         robot_in = _field(obs, "robot")
         as_numpy = not torch.is_tensor(robot_in)
         geo = torch.float64
@@ -203,11 +250,13 @@ class ValuePolicy:
         dt = obs.get("dt", None) if isinstance(obs, Mapping) else getattr(obs, "dt", None)
         dt = self.dt if dt is None else float(dt)
         nh = None if next_humans is None else self._tensor(next_humans, geo)
+        if nh is not None and static and nh.shape[1] == humans.shape[1] - static:
+            nh = torch.cat([nh, humans[:, -static:]], dim=1)  # the points do not move
         if humans.shape[1] == 0:  # no human slot at all: one padded slot keeps shapes non-empty
             humans = torch.zeros(humans.shape[0], 1, 5, dtype=geo, device=self.device)
             mask = torch.zeros(humans.shape[0], 1, dtype=torch.bool, device=self.device)
             nh = None if nh is None else humans.clone()
-        return robot, humans, mask, nh, dt, as_numpy
+        return robot, humans, mask, nh, dt, as_numpy, static
 
     def predict_humans(
         self,
@@ -216,8 +265,13 @@ class ValuePolicy:
         mask: torch.Tensor,
         dt: float,
         next_humans: torch.Tensor | None = None,
+        static: int = 0,
     ) -> torch.Tensor:
-        """Humans' predicted next states (B, N, 5) under the information setting."""
+        """Humans' predicted next states (B, N, 5) under the information setting; the last
+        ``static`` slots (obstacle points) stay where they are."""
+        if static and self.information != "oracle":
+            moving = self.predict_humans(robot, humans[:, :-static], mask[:, :-static], dt)
+            return torch.cat([moving, humans[:, -static:]], dim=1)
         if self.information == "oracle":
             if next_humans is None:
                 raise ValueError("information='oracle' needs next_humans (B, N, 5) from the simulator")
@@ -244,6 +298,40 @@ class ValuePolicy:
         return joint
 
     # ------------------------------------------------------------------ public API
+    def _lookahead_reward(
+        self,
+        robot: torch.Tensor,
+        robot_next: torch.Tensor,
+        humans: torch.Tensor,
+        humans_next: torch.Tensor,
+        mask: torch.Tensor,
+        static: int,
+    ) -> torch.Tensor:
+        """r̂ (B, K) of every candidate action; the last ``static`` slots are obstacle points, which
+        count for collisions only (the world's reward has no discomfort term for walls)."""
+        n = humans.shape[1] - static
+        h, hn, m = humans[:, :n], humans_next[:, :n], mask[:, :n]
+        if self.reward_rule == "swept":
+            r = swept_reward(robot, robot_next, h, hn, m, self.reward_params)
+        else:
+            r = reward(robot_next, hn.unsqueeze(1), m.unsqueeze(1), self.reward_params)  # (B, K)
+        if not static:
+            return r
+        points, point_mask = humans[:, n:], mask[:, n:]  # (B, P, 5), (B, P)
+        end = robot_next[..., None, :2]  # (B, K, 1, 2)
+        p = points[:, None, :, :2]  # (B, 1, P, 2)
+        if self.reward_rule == "swept":  # the points stand still: distance to the swept segment
+            start = robot[:, None, None, :2]
+            seg = end - start
+            t = ((p - start) * seg).sum(-1) / (seg * seg).sum(-1).clamp_min(1e-300)
+            closest = start + t.clamp(0.0, 1.0).unsqueeze(-1) * seg
+            d = torch.linalg.vector_norm(p - closest, dim=-1)
+        else:
+            d = torch.linalg.vector_norm(p - end, dim=-1)  # (B, K, P)
+        clearance = d - robot_next[..., 4:5] - points[:, None, :, 4]
+        hit = ((clearance < 0) & point_mask[:, None, :]).any(dim=-1)
+        return torch.where(hit, torch.full_like(r, self.reward_params.collision_penalty), r)
+
     def _step_values(
         self,
         robot: torch.Tensor,
@@ -251,6 +339,7 @@ class ValuePolicy:
         mask: torch.Tensor,
         dt: float,
         nh: torch.Tensor | None,
+        static: int = 0,
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """One-step lookahead from B states: q (B, K), actions (B, K, 2), r (B, K), discount (B, 1),
         next robot states (B, K, 9) and predicted next human states (B, N, 5)."""
@@ -260,11 +349,8 @@ class ValuePolicy:
             self.kinematics, robot[:, 7], self.rotation_limit, self.speed_samples, self.rotation_samples
         )  # (B, K, 2)
         robot_next = propagate_robot(robot, actions, self.kinematics, dt)  # (B, K, 9)
-        humans_next = self.predict_humans(robot, humans, mask, dt, nh)  # (B, N, 5)
-        if self.reward_rule == "swept":
-            r = swept_reward(robot, robot_next, humans, humans_next, mask, self.reward_params)
-        else:
-            r = reward(robot_next, humans_next.unsqueeze(1), mask.unsqueeze(1), self.reward_params)  # (B, K)
+        humans_next = self.predict_humans(robot, humans, mask, dt, nh, static)  # (B, N, 5)
+        r = self._lookahead_reward(robot, robot_next, humans, humans_next, mask, static)
         joint = self.transform(robot_next, humans_next, mask)  # (B, K, N, D)
         m = mask.unsqueeze(1).expand(b, k, n).reshape(b * k, n)
         v = self._network_values(joint.reshape(b * k, n, -1), m).view(b, k).to(r.dtype)
@@ -277,17 +363,20 @@ class ValuePolicy:
         return self._network_values(joint, mask).to(robot.dtype)
 
     def _planned_value(
-        self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor, depth: int, dt: float
+        self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor, depth: int, dt: float,
+        static: int = 0,
     ) -> torch.Tensor:
         """V_depth of M states (see the module docstring), (M,)."""
         v = self._state_value(robot, humans, mask)
         if depth == 1:
             return v
-        q, _, r, disc, robot_next, humans_next = self._step_values(robot, humans, mask, dt, None)
+        q, _, r, disc, robot_next, humans_next = self._step_values(robot, humans, mask, dt, None, static)
         if depth == 2:  # V_1 = V: the best of the top w one-step values is the best one-step value
             best = q.amax(dim=1)
         else:
-            top, returns = self._top_returns(q, r, disc, robot_next, humans_next, mask, depth - 1, dt)
+            top, returns = self._top_returns(
+                q, r, disc, robot_next, humans_next, mask, depth - 1, dt, static
+            )
             best = returns.amax(dim=1)
         return v / depth + (depth - 1) / depth * best
 
@@ -301,6 +390,7 @@ class ValuePolicy:
         mask: torch.Tensor,
         depth: int,
         dt: float,
+        static: int = 0,
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """The top-w actions of each of M states by one-step value q (M, K), and their returns
         r̂ + γ·V_depth(s') (M, w), the w successors of every state planned in one batched call."""
@@ -313,6 +403,7 @@ class ValuePolicy:
             mask.repeat_interleave(w, dim=0),
             depth,
             dt,
+            static,
         ).view(m, w)
         return top, r.gather(1, top) + disc * deeper
 
@@ -324,12 +415,13 @@ class ValuePolicy:
         mask: torch.Tensor,
         nh: torch.Tensor | None,
         dt: float,
+        static: int = 0,
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        q, actions, r, disc, robot_next, humans_next = self._step_values(robot, humans, mask, dt, nh)
+        q, actions, r, disc, robot_next, humans_next = self._step_values(robot, humans, mask, dt, nh, static)
         d = self.planning_depth
         if d == 1:
             return q, actions
-        top, returns = self._top_returns(q, r, disc, robot_next, humans_next, mask, d, dt)
+        top, returns = self._top_returns(q, r, disc, robot_next, humans_next, mask, d, dt, static)
         planned = torch.full_like(q, float("-inf"))
         planned.scatter_(1, top, returns)
         return planned, actions
@@ -360,8 +452,8 @@ class ValuePolicy:
         Returns:
             (B, K) values, NumPy if the observation was NumPy.
         """
-        robot, humans, mask, nh, dt, as_numpy = self._inputs(obs, next_humans)
-        q, _ = self._values(robot, humans, mask, nh, dt)
+        robot, humans, mask, nh, dt, as_numpy, static = self._inputs(self.encode(obs), next_humans)
+        q, _ = self._values(robot, humans, mask, nh, dt, static)
         return q.cpu().numpy() if as_numpy else q
 
     def act(
@@ -383,7 +475,7 @@ class ValuePolicy:
             action_index (B,) int64 and action (B, 2) (holonomic (vx, vy) or unicycle (v, dθ)),
             NumPy if the observation was NumPy.
         """
-        robot, humans, mask, nh, dt, as_numpy = self._inputs(obs, next_humans)
+        robot, humans, mask, nh, dt, as_numpy, static = self._inputs(self.encode(obs), next_humans)
         b = robot.shape[0]
         if epsilon >= 1.0:  # no need to score anything
             actions = discrete_actions(
@@ -391,7 +483,7 @@ class ValuePolicy:
             )
             q = None
         else:
-            q, actions = self._values(robot, humans, mask, nh, dt)
+            q, actions = self._values(robot, humans, mask, nh, dt, static)
         if epsilon > 0.0:
             if generator is None:
                 raise ValueError("epsilon > 0 needs an explicit torch.Generator (no hidden global RNG)")
