@@ -47,4 +47,21 @@ for stage in $STAGES; do case $stage in
       run bench_world_b4096_keep python3 benchmarks/bench_world.py --batch 4096 --seconds 1 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 2
     MALLOC_MMAP_THRESHOLD_=1073741824 MALLOC_TRIM_THRESHOLD_=2147483648 MALLOC_TOP_PAD_=67108864 \
       run bench_world_b16384_keep python3 benchmarks/bench_world.py --batch 16384 --seconds 1 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 2 ;;
+  avx512_2core)  # issue #32's Intel figure: the native scorer on 2 cores of the Xeon, AVX-512 vs AVX2 kernel
+    for kernel in avx512 avx2; do
+      LIMIT=90 run bench_policy_2core_$kernel taskset -c 0,1 python3 benchmarks/bench_policy.py --threads 2 \
+        --batches 1024 --kernel $kernel
+    done ;;
+  train_walls)  # issue #28: RGL among walls, the default schedule, network on CUDA (compiled), resumable output
+    start=$SECONDS
+    timeout "${TRAIN_LIMIT:-420}" python3 -m socialnav.cli train --policy rgl --preset francis2023 --seed 0 \
+      --device cuda --compile --out "$OUT/francis2023-rgl-s0" --no-progress > "$OUT/train_walls.txt" 2>&1
+    rc=$?; echo "train_walls (compiled): rc $rc after $((SECONDS - start)) s"; tail -n 15 "$OUT/train_walls.txt"
+    left=$(( ${TRAIN_LIMIT:-420} - (SECONDS - start) ))
+    if [ "$rc" != 0 ] && [ "$rc" != 124 ] && [ "$left" -gt 30 ]; then  # compile failed: resume eagerly
+      timeout "$left" python3 -m socialnav.cli train --policy rgl --preset francis2023 --seed 0 --device cuda \
+        --out "$OUT/francis2023-rgl-s0" --no-progress > "$OUT/train_walls_eager.txt" 2>&1
+      echo "train_walls (eager): rc $?"; tail -n 15 "$OUT/train_walls_eager.txt"
+    fi
+    rm -f "$OUT/francis2023-rgl-s0/il_demos.npz" ;;
 esac; done
