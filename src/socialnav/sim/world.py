@@ -288,6 +288,7 @@ class World:
         #: (B,) each slot's static map (None: open floor); change it through `set_static_map` only.
         self.static_maps: list[StaticMap | None] = [None] * B
         self._obstacle_arrays: ObstacleArrays | None = None  # the flat form of static_maps, cached
+        self._n_mapped = 0  # slots whose static map is not None (open floors skip the O(B) scan per step)
         if static_map is not None and not isinstance(static_map, StaticMap):
             raise TypeError(f"static_map must be a StaticMap or None, got {type(static_map).__name__}")
         self._fixed_map = (static_map or None) if static_map is not None else _scenario_map(scenario)
@@ -369,6 +370,7 @@ class World:
         else:
             vertices, offsets = static_map.to_flat()
         self._core.set_obstacles(int(slot), vertices, offsets)
+        self._n_mapped += (static_map is not None) - (self.static_maps[slot] is not None)
         self.static_maps[slot] = static_map
         self._obstacle_arrays = None
         self._note_custom(slot, static_map)
@@ -383,7 +385,7 @@ class World:
     @property
     def obstacles(self) -> ObstacleArrays | None:
         """The slots' static maps in flat form (None when every slot is an open floor)."""
-        if self._obstacle_arrays is None and any(m is not None for m in self.static_maps):
+        if self._obstacle_arrays is None and self._n_mapped:
             self._obstacle_arrays = ObstacleArrays.from_maps(self.static_maps)
         return self._obstacle_arrays
 
