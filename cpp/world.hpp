@@ -174,9 +174,8 @@ class World {
   std::vector<std::vector<SocialForceOther>> sf_scratch_;
   std::unique_ptr<ThreadPool> own_pool_;  // when no pool was given
   ThreadPool* pool_;
-  std::vector<int64_t> refill_slots_;                 // refill_done's scratch, (B,) reserved
-  std::vector<int> refill_of_slot_;                   // (B,) j of the slot's new episode, or -1
-  std::vector<int> done_rank_;                        // (B,) rank among the finished slots, or -1
+  std::vector<int64_t> refill_slots_;                 // refill_done's finished slots, (B,) reserved
+  std::vector<int> done_rank_;                        // (B,) rank among the finished slots (where done)
   std::vector<GenerationScratch> gen_scratch_;        // one per thread
   // Static obstacles: each slot's prepared map (null: open floor). A map equal to the one set last is
   // shared, not copied: a batch of one map holds one copy, which the step pass then reads from cache

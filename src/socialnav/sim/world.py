@@ -421,9 +421,9 @@ class World:
     def _next_episodes(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Indices and seeds of the stream's next ``min(k, remaining)`` episodes (raises as
         :func:`episode_seeds` where they leave the split)."""
-        indices = self.stream.take_indices(k)
+        indices = self.stream.take_indices(k) if k else None
         if indices is None:
-            indices = np.zeros(0, dtype=np.int64)
+            return _NO_EPISODES, _NO_EPISODES  # no episode ended (most steps of a small batch)
         return indices, episode_seeds(self.stream.split, indices)
 
     def _fill(self, slots: np.ndarray) -> None:
@@ -640,6 +640,9 @@ class World:
             None if final is None else Observation(*final, dt, kinematics, obstacles=final_walls),
             None if nxt is None else Observation(*nxt, dt, kinematics, obstacles=walls),
         )
+
+
+_NO_EPISODES = np.zeros(0, dtype=np.int64)  # empty: nothing can be written into it
 
 
 def _scenario_map(scenario: Scenario) -> StaticMap | None:
