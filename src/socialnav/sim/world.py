@@ -26,7 +26,8 @@ from socialnav.static_map import StaticMap
 
 #: Memory one World may allocate for its state and recorded histories (docs/simulator.md, "Bounds").
 MAX_WORLD_BYTES = 4 * 2**30
-#: Native bytes per obstacle vertex and slot: every slot reserves room for the largest map set so far.
+#: Native bytes per obstacle vertex and slot, for the memory check: the worst case, a different map in
+#: every slot (slots with equal maps share one prepared copy).
 OBSTACLE_VERTEX_BYTES = 128
 
 
