@@ -5,7 +5,7 @@
 # Needs torch with CUDA, nanobind, cmake and ninja; gymnasium may come as wheels in .whl/.
 # STAGES picks the stages (default "world policy train"). `STAGES=final` gives issue #32's CPU figures on
 # the 16-core host in ~2 minutes: world scaling at 1-16 threads (B = 4096 and 16384), the breakdown at
-# B = 4096, the walls benchmark, and the native SARL scorer at B = 1024 with its AVX-512 and AVX2
+# B = 4096 (also among walls, 1 and 16 threads), the walls benchmark, and the native SARL scorer at B = 1024 with its AVX-512 and AVX2
 # kernels on 1 and 16 threads. Elsewhere it runs with smaller sizes, e.g.
 #   STAGES=final FINAL_BATCHES="256 512" FINAL_THREADS="1 2" FINAL_SECONDS=0.3 FINAL_POLICY_BATCH=64 \
 #     FINAL_POLICY_THREADS="1 2" OUT=/tmp/final bash benchmarks/gpu/run_checks.sh
@@ -54,6 +54,9 @@ for stage in $STAGES; do case $stage in
     # shellcheck disable=SC2086
     LIMIT=40 run "final_world_breakdown_b$first_batch" python3 benchmarks/gpu/world_breakdown.py --batch "$first_batch" \
       --threads $FINAL_THREADS --seconds "$FINAL_SECONDS"
+    # shellcheck disable=SC2086
+    LIMIT=40 run "final_world_breakdown_spokes_b$first_batch" python3 benchmarks/gpu/world_breakdown.py \
+      --batch "$first_batch" --threads ${FINAL_THREADS%% *} ${FINAL_THREADS##* } --seconds "$FINAL_SECONDS" --map spokes
     LIMIT=40 run final_bench_world_obstacles python3 benchmarks/bench_world.py --obstacles --batch "$first_batch" \
       --seconds "$FINAL_SECONDS" --repeats 2
     for kernel in avx512 avx2; do
