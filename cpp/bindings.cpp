@@ -5,6 +5,7 @@
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
 
+#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -92,9 +93,19 @@ int polygon_count(const Array<double>& vertices, const Array<int64_t>& offsets) 
 struct PreparedBatch {
   std::vector<socialnav::ObstacleVertex> vertex;
   std::vector<double> edges;
-  std::vector<int64_t> first;
-  socialnav::ObstacleBatchView view() const { return {vertex.data(), edges.data(), first.data()}; }
+  std::vector<int64_t> first;  // (B,) episode b's first vertex
+  std::vector<int32_t> count;  // (B,) its vertex count
+  socialnav::ObstacleBatchView view() const { return {vertex.data(), edges.data(), first.data(), count.data()}; }
 };
+
+// True when polygons [p0, p0 + n) and [q0, q0 + n) have the same vertex counts and coordinates (bit
+// for bit: -0.0 and 0.0 differ, so a shared copy gives exactly the values its own would).
+bool same_polygons(const double* vertices, const int64_t* o, int64_t p0, int64_t q0, int64_t n) {
+  for (int64_t p = 0; p < n; ++p)
+    if (o[p0 + p + 1] - o[p0 + p] != o[q0 + p + 1] - o[q0 + p]) return false;
+  const int64_t v = o[p0 + n] - o[p0];
+  return std::memcmp(vertices + 2 * o[p0], vertices + 2 * o[q0], static_cast<size_t>(2 * v) * sizeof(double)) == 0;
+}
 
 PreparedBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>& offsets,
                             const Array<int64_t>& episode_polygons, size_t B) {
@@ -104,22 +115,38 @@ PreparedBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>&
   const int64_t* ep = episode_polygons.data();
   const int64_t* o = offsets.data();
   if (ep[0] != 0 || ep[B] != P) throw std::invalid_argument("episode_polygons must run from 0 to P");
-  PreparedBatch out;
-  out.vertex.resize(static_cast<size_t>(o[P]));
-  out.edges.resize(static_cast<size_t>(5 * o[P]));
-  out.first.resize(B + 1);
-  std::vector<int64_t> rebased;
-  for (size_t b = 0; b < B; ++b) {
+  for (size_t b = 0; b < B; ++b)
     if (ep[b + 1] < ep[b]) throw std::invalid_argument("episode_polygons must not decrease");
+  PreparedBatch out;
+  out.first.resize(B);
+  out.count.resize(B);
+  // An episode whose map equals the previous episode's shares its prepared vertices (a batch of one
+  // map, the common case, holds one copy): the same values, read from one place.
+  std::vector<int64_t> rebased;
+  std::vector<size_t> own;  // the episodes with a copy of their own
+  int64_t prepared = 0;
+  for (size_t b = 0; b < B; ++b) {
+    const int64_t n = ep[b + 1] - ep[b];
+    if (b > 0 && n == ep[b] - ep[b - 1] && same_polygons(vertices.data(), o, ep[b], ep[b - 1], n)) {
+      out.first[b] = out.first[b - 1];
+      out.count[b] = out.count[b - 1];
+      continue;
+    }
     const int64_t v0 = o[ep[b]];
-    out.first[b] = v0;
-    const int n = static_cast<int>(ep[b + 1] - ep[b]);
+    const int64_t count = o[ep[b + 1]] - v0;
     rebased.resize(static_cast<size_t>(n) + 1);
-    for (int p = 0; p <= n; ++p) rebased[p] = o[ep[b] + p] - v0;
-    socialnav::build_obstacle_vertices(vertices.data() + 2 * v0, rebased.data(), n, out.vertex.data() + v0);
-    socialnav::build_edge_arrays(out.vertex.data() + v0, static_cast<int>(rebased[n]), out.edges.data() + 5 * v0);
+    for (int64_t p = 0; p <= n; ++p) rebased[p] = o[ep[b] + p] - v0;
+    out.vertex.resize(static_cast<size_t>(prepared + count));
+    socialnav::build_obstacle_vertices(vertices.data() + 2 * v0, rebased.data(), static_cast<int>(n),
+                                       out.vertex.data() + prepared);
+    out.first[b] = prepared;
+    out.count[b] = static_cast<int32_t>(count);
+    own.push_back(b);
+    prepared += count;
   }
-  out.first[B] = o[P];
+  out.edges.resize(static_cast<size_t>(5 * prepared));
+  for (size_t b : own)
+    socialnav::build_edge_arrays(out.vertex.data() + out.first[b], out.count[b], out.edges.data() + 5 * out.first[b]);
   return out;
 }
 
@@ -383,7 +410,9 @@ NB_MODULE(_core, m) {
           "vertices"_a, "polygon_offsets"_a, "episode_polygons"_a,
           "The static maps of B episodes prepared once for the native robot policies: vertices (V, 2), "
           "polygon_offsets (P + 1,), episode_polygons (B + 1,).")
-      .def_prop_ro("episodes", [](const PreparedBatch& self) { return self.first.size() - 1; });
+      .def_prop_ro("episodes", [](const PreparedBatch& self) { return self.first.size(); })
+      .def_prop_ro("prepared_vertices", [](const PreparedBatch& self) { return self.vertex.size(); },
+                   "Vertices stored (episodes with the previous episode's map share its copy).");
 
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
       .def(nb::init<int>(), "threads"_a)
@@ -468,8 +497,8 @@ NB_MODULE(_core, m) {
         socialnav::ObstacleBatchView wall_view{};
         if (!obstacles.is_none()) {
           const PreparedBatch& walls = nb::cast<const PreparedBatch&>(obstacles);
-          if (walls.first.size() != B + 1)
-            throw std::invalid_argument("obstacles: prepared for " + std::to_string(walls.first.size() - 1) +
+          if (walls.first.size() != B)
+            throw std::invalid_argument("obstacles: prepared for " + std::to_string(walls.first.size()) +
                                         " episodes, the observation has " + std::to_string(B));
           wall_view = walls.view();
         }

@@ -48,15 +48,17 @@ struct PreparedObstacles {
   }
 };
 
-// Many episodes' prepared vertices: episode b owns vertex[first[b], first[b + 1]) and the edge
-// arrays at edges + 5 * first[b]; null for none.
+// Many episodes' prepared vertices: episode b owns vertex[first[b], first[b] + count[b]) and the edge
+// arrays at edges + 5 * first[b]; null for none. Episodes with the same map may share one range (the
+// per-step passes then read one copy of it, which stays in cache).
 struct ObstacleBatchView {
   const ObstacleVertex* vertex = nullptr;
   const double* edges = nullptr;
   const int64_t* first = nullptr;
+  const int32_t* count = nullptr;
   ObstacleView episode(int b) const {
     if (!first) return ObstacleView{};
-    return ObstacleView{vertex + first[b], static_cast<int>(first[b + 1] - first[b]), edges + 5 * first[b]};
+    return ObstacleView{vertex + first[b], count[b], edges + 5 * first[b]};
   }
 };
 

@@ -3,6 +3,14 @@
 #include <algorithm>
 #include <limits>
 
+// Function multi-versioning needs ifunc support (GCC or Clang on x86-64 Linux); elsewhere one
+// generic version.
+#if defined(__x86_64__) && defined(__linux__) && (defined(__GNUC__) || defined(__clang__))
+#define SOCIALNAV_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
+#else
+#define SOCIALNAV_AVX2_CLONE
+#endif
+
 namespace socialnav {
 
 void OrcaScratch::offer(int candidate, double candidate_dist_sq, int max_neighbors) {
@@ -141,7 +149,11 @@ inline Vec2 right_leg(Vec2 p, double dist_sq, double radius) {
 // RVO2's obstacle neighbours: vertices whose edge faces the agent (agent strictly on its right,
 // the outside of a counter-clockwise polygon) within range, sorted by distance to the edge (ties
 // keep vertex order).
-void select_obstacles(const OrcaAgent& self, const ObstacleView& obstacles, double range_sq,
+// Also compiled for AVX2, chosen at load time where the CPU has it: the query's vectorised pass then
+// takes 4 edges at a time instead of 2 (6 % of a walled world's ORCA time on the benchmark map). The
+// same IEEE operations in the same order (no contraction into FMA: -ffp-contract=off), so the
+// same values on either path.
+SOCIALNAV_AVX2_CLONE void select_obstacles(const OrcaAgent& self, const ObstacleView& obstacles, double range_sq,
                       OrcaScratch& scratch) {
   const int n = obstacles.count;
   if (static_cast<int>(scratch.obstacle_key.size()) < n) {

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -47,11 +48,10 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
   if (!pool) own_pool_ = std::make_unique<ThreadPool>(threads);
   pool_ = pool ? pool : own_pool_.get();
   refill_slots_.reserve(static_cast<size_t>(config.batch));
-  refill_of_slot_.assign(static_cast<size_t>(config.batch), -1);
   done_rank_.assign(static_cast<size_t>(config.batch), -1);
   if (config.max_obstacle_vertices < 0)
     throw std::invalid_argument("max_obstacle_vertices must be >= 0, got " + std::to_string(config.max_obstacle_vertices));
-  obstacle_count_.assign(static_cast<size_t>(config.batch), 0);
+  slot_obstacles_.resize(static_cast<size_t>(config.batch));
   gen_scratch_.resize(threads);
   for (GenerationScratch& g : gen_scratch_) {
     g.start.resize(2 * (config.agents - 1));
@@ -72,27 +72,23 @@ void World::set_obstacles(int b, const double* vertices, const int64_t* offsets,
     throw std::invalid_argument("a static map of " + std::to_string(count) +
                                 " vertices exceeds max_obstacle_vertices = " +
                                 std::to_string(config_.max_obstacle_vertices));
-  // Validate into staging first: a bad map leaves the slot's obstacles as they were.
-  obstacle_staging_.resize(static_cast<size_t>(count));
-  build_obstacle_vertices(vertices, offsets, n_polygons, obstacle_staging_.data());
-  if (count > obstacle_stride_) {
-    const int stride = static_cast<int>(count);
-    std::vector<ObstacleVertex> grown(static_cast<size_t>(config_.batch) * stride);
-    for (int s = 0; s < config_.batch; ++s)
-      for (int i = 0; i < obstacle_count_[s]; ++i)
-        grown[static_cast<size_t>(s) * stride + i] = obstacle_vertex_[static_cast<size_t>(s) * obstacle_stride_ + i];
-    obstacle_vertex_.swap(grown);
-    obstacle_stride_ = stride;
-    obstacle_edges_.assign(static_cast<size_t>(config_.batch) * stride * 5, 0.0);
-    for (int s = 0; s < config_.batch; ++s) {
-      const size_t first = static_cast<size_t>(s) * stride;
-      build_edge_arrays(obstacle_vertex_.data() + first, obstacle_count_[s], obstacle_edges_.data() + 5 * first);
-    }
+  if (n_polygons == 0) {
+    slot_obstacles_[b].reset();
+    return;
   }
-  const size_t first = static_cast<size_t>(b) * obstacle_stride_;
-  for (int64_t i = 0; i < count; ++i) obstacle_vertex_[first + i] = obstacle_staging_[i];
-  obstacle_count_[b] = static_cast<int>(count);
-  build_edge_arrays(obstacle_vertex_.data() + first, obstacle_count_[b], obstacle_edges_.data() + 5 * first);
+  const size_t n_offsets = static_cast<size_t>(n_polygons) + 1;
+  const bool same_as_last =
+      last_obstacles_ && last_offsets_.size() == n_offsets &&
+      std::memcmp(last_offsets_.data(), offsets, n_offsets * sizeof(int64_t)) == 0 &&
+      std::memcmp(last_vertices_.data(), vertices, static_cast<size_t>(2 * count) * sizeof(double)) == 0;
+  if (!same_as_last) {
+    // Prepared (and validated) before anything changes: a bad map leaves the slot as it was.
+    auto prepared = std::make_shared<const PreparedObstacles>(prepare_obstacles(vertices, offsets, n_polygons));
+    last_vertices_.assign(vertices, vertices + 2 * count);
+    last_offsets_.assign(offsets, offsets + n_offsets);
+    last_obstacles_ = std::move(prepared);
+  }
+  slot_obstacles_[b] = last_obstacles_;
 }
 
 void World::record(int b, int sample) {
@@ -213,8 +209,9 @@ void World::step_episode(int b, const double* actions, int worker) {
   buf_.dmin[b] = dmin;
   // The robot's swept disc against the static obstacles (a thin wall crossed within the step counts).
   bool hit_obstacle = false;
-  if (status == kRunning && obstacle_count_[b] > 0)
-    hit_obstacle = swept_obstacle_clearance(obstacles(b), p_robot, p_robot + dt * v_robot, radius[0]) < 0.0;
+  const ObstacleView walls = obstacles(b);
+  if (status == kRunning && walls.count > 0)
+    hit_obstacle = swept_obstacle_clearance(walls, p_robot, p_robot + dt * v_robot, radius[0]) < 0.0;
 
   // 4. Everyone moves.
   store(pos, p_robot + dt * v_robot);
@@ -462,32 +459,41 @@ int World::refill_done(const ScenarioConfig& scenario, const int64_t* indices, c
                        int64_t* episode_index, int64_t* episode_seed, int32_t* failure,
                        const ObservationBuffers* obs, const ObservationBuffers* final_obs) {
   const int B = config_.batch;
+  // The finished slots in slot order. Few slots finish per step, so the scan skips 8 unfinished
+  // slots per load (it is the serial part of the refill: ~B/8 loads instead of B reads and 2B writes).
   refill_slots_.clear();
-  int done = 0;
-  for (int b = 0; b < B; ++b) {
-    refill_of_slot_[b] = -1;
-    done_rank_[b] = -1;
-    if (!buf_.done[b]) continue;
-    done_rank_[b] = done++;
-    if (static_cast<int>(refill_slots_.size()) < count) {
-      refill_of_slot_[b] = static_cast<int>(refill_slots_.size());
-      refill_slots_.push_back(b);
-    } else {  // the stream is exhausted
-      buf_.status[b] = kIdle;
-      episode_index[b] = -1;
+  int b = 0;
+  for (; b + 8 <= B; b += 8) {
+    uint64_t word;
+    std::memcpy(&word, buf_.done + b, sizeof(word));
+    if (!word) continue;
+    for (int i = b; i < b + 8; ++i)
+      if (buf_.done[i]) refill_slots_.push_back(i);
+  }
+  for (; b < B; ++b)
+    if (buf_.done[b]) refill_slots_.push_back(b);
+  const int done = static_cast<int>(refill_slots_.size());
+  const int k = std::min(done, std::max(count, 0));
+  for (int r = 0; r < done; ++r) {
+    const int64_t slot = refill_slots_[r];
+    done_rank_[slot] = r;  // read only where done[slot] is set
+    if (r >= k) {  // the stream is exhausted
+      buf_.status[slot] = kIdle;
+      episode_index[slot] = -1;
     }
   }
-  const int k = static_cast<int>(refill_slots_.size());
   if (obs || final_obs) {
     // One pass over the batch: a finished slot's final observation (row = its rank among the finished
     // slots), its new episode, then every slot's observation, while the slot is in this thread's cache
     // (one job and one pass over memory instead of three).
     pool_->parallel_for(B, [&](int begin, int end, int worker) {
-      for (int b = begin; b < end; ++b) {
-        if (final_obs && done_rank_[b] >= 0) observe_one(b, *final_obs, done_rank_[b]);
-        const int j = refill_of_slot_[b];
-        if (j >= 0) load_one(scenario, b, seeds[j], failure + j, gen_scratch_[worker]);
-        if (obs) observe_one(b, *obs, b);
+      for (int s = begin; s < end; ++s) {
+        if (buf_.done[s]) {
+          const int r = done_rank_[s];
+          if (final_obs) observe_one(s, *final_obs, r);
+          if (r < k) load_one(scenario, s, seeds[r], failure + r, gen_scratch_[worker]);  // clears done
+        }
+        if (obs) observe_one(s, *obs, s);
       }
     });
   } else {

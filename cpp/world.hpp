@@ -123,8 +123,8 @@ class World {
   // config.max_obstacle_vertices vertices or a malformed polygon. n_polygons == 0 clears them.
   void set_obstacles(int b, const double* vertices, const int64_t* offsets, int n_polygons);
   ObstacleView obstacles(int b) const {
-    const size_t first = static_cast<size_t>(b) * obstacle_stride_;
-    return ObstacleView{obstacle_vertex_.data() + first, obstacle_count_[b], obstacle_edges_.data() + 5 * first};
+    const PreparedObstacles* map = slot_obstacles_[b].get();
+    return map ? map->view() : ObstacleView{};
   }
 
   // The humans' exact next states (B, N, 5: px, py, vx, vy, radius) without advancing anything:
@@ -174,18 +174,16 @@ class World {
   std::vector<std::vector<SocialForceOther>> sf_scratch_;
   std::unique_ptr<ThreadPool> own_pool_;  // when no pool was given
   ThreadPool* pool_;
-  std::vector<int64_t> refill_slots_;                 // refill_done's scratch, (B,) reserved
-  std::vector<int> refill_of_slot_;                   // (B,) j of the slot's new episode, or -1
-  std::vector<int> done_rank_;                        // (B,) rank among the finished slots, or -1
+  std::vector<int64_t> refill_slots_;                 // refill_done's finished slots, (B,) reserved
+  std::vector<int> done_rank_;                        // (B,) rank among the finished slots (where done)
   std::vector<GenerationScratch> gen_scratch_;        // one per thread
-  // Static obstacles: slot b's prepared vertices are obstacle_vertex_[b * stride, b * stride + count[b]);
-  // the stride grows (up to config.max_obstacle_vertices) with the largest map set so far, so an open
-  // floor allocates nothing.
-  int obstacle_stride_ = 0;
-  std::vector<ObstacleVertex> obstacle_vertex_;
-  std::vector<double> obstacle_edges_;  // slot b's edge arrays (ObstacleView::edges) at 5 * b * stride
-  std::vector<int> obstacle_count_;  // (B,)
-  std::vector<ObstacleVertex> obstacle_staging_;
+  // Static obstacles: each slot's prepared map (null: open floor). A map equal to the one set last is
+  // shared, not copied: a batch of one map holds one copy, which the step pass then reads from cache
+  // for every slot.
+  std::vector<std::shared_ptr<const PreparedObstacles>> slot_obstacles_;  // (B,)
+  std::shared_ptr<const PreparedObstacles> last_obstacles_;
+  std::vector<double> last_vertices_;   // the flat polygons last_obstacles_ was prepared from
+  std::vector<int64_t> last_offsets_;
 };
 
 }  // namespace socialnav

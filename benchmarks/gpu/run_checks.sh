@@ -3,6 +3,12 @@
 # batched SARL scoring on CUDA and training at RGL's replay ratio with the network on CUDA.
 # Run from the repository root on a machine with 16 cores and one NVIDIA GPU; logs go to $OUT (or ./gpu_out).
 # Needs torch with CUDA, nanobind, cmake and ninja; gymnasium may come as wheels in .whl/.
+# STAGES picks the stages (default "world policy train"). `STAGES=final` gives issue #32's CPU figures on
+# the 16-core host in ~2 minutes: world scaling at 1-16 threads (B = 4096 and 16384), the breakdown at
+# B = 4096 (also among walls, 1 and 16 threads), the walls benchmark, and the native SARL scorer at B = 1024 with its AVX-512 and AVX2
+# kernels on 1 and 16 threads. Elsewhere it runs with smaller sizes, e.g.
+#   STAGES=final FINAL_BATCHES="256 512" FINAL_THREADS="1 2" FINAL_SECONDS=0.3 FINAL_POLICY_BATCH=64 \
+#     FINAL_POLICY_THREADS="1 2" OUT=/tmp/final bash benchmarks/gpu/run_checks.sh
 set -uo pipefail
 OUT=${OUT:-gpu_out}; mkdir -p "$OUT"
 if ls .whl/*.whl >/dev/null 2>&1; then
@@ -16,6 +22,12 @@ cmake -S . -B build/gpu -G Ninja -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE=
   && cmake --build build/gpu >/dev/null && cp build/gpu/_core*.so src/socialnav/ || { echo "build failed"; exit 1; }
 run() { local name=$1; shift; echo "== $name: $*"; timeout "${LIMIT:-240}" "$@" 2>&1 | tee "$OUT/$name.txt" | tail -n "${TAILN:-4}"; }
 STAGES=${STAGES:-"world policy train"}
+# Sizes of the `final` stage (the defaults are the GPU machine's; smaller ones test the stage elsewhere).
+FINAL_BATCHES=${FINAL_BATCHES:-"4096 16384"}
+FINAL_THREADS=${FINAL_THREADS:-"1 2 4 8 16"}
+FINAL_SECONDS=${FINAL_SECONDS:-1}
+FINAL_POLICY_BATCH=${FINAL_POLICY_BATCH:-1024}
+FINAL_POLICY_THREADS=${FINAL_POLICY_THREADS:-"1 16"}
 for stage in $STAGES; do case $stage in
   world)
     run bench_world_b4096 python3 benchmarks/bench_world.py --batch 4096 --seconds 2 --scaling-threads 1 2 4 8 16 --scaling-repeats 2 --scaling-seconds 2
@@ -31,6 +43,29 @@ for stage in $STAGES; do case $stage in
     lscpu 2>&1 | tee "$OUT/lscpu.txt" | grep -E 'Thread|Core|Socket|NUMA node|L2|L3|Model name'
     run world_breakdown_b4096 python3 benchmarks/gpu/world_breakdown.py --batch 4096 --threads 1 2 4 8 16
     run world_breakdown_b16384 python3 benchmarks/gpu/world_breakdown.py --batch 16384 --threads 1 8 16 ;;
+  final)  # issue #32's 16-core figures in one stage of ~150 s: world scaling, its breakdown, walls, scorer kernels
+    start=$SECONDS
+    for b in $FINAL_BATCHES; do
+      # shellcheck disable=SC2086  # the thread lists are word lists
+      LIMIT=60 run "final_bench_world_b$b" python3 benchmarks/bench_world.py --batch "$b" --seconds "$FINAL_SECONDS" \
+        --scaling-threads $FINAL_THREADS --scaling-repeats 2 --scaling-seconds "$FINAL_SECONDS"
+    done
+    first_batch=${FINAL_BATCHES%% *}
+    # shellcheck disable=SC2086
+    LIMIT=40 run "final_world_breakdown_b$first_batch" python3 benchmarks/gpu/world_breakdown.py --batch "$first_batch" \
+      --threads $FINAL_THREADS --seconds "$FINAL_SECONDS"
+    # shellcheck disable=SC2086
+    LIMIT=40 run "final_world_breakdown_spokes_b$first_batch" python3 benchmarks/gpu/world_breakdown.py \
+      --batch "$first_batch" --threads ${FINAL_THREADS%% *} ${FINAL_THREADS##* } --seconds "$FINAL_SECONDS" --map spokes
+    LIMIT=40 run final_bench_world_obstacles python3 benchmarks/bench_world.py --obstacles --batch "$first_batch" \
+      --seconds "$FINAL_SECONDS" --repeats 2
+    for kernel in avx512 avx2; do
+      for t in $FINAL_POLICY_THREADS; do
+        SOCIALNAV_SCORER_KERNEL=$kernel LIMIT=40 run "final_bench_policy_${kernel}_t$t" python3 benchmarks/bench_policy.py \
+          --batches "$FINAL_POLICY_BATCH" --threads "$t" --min-time 0.5 --scorer native --skip-rgl
+      done
+    done
+    echo "== final stage: $((SECONDS - start)) s" | tee "$OUT/final_stage_seconds.txt" ;;
   graphtest)
     run test_fused_step_cuda python3 -m pytest -q -p no:cacheprovider tests/train/test_fused_step.py -k cuda_graph ;;
   trainstep_compiled)

@@ -6,26 +6,36 @@ pass (``_refill_natively``); the remainder of ``World.step`` is the core's step 
 Prints one JSON object last: per thread count, milliseconds per call of each part and their speed-ups
 against 1 thread.
 
-    PYTHONPATH=src python benchmarks/gpu/world_breakdown.py --batch 4096 --threads 1 8 16
+    PYTHONPATH=src python benchmarks/gpu/world_breakdown.py --batch 4096 --threads 1 8 16 [--map spokes]
+
+``--map`` runs the same workload among bench_world.py's walls (spokes or room).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
+import sys
 import time
+
+import numpy as np
 
 from socialnav.policies import make_policy
 from socialnav.scenarios import make_scenario
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
+from socialnav.static_map import StaticMap
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from bench_world import MAPS  # noqa: E402  (benchmarks/ is not a package)
 
 
-def breakdown(batch: int, threads: int, seconds: float) -> dict:
+def breakdown(batch: int, threads: int, seconds: float, static_map: StaticMap | None = None) -> dict:
     scenario = make_scenario("circle_crossing", n_humans=5)
     settings = WorldSettings(time_limit=25.0, threads=threads)
-    world = World(settings, scenario, batch, split="train", record=False)
+    world = World(settings, scenario, batch, split="train", record=False, static_map=static_map)
     policy = make_policy("orca", safety_space=0.0, threads=threads)
     spent = {"refill": 0.0}
     refill = world._refill_natively
@@ -73,10 +83,12 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=4096)
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 8, 16])
     ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("--map", choices=sorted(MAPS), help="bench_world.py's walls (default: the open floor)")
     args = ap.parse_args()
-    result = {"batch": args.batch, "by_threads": {}}
+    static_map = StaticMap(tuple(np.array(w) for w in MAPS[args.map]())) if args.map else None
+    result = {"batch": args.batch, "map": args.map, "by_threads": {}}
     for t in args.threads:
-        r = breakdown(args.batch, t, args.seconds)
+        r = breakdown(args.batch, t, args.seconds, static_map)
         result["by_threads"][str(t)] = {k: round(v, 4) for k, v in r.items()}
         print(f"{t:2d} threads: " + ", ".join(f"{k} {v:.3f}" for k, v in r.items() if k != "calls"))
     one = result["by_threads"].get("1")

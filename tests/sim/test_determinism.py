@@ -126,3 +126,54 @@ def test_policies_sharing_a_native_pool_may_act_from_two_python_threads():
     for i in range(2):
         for got in results[i]:
             np.testing.assert_array_equal(got, expected[i])
+
+
+def _observed_run(threads: int, batch: int = 48, episodes: int = 150):
+    """Steps with the native refill writing the next and the final observations (observe=True,
+    final_observation=True); returns every step's observation arrays, final observations and the
+    trajectories."""
+    world = World(WorldSettings(threads=threads), make_scenario("circle_crossing", n_humans=5), batch,
+                  split="test", count=episodes)
+    policy = make_policy("orca", safety_space=0.1, threads=threads)
+    obs = world.reset()
+    seen, finals, trajs = [], [], []
+    while world.busy:
+        result = world.step(policy.act(obs), observe=True, final_observation=True)
+        obs = result.observation
+        seen.append((obs.robot, obs.humans, obs.human_mask, obs.active, obs.time))
+        if result.final_observation is not None:
+            f = result.final_observation
+            finals.append((f.robot, f.humans, f.human_mask, f.active, f.time))
+        trajs += result.finished
+    return seen, finals, {t.settings["index"]: t for t in trajs}
+
+
+def test_native_refill_and_observation_pass_is_identical_for_any_thread_count():
+    """The refill pass (finished slots' final observations, their new episodes, every slot's next
+    observation) runs over chunks of slots in the worker threads: 1, 2 and 16 threads give the same
+    observations, final observations and trajectories, until the stream runs dry (idle slots)."""
+    seen1, finals1, trajs1 = _observed_run(1)
+    assert len(trajs1) == 150 and len(finals1) > 10
+    for threads in (2, 16):
+        seen, finals, trajs = _observed_run(threads)
+        assert_identical(trajs1, trajs)
+        assert len(seen) == len(seen1) and len(finals) == len(finals1)
+        for a, b in zip(seen1 + finals1, seen + finals, strict=True):
+            for x, y in zip(a, b, strict=True):
+                np.testing.assert_array_equal(x, y)
+
+
+def test_native_refill_observation_is_what_observe_returns():
+    world = World(WorldSettings(threads=2), make_scenario("circle_crossing", n_humans=5), 32, split="test",
+                  count=80)
+    policy = make_policy("orca", safety_space=0.1, threads=2)
+    obs = world.reset()
+    refills = 0
+    while world.busy:
+        result = world.step(policy.act(obs), observe=True, final_observation=True)
+        obs = result.observation
+        refills += result.final_observation is not None
+        again = world.observe()
+        for name in ("robot", "humans", "human_mask", "active", "time"):
+            np.testing.assert_array_equal(getattr(obs, name), getattr(again, name), err_msg=name)
+    assert refills > 5

@@ -64,6 +64,33 @@ def test_slots_have_their_own_maps_and_an_open_slot_is_unchanged():
     assert walled.observe().obstacles.maps == (walled.static_maps[0], None)
 
 
+def test_slots_sharing_a_map_run_as_with_their_own_copies():
+    """Slots whose maps are equal share one prepared copy in the core (and in the robot policies'
+    prepared batch): each slot still runs exactly as in a world of its own with that map, and a
+    different map in between is not mixed up with its neighbours'."""
+    other = StaticMap(([[-1.0, 0.5], [1.0, 0.5]],))
+    equal_copy = StaticMap(tuple(np.array(p) for p in pillars_and_walls().polygons))
+    maps = [pillars_and_walls(), equal_copy, other, pillars_and_walls(), None]
+    batch = walled_world(None, batch=5, count=5)
+    batch.reset()
+    for b, m in enumerate(maps):
+        batch.set_static_map(b, m)
+    prepared = batch.observe().obstacles.native
+    assert prepared.episodes == 5
+    n_walls = pillars_and_walls().n_vertices
+    assert prepared.prepared_vertices == n_walls + other.n_vertices + n_walls  # runs of equal maps share
+    pol = make_policy("orca", threads=1)
+    for _ in range(60):
+        batch.step(pol.act(batch.observe()))
+    for b, m in enumerate(maps):
+        alone = walled_world(None, batch=5, count=5)
+        alone.reset()
+        alone.set_static_map(b, m)
+        for _ in range(60):
+            alone.step(pol.act(alone.observe()))
+        np.testing.assert_array_equal(alone.position[b], batch.position[b], err_msg=f"slot {b}")
+
+
 @pytest.mark.parametrize("through", ["world", "scenario"])
 def test_episodes_carry_the_map_into_their_trajectories(through):
     """The map given to the World, or the scenario's ``static_map`` attribute, reaches every episode

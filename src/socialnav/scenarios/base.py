@@ -88,6 +88,8 @@ def episode_seeds(split: str, indices: np.ndarray | Sequence[int] | int) -> np.n
 def _as_indices(indices: np.ndarray | Sequence[int] | int, copy: bool = True) -> np.ndarray:
     """``indices`` checked as a 1-D int64 array; ``copy=False`` returns an int64 input itself (for
     callers that only read it)."""
+    if type(indices) is np.ndarray and indices.dtype == np.int64 and indices.ndim == 1:
+        return indices.copy() if copy else indices  # the common case (a world's refill, every step)
     arr = np.atleast_1d(np.asarray(indices))
     if arr.ndim != 1:
         raise ValueError(f"indices must be 1-D, got shape {arr.shape}")

@@ -26,7 +26,8 @@ from socialnav.static_map import StaticMap
 
 #: Memory one World may allocate for its state and recorded histories (docs/simulator.md, "Bounds").
 MAX_WORLD_BYTES = 4 * 2**30
-#: Native bytes per obstacle vertex and slot: every slot reserves room for the largest map set so far.
+#: Native bytes per obstacle vertex and slot, for the memory check: the worst case, a different map in
+#: every slot (slots with equal maps share one prepared copy).
 OBSTACLE_VERTEX_BYTES = 128
 
 
@@ -288,6 +289,7 @@ class World:
         #: (B,) each slot's static map (None: open floor); change it through `set_static_map` only.
         self.static_maps: list[StaticMap | None] = [None] * B
         self._obstacle_arrays: ObstacleArrays | None = None  # the flat form of static_maps, cached
+        self._n_mapped = 0  # slots whose static map is not None (open floors skip the O(B) scan per step)
         if static_map is not None and not isinstance(static_map, StaticMap):
             raise TypeError(f"static_map must be a StaticMap or None, got {type(static_map).__name__}")
         self._fixed_map = (static_map or None) if static_map is not None else _scenario_map(scenario)
@@ -369,6 +371,7 @@ class World:
         else:
             vertices, offsets = static_map.to_flat()
         self._core.set_obstacles(int(slot), vertices, offsets)
+        self._n_mapped += (static_map is not None) - (self.static_maps[slot] is not None)
         self.static_maps[slot] = static_map
         self._obstacle_arrays = None
         self._note_custom(slot, static_map)
@@ -383,7 +386,7 @@ class World:
     @property
     def obstacles(self) -> ObstacleArrays | None:
         """The slots' static maps in flat form (None when every slot is an open floor)."""
-        if self._obstacle_arrays is None and any(m is not None for m in self.static_maps):
+        if self._obstacle_arrays is None and self._n_mapped:
             self._obstacle_arrays = ObstacleArrays.from_maps(self.static_maps)
         return self._obstacle_arrays
 
@@ -419,9 +422,9 @@ class World:
     def _next_episodes(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Indices and seeds of the stream's next ``min(k, remaining)`` episodes (raises as
         :func:`episode_seeds` where they leave the split)."""
-        indices = self.stream.take_indices(k)
+        indices = self.stream.take_indices(k) if k else None
         if indices is None:
-            indices = np.zeros(0, dtype=np.int64)
+            return _NO_EPISODES, _NO_EPISODES  # no episode ended (most steps of a small batch)
         return indices, episode_seeds(self.stream.split, indices)
 
     def _fill(self, slots: np.ndarray) -> None:
@@ -638,6 +641,9 @@ class World:
             None if final is None else Observation(*final, dt, kinematics, obstacles=final_walls),
             None if nxt is None else Observation(*nxt, dt, kinematics, obstacles=walls),
         )
+
+
+_NO_EPISODES = np.zeros(0, dtype=np.int64)  # empty: nothing can be written into it
 
 
 def _scenario_map(scenario: Scenario) -> StaticMap | None:
