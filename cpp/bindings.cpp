@@ -417,6 +417,9 @@ NB_MODULE(_core, m) {
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
       .def(nb::init<int>(), "threads"_a)
       .def_prop_ro("size", &socialnav::ThreadPool::size);
+  // A forked child leaks the pools it inherited on purpose (sim/pool.py: their threads do not exist
+  // there); without this, nanobind reports them as reference leaks when the child exits.
+  m.def("_silence_leak_warnings", []() { nb::set_leak_warnings(false); });
 
   nb::class_<socialnav::SarlScorer>(m, "SarlScorer")
       .def(

@@ -33,6 +33,8 @@ def _forget_pools_in_child() -> None:
     # leaks the inherited ones (one extra reference each: never destroyed, not even at exit).
     for pool in _POOLS.values():
         ctypes.pythonapi.Py_IncRef(ctypes.py_object(pool))
+    if _POOLS:
+        _core._silence_leak_warnings()  # the leak is deliberate; nanobind would report it at exit
     _POOLS.clear()
 
 
