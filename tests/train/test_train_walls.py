@@ -83,6 +83,12 @@ def test_train_among_walls_records_the_encoding_and_evaluates(tmp_path, walls_pr
                "--scenario", "narrow_hallway", "--episodes", "2", "--visibility", "invisible",
                "--out", str(tmp_path / "eval"), "--no-progress", "--json"])
     assert rc == 0, capsys.readouterr().err
+    # and on an open floor (crowdnav: the same robot, dt and rewards): K padded point slots
+    assert load_learned_policy("rgl", out / "best.pt", preset=load_preset("crowdnav")).preset_mismatch == []
+    rc = main(["evaluate", "--policy", "rgl", "--checkpoint", str(out / "best.pt"), "--preset", "crowdnav",
+               "--scenario", "circle_crossing", "--episodes", "2", "--out", str(tmp_path / "open"),
+               "--no-progress", "--json"])
+    assert rc == 0, capsys.readouterr().err
 
 
 def test_replay_states_carry_each_episodes_own_points(walls_preset):
@@ -103,5 +109,27 @@ def test_replay_states_carry_each_episodes_own_points(walls_preset):
             pts, mask = ObstaclePoints().agents(res.final_robot[b : b + 1, :2], [res.final_maps[b]])
             np.testing.assert_array_equal(res.final_humans[b, 4:], pts[0])
             np.testing.assert_array_equal(res.final_mask[b, 4:], mask[0])
+    finally:
+        world.close()
+
+
+def test_ppo_trains_on_the_walled_mix_with_its_fixed_crowds(tmp_path, walls_preset):
+    """The PPO trainer steps the same mix: a crowd of 3 beside a preset count of 2 gets 3 slots, and
+    the scenarios that do not fix their crowd keep the preset's 2."""
+    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo_config import load_ppo_settings
+
+    data = yaml.safe_load(open(walls_preset))
+    data["training"]["n_humans"] = 2
+    preset = tmp_path / "two.yaml"
+    preset.write_text(yaml.safe_dump(data))
+    settings = load_ppo_settings(str(resources.files("socialnav.configs.train") / "ppo_smoke.yaml"))
+    result = train_ppo(str(preset), tmp_path / "ppo", settings, progress=False)
+    assert result.finished
+    config = yaml.safe_load((tmp_path / "ppo" / "config.yaml").read_text())
+    assert config["n_humans"] == 3
+    world = MultiWorld(load_preset(str(preset)), 2, 3, "train", 0)
+    try:
+        assert [w.n_agents - 1 for w in world.worlds] == [1, 3, 2] and world.n_human_slots == 3
     finally:
         world.close()

@@ -35,7 +35,21 @@ def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
     return {} if get_scenario(name).fixed_n_humans else {"n_humans": int(n_humans)}
 
 
-def _pad_humans(humans: np.ndarray, mask: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+def mix_human_slots(preset: Preset, n_humans: int) -> int:
+    """Human slots of the training mix's observations: the largest crowd among its scenarios, a
+    fixed one (:func:`scenario_crowd`) or ``n_humans``."""
+    import dataclasses as dc
+
+    def crowd(name: str) -> int:
+        cls = get_scenario(name)
+        if not cls.fixed_n_humans:
+            return int(n_humans)
+        return int(next(f.default for f in dc.fields(cls) if f.name == "n_humans"))
+
+    return max(crowd(name) for name in preset.training.scenarios)
+
+
+def pad_humans(humans: np.ndarray, mask: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """(B, m, 5), (B, m) zero-padded to n >= m human slots (mask False)."""
     m = humans.shape[1]
     if m == n:
@@ -124,7 +138,7 @@ class MultiWorld:
         self.offsets = np.cumsum([0, *self.sizes])
         self.batch_size = int(self.offsets[-1])
         self.dt = settings.dt
-        #: human slots of every observation: the largest crowd of the mix
+        #: human slots of every observation: the largest crowd of the mix (mix_human_slots)
         self.n_human_slots = max(w.n_agents - 1 for w in self.worlds)
 
     def close(self) -> None:
@@ -150,10 +164,10 @@ class MultiWorld:
         if len(obs) == 1:
             return obs[0]
         n = self.n_human_slots
-        padded = [_pad_humans(o.humans, o.human_mask, n) for o in obs]
+        padded = [pad_humans(o.humans, o.human_mask, n) for o in obs]
         nxt = None
         if oracle:
-            nxt = np.concatenate([_pad_humans(o.next_humans, o.human_mask, n)[0] for o in obs])
+            nxt = np.concatenate([pad_humans(o.next_humans, o.human_mask, n)[0] for o in obs])
         return Observation(
             np.concatenate([o.robot for o in obs]),
             np.concatenate([h for h, _ in padded]),
@@ -184,7 +198,7 @@ class MultiWorld:
                     fo.human_mask,
                     fo.time,
                 )
-            humans, mask = _pad_humans(humans, mask, self.n_human_slots)
+            humans, mask = pad_humans(humans, mask, self.n_human_slots)
             parts.append((res.reward, res.terminated, res.truncated, robot, humans, mask, time))
             walls.extend(stepped)
         cat = [np.concatenate([p[i] for p in parts]) for i in range(7)]

@@ -48,7 +48,7 @@ from socialnav.presets import Preset, load_preset
 from socialnav.train.common import better, load_optimizer_state, optimizer_state, progress_bar
 from socialnav.train.config import derive_seeds, flat_diff
 from socialnav.train.curves import Curves, validation_columns, window_columns
-from socialnav.train.envs import MultiWorld
+from socialnav.train.envs import MultiWorld, mix_human_slots
 from socialnav.train.ppo_config import PPO_RESUMABLE_CHANGES, PPOSettings
 from socialnav.train.ppo_objective import (
     explained_variance,
@@ -168,7 +168,9 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
     torch.set_num_threads(s.threads or max(1, min(os.cpu_count() or 1, 8)))
     seeds = derive_seeds(s.seed)
     dt, kinematics, rotation_limit = preset.world.dt, preset.world.kinematics, preset.world.rotation_limit
-    n_humans = int(preset.training.n_humans)
+    # the rollout's human slots: scenarios that fix their own crowd (francis2023) may exceed the preset's
+    crowd = int(preset.training.n_humans)
+    n_humans = mix_human_slots(preset, crowd)
     config = json.loads(
         json.dumps(
             {
@@ -198,9 +200,9 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
     minibatch_gen = torch.Generator().manual_seed(seeds["sampling"])
 
     # -- worlds (refused settings stop here, before anything is written) --------------------------
-    val_world = MultiWorld(preset, n_humans, min(s.n_envs, s.val_episodes), "val", 0, s.val_episodes)
+    val_world = MultiWorld(preset, crowd, min(s.n_envs, s.val_episodes), "val", 0, s.val_episodes)
     stack.callback(val_world.close)
-    world = MultiWorld(preset, n_humans, s.n_envs, "train", seeds["scenario_start"] + PPO_STREAM_OFFSET)
+    world = MultiWorld(preset, crowd, s.n_envs, "train", seeds["scenario_start"] + PPO_STREAM_OFFSET)
     stack.callback(world.close)
     n_envs, T = world.batch_size, s.rollout_steps
     n_updates = math.ceil(s.total_env_steps / (n_envs * T))

@@ -14,7 +14,7 @@ from socialnav.presets import Preset
 from socialnav.sim.observation import Observation
 from socialnav.sim.world import EpisodeStream
 from socialnav.train.common import reward_config
-from socialnav.train.envs import MultiWorld
+from socialnav.train.envs import MultiWorld, pad_humans
 
 #: The World arrays that hold an episode's state (saved with last.pt so that a resumed run goes on
 #: with the same episodes in flight).
@@ -63,7 +63,9 @@ def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
 def step_worlds(world: MultiWorld, actions: np.ndarray):
     """Steps every world of the mix once (one native call each): reward, terminated, truncated, the
     finished slots' final observation (every slot's state right after the step, before refills) and
-    the observation the policy sees next (refilled slots at time 0)."""
+    the observation the policy sees next (refilled slots at time 0). Worlds with fewer humans than
+    the mix's largest crowd get padded slots (mask False)."""
+    n = world.n_human_slots
     parts = []
     for w, lo, hi in zip(world.worlds, world.offsets[:-1], world.offsets[1:], strict=True):
         res = w.step(actions[lo:hi], final_observation=True, observe=True)
@@ -78,6 +80,9 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
                 fo.human_mask,
                 fo.time,
             )
+        final[1], final[2] = pad_humans(final[1], final[2], n)
+        humans, mask = pad_humans(nxt.humans, nxt.human_mask, n)
+        nxt = Observation(nxt.robot, humans, mask, nxt.active, nxt.time, nxt.dt, nxt.kinematics)
         parts.append((res.reward, res.terminated, res.truncated, final, nxt))
     cat = np.concatenate
     reward, term, trunc = (cat([p[i] for p in parts]) for i in range(3))

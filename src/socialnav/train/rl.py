@@ -149,8 +149,10 @@ def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> 
     timeout rates and the mean navigation time of successes."""
     world.reset()
     stats = EpisodeStats()
+    encode = getattr(policy, "encode", None)  # a value policy's obstacle points (the PPO actor has none)
     while world.busy:
-        obs = policy.encode(world.observe(oracle=oracle))
+        obs = world.observe(oracle=oracle)
+        obs = obs if encode is None else encode(obs)
         _, actions = policy.act(obs, next_humans=obs.next_humans if oracle else None)
         actions = np.asarray(actions, dtype=np.float64)
         actions[~obs.active] = 0.0
