@@ -22,6 +22,22 @@ def test_version(capsys):
     assert capsys.readouterr().out.strip() == f"socialnav {__version__}"
 
 
+def test_the_manifest_records_the_version_and_a_newer_release_resumes(tmp_path, capsys):
+    out = tmp_path / "run"
+    code, _, err = run(capsys, "evaluate", "--scenario", "passing", "--episodes", "4", "--out", str(out),
+                       "--quiet")
+    assert code == 0, err
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["socialnav_version"] == __version__
+    # a run started by another release resumes (the version is recorded, not part of the run's identity)
+    (out / "manifest.json").write_text(json.dumps({**manifest, "socialnav_version": "0.0.1"}))
+    code, printed, err = run(capsys, "evaluate", "--scenario", "passing", "--episodes", "4", "--out",
+                             str(out), "--json", "--no-progress")
+    assert code == 0, err
+    assert json.loads(printed)["rows"][0]["episodes"] == 4
+    assert json.loads((out / "manifest.json").read_text())["socialnav_version"] == "0.0.1"
+
+
 def test_list_shows_gym_ids_and_shipped_checkpoints(capsys):
     code, out, _ = run(capsys, "list", "--json")
     assert code == 0

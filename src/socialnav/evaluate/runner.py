@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from socialnav import __version__
 from socialnav.evaluate.blas import one_blas_thread
 from socialnav.evaluate.files import (
     DirectoryLock,
@@ -305,6 +306,8 @@ def protocol_manifest(
     sources = policy_sources(policy)
     return _normalised(
         {
+            # information only (run_identity leaves it out): a run resumed by a newer release continues
+            "socialnav_version": __version__,
             "preset": preset.to_dict(),
             "policy": {"label": label, **policy.describe()},
             **({"policy_sources": sources} if sources else {}),
@@ -445,8 +448,10 @@ def conclude_chunks(
 
 
 def run_identity(manifest: dict) -> dict:
-    """The manifest less what it records for information only (the policy's ``RECORDED_ONLY`` keys,
-    e.g. the native scorer's vector kernel, whose values are bit-identical across kernels)."""
+    """The manifest less what it records for information only: the release that started the run and
+    the policy's ``RECORDED_ONLY`` keys (e.g. the native scorer's vector kernel, whose values are
+    bit-identical across kernels)."""
+    manifest = {k: v for k, v in manifest.items() if k != "socialnav_version"}
     policy = manifest.get("policy")
     if isinstance(policy, dict) and any(k in policy for k in RECORDED_ONLY):
         return {**manifest, "policy": {k: v for k, v in policy.items() if k not in RECORDED_ONLY}}
