@@ -17,8 +17,8 @@ CITATION = yaml.safe_load((ROOT / "CITATION.cff").read_text())
 INIT = (ROOT / "src" / "socialnav" / "__init__.py").read_text()
 VERSION = re.search(r'^__version__ = "([^"]+)"$', INIT, re.M)[1]
 PAPER_TITLE = "Metrics for Evaluating Social Conformity of Crowd Navigation Algorithms"
-# not for users: the test suite, the developer build and the release tools
-NOT_FOR_USERS = {"test", "dev", "dist", "all"}
+# not for users: the test suite, the developer build, the docs site and the release tools
+NOT_FOR_USERS = {"test", "dev", "dist", "docs", "all"}
 
 
 def test_licence_file_matches_the_declared_licence():

@@ -216,7 +216,9 @@ def run_protocol(
         preset: The protocol (world, robot, scenarios, episode counts).
         out_dir: Result directory; an existing one with the same manifest is resumed.
         label: Policy name in the results (default ``policy.name``).
-        scenarios, episodes, visibility: Overrides of the preset's evaluation settings.
+        scenarios: Only these scenarios (default: the preset's).
+        episodes: Episodes per multi-human scenario (default: the preset's).
+        visibility: ``invisible``, ``visible`` or ``both`` (default: the preset's).
         progress: Show a progress bar on stderr.
         extra_manifest: Extra fields recorded in the manifest (e.g. the checkpoint path).
         batch_size: Episodes simulated in lockstep.
