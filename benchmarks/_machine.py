@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import datetime
+import os
 import platform
 
 
@@ -15,3 +17,12 @@ def cpu_model() -> str:
     except OSError:
         pass
     return platform.processor() or platform.machine()
+
+
+def run_record() -> dict[str, str]:
+    """What every benchmark's JSON line starts with: the date (UTC) and the machine it ran on, read by
+    tools/update_results_docs.py into benchmarks/results/README.md."""
+    return {
+        "date": datetime.datetime.now(datetime.timezone.utc).date().isoformat(),
+        "machine": f"{cpu_model()}, {os.cpu_count()} cores",
+    }

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import tempfile
 import time
 import warnings
@@ -25,6 +26,9 @@ from socialnav.policies import make_policy
 from socialnav.presets import load_preset
 from socialnav.sim.world import World
 from socialnav.trajectory import write_trajectories
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
 
 TARGET_SECONDS = 10.0
 
@@ -68,7 +72,7 @@ def main() -> None:
     print(f"scored {len(trajs)} episodes from Parquet ({size_mb:.1f} MB) in {seconds:.2f} s with "
           f"{args.workers} workers (one process: {serial_s:.2f} s; simulating them: {sim_s:.2f} s); "
           f"target <= {TARGET_SECONDS} s")
-    print(json.dumps({
+    print(json.dumps(run_record() | {
         "seconds": round(seconds, 3),
         "episodes": len(trajs),
         "workers": args.workers,

@@ -39,6 +39,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 from collections.abc import Callable
 
@@ -47,6 +48,9 @@ import torch
 
 from socialnav.policies.learned import StatePredictor, ValuePolicy, build
 from socialnav.policies.learned.native_scoring import KERNEL_ENV, KERNELS, SCORERS
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
 
 N_ACTIONS = 81
 
@@ -350,7 +354,7 @@ def main() -> None:
         "device": args.device,
         **rgl,
     }
-    print(json.dumps(out))
+    print(json.dumps(run_record() | out))
 
 
 if __name__ == "__main__":

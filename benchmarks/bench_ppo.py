@@ -41,7 +41,7 @@ import time
 import torch
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import cpu_model  # noqa: E402  (benchmarks/ is not a package)
+from _machine import cpu_model, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 SCENARIO = {"scenario": "circle_crossing", "scenario_params": {"n_humans": 5}}
 
@@ -225,7 +225,7 @@ def main(argv: list[str] | None = None) -> int:
                 out[f"sb3_adapter_learn_speedup_vs_{other}"] = round(
                     a["learn_env_steps_per_s"] / b["learn_env_steps_per_s"], 2
                 )
-    print(json.dumps(out))
+    print(json.dumps(run_record() | out))
     return 0
 
 

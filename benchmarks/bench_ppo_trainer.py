@@ -37,7 +37,7 @@ from socialnav.train.ppo import train_ppo
 from socialnav.train.ppo_config import NetworkSettings, load_ppo_settings
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import cpu_model  # noqa: E402  (benchmarks/ is not a package)
+from _machine import cpu_model, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 
 def measure(settings, updates: int) -> dict:
@@ -100,7 +100,8 @@ def main() -> None:
     rate = default["env_steps_per_s"]
     print(
         json.dumps(
-            {
+            run_record()
+            | {
                 "benchmark": "ppo_trainer",
                 "policy": settings.policy,
                 "config": args.config,

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import tempfile
 import time
 import warnings
@@ -31,6 +32,9 @@ from socialnav.evaluate.runner import run_protocol
 from socialnav.policies.loading import build_policy
 from socialnav.presets import load_preset
 from socialnav.sim.world import World
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
 
 #: Goals for the whole protocol on 2 cores: ORCA's (issue #6), a learned policy's (issue #13) and
 #: ORCA's among walls (issue #28).
@@ -110,7 +114,8 @@ def main() -> None:
     )
     print(
         json.dumps(
-            {
+            run_record()
+            | {
                 "preset": preset.name,
                 "policy": args.policy,
                 # learned SARL / OM-SARL: the network's evaluator in effect ("native" or "torch")

@@ -31,6 +31,9 @@ from socialnav.evaluate.reproduce import HUMAN_MODELS, PRESET, preset_for
 from socialnav.evaluate.runner import run_protocol
 from socialnav.policies.loading import build_policy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
+
 GOAL_SECONDS = 15 * 60
 LEARNED_POLICIES_EXPECTED = 6  # cadrl, lstm_rl, sarl, om_sarl, rgl, mp_rgl (+ cadrl_original: 7)
 
@@ -106,7 +109,7 @@ def main() -> int:
         "reference": {"episodes_per_scenario": args.reference_episodes, "policies": ref},
         "load_average": os.getloadavg(),
     }
-    print(json.dumps(result))
+    print(json.dumps(run_record() | result))
     return 0
 
 

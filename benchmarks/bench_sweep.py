@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import tempfile
 import time
 import warnings
@@ -31,6 +32,9 @@ import pyarrow.parquet as pq
 from socialnav.sweep.driver import run_sweep
 from socialnav.sweep.executors import LocalExecutor, RayExecutor, init_ray
 from socialnav.sweep.spec import parse_sweep
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
 
 SPEEDUP_GOAL = 1.8
 RAY_OVERHEAD_GOAL = 0.10
@@ -108,7 +112,8 @@ def main() -> None:
     )
     print(
         json.dumps(
-            {
+            run_record()
+            | {
                 "jobs": len(spec.jobs),
                 "episodes": episodes,
                 "local_1_worker_s": round(best["local_1"], 3),

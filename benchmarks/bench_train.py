@@ -34,6 +34,7 @@ import json
 import math
 import os
 import shutil
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -47,6 +48,9 @@ from socialnav.train.fused_step import FusedTDStep
 from socialnav.train.memory import ReplayMemory
 from socialnav.train.rl import replay_td_loss
 from socialnav.train.trainer import resolve_device, train
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
 
 #: Every hidden layer 1 unit wide: the same operations as the real network with next to no arithmetic.
 _NO_ARITHMETIC: dict[str, dict] = {
@@ -213,7 +217,7 @@ def main() -> None:
                 f"({m['gradient_steps_per_s']:.0f}/s), {m['host_overhead_ms_per_gradient_step']:.3f} ms "
                 "of it without the arithmetic (goal <= 0.5 ms)"
             )
-        print(json.dumps(report))
+        print(json.dumps(run_record() | report))
         return
 
     s = load_train_settings(
@@ -320,7 +324,7 @@ def main() -> None:
     }
     if not args.out:
         shutil.rmtree(out, ignore_errors=True)
-    print(json.dumps(report))
+    print(json.dumps(run_record() | report))
 
 
 if __name__ == "__main__":

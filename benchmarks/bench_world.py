@@ -38,7 +38,7 @@ from socialnav.sim.world import World
 from socialnav.static_map import StaticMap
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import cpu_model  # noqa: E402  (benchmarks/ is not a package)
+from _machine import cpu_model, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 CROWDNAV_ENV_STEPS_PER_S = 4134  # CrowdNav's simulator on a 2-core machine (issue #2)
 
@@ -179,7 +179,8 @@ def main_obstacles(args: argparse.Namespace) -> None:
           f"{result['ratio_vs_open_world']:.2f} (goal 0.5)")
     print(f"navground with the same walls: {best['navground_obstacles']:,.0f} env-steps/s -> ratio "
           f"{result['ratio_vs_navground_obstacles']:.1f}x (goal 3)")
-    print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in result.items()}))
+    rounded = {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
+    print(json.dumps(run_record() | rounded))
 
 
 def main() -> None:
@@ -249,7 +250,8 @@ def main() -> None:
         and (result["ratio_vs_navground"] or 0) >= 2.0
     )
     result["load_average_1min"] = os.getloadavg()[0]
-    print(json.dumps({k: (round(v, 3) if isinstance(v, float) else v) for k, v in result.items()}))
+    rounded = {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
+    print(json.dumps(run_record() | rounded))
 
 
 if __name__ == "__main__":

@@ -13,9 +13,12 @@ ROOT = Path(__file__).resolve().parents[1]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 PROJECT = PYPROJECT["project"]
 CITATION = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+# the one place the version is written (pyproject.toml reads it through scikit-build-core's regex provider)
+INIT = (ROOT / "src" / "socialnav" / "__init__.py").read_text()
+VERSION = re.search(r'^__version__ = "([^"]+)"$', INIT, re.M)[1]
 PAPER_TITLE = "Metrics for Evaluating Social Conformity of Crowd Navigation Algorithms"
-# not for users: the test suite, the developer build and the release tools
-NOT_FOR_USERS = {"test", "dev", "dist", "all"}
+# not for users: the test suite, the developer build, the docs site and the release tools
+NOT_FOR_USERS = {"test", "dev", "dist", "docs", "all"}
 
 
 def test_licence_file_matches_the_declared_licence():
@@ -30,7 +33,7 @@ def test_licence_file_matches_the_declared_licence():
 def test_citation_file_cites_this_version_and_the_paper():
     assert CITATION["cff-version"] == "1.2.0"
     assert CITATION["type"] == "software"
-    assert str(CITATION["version"]) == PROJECT["version"]
+    assert str(CITATION["version"]) == VERSION
     assert CITATION["license"] == PROJECT["license"]
     for key in ("message", "title", "authors"):
         assert CITATION[key], key
@@ -40,6 +43,17 @@ def test_citation_file_cites_this_version_and_the_paper():
     assert authors == ["Wang", "Chan", "Carreno-Medrano", "Cosgun", "Croft"]
     assert "ARSO 2022" in paper["conference"]["name"]
     assert paper["url"] == "https://arxiv.org/abs/2202.01045"
+
+
+def test_version_is_written_in_one_place_and_the_changelog_lists_it():
+    assert "version" not in PROJECT and "version" in PROJECT["dynamic"]
+    meta = PYPROJECT["tool"]["scikit-build"]["metadata"]["version"]
+    assert meta == {"provider": "scikit_build_core.metadata.regex", "input": "src/socialnav/__init__.py"}
+    changelog = (ROOT / "CHANGELOG.md").read_text()
+    assert re.search(rf"^## \[{re.escape(VERSION)}\] - \d{{4}}-\d{{2}}-\d{{2}}$", changelog, re.M), (
+        f"CHANGELOG.md has no section for {VERSION}"
+    )
+    assert "## [Unreleased]" in changelog
 
 
 def test_readme_says_how_to_cite_both():

@@ -6,6 +6,7 @@ Gymnasium ids (``socialnav/CircleCrossing-v0`` …; Gymnasium 1.x has no plugin 
 Gymnasium's import (about 0.1 s beyond NumPy's).
 """
 
-__version__ = "0.1.0"
+# The one place the version is set: pyproject.toml reads it (CHANGELOG.md lists what each release changed).
+__version__ = "0.2.0"
 
 from socialnav.sim import registration as _registration  # noqa: E402,F401  (registers the env ids)

@@ -1,4 +1,5 @@
-"""The ``socialnav`` command line: evaluate, metrics, list, train, replay, render, report.
+"""The ``socialnav`` command line: evaluate, metrics, list, preset, train, replay, render, report,
+reproduce, sweep.
 
 socialnav evaluate --policy orca --preset wang2022 --report
 socialnav metrics my_robot_log.parquet --json
@@ -166,7 +167,11 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--batch-size", type=int, default=256, help="episodes simulated in lockstep")
     ev.add_argument("--json", action="store_true", help="print one JSON summary object instead of tables")
     ev.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    ev.add_argument("--quiet", action="store_true", help="no progress bar, no tables (errors still print)")
+    ev.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar, no tables (errors still print; with --report, the report's path)",
+    )
     ev.add_argument(
         "--no-trajectories",
         action="store_true",
@@ -182,6 +187,18 @@ def build_parser() -> argparse.ArgumentParser:
     ls = sub.add_parser("list", help="registered scenarios, policies, human models, metrics and presets")
     ls.add_argument("--json", action="store_true")
     ls.set_defaults(run=cmd_list)
+
+    pr = sub.add_parser("preset", help="the shipped protocol presets: list them, print one to start from")
+    pr_sub = pr.add_subparsers(dest="preset_command", required=True)
+    pr_show = pr_sub.add_parser(
+        "show",
+        help="print a shipped preset's YAML (comments included); save it, edit it, pass it with "
+        "--preset FILE.yaml",
+    )
+    pr_show.add_argument("name", help="shipped preset name (see `socialnav preset list`)")
+    pr_show.set_defaults(run=cmd_preset_show)
+    pr_list = pr_sub.add_parser("list", help="the shipped presets with their descriptions")
+    pr_list.set_defaults(run=cmd_preset_list)
 
     from socialnav.evaluate.cli import add_replay_parser
     from socialnav.train.cli import add_train_parser  # torch is imported only when training runs
@@ -247,6 +264,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         from socialnav.viz.report import write_report
 
         write_report(out, out / "report.html", progress=not (args.no_progress or args.quiet))
+        if args.quiet:
+            print(out / "report.html")  # quiet prints no tables, but the file asked for is named
     if args.json:
         print(json.dumps({"preset": preset.name, "out": str(out), "rows": json_safe(result.summary)}))
     elif not args.quiet:
@@ -286,6 +305,27 @@ def _version() -> str:
     from socialnav import __version__
 
     return __version__
+
+
+def cmd_preset_show(args: argparse.Namespace) -> int:
+    from socialnav.presets import shipped_preset_text
+
+    text = shipped_preset_text(args.name)
+    print(
+        f"# The shipped preset {args.name!r} (socialnav {_version()}). To start your own:\n"
+        f"#   socialnav preset show {args.name} > my_preset.yaml; edit name: and the settings; then\n"
+        "#   socialnav evaluate --preset my_preset.yaml"
+    )
+    print(text, end="" if text.endswith("\n") else "\n")
+    return 0
+
+
+def cmd_preset_list(args: argparse.Namespace) -> int:
+    from socialnav.presets import load_preset, shipped_presets
+
+    for name in shipped_presets():
+        print(f"{name}: {load_preset(name).description}")
+    return 0
 
 
 def cmd_list(args: argparse.Namespace) -> int:

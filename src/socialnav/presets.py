@@ -135,6 +135,18 @@ def shipped_presets() -> list[str]:
     )
 
 
+def shipped_preset_text(name: str) -> str:
+    """The YAML text of a shipped preset, comments included (a file to start one's own preset from).
+
+    Raises:
+        ConfigError: ``name`` is not a shipped preset (the shipped ones are listed).
+    """
+    names = shipped_presets()
+    if name not in names:
+        raise ConfigError(f"unknown preset {name!r}; shipped: {', '.join(names)}")
+    return (resources.files("socialnav.configs") / f"{name}.yaml").read_text()
+
+
 def load_preset(name_or_path: str | Path) -> Preset:
     """Loads a shipped preset by name or a YAML file by path.
 
@@ -153,10 +165,7 @@ def load_preset(name_or_path: str | Path) -> Preset:
         except UnicodeDecodeError:
             raise ConfigError(f"preset file {path} is not a text (YAML) file") from None
     else:
-        names = shipped_presets()
-        if str(name_or_path) not in names:
-            raise ConfigError(f"unknown preset {name_or_path!r}; shipped: {', '.join(names)}")
-        text = (resources.files("socialnav.configs") / f"{name_or_path}.yaml").read_text()
+        text = shipped_preset_text(str(name_or_path))
         source = f"{name_or_path}.yaml"
     try:
         data = yaml.safe_load(text) or {}

@@ -22,6 +22,57 @@ def test_version(capsys):
     assert capsys.readouterr().out.strip() == f"socialnav {__version__}"
 
 
+def test_the_manifest_records_the_version_and_a_newer_release_resumes(tmp_path, capsys):
+    out = tmp_path / "run"
+    code, _, err = run(capsys, "evaluate", "--scenario", "passing", "--episodes", "4", "--out", str(out),
+                       "--quiet")
+    assert code == 0, err
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["socialnav_version"] == __version__
+    # a run started by another release resumes (the version is recorded, not part of the run's identity)
+    (out / "manifest.json").write_text(json.dumps({**manifest, "socialnav_version": "0.0.1"}))
+    code, printed, err = run(capsys, "evaluate", "--scenario", "passing", "--episodes", "4", "--out",
+                             str(out), "--json", "--no-progress")
+    assert code == 0, err
+    assert json.loads(printed)["rows"][0]["episodes"] == 4
+    assert json.loads((out / "manifest.json").read_text())["socialnav_version"] == "0.0.1"
+
+
+def test_preset_show_prints_a_file_that_loads_as_the_shipped_preset(tmp_path, capsys):
+    from socialnav.presets import load_preset, shipped_presets
+
+    code, out, _ = run(capsys, "preset", "list")
+    assert code == 0
+    assert [line.split(":")[0] for line in out.splitlines()] == shipped_presets()
+    for name in shipped_presets():
+        code, out, err = run(capsys, "preset", "show", name)
+        assert code == 0, err
+        assert out.startswith(f"# The shipped preset {name!r}")
+        path = tmp_path / f"{name}.yaml"
+        path.write_text(out)
+        assert load_preset(path) == load_preset(name)
+    # edited and run, as the header says
+    path.write_text(out.replace(f"name: {name}", "name: mine"))
+    assert load_preset(path).name == "mine"
+    code, _, err = run(capsys, "preset", "show", "nope")
+    assert code == 2 and "unknown preset 'nope'; shipped: crowdnav" in err
+
+
+def test_table3_on_stdout_gives_labelled_cases_and_failures(tmp_path, capsys):
+    code, out, err = run(capsys, "evaluate", "--policy", "social_force", "--scenario", "overtaking",
+                         "--episodes", "20", "--out", str(tmp_path), "--no-progress")
+    assert code == 0, err
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    (row,) = [r for r in summary["rows"] if r["visibility"] == "invisible"]
+    header, _, cells = out.split("### Table III")[1].strip().splitlines()[2:5]
+    cells = dict(zip(header.strip("|").split("|"), cells.strip("|").split("|"), strict=True))
+    cells = {k.strip(): v.strip() for k, v in cells.items()}
+    failed = row["episodes"] - round(row["success_rate"] * row["episodes"])
+    assert cells["Overtaking n"] == str(int(row["m6_n_labelled"]))
+    assert cells["Overtaking failed"].split(" ")[0] == str(failed)
+    assert cells["Passing n"] == "–"  # not run
+
+
 def test_list_shows_gym_ids_and_shipped_checkpoints(capsys):
     code, out, _ = run(capsys, "list", "--json")
     assert code == 0

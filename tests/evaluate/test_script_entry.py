@@ -36,7 +36,7 @@ def test_readme_python_snippet_runs_as_a_script(tmp_path):
     result = run_script(tmp_path, code + "\nprint('EPISODES', len(result.rows))\n")
     assert result.returncode == 0, result.stderr[-3000:]
     assert "EPISODES 4060" in result.stdout
-    assert (tmp_path / "runs" / "orca" / "summary.json").exists()
+    assert (tmp_path / "runs" / "orca-python" / "summary.json").exists()
 
 
 def test_guarded_script_still_scores_in_worker_processes(tmp_path):

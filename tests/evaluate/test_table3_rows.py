@@ -3,7 +3,7 @@ cells are "–", explained under the table), and leaves out a policy that was no
 
 import math
 
-from socialnav.evaluate.report import TABLE3_DASH_NOTE, table3, table3_rows
+from socialnav.evaluate.report import TABLE3_COUNTS_NOTE, TABLE3_DASH_NOTE, table3, table3_rows
 
 SIDE = ("passing", "overtaking", "crossing")
 
@@ -19,9 +19,9 @@ def side_rows(policy, left, right):
 def test_a_policy_with_no_successful_single_human_case_keeps_a_row_of_dashes():
     summary = side_rows("good", 25.0, 75.0) + side_rows("stuck", math.nan, math.nan)
     rows = table3_rows(summary)
-    assert rows == [["good"] + ["25", "75"] * 3, ["stuck"] + ["–"] * 6]
+    assert rows == [["good"] + ["25", "75", "–", "–"] * 3, ["stuck"] + ["–"] * 12]
     md = table3(summary, "md")
-    assert "| stuck | – | – | – | – | – | – |" in md
+    assert "| stuck |" + " – |" * 12 in md
     assert TABLE3_DASH_NOTE in md
     tex = table3(summary, "tex")
     assert tex.rstrip().endswith("% " + TABLE3_DASH_NOTE)
@@ -33,3 +33,22 @@ def test_a_policy_not_run_on_single_human_scenarios_has_no_row_and_no_note_witho
     assert [r[0] for r in table3_rows(summary)] == ["good"]
     assert TABLE3_DASH_NOTE not in table3(summary, "md")
     assert table3([multi], "md") == ""
+
+
+def test_each_case_gives_the_labelled_cases_and_the_failures_split_by_outcome():
+    # social force overtaking in 20 episodes: 2 successes (1 left, 1 right), 18 collisions
+    row = {"policy": "social_force", "scenario": "overtaking", "visibility": "invisible", "episodes": 20,
+           "collision_rate": 0.9, "timeout_rate": 0.0, "m6_left_pct": 50.0, "m6_right_pct": 50.0,
+           "m6_n_labelled": 2.0, "m6_n_failed": 18.0}
+    passing = {**row, "scenario": "passing", "collision_rate": 0.0, "m6_n_labelled": 19.0,
+               "m6_n_failed": 0.0, "m6_left_pct": 100 * 7 / 19, "m6_right_pct": 100 * 12 / 19}
+    crossing = {**row, "scenario": "crossing", "collision_rate": 0.75, "timeout_rate": 0.25,
+                "m6_left_pct": None, "m6_right_pct": None, "m6_n_labelled": 0.0, "m6_n_failed": 20.0}
+    (cells,) = table3_rows([passing, row, crossing])
+    assert cells == ["social_force", "37", "63", "19", "0", "50", "50", "2", "18 (18 c, 0 t)",
+                     "–", "–", "0", "20 (15 c, 5 t)"]
+    md = table3([passing, row, crossing], "md")
+    assert "| Overtaking n | Overtaking failed |" in md
+    assert TABLE3_COUNTS_NOTE in md and TABLE3_DASH_NOTE in md
+    assert "% " + TABLE3_COUNTS_NOTE in table3([row], "tex")
+    assert TABLE3_DASH_NOTE not in table3([passing, row, {**passing, "scenario": "crossing"}], "md")

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import torch
 
+import socialnav
 from socialnav.policies.learned import LEARNED_POLICIES, RewardParams, ValuePolicy, build
 from socialnav.policies.learned.checkpoint import CheckpointError, load_checkpoint, save_checkpoint
 
@@ -41,6 +42,15 @@ def test_round_trip(tmp_path, name):
     payload = torch.load(path, weights_only=True)
     assert payload["policy"] == name and "state_dict" in payload
     assert [p for p in os.listdir(tmp_path) if p.endswith(".tmp")] == []
+    assert payload["socialnav_version"] == socialnav.__version__ == ck.socialnav_version
+
+
+def test_a_checkpoint_from_before_versions_were_recorded_loads(tmp_path):
+    path = save_checkpoint(tmp_path / "old.pt", "sarl", build("sarl"), {}, {})
+    payload = torch.load(path, weights_only=True)
+    del payload["socialnav_version"]
+    torch.save(payload, path)
+    assert load_checkpoint(path, "sarl").socialnav_version is None
 
 
 def test_alias_ga3c_cadrl(tmp_path):

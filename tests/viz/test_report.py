@@ -154,8 +154,12 @@ def test_report_cli_and_evaluate_report(tmp_path, capsys):
         == 0
     )
     captured = capsys.readouterr()
-    assert captured.out == ""  # --quiet: no tables, no progress
+    # --quiet: no tables, no progress, only where the report asked for went
+    assert captured.out == f"{out / 'report.html'}\n"
     assert (out / "report.html").stat().st_size > 10_000
+    # Table III in the report gives the labelled cases and the failures of each case
+    page = (out / "report.html").read_text()
+    assert "Passing n" in page and "Passing failed" in page
     assert (out / "figures" / "outcomes.svg").read_text().lstrip().startswith("<?xml")
     assert main(["report", str(out), "--out", str(tmp_path / "r.html"), "--no-figure-files", "--quiet"]) == 0
     assert "Table III" in (tmp_path / "r.html").read_text()

@@ -189,6 +189,8 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
 
 
 def table3_rows(summary: Sequence[dict[str, Any]]) -> list[list[str]]:
+    """Per policy and single-human scenario: left %, right %, the labelled cases the percentages are
+    of (n) and the episodes that failed (collisions ``c`` and timeouts ``t``), which carry no side."""
     idx = _index(summary)
     policies = list(dict.fromkeys(r["policy"] for r in summary))
     out = []
@@ -200,7 +202,7 @@ def table3_rows(summary: Sequence[dict[str, Any]]) -> list[list[str]]:
             was_run = was_run or row is not None
             left = row.get("m6_left_pct") if row else None
             right = row.get("m6_right_pct") if row else None
-            cells += [_num(left), _num(right)]
+            cells += [_num(left), _num(right), _count(row, "m6_n_labelled"), _failures(row)]
         # A policy run on the single-human scenarios keeps its row even when none of its cases
         # succeeded ("–" throughout): dropping it would read as "not evaluated".
         if was_run:
@@ -212,29 +214,56 @@ def _num(x: Any) -> str:
     return "–" if x is None or not math.isfinite(x) else f"{x:.0f}"
 
 
+def _count(row: dict[str, Any] | None, key: str) -> str:
+    value = row.get(key) if row else None
+    return "–" if value is None or not math.isfinite(value) else f"{value:.0f}"
+
+
+def _failures(row: dict[str, Any] | None) -> str:
+    """``"18 (18 c, 0 t)"``: failed episodes, split into collisions and timeouts from the outcome rates."""
+    failed = _count(row, "m6_n_failed")
+    episodes = row.get("episodes") if row else None
+    if failed in ("–", "0") or not episodes:
+        return failed
+    split = []
+    for key, tag in (("collision_rate", "c"), ("timeout_rate", "t")):
+        rate = row.get(key)  # type: ignore[union-attr]
+        if rate is None or not math.isfinite(rate):
+            return failed
+        split.append(f"{round(rate * episodes)} {tag}")
+    return f"{failed} ({', '.join(split)})"
+
+
 def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
-    header = [
-        "Policy",
-        "Passing L %",
-        "Passing R %",
-        "Overtaking L %",
-        "Overtaking R %",
-        "Crossing L % (behind)",
-        "Crossing R % (front)",
-    ]
+    header = ["Policy"]
+    for scenario, (left, right) in (
+        ("Passing", ("L %", "R %")),
+        ("Overtaking", ("L %", "R %")),
+        ("Crossing", ("L % (behind)", "R % (front)")),
+    ):
+        header += [f"{scenario} {left}", f"{scenario} {right}", f"{scenario} n", f"{scenario} failed"]
     rows = table3_rows(summary)
     if not rows:
         return ""  # no single-human scenario in the run: no table, not an empty header
     text = _render("Table III: M_VI side preference (successful single-human cases)", header, rows, fmt)
-    if any("–" in r[1:] for r in rows):
-        text += ("% " if fmt == "tex" else "\n") + TABLE3_DASH_NOTE + "\n"
+    sep = "% " if fmt == "tex" else "\n"
+    text += sep + TABLE3_COUNTS_NOTE + "\n"
+    if any(r[i] == "–" for r in rows for i in TABLE3_PERCENT_COLUMNS):
+        text += sep + TABLE3_DASH_NOTE + "\n"
     return text
 
 
-#: Under Table III when a cell is empty.
+#: Under Table III: what n and failed count.
+TABLE3_COUNTS_NOTE = (
+    "n: labelled successful cases the percentages are of; failed: episodes without success, which have "
+    "no side (c: collisions, t: timeouts); successful cases with no side label are in neither."
+)
+#: Under Table III when a percentage is empty.
 TABLE3_DASH_NOTE = (
     "Note: – : no successful case of that policy in that scenario (or the scenario was not run)."
 )
+#: The left/right percentage columns of a Table III row.
+TABLE3_PERCENT_COLUMNS = (1, 2, 5, 6, 9, 10)
 
 
 def _render(title: str, header: list[str], rows: list[list[str]], fmt: str) -> str:

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from socialnav import __version__
 from socialnav.evaluate.files import atomic_write_json, atomic_write_text, json_safe
 from socialnav.evaluate.multi import MultiResult, PolicySpec, default_specs, run_policies
 from socialnav.evaluate.paper_tables import (
@@ -127,7 +128,8 @@ def write_reproduction(
         atomic_write_json(out / "ranking.json", {"rows": ranking})
     atomic_write_json(
         out / "reproduction.json",
-        {"preset": PRESET, "quick": quick, "episodes": episodes, "human_models": list(runs),
+        {"socialnav_version": __version__, "preset": PRESET, "quick": quick, "episodes": episodes,
+         "human_models": list(runs),
          "compared_on": main_model, "comparison": json_safe(comparison), "ranking": json_safe(ranking),
          "timings": {hm: r.timings for hm, r in runs.items()}},
     )

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from socialnav import __version__
 from socialnav.evaluate.blas import one_blas_thread
 from socialnav.evaluate.files import (
     DirectoryLock,
@@ -215,7 +216,9 @@ def run_protocol(
         preset: The protocol (world, robot, scenarios, episode counts).
         out_dir: Result directory; an existing one with the same manifest is resumed.
         label: Policy name in the results (default ``policy.name``).
-        scenarios, episodes, visibility: Overrides of the preset's evaluation settings.
+        scenarios: Only these scenarios (default: the preset's).
+        episodes: Episodes per multi-human scenario (default: the preset's).
+        visibility: ``invisible``, ``visible`` or ``both`` (default: the preset's).
         progress: Show a progress bar on stderr.
         extra_manifest: Extra fields recorded in the manifest (e.g. the checkpoint path).
         batch_size: Episodes simulated in lockstep.
@@ -305,6 +308,8 @@ def protocol_manifest(
     sources = policy_sources(policy)
     return _normalised(
         {
+            # information only (run_identity leaves it out): a run resumed by a newer release continues
+            "socialnav_version": __version__,
             "preset": preset.to_dict(),
             "policy": {"label": label, **policy.describe()},
             **({"policy_sources": sources} if sources else {}),
@@ -445,8 +450,10 @@ def conclude_chunks(
 
 
 def run_identity(manifest: dict) -> dict:
-    """The manifest less what it records for information only (the policy's ``RECORDED_ONLY`` keys,
-    e.g. the native scorer's vector kernel, whose values are bit-identical across kernels)."""
+    """The manifest less what it records for information only: the release that started the run and
+    the policy's ``RECORDED_ONLY`` keys (e.g. the native scorer's vector kernel, whose values are
+    bit-identical across kernels)."""
+    manifest = {k: v for k, v in manifest.items() if k != "socialnav_version"}
     policy = manifest.get("policy")
     if isinstance(policy, dict) and any(k in policy for k in RECORDED_ONLY):
         return {**manifest, "policy": {k: v for k, v in policy.items() if k not in RECORDED_ONLY}}

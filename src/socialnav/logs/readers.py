@@ -129,7 +129,8 @@ def read_eth_ucy(
         path: Text file.
         fps: Frame numbers per second (t = frame/fps).
         radius: Radius of every agent [m]; default :data:`DEFAULT_RADIUS` with a warning.
-        dt, max_gap: Grid step and longest bridged gap [s], see :func:`scene_from_tracks`.
+        dt: Grid step [s], see :func:`scene_from_tracks`.
+        max_gap: Longest bridged gap [s], see :func:`scene_from_tracks`.
         max_speed: Implausible-speed limit [m/s] (``inf`` disables the check).
 
     Returns:
@@ -246,7 +247,8 @@ def read_table(
             role column exists, else none (pedestrian data: score with ``ego``).
         radius: Radius of every agent [m] when there is no radius column; default
             :data:`DEFAULT_RADIUS` with a warning.
-        dt, max_gap: Grid step and longest bridged gap [s] (see :func:`scene_from_tracks`).
+        dt: Grid step [s] (see :func:`scene_from_tracks`).
+        max_gap: Longest bridged gap [s] (see :func:`scene_from_tracks`).
         max_speed: Implausible-speed limit [m/s].
         length_unit: ``m``, ``cm`` or ``mm`` (positions, velocities, radii and goals are converted).
         time_unit: ``s``, ``ms``, ``us`` or ``ns``.

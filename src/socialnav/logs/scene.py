@@ -208,7 +208,8 @@ def scene_from_tracks(
     """Put the samples of one scene on a grid (see the module docstring).
 
     Args:
-        name, source: For messages.
+        name: The scene's name, for messages.
+        source: The file it came from, for messages.
         t: Sample times [s], (n,); agent: agent ids (n,); xy: positions (n, 2); rows: file rows (n,).
         velocity: (n, 2) or None.
         dt: Grid step [s]; default the median step between consecutive samples of one agent, rounded

@@ -135,7 +135,8 @@ def load_trajectories(
         max_gap: Longest gap in a track bridged when resampling [s] (default twice the median step).
         fps: ETH/UCY frame numbers per second.
         max_speed: Reject faster steps as implausible [m/s].
-        length_unit, time_unit: Units of tables (``m``/``cm``/``mm``, ``s``/``ms``/``us``/``ns``).
+        length_unit: Length unit of tables (``m``, ``cm`` or ``mm``).
+        time_unit: Time unit of tables (``s``, ``ms``, ``us`` or ``ns``).
 
     Raises:
         TrajectoryFormatError: The file is unreadable or breaks its format (file, column, row named).

@@ -81,6 +81,8 @@ def register_policy(name: str, *, description: str, learned: bool = False,
 
 
 def list_policies() -> list[PolicyEntry]:
+    """Every registered policy (built-in, learned and from the ``socialnav.policies`` entry-point group),
+    sorted by name."""
     _load_builtin()
     _load_plugins()
     return [_REGISTRY[k] for k in sorted(_REGISTRY)]

@@ -41,8 +41,8 @@ def _type_hints(cls: type) -> dict[str, Any]:
     return typing.get_type_hints(cls)
 
 
-#: First seed of each split (CrowdNav's scheme: val 0 + i, test 1000 + i, train from 2000 on).
 SPLIT_BASES: dict[str, int] = {"val": 0, "test": 1000, "train": 2000}
+"""First seed of each split (CrowdNav's scheme: val 0 + i, test 1000 + i, train from 2000 on)."""
 #: Largest number of val / test episodes per scenario that keeps the splits' seeds disjoint.
 SPLIT_SIZE = 1000
 

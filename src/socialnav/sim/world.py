@@ -211,7 +211,9 @@ class World:
         settings: Simulator semantics.
         scenario: Where episodes come from.
         batch_size: Number of slots B.
-        split, start, count: The episode stream (see :class:`EpisodeStream`).
+        split: "train", "val" or "test": the episode stream's split (see :class:`EpisodeStream`).
+        start: First episode index of the stream.
+        count: Number of episodes, or None for an endless stream (training).
         record: Keep per-episode histories and emit trajectories when episodes finish.
         tags: Extra settings stored in every trajectory (policy name, information setting, …).
         static_map: One static map for every episode of this world (e.g. a built-in scenario among

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from socialnav import __version__
 from socialnav.evaluate.blas import one_blas_thread
 from socialnav.evaluate.files import (
     DirectoryLock,
@@ -101,6 +102,7 @@ def run_sweep(
         atomic_write_json(
             out / "sweep.json",
             {
+                "socialnav_version": __version__,
                 "source": spec.source,
                 "executor": executor.describe(),
                 "threads": spec.threads,

@@ -6,10 +6,11 @@ A checkpoint is a plain dict (tensors, numbers, strings, lists, dicts only, so t
     {"format": "socialnav.learned/1", "policy": "sarl", "input_dim": 13,
      "model_kwargs": {...constructor arguments...}, "state_dict": {...},
      "config": {...resolved settings...}, "extra": {...epoch, metrics...}, "torch_version": "2.x",
-     "predictor": None or {"model_kwargs": {...}, "state_dict": {...}}}
+     "socialnav_version": "0.2.0", "predictor": None or {"model_kwargs": {...}, "state_dict": {...}}}
 
 ``predictor`` holds the learned state predictor (RGL's), saved with every network trained with the
-``learned`` information setting (and always with ``mp_rgl``).
+``learned`` information setting (and always with ``mp_rgl``). ``socialnav_version`` is the release
+that wrote the file (absent from checkpoints written before 0.2.0).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from typing import Any
 import torch
 from torch import nn
 
+from socialnav import __version__
 from socialnav.policies.learned.registry import LEARNED_POLICIES, build, canonical_name
 
 __all__ = [
@@ -54,6 +56,12 @@ class Checkpoint:
     config: dict[str, Any]
     extra: dict[str, Any]
     predictor: nn.Module | None = None  # the learned state predictor, when the run trained one
+    socialnav_version: str | None = None  # the release that wrote it; None before 0.2.0 recorded it
+
+
+def _recorded_version(payload: dict) -> str | None:
+    version = payload.get("socialnav_version")
+    return version if isinstance(version, str) else None
 
 
 def _plain(x: Any, where: str) -> Any:
@@ -113,6 +121,7 @@ def save_checkpoint(
         "config": _plain(config or {}, "config"),
         "extra": _plain(extra or {}, "extra"),
         "torch_version": str(torch.__version__),
+        "socialnav_version": __version__,
         "predictor": None
         if predictor is None
         else {
@@ -259,4 +268,5 @@ def load_checkpoint(
         config=payload["config"],
         extra=payload["extra"],
         predictor=predictor,
+        socialnav_version=_recorded_version(payload),
     )
