@@ -217,7 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from socialnav.evaluate.report import table2, table3, table_notes
+    from socialnav.evaluate.report import mismatch_caveats, table2, table3, table_notes, with_caveats
     from socialnav.evaluate.runner import run_protocol
     from socialnav.policies.loading import build_policy
     from socialnav.presets import load_preset
@@ -269,9 +269,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"preset": preset.name, "out": str(out), "rows": json_safe(result.summary)}))
     elif not args.quiet:
+        caveats = mismatch_caveats(policy.describe())
         for table in (table2(result.summary, "md", table_notes(preset)), table3(result.summary, "md")):
             if table:  # a run without multi- or single-human scenarios has no such table
-                print(table)
+                print(with_caveats(table, caveats))
         print(
             f"{result.computed_episodes} episodes simulated, results in {out}/ "
             f"(summary.json, summary.csv, table2/3 .md and .tex, episodes/*.parquet"

@@ -170,12 +170,18 @@ def test_checkpoint_under_mismatching_preset_is_refused_naming_both_values(tmp_p
     assert "dt 0.25 in the checkpoint, 0.1 in preset 'fast'" in err and "--allow-preset-mismatch" in err
     assert not (tmp_path / "o").exists()
     assert main([*argv, "--allow-preset-mismatch"]) == 0
-    err = capsys.readouterr().err
-    assert "warning: preset mismatch allowed: dt 0.25 in the checkpoint, 0.1 in preset 'fast'" in err
+    captured = capsys.readouterr()
+    assert "warning: preset mismatch allowed: dt 0.25 in the checkpoint, 0.1 in preset 'fast'" in captured.err
     manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
     assert manifest["policy"]["preset_mismatch_allowed"] == [
         "dt 0.25 in the checkpoint, 0.1 in preset 'fast'"
     ]
+    # stated above every table: on stdout, in the written tables and in summary.json
+    caveat = "preset mismatch allowed (--allow-preset-mismatch): dt 0.25 in the checkpoint, 0.1 in preset 'fast'"
+    assert captured.out.startswith(f"> **Caveat:** {caveat}\n")
+    assert (tmp_path / "o" / "table2.md").read_text().startswith(f"> **Caveat:** {caveat}\n")
+    assert (tmp_path / "o" / "table2.tex").read_text().startswith(f"% caveat: {caveat}\n")
+    assert json.loads((tmp_path / "o" / "summary.json").read_text())["caveats"] == [caveat]
 
 
 def test_a_checkpoint_trained_without_walls_is_refused_among_walls_naming_both(tmp_path, capsys):

@@ -32,14 +32,36 @@ SIDE_SCENARIOS = ("passing", "overtaking", "crossing")
 
 
 def write_reports(
-    out: Path, summary: list[dict[str, Any]], rows: list[dict[str, Any]], preset: Preset
+    out: Path, summary: list[dict[str, Any]], rows: list[dict[str, Any]], preset: Preset,
+    caveats: Sequence[str] = (),
 ) -> None:
-    """Writes summary.json/csv and the Table II/III layouts into ``out`` (all atomic)."""
-    for name, text in render_reports(summary, preset).items():
+    """Writes summary.json/csv and the Table II/III layouts into ``out`` (all atomic); ``caveats``
+    (:func:`mismatch_caveats`) are stated above every table."""
+    for name, text in render_reports(summary, preset, caveats).items():
         atomic_write_text(out / name, text)
 
 
-def render_reports(summary: list[dict[str, Any]], preset: Preset) -> dict[str, str]:
+def mismatch_caveats(description: dict[str, Any]) -> list[str]:
+    """What a policy evaluated with ``--allow-preset-mismatch`` differs in, as lines for the tables.
+
+    Args:
+        description: The policy's ``describe()`` (its ``preset_mismatch_allowed`` entry, if any).
+    """
+    return [f"preset mismatch allowed (--allow-preset-mismatch): {d}"
+            for d in description.get("preset_mismatch_allowed") or ()]
+
+
+def with_caveats(table: str, caveats: Sequence[str], fmt: str = "md") -> str:
+    """``table`` with each caveat on a line above it (a Markdown quote or a LaTeX comment)."""
+    if not table or not caveats:
+        return table
+    head = "".join(f"> **Caveat:** {c}\n" if fmt == "md" else f"% caveat: {c}\n" for c in caveats)
+    return head + "\n" + table
+
+
+def render_reports(
+    summary: list[dict[str, Any]], preset: Preset, caveats: Sequence[str] = ()
+) -> dict[str, str]:
     """The text of every result file :func:`write_reports` writes, by file name (a sweep's worker
     renders them and the driver, which alone writes results, stores them)."""
     metrics = [
@@ -56,6 +78,8 @@ def render_reports(summary: list[dict[str, Any]], preset: Preset) -> dict[str, s
     ]
     notes = table_notes(preset)
     document = {"preset": preset.name, "rows": summary, "metrics": metrics, "notes": notes}
+    if caveats:
+        document["caveats"] = list(caveats)
     files = {
         "summary.json": json_text(document),
         "summary.csv": to_csv(summary),
@@ -65,7 +89,7 @@ def render_reports(summary: list[dict[str, Any]], preset: Preset) -> dict[str, s
         ("table3", table3, "no single-human scenario (passing, overtaking, crossing) was evaluated"),
     ):
         for fmt, comment in (("md", "<!-- {} -->\n"), ("tex", "% {}\n")):
-            files[f"{name}.{fmt}"] = make(summary, fmt) or comment.format(missing)
+            files[f"{name}.{fmt}"] = with_caveats(make(summary, fmt), caveats, fmt) or comment.format(missing)
     return files
 
 

@@ -50,7 +50,7 @@ from socialnav.evaluate.files import (
 )
 from socialnav.evaluate.mainguard import main_module_reruns_call
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, plan_cells
-from socialnav.evaluate.report import render_reports, write_reports
+from socialnav.evaluate.report import mismatch_caveats, render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
 from socialnav.metrics import score_episode, side_case_of_row
 from socialnav.policies.base import RECORDED_ONLY, Policy, PolicyError
@@ -269,7 +269,7 @@ def run_protocol(
         )
         rows = read_episode_rows(out, cells, chunk, label, stamp, verified)
         summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
-        write_reports(out, summary, rows, preset)
+        write_reports(out, summary, rows, preset, mismatch_caveats(policy.describe()))
     return ProtocolResult(out, rows, summary, computed)
 
 
