@@ -97,8 +97,9 @@ def results_block() -> str:
     lines += [
         "",
         "Mean ± std over training seeds (each seed's pooled result over the four multi-human scenarios, "
-        "2,000 test episodes, invisible robot); paper: its Table II (it has no SARL, MP-RGL or policy-gradient "
-        "row; CrowdNav++ is the attention-graph policy trained here with PPO, docs/ppo.md). M_IV, the jerk, "
+        "2,000 test episodes, invisible robot); paper: its Table II (it has no SARL, MP-RGL or "
+        "policy-gradient row; CrowdNav++ is the attention-graph policy trained here with PPO, docs/ppo.md). "
+        "M_IV, the jerk, "
         "is the spec's forward difference; with central differences the value-based baselines land in the "
         "paper's band (docs/reproduction_jerk.md).",
     ]

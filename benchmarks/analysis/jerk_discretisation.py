@@ -63,7 +63,7 @@ def summarise(results_dir: Path) -> dict[str, float]:
             if traj.outcome != "success" or traj.n_steps < 3:
                 continue
             motion = episode_motion(traj)
-            row = {"mean_abs_dv": motion["mean_abs_dv"], "share_turns_over_10deg": motion["share_turns_over_10deg"]}
+            row = {key: motion[key] for key in ("mean_abs_dv", "share_turns_over_10deg")}
             for d, q in VARIANTS:
                 row[variant_name(d, q)] = squared_jerk(traj, difference=d, dt_power=q)["mean_sq"]
             rows.append(row)
@@ -79,7 +79,8 @@ def summarise(results_dir: Path) -> dict[str, float]:
 
 def markdown(results: dict[str, dict[str, float]]) -> str:
     names = [variant_name(d, q) for d, q in VARIANTS]
-    head = "| policy | episodes | " + " | ".join(names) + " | mean \\|Δv\\| (m/s) | turns > 10° | paper M_IV |"
+    head = ("| policy | episodes | " + " | ".join(names)
+            + " | mean \\|Δv\\| (m/s) | turns > 10° | paper M_IV |")
     lines = [head, "|" + "---|" * (len(names) + 5)]
     for label, r in results.items():
         paper = PAPER_M4.get(label)
@@ -87,7 +88,8 @@ def markdown(results: dict[str, dict[str, float]]) -> str:
         lines.append(f"| {label} | {r['episodes']} | " + " | ".join(cells)
                      + f" | {r['mean_abs_dv']:.3f} | {100 * r['share_turns_over_10deg']:.1f} % | "
                      + (f"{paper[0]} ± {paper[1]}" if paper else "—") + " |")
-    lines.append(f"\n✓: inside the paper's band of learned baselines, {PAPER_BAND[0]}–{PAPER_BAND[1]} (m/s³)².")
+    lines.append(f"\n✓: inside the paper's band of learned baselines, "
+                 f"{PAPER_BAND[0]}–{PAPER_BAND[1]} (m/s³)².")
     return "\n".join(lines)
 
 

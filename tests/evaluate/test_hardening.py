@@ -177,7 +177,8 @@ def test_checkpoint_under_mismatching_preset_is_refused_naming_both_values(tmp_p
         "dt 0.25 in the checkpoint, 0.1 in preset 'fast'"
     ]
     # stated above every table: on stdout, in the written tables and in summary.json
-    caveat = "preset mismatch allowed (--allow-preset-mismatch): dt 0.25 in the checkpoint, 0.1 in preset 'fast'"
+    caveat = ("preset mismatch allowed (--allow-preset-mismatch): "
+              "dt 0.25 in the checkpoint, 0.1 in preset 'fast'")
     assert captured.out.startswith(f"> **Caveat:** {caveat}\n")
     assert (tmp_path / "o" / "table2.md").read_text().startswith(f"> **Caveat:** {caveat}\n")
     assert (tmp_path / "o" / "table2.tex").read_text().startswith(f"% caveat: {caveat}\n")
