@@ -31,7 +31,6 @@ from typing import Any
 import numpy as np
 import torch
 
-from socialnav.config import ConfigError
 from socialnav.evaluate.files import (
     DirectoryLock,
     atomic_write_json,
@@ -39,6 +38,7 @@ from socialnav.evaluate.files import (
     make_output_dir,
     remove_orphan_temporaries,
 )
+from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
 from socialnav.train.common import (
     AdamSteps,
@@ -190,9 +190,9 @@ def _train(
     t_call = time.perf_counter()
     say = log or (lambda s: print(s, file=sys.stderr, flush=True))
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset
-    from socialnav.policies.learned_entries import PPO_POLICIES
+    from socialnav.policies.learned_catalog import learned_policy_names
 
-    if policy_name in PPO_POLICIES:
+    if policy_name in learned_policy_names("ppo"):
         raise ValueError(f"{policy_name} is trained with PPO: socialnav.train.ppo.train_ppo (docs/ppo.md)")
     if canonical_name(policy_name) not in LEARNED_POLICIES:
         raise KeyError(
