@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.files import atomic_write_json, file_sha256
+from socialnav._io import atomic_write_json, file_sha256
 from socialnav.evaluate.report import write_reports
 from socialnav.presets import Preset
 

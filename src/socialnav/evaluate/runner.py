@@ -37,8 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.evaluate.blas import one_blas_thread
-from socialnav.evaluate.files import (
+from socialnav._io import (
     DirectoryLock,
     atomic_write_json,
     atomic_write_rows_parquet,
@@ -47,7 +46,7 @@ from socialnav.evaluate.files import (
     read_parquet_verified,
     remove_orphan_temporaries,
 )
-from socialnav.evaluate.mainguard import main_module_reruns_call
+from socialnav._runtime import forkserver_pool, main_module_reruns_call, one_blas_thread, worker_init
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, plan_cells
 from socialnav.evaluate.report import render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
@@ -244,7 +243,7 @@ def run_protocol(
     stamp = manifest_stamp(manifest)
     make_output_dir(out)
     # Worker processes are the parallelism; the bootstrap's small products need one BLAS thread
-    # (evaluate/blas.py), and spinning BLAS threads would take CPU from the workers.
+    # (socialnav/_runtime.py), and spinning BLAS threads would take CPU from the workers.
     with DirectoryLock(out, "evaluation"), one_blas_thread():
         remove_orphan_temporaries(out)
         check_or_write_manifest(out, manifest)
@@ -342,14 +341,14 @@ def _simulate_and_score(
     computed = 0
     workers = min(os.cpu_count() or 1, 4) if workers is None else workers
     if workers > 0 and main_module_reruns_call():
-        workers = 0  # workers would re-run the calling script's top level (see evaluate/mainguard.py)
+        workers = 0  # workers would re-run the calling script's top level (see socialnav/_runtime.py)
     payload = None
     if workers > 0 and len(todo) > 1 and simulate_in_workers is not False:
         payload = _policy_payload(policy, required=bool(simulate_in_workers))
     if payload is not None:
         pool = _simulation_pool(workers, payload, preset)
     else:
-        pool = _scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
+        pool = scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
     pending: deque = deque()
 
     def finish_oldest() -> None:
@@ -595,20 +594,14 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _scoring_pool(workers: int):
-    # forkserver: workers start from a clean process, so native threads or torch in this one are safe.
-    # The forkserver and the workers die with this process, even on SIGKILL (evaluate/lifeline.py).
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+def scoring_pool(workers: int) -> Any:
+    """A pool of ``workers`` processes for :func:`store_and_score` and other picklable work (the
+    runner's and a sweep's local executor's).
 
-    from socialnav.evaluate import lifeline
-
-    lifeline.start_forkserver()
-    return ProcessPoolExecutor(
-        max_workers=workers,
-        mp_context=multiprocessing.get_context("forkserver"),
-        initializer=lifeline.worker_init,
-    )
+    forkserver: workers start from a clean process, so native threads or torch in this one are safe.
+    The forkserver and the workers die with this process, even on SIGKILL (socialnav/_runtime.py).
+    """
+    return forkserver_pool(workers)
 
 
 def _policy_payload(policy: Policy, required: bool) -> bytes | None:
@@ -628,22 +621,11 @@ def _policy_payload(policy: Policy, required: bool) -> bytes | None:
 
 
 def _simulation_pool(workers: int, payload: bytes, preset: Preset):
-    # Same lifetime guarantees as the scoring pool (evaluate/lifeline.py); each worker holds the
+    # Same lifetime guarantees as the scoring pool (socialnav/_runtime.py); each worker holds the
     # policy, unpickled once.
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    from socialnav.evaluate import lifeline
-
-    lifeline.start_forkserver()
     # One native thread per world in a worker: the workers already use every core.
     worker_preset = dataclasses.replace(preset, world=dataclasses.replace(preset.world, threads=1))
-    return ProcessPoolExecutor(
-        max_workers=workers,
-        mp_context=multiprocessing.get_context("forkserver"),
-        initializer=_init_simulation_worker,
-        initargs=(payload, worker_preset),
-    )
+    return forkserver_pool(workers, _init_simulation_worker, (payload, worker_preset))
 
 
 _WORKER: dict[str, Any] = {}
@@ -652,9 +634,7 @@ _WORKER: dict[str, Any] = {}
 def _init_simulation_worker(payload: bytes, preset: Preset) -> None:
     import pickle
 
-    from socialnav.evaluate import lifeline
-
-    lifeline.worker_init()
+    worker_init()
     try:
         import torch
 

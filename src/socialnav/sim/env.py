@@ -37,11 +37,11 @@ from socialnav.config import from_dict
 from socialnav.scenarios import make_scenario
 from socialnav.scenarios.base import SPLIT_SIZE
 from socialnav.sim.actions import discrete_actions
+from socialnav.sim.env_render import available_render_modes
 from socialnav.sim.observation import Observation
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import EpisodeStream, StepResult, World
 from socialnav.static_map import StaticMap
-from socialnav.viz.env_render import available_render_modes
 
 #: Episodes reserved per seed in an endless split (as ``socialnav train`` does with its seed).
 SEED_STRIDE = 10_000_000
@@ -258,7 +258,7 @@ class SocialNavEnv(gym.Env):
     ):
         self._recorder = None
         if render_mode is not None:
-            from socialnav.viz.env_render import EnvRecorder, check_render_mode
+            from socialnav.sim.env_render import EnvRecorder, check_render_mode
 
             check_render_mode(render_mode)
             self._recorder = EnvRecorder()

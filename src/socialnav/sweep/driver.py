@@ -32,8 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.blas import one_blas_thread
-from socialnav.evaluate.files import (
+from socialnav._io import (
     DirectoryLock,
     atomic_write_bytes,
     atomic_write_json,
@@ -41,6 +40,7 @@ from socialnav.evaluate.files import (
     make_output_dir,
     remove_orphan_temporaries,
 )
+from socialnav._runtime import one_blas_thread
 from socialnav.sweep.executors import Task, TaskFailed
 from socialnav.sweep.spec import TRAIN_REFERENCE, Job, SweepSpec, job_record
 from socialnav.sweep.tasks import build_job_policy, conclude_job, evaluate_chunk, job_preset, train_job
@@ -109,7 +109,7 @@ def run_sweep(
         )
         statuses: dict[str, dict[str, Any]] = {}
         failures: list[dict[str, Any]] = []
-        # the workers are the parallelism: the driver's summaries get one BLAS thread (evaluate/blas.py)
+        # the workers are the parallelism: the driver's summaries get one BLAS thread (socialnav/_runtime.py)
         with open(out / "sweep_log.jsonl", "a", encoding="utf-8") as task_log, one_blas_thread():
             _run_training(spec, out, executor, statuses, failures, task_log, say)
             summary = _run_evaluations(spec, out, executor, statuses, failures, task_log, progress, say)
@@ -310,7 +310,7 @@ class _JobRefused(Exception):
 
 def _prepare(job: Job, out: Path) -> _EvalJob:
     """Builds the job's policy, writes or checks its manifest and lists the chunks still to compute."""
-    from socialnav.evaluate.files import file_sha256
+    from socialnav._io import file_sha256
     from socialnav.evaluate.plan import plan_cells
     from socialnav.evaluate.runner import (
         check_or_write_manifest,

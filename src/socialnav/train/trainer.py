@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from socialnav.evaluate.files import (
+from socialnav._io import (
     DirectoryLock,
     atomic_write_json,
     atomic_write_text,
