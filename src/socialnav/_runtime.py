@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import ast
 import contextlib
+import importlib
 import os
 import signal
 import sys
@@ -46,6 +47,7 @@ __all__ = [
     "start_forkserver",
     "forkserver_pool",
     "main_module_reruns_call",
+    "lazy_exports",
 ]
 
 _LIMITED_FOR_GOOD = False
@@ -195,3 +197,30 @@ def _is_main_test(test: ast.expr) -> bool:
     names = [s.id for s in sides if isinstance(s, ast.Name)]
     consts = [s.value for s in sides if isinstance(s, ast.Constant)]
     return names == ["__name__"] and consts == ["__main__"]
+
+
+# --------------------------------------------------------------------------- package public APIs
+def lazy_exports(
+    package: str, exports: dict[str, str]
+) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
+    """``__getattr__`` and ``__dir__`` for a package whose public names live in its submodules.
+
+    ``exports`` maps each public name to the submodule defining it. A name's submodule is imported on
+    first access, so ``import socialnav.sim`` costs no more than before and a package's API never
+    pulls in what its user does not touch (``import socialnav.metrics`` stays NumPy-only, the
+    simulator torch-free).
+    """
+    namespace = sys.modules[package].__dict__
+
+    def __getattr__(name: str) -> Any:
+        module = exports.get(name)
+        if module is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(module), name)
+        namespace[name] = value  # later look-ups skip this function
+        return value
+
+    def __dir__() -> list[str]:
+        return sorted({*namespace, *exports})
+
+    return __getattr__, __dir__
