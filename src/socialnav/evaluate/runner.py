@@ -183,8 +183,9 @@ def store_and_score(
     return score_trajectories(trajs, cell, label)
 
 
-def _reissue(notes: list[tuple[str, str]]) -> None:
-    # Warnings raised while scoring in a worker are re-raised here, where the caller can see them.
+def reissue_warnings(notes: list[tuple[str, str]]) -> None:
+    """Re-raises here, where the caller sees them, the warnings ``(category, message)`` that
+    :func:`store_and_score` collected in a worker process (categories of socialnav.metrics)."""
     import socialnav.metrics as metrics
 
     for category, message in notes:
@@ -337,7 +338,7 @@ def _simulate_and_score(
     """Simulates the chunks ``todo`` and writes one scored file per chunk; returns the episodes done."""
     chunk_meta = {CHUNK_STAMP_KEY: stamp}
     done = total - sum(b - a for _, a, b in todo)
-    bar = _progress(total, done, progress)
+    bar = episode_progress(total, done, progress)
     computed = 0
     workers = min(os.cpu_count() or 1, 4) if workers is None else workers
     if workers > 0 and main_module_reruns_call():
@@ -363,7 +364,7 @@ def _simulate_and_score(
                 "code at its top level, which every worker runs again when it imports the module: put that "
                 "code under `if __name__ == \"__main__\":`); finished chunks are kept: rerun to resume"
             ) from None
-        _reissue(notes)
+        reissue_warnings(notes)
         # A chunk lands whole or not at all, stamped with the run it belongs to.
         atomic_write_rows_parquet(chunk_path(out, cell, a, b), rows, chunk_meta)
         computed += b - a
@@ -652,7 +653,8 @@ def _simulate_store_and_score_in_worker(
     return store_and_score(trajs, cell, label, traj_path)
 
 
-def _progress(total: int, initial: int, enabled: bool):
+def episode_progress(total: int, initial: int, enabled: bool) -> Any:
+    """The progress bar of a run counting episodes, on stderr (``enabled`` False: silent)."""
     from tqdm.auto import tqdm
 
     return tqdm(

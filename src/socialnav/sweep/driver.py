@@ -165,9 +165,9 @@ def _run_evaluations(
     spec, out, executor, statuses, failures, task_log, progress, say
 ) -> list[dict[str, Any]]:
     from socialnav.evaluate.runner import (
-        _progress,
-        _reissue,
         chunk_path,
+        episode_progress,
+        reissue_warnings,
         trajectory_path,
     )
 
@@ -197,7 +197,7 @@ def _run_evaluations(
         for ev in jobs:
             if not ev.todo:  # resumed whole: only its conclusion is left
                 _queue_conclusion(ev, tasks, statuses, failures, say)
-        bar = _progress(total, 0, progress)
+        bar = episode_progress(total, 0, progress)
         bar.set_description("sweep")
         try:
             for task, result in executor.run(tasks):
@@ -220,7 +220,7 @@ def _run_evaluations(
                     )
                     say(f"{task.key}: FAILED: {result.message}")
                 else:
-                    _reissue(result["notes"])
+                    reissue_warnings(result["notes"])
                     if result["trajectories"] is not None:
                         atomic_write_bytes(trajectory_path(ev.dir, cell, a, b), result["trajectories"])
                     atomic_write_bytes(chunk_path(ev.dir, cell, a, b), result["rows_parquet"])
