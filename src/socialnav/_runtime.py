@@ -37,6 +37,7 @@ import signal
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from types import FrameType
 from typing import Any
 
 __all__ = [
@@ -171,7 +172,7 @@ def main_module_reruns_call(depth: int = 1) -> bool:
     path = getattr(main, "__file__", None)
     if main is None or not path:
         return False  # interactive, `python -c`, notebooks: workers import no __main__ file
-    frame = sys._getframe(depth)
+    frame: FrameType | None = sys._getframe(depth)
     while frame is not None and not (
         frame.f_code.co_name == "<module>" and frame.f_globals is vars(main)
     ):
@@ -184,7 +185,9 @@ def main_module_reruns_call(depth: int = 1) -> bool:
         return True  # cannot tell: assume the worst
     line = frame.f_lineno
     return not any(
-        isinstance(node, ast.If) and _is_main_test(node.test) and node.lineno <= line <= node.end_lineno
+        isinstance(node, ast.If)
+        and _is_main_test(node.test)
+        and node.lineno <= line <= (node.end_lineno or node.lineno)
         for node in tree.body
     )
 
