@@ -44,7 +44,6 @@ from socialnav._io import (
     remove_orphan_temporaries,
 )
 from socialnav.config import ConfigError
-from socialnav.policies.learned_catalog import learned_policy_names
 from socialnav.presets import Preset, load_preset
 from socialnav.train.common import better, load_optimizer_state, optimizer_state, progress_bar
 from socialnav.train.config import derive_seeds, flat_diff
@@ -155,13 +154,11 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
     from socialnav.policies.learned import build, load_checkpoint, save_checkpoint
     from socialnav.policies.learned.attn_graph import ROBOT_FEATURES, observation_tensors, squash_actions
     from socialnav.policies.learned.ppo_policy import RecurrentActorPolicy
+    from socialnav.policies.learned_catalog import learned_policy_names
     from socialnav.train.trainer import resolve_device
 
-    ppo_policies = learned_policy_names("ppo")
-    if s.policy not in ppo_policies:
-        raise ConfigError(
-            f"policy: {s.policy!r} is not trained with PPO (PPO policies: {', '.join(ppo_policies)})"
-        )
+    if s.policy not in (ppo := learned_policy_names("ppo")):
+        raise ConfigError(f"policy: {s.policy!r} is not trained with PPO (PPO policies: {', '.join(ppo)})")
     t_call = time.perf_counter()
     say = log or (lambda line: print(line, file=sys.stderr, flush=True))
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset

@@ -156,8 +156,7 @@ def _train(
     """Imitation learning from ORCA, then value-based RL; resumes from ``out_dir/last.pt`` if present.
 
     Args:
-        policy_name: a value-based learned policy (``learned_policy_names("value")`` of
-            socialnav.policies.learned_catalog: cadrl, lstm_rl / ga3c_cadrl, sarl, om_sarl, rgl, mp_rgl).
+        policy_name: a value-based learned policy: cadrl, lstm_rl (ga3c_cadrl), sarl, om_sarl, rgl, mp_rgl.
         preset: a Preset or a preset name/path (world semantics, robot, training scenario mix).
         out_dir: run directory (created; resumed when it holds last.pt).
         settings: training settings (default: TrainSettings()); ``settings.policy`` is replaced by
