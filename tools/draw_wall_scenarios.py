@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from socialnav.evaluate.files import atomic_write
+from socialnav._io import atomic_write
 from socialnav.scenarios import make_scenario
 from socialnav.scenarios.francis import FRANCIS_SCENARIOS
 from socialnav.viz.draw import ROBOT_EDGE, ROBOT_FACE, agent_colour, draw_static_map, new_figure

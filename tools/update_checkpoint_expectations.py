@@ -19,8 +19,8 @@ import sys
 import time
 from pathlib import Path
 
+from socialnav._io import atomic_write_text
 from socialnav.evaluate.expectations import EPISODES, METRICS, TOLERANCE, fingerprint
-from socialnav.evaluate.files import atomic_write_text
 from socialnav.evaluate.multi import file_sha256
 from socialnav.policies.loading import shipped_checkpoints
 

@@ -10,3 +10,14 @@ Gymnasium's import (about 0.1 s beyond NumPy's).
 __version__ = "0.2.0"
 
 from socialnav.sim import registration as _registration  # noqa: E402,F401  (registers the env ids)
+from socialnav.sim.env_render import register_viewer as _register_viewer  # noqa: E402
+
+
+def _env_viewer(size_px: tuple[int, int]):
+    # The package root wires the viz layer into the simulator's env: sim never imports viz.
+    from socialnav.viz.env_render import EnvViewer
+
+    return EnvViewer(size_px)
+
+
+_register_viewer(_env_viewer)

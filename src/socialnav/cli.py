@@ -16,7 +16,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.files import json_safe
+from socialnav._io import json_safe
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     ValueError,  # ConfigError, CheckpointError, TrajectoryFormatError, ResumeMismatchError's base too

@@ -81,7 +81,7 @@ def load_map(path: str | Path, *, scale: float | None = None) -> StaticMap:
 
 def save_map(path: str | Path, smap: StaticMap) -> None:
     """Write ``smap`` as a YAML map file (atomically) that :func:`load_map` reads back exactly."""
-    from socialnav.evaluate.files import atomic_write_text
+    from socialnav._io import atomic_write_text
 
     path = Path(path)
     if path.suffix.lower() not in (".yaml", ".yml"):

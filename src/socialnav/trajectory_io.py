@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from socialnav._io import atomic_write
 from socialnav.trajectory import OUTCOMES, ROLES, Trajectory, TrajectoryFormatError
 
 __all__ = ["REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "read_trajectories", "write_trajectories"]
@@ -250,38 +250,31 @@ def _string_array(values: np.ndarray) -> Any:
 
 
 def _atomic_write(path: Path, table: Any, suffix: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    os.close(fd)
-    try:
-        if suffix == ".parquet":
-            import pyarrow as pa
-            import pyarrow.parquet as pq
+    atomic_write(path, lambda tmp: _write_table(table, tmp, suffix))
 
-            # Episodes are contiguous: small row groups let a reader of some episodes skip the rest.
-            # zstd on byte-split floats: about 25 % smaller than the default snappy, and as fast;
-            # values stay float64 so that a stored episode compares bit for bit with its replay.
-            floats = [f.name for f in table.schema if pa.types.is_floating(f.type)]
-            pq.write_table(
-                table,
-                tmp,
-                row_group_size=_ROW_GROUP,
-                compression="zstd",
-                use_byte_stream_split=floats,
-                use_dictionary=[c for c in table.column_names if c not in floats],
-                write_page_checksum=True,
-            )
-        else:
-            import pyarrow.csv as pcsv
 
-            pcsv.write_csv(table, tmp)
-        from socialnav.evaluate.files import default_file_mode
+def _write_table(table: Any, tmp: str, suffix: str) -> None:
+    if suffix == ".parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
 
-        os.chmod(tmp, default_file_mode())  # as open() would, not mkstemp's 0600
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        # Episodes are contiguous: small row groups let a reader of some episodes skip the rest.
+        # zstd on byte-split floats: about 25 % smaller than the default snappy, and as fast;
+        # values stay float64 so that a stored episode compares bit for bit with its replay.
+        floats = [f.name for f in table.schema if pa.types.is_floating(f.type)]
+        pq.write_table(
+            table,
+            tmp,
+            row_group_size=_ROW_GROUP,
+            compression="zstd",
+            use_byte_stream_split=floats,
+            use_dictionary=[c for c in table.column_names if c not in floats],
+            write_page_checksum=True,
+        )
+    else:
+        import pyarrow.csv as pcsv
+
+        pcsv.write_csv(table, tmp)
 
 
 # ---------------------------------------------------------------------------------------- reading
@@ -302,7 +295,7 @@ class _Table:
         meta: dict[str, Any] = {}
         if suffix == ".parquet":
 
-            from socialnav.evaluate.files import CorruptFileError, read_parquet_verified
+            from socialnav._io import CorruptFileError, read_parquet_verified
 
             try:  # page checksums verified, where the writer stored them
                 if rows is not None:  # a block of rows (parallel scoring of a file with contiguous episodes)

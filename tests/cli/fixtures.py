@@ -367,7 +367,7 @@ def build_inputs(base: Path):
     import numpy as np
     import torch
 
-    from socialnav.evaluate.files import DirectoryLock
+    from socialnav._io import DirectoryLock
     from socialnav.evaluate.runner import run_protocol
     from socialnav.policies import make_policy
     from socialnav.presets import load_preset

@@ -11,15 +11,15 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from socialnav.cli import main
-from socialnav.config import ConfigError
-from socialnav.evaluate.files import (
+from socialnav._io import (
     CorruptFileError,
     DirectoryLock,
     DirectoryLockedError,
     atomic_write_rows_parquet,
     read_parquet_verified,
 )
+from socialnav.cli import main
+from socialnav.config import ConfigError
 from socialnav.evaluate.runner import ResumeMismatchError, describe_differences, run_protocol
 from socialnav.policies import make_policy
 from socialnav.presets import load_preset

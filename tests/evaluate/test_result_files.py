@@ -7,7 +7,7 @@ import stat
 
 import pytest
 
-from socialnav.evaluate.files import atomic_write_json, atomic_write_text, json_safe
+from socialnav._io import atomic_write_json, atomic_write_text, json_safe
 from socialnav.evaluate.runner import run_protocol
 from socialnav.policies import make_policy
 from socialnav.presets import load_preset

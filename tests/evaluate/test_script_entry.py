@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from tests._env import subprocess_env
 
-from socialnav.evaluate.mainguard import main_module_reruns_call
+from socialnav._runtime import main_module_reruns_call
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -48,8 +48,8 @@ def test_guarded_script_still_scores_in_worker_processes(tmp_path):
         from socialnav.presets import load_preset
 
         pools = []
-        original = runner._scoring_pool
-        runner._scoring_pool = lambda n: pools.append(n) or original(n)
+        original = runner.scoring_pool
+        runner.scoring_pool = lambda n: pools.append(n) or original(n)
 
         if __name__ == "__main__":
             preset = load_preset("crowdnav")
@@ -68,7 +68,7 @@ def test_guarded_script_still_scores_in_worker_processes(tmp_path):
 def _classify(tmp_path: Path, body: str) -> str:
     code = textwrap.dedent(
         """
-        from socialnav.evaluate.mainguard import main_module_reruns_call
+        from socialnav._runtime import main_module_reruns_call
 
         def ask():
             return main_module_reruns_call()
@@ -95,7 +95,7 @@ def test_main_guard_detection(tmp_path, body, expected):
 
 def test_no_main_file_means_no_rerun():
     # Under pytest __main__ is pytest's entry; from python -c there is no file at all.
-    code = "from socialnav.evaluate.mainguard import main_module_reruns_call as f; print(f())"
+    code = "from socialnav._runtime import main_module_reruns_call as f; print(f())"
     env = subprocess_env()
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert out.stdout.strip() == "False", out.stderr

@@ -82,7 +82,7 @@ def add_reproduce_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    from socialnav.evaluate.files import json_safe
+    from socialnav._io import json_safe
     from socialnav.evaluate.reproduce import HUMAN_MODELS, PRESET, run_reproduction
 
     if args.episodes is not None and args.episodes < 1:
@@ -118,7 +118,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 def cmd_evaluate_all(args: argparse.Namespace) -> int:
     """`socialnav evaluate --policy all`: shipped checkpoints for the preset + native policies."""
-    from socialnav.evaluate.files import json_safe
+    from socialnav._io import json_safe
     from socialnav.evaluate.multi import default_specs, run_policies
     from socialnav.evaluate.report import table2, table3
     from socialnav.presets import load_preset

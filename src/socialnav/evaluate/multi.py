@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.files import atomic_write_json, file_sha256
+from socialnav._io import atomic_write_json, file_sha256
 from socialnav.evaluate.report import write_reports
 from socialnav.presets import Preset
 
@@ -54,7 +54,7 @@ class MultiResult:
 def default_specs(preset_name: str, learned: bool = True) -> list[PolicySpec]:
     """Every shipped checkpoint for ``preset_name`` (index order) and the native policies."""
     from socialnav.policies.base import list_policies
-    from socialnav.policies.loading import DEFAULT_LABELS, describe_checkpoint, shipped_checkpoints
+    from socialnav.policies.loading import default_label, describe_checkpoint, shipped_checkpoints
 
     specs = []
     if learned:
@@ -64,7 +64,7 @@ def default_specs(preset_name: str, learned: bool = True) -> list[PolicySpec]:
         ]
     natives = {"linear": "Linear", "orca": "ORCA", "social_force": "Social force"}
     specs += [
-        PolicySpec(p.name, p.name, natives.get(p.name, DEFAULT_LABELS.get(p.name, p.name)))
+        PolicySpec(p.name, p.name, natives.get(p.name, default_label(p.name)))
         for p in list_policies()
         if not p.learned
     ]

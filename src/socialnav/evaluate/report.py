@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.files import atomic_write_text, json_text
+from socialnav._io import atomic_write_text, json_text
 from socialnav.metrics import get_metric, list_metrics, walking_speed_note
 from socialnav.presets import Preset
 

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from socialnav import __version__
-from socialnav.evaluate.files import atomic_write_json, atomic_write_text, json_safe
+from socialnav._io import atomic_write_json, atomic_write_text, json_safe
 from socialnav.evaluate.multi import MultiResult, PolicySpec, default_specs, run_policies
 from socialnav.evaluate.paper_tables import (
     BASIC,

@@ -38,8 +38,7 @@ from typing import Any
 import numpy as np
 
 from socialnav import __version__
-from socialnav.evaluate.blas import one_blas_thread
-from socialnav.evaluate.files import (
+from socialnav._io import (
     DirectoryLock,
     atomic_write_json,
     atomic_write_rows_parquet,
@@ -48,7 +47,7 @@ from socialnav.evaluate.files import (
     read_parquet_verified,
     remove_orphan_temporaries,
 )
-from socialnav.evaluate.mainguard import main_module_reruns_call
+from socialnav._runtime import forkserver_pool, main_module_reruns_call, one_blas_thread, worker_init
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings, plan_cells
 from socialnav.evaluate.report import mismatch_caveats, render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
@@ -185,8 +184,9 @@ def store_and_score(
     return score_trajectories(trajs, cell, label)
 
 
-def _reissue(notes: list[tuple[str, str]]) -> None:
-    # Warnings raised while scoring in a worker are re-raised here, where the caller can see them.
+def reissue_warnings(notes: list[tuple[str, str]]) -> None:
+    """Re-raises here, where the caller sees them, the warnings ``(category, message)`` that
+    :func:`store_and_score` collected in a worker process (categories of socialnav.metrics)."""
     import socialnav.metrics as metrics
 
     for category, message in notes:
@@ -247,7 +247,7 @@ def run_protocol(
     stamp = manifest_stamp(manifest)
     make_output_dir(out)
     # Worker processes are the parallelism; the bootstrap's small products need one BLAS thread
-    # (evaluate/blas.py), and spinning BLAS threads would take CPU from the workers.
+    # (socialnav/_runtime.py), and spinning BLAS threads would take CPU from the workers.
     with DirectoryLock(out, "evaluation"), one_blas_thread():
         remove_orphan_temporaries(out)
         check_or_write_manifest(out, manifest)
@@ -343,18 +343,18 @@ def _simulate_and_score(
     """Simulates the chunks ``todo`` and writes one scored file per chunk; returns the episodes done."""
     chunk_meta = {CHUNK_STAMP_KEY: stamp}
     done = total - sum(b - a for _, a, b in todo)
-    bar = _progress(total, done, progress)
+    bar = episode_progress(total, done, progress)
     computed = 0
     workers = min(os.cpu_count() or 1, 4) if workers is None else workers
     if workers > 0 and main_module_reruns_call():
-        workers = 0  # workers would re-run the calling script's top level (see evaluate/mainguard.py)
+        workers = 0  # workers would re-run the calling script's top level (see socialnav/_runtime.py)
     payload = None
     if workers > 0 and len(todo) > 1 and simulate_in_workers is not False:
         payload = _policy_payload(policy, required=bool(simulate_in_workers))
     if payload is not None:
         pool = _simulation_pool(workers, payload, preset)
     else:
-        pool = _scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
+        pool = scoring_pool(workers) if workers > 0 and len(todo) > 1 else None
     pending: deque = deque()
 
     def finish_oldest() -> None:
@@ -369,7 +369,7 @@ def _simulate_and_score(
                 "code at its top level, which every worker runs again when it imports the module: put that "
                 "code under `if __name__ == \"__main__\":`); finished chunks are kept: rerun to resume"
             ) from None
-        _reissue(notes)
+        reissue_warnings(notes)
         # A chunk lands whole or not at all, stamped with the run it belongs to.
         atomic_write_rows_parquet(chunk_path(out, cell, a, b), rows, chunk_meta)
         computed += b - a
@@ -602,20 +602,14 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _scoring_pool(workers: int):
-    # forkserver: workers start from a clean process, so native threads or torch in this one are safe.
-    # The forkserver and the workers die with this process, even on SIGKILL (evaluate/lifeline.py).
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+def scoring_pool(workers: int) -> Any:
+    """A pool of ``workers`` processes for :func:`store_and_score` and other picklable work (the
+    runner's and a sweep's local executor's).
 
-    from socialnav.evaluate import lifeline
-
-    lifeline.start_forkserver()
-    return ProcessPoolExecutor(
-        max_workers=workers,
-        mp_context=multiprocessing.get_context("forkserver"),
-        initializer=lifeline.worker_init,
-    )
+    forkserver: workers start from a clean process, so native threads or torch in this one are safe.
+    The forkserver and the workers die with this process, even on SIGKILL (socialnav/_runtime.py).
+    """
+    return forkserver_pool(workers)
 
 
 def _policy_payload(policy: Policy, required: bool) -> bytes | None:
@@ -635,22 +629,11 @@ def _policy_payload(policy: Policy, required: bool) -> bytes | None:
 
 
 def _simulation_pool(workers: int, payload: bytes, preset: Preset):
-    # Same lifetime guarantees as the scoring pool (evaluate/lifeline.py); each worker holds the
+    # Same lifetime guarantees as the scoring pool (socialnav/_runtime.py); each worker holds the
     # policy, unpickled once.
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    from socialnav.evaluate import lifeline
-
-    lifeline.start_forkserver()
     # One native thread per world in a worker: the workers already use every core.
     worker_preset = dataclasses.replace(preset, world=dataclasses.replace(preset.world, threads=1))
-    return ProcessPoolExecutor(
-        max_workers=workers,
-        mp_context=multiprocessing.get_context("forkserver"),
-        initializer=_init_simulation_worker,
-        initargs=(payload, worker_preset),
-    )
+    return forkserver_pool(workers, _init_simulation_worker, (payload, worker_preset))
 
 
 _WORKER: dict[str, Any] = {}
@@ -659,9 +642,7 @@ _WORKER: dict[str, Any] = {}
 def _init_simulation_worker(payload: bytes, preset: Preset) -> None:
     import pickle
 
-    from socialnav.evaluate import lifeline
-
-    lifeline.worker_init()
+    worker_init()
     try:
         import torch
 
@@ -679,7 +660,8 @@ def _simulate_store_and_score_in_worker(
     return store_and_score(trajs, cell, label, traj_path)
 
 
-def _progress(total: int, initial: int, enabled: bool):
+def episode_progress(total: int, initial: int, enabled: bool) -> Any:
+    """The progress bar of a run counting episodes, on stderr (``enabled`` False: silent)."""
     from tqdm.auto import tqdm
 
     return tqdm(

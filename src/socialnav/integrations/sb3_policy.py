@@ -254,7 +254,7 @@ def _infer_record(path: Path, model: Any, preset: Any) -> dict[str, Any]:
 
 def _check(path: Path, model: Any, record: dict[str, Any], preset: Any, asked: dict[str, Any]) -> list[str]:
     """Refuses hard mismatches (both sides named); returns the allowable ones (dt)."""
-    from socialnav.sim.env import _spaces
+    from socialnav.sim.env import observation_and_action_spaces
 
     world = preset.world
     where = f"preset {preset.name!r}"
@@ -269,7 +269,8 @@ def _check(path: Path, model: Any, record: dict[str, Any], preset: Any, asked: d
         raise SB3ModelError(
             f"{path}: kinematics {record['kinematics']!r} in the model file, {world.kinematics!r} in {where}"
         )
-    _, expected_actions = _spaces(1, world, float(preset.robot.v_pref), record["action_set"])
+    v_pref = float(preset.robot.v_pref)
+    _, expected_actions = observation_and_action_spaces(1, world, v_pref, record["action_set"])
     if not _same_space(model.action_space, expected_actions):
         raise SB3ModelError(
             f"{path}: action space {_show(model.action_space)} of the model, {_show(expected_actions)} for "

@@ -13,7 +13,7 @@ import math
 import sys
 from typing import Any
 
-from socialnav.evaluate.files import json_safe
+from socialnav._io import json_safe
 from socialnav.logs.readers import ETH_UCY_FPS, FIELDS, MAX_SPEED
 from socialnav.logs.scoring import FORMATS
 
@@ -137,7 +137,7 @@ def _with_map(trajs: list[Any], path: str, scale: float | None) -> list[Any]:
 
 
 def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
-    from socialnav.metrics.aggregate import _population
+    from socialnav.metrics.aggregate import metric_population
 
     rows = scores.rows
     ids = ("source", "scene", "episode", "ego", "mode", "outcome")
@@ -160,5 +160,5 @@ def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
             mean, std = group.get(f"{k}.mean"), group.get(f"{k}.std")
             if mean is None:
                 continue
-            population = words.get(_population(k, require_success), "")
+            population = words.get(metric_population(k, require_success), "")
             print(f"  {k:60s} {mean:.4g} ± {std:.3g} (n={group.get(f'{k}.n')} of {population})")

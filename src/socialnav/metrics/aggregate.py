@@ -10,7 +10,7 @@ from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["DEFAULT_SEED", "column_stats", "summarize", "summarize_rows"]
+__all__ = ["DEFAULT_SEED", "column_stats", "metric_population", "summarize", "summarize_rows"]
 
 DEFAULT_SEED = 0
 """Seed of the generator used when none is passed."""
@@ -84,12 +84,15 @@ def summarize_rows(
     for k in keys:
         stats: dict[str, float | str] = dict(summarize([row.get(k, np.nan) for row in rows], rng, **kwargs))
         stats["n_rows"] = float(len(rows))
-        stats["population"] = _population(k, require_success)
+        stats["population"] = metric_population(k, require_success)
         out[k] = stats
     return out
 
 
-def _population(key: str, require_success: bool) -> str:
+def metric_population(key: str, require_success: bool) -> str:
+    """The episodes a result key's mean is taken over: ``all``, ``success`` or ``known_outcome`` (the
+    metric's population; a social metric counts every episode unless ``require_success``), or
+    ``unknown`` for a key of no registered metric."""
     from socialnav.metrics.registry import _REGISTRY, parse_key
 
     metric = _REGISTRY.get(parse_key(key)[0])

@@ -80,6 +80,11 @@ def register_policy(name: str, *, description: str, learned: bool = False,
     return decorator
 
 
+def is_registered(name: str) -> bool:
+    """Whether ``name`` is registered already (built-in, plugin or ``@register_policy``)."""
+    return name in _REGISTRY
+
+
 def list_policies() -> list[PolicyEntry]:
     """Every registered policy (built-in, learned and from the ``socialnav.policies`` entry-point group),
     sorted by name."""
@@ -199,5 +204,8 @@ def _load_plugins() -> None:
 
 
 def _load_builtin() -> None:
-    # Native policies register on import; learned ones register lazily (they need torch).
+    # Native policies register on import; learned ones from their records in learned_catalog (their
+    # factories import torch only when called). Records added since the last call register now.
     from socialnav.policies import learned_entries, native  # noqa: F401
+
+    learned_entries.register_catalog()

@@ -13,18 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.policies.base import register_policy
+from socialnav.policies.base import is_registered, register_policy
+from socialnav.policies.learned_catalog import learned_policy_specs
 from socialnav.sim.observation import Observation
-
-_DESCRIPTIONS = {
-    "cadrl": "CADRL value network (Chen et al., ICRA 2017), one-step lookahead",
-    "lstm_rl": "LSTM value network in the spirit of GA3C-CADRL (Everett et al., IROS 2018), value-based",
-    "ga3c_cadrl": "alias of lstm_rl: an LSTM value network, not the A3C policy-gradient original",
-    "sarl": "SARL: attention over humans (Chen et al., ICRA 2019), one-step lookahead",
-    "om_sarl": "OM-SARL: SARL with local occupancy maps (Chen et al., ICRA 2019)",
-    "rgl": "RGL: relational graph value network (Chen et al., IROS 2020), one-step lookahead",
-    "mp_rgl": "model-predictive RGL: learned state predictor, d-step w-wide planning (Chen et al., 2020)",
-}
 
 
 class LearnedPolicy:
@@ -292,28 +283,6 @@ def _factory(name: str):
     return make
 
 
-for _name, _description in _DESCRIPTIONS.items():
-    register_policy(
-        _name,
-        description=_description,
-        learned=True,
-        parameters={
-            "information": "learned" if _name == "mp_rgl" else "constant_velocity",
-            "device": "cpu",
-            "planning_depth": 2 if _name == "mp_rgl" else 1,
-            "planning_width": 2 if _name == "mp_rgl" else 1,
-            "scorer": "auto",
-        },
-    )(_factory(_name))
-
-
-#: Policy-gradient actors trained by ``socialnav train`` with PPO (train/ppo.py), and their descriptions.
-PPO_POLICIES = {
-    "crowdnav_pp": "CrowdNav++ attention graph (Liu et al., ICRA 2023): robot-human and human-human "
-    "attention, GRU over time, continuous actions, trained with PPO; constant-velocity prediction",
-    "ppo_mlp": "plain MLP actor-critic over the robot and the nearest humans, continuous actions, trained "
-    "with PPO (the reference for crowdnav_pp)",
-}
 #: What a PPO checkpoint's ``ppo_policy`` holds (the world the actor was trained for).
 PPO_POLICY_KEYS = ("kinematics", "rotation_limit", "dt", "reward")
 
@@ -367,7 +336,14 @@ def _ppo_factory(name: str):
     return make
 
 
-for _name, _description in PPO_POLICIES.items():
-    register_policy(
-        _name, description=_description, learned=True, parameters={"device": "cpu", "deterministic": True}
-    )(_ppo_factory(_name))
+def register_catalog() -> None:
+    """Registers every learned policy of the catalog not registered yet (records added after the
+    first call appear on the next one): value-based ones load into a :class:`LearnedPolicy`, PPO
+    ones into a :class:`~socialnav.policies.learned.ppo_policy.RecurrentActorPolicy`."""
+    for spec in learned_policy_specs():
+        factory = _ppo_factory if spec.trainer == "ppo" else _factory
+        for name, description in ((spec.name, spec.description), *spec.aliases.items()):
+            if not is_registered(name):
+                register_policy(
+                    name, description=description, learned=True, parameters=spec.evaluation_parameters()
+                )(factory(name))

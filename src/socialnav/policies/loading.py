@@ -15,24 +15,27 @@ from typing import Any
 
 from socialnav.config import ConfigError
 from socialnav.policies.base import SB3_PREFIX, Policy, get_policy_entry, make_policy
+from socialnav.policies.learned_catalog import get_learned_spec
 from socialnav.presets import Preset
 
 INDEX_FILE = "index.yaml"
 VARIANTS = ("protocol", "original")
-#: Display names and the rows of Wang et al. 2022's tables, for checkpoints without an index entry.
-DEFAULT_LABELS = {
-    "cadrl": "CADRL",
-    "lstm_rl": "GA3C-CADRL (LSTM-RL)",
-    "ga3c_cadrl": "GA3C-CADRL (LSTM-RL)",
-    "sarl": "SARL",
-    "om_sarl": "OM-SARL",
-    "rgl": "RGL",
-    "mp_rgl": "MP-RGL",
-    "crowdnav_pp": "CrowdNav++ (attention graph, PPO)",
-    "ppo_mlp": "MLP (PPO)",
-}
-DEFAULT_PAPER_ROWS = {"cadrl": "CADRL", "lstm_rl": "GA3C-CADRL", "ga3c_cadrl": "GA3C-CADRL",
-                      "om_sarl": "OM-SARL", "rgl": "RGL"}
+
+
+def default_label(policy: str) -> str:
+    """The display name of a policy in tables: its record's label for a learned one, else its name."""
+    try:
+        return get_learned_spec(policy).label
+    except KeyError:
+        return policy
+
+
+def default_paper_row(policy: str) -> str | None:
+    """The row of Wang et al. 2022's tables a learned policy fills, if any (its record says)."""
+    try:
+        return get_learned_spec(policy).paper_row
+    except KeyError:
+        return None
 
 
 @dataclass(frozen=True)
@@ -178,8 +181,8 @@ def _entry_from_name(filename: str) -> ShippedCheckpoint | None:
                 policy=entry.name,
                 preset=preset,
                 name=entry.name,
-                label=DEFAULT_LABELS.get(entry.name, entry.name),
-                paper_row=DEFAULT_PAPER_ROWS.get(entry.name),
+                label=default_label(entry.name),
+                paper_row=default_paper_row(entry.name),
                 notes="no entry in checkpoints/index.yaml",
             )
     return None

@@ -1,5 +1,85 @@
-"""The batched simulator: world, settings, observations, and the single-step ORCA solver."""
+"""The batched simulator: the world, its settings, observations, actions, and the Gymnasium envs.
 
-from socialnav.sim.orca_solver import orca_step
+Example::
 
-__all__ = ["orca_step"]
+    from socialnav.scenarios import make_scenario
+    from socialnav.sim import World, WorldSettings
+
+    world = World(WorldSettings(), make_scenario("circle_crossing", n_humans=5), batch_size=64)
+    observation = world.reset()
+
+Importing this package imports no submodule; each name below loads its module on first use (the
+simulator never imports PyTorch). See docs/simulator.md.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from socialnav._runtime import lazy_exports
+
+#: Public name → the module that defines it (imported on first use: see ``lazy_exports``).
+_EXPORTS = {
+    "World": "socialnav.sim.world",
+    "StepResult": "socialnav.sim.world",
+    "EpisodeStream": "socialnav.sim.world",
+    "check_world_size": "socialnav.sim.world",
+    "WorldSettings": "socialnav.sim.settings",
+    "OrcaSettings": "socialnav.sim.settings",
+    "SocialForceSettings": "socialnav.sim.settings",
+    "RewardSettings": "socialnav.sim.settings",
+    "HUMAN_MODELS": "socialnav.sim.settings",
+    "Observation": "socialnav.sim.observation",
+    "discrete_actions": "socialnav.sim.actions",
+    "orca_step": "socialnav.sim.orca_solver",
+    "SocialNavEnv": "socialnav.sim.env",
+    "SocialNavVectorEnv": "socialnav.sim.env",
+    "ENV_IDS": "socialnav.sim.registration",
+    "ObservationSettings": "socialnav.sim.learner_obs",
+    "ObservationTransform": "socialnav.sim.learner_obs",
+    "LearnerObservation": "socialnav.sim.learner_wrappers",
+    "LearnerObservationVector": "socialnav.sim.learner_wrappers",
+    "register_viewer": "socialnav.sim.env_render",
+}
+__all__ = [
+    "World",
+    "StepResult",
+    "EpisodeStream",
+    "check_world_size",
+    "WorldSettings",
+    "OrcaSettings",
+    "SocialForceSettings",
+    "RewardSettings",
+    "HUMAN_MODELS",
+    "Observation",
+    "discrete_actions",
+    "orca_step",
+    "SocialNavEnv",
+    "SocialNavVectorEnv",
+    "ENV_IDS",
+    "ObservationSettings",
+    "ObservationTransform",
+    "LearnerObservation",
+    "LearnerObservationVector",
+    "register_viewer",
+]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load lazily
+    from socialnav.sim.actions import discrete_actions
+    from socialnav.sim.env import SocialNavEnv, SocialNavVectorEnv
+    from socialnav.sim.env_render import register_viewer
+    from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
+    from socialnav.sim.learner_wrappers import LearnerObservation, LearnerObservationVector
+    from socialnav.sim.observation import Observation
+    from socialnav.sim.orca_solver import orca_step
+    from socialnav.sim.registration import ENV_IDS
+    from socialnav.sim.settings import (
+        HUMAN_MODELS,
+        OrcaSettings,
+        RewardSettings,
+        SocialForceSettings,
+        WorldSettings,
+    )
+    from socialnav.sim.world import EpisodeStream, StepResult, World, check_world_size

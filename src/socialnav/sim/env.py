@@ -37,11 +37,11 @@ from socialnav.config import from_dict
 from socialnav.scenarios import make_scenario
 from socialnav.scenarios.base import SPLIT_SIZE
 from socialnav.sim.actions import discrete_actions
+from socialnav.sim.env_render import available_render_modes
 from socialnav.sim.observation import Observation
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import EpisodeStream, StepResult, World
 from socialnav.static_map import StaticMap
-from socialnav.viz.env_render import available_render_modes
 
 #: Episodes reserved per seed in an endless split (as ``socialnav train`` does with its seed).
 SEED_STRIDE = 10_000_000
@@ -49,7 +49,10 @@ SEED_STRIDE = 10_000_000
 OUTCOME_CODES = {"running": 0, "success": 1, "collision": 2, "timeout": 3}
 
 
-def _spaces(n_humans: int, settings: WorldSettings, v_pref: float, action_set: str, max_edges: int = 0):
+def observation_and_action_spaces(
+    n_humans: int, settings: WorldSettings, v_pref: float, action_set: str, max_edges: int = 0
+):
+    """The env's observation and action spaces (a SB3 model's saved spaces are checked against them)."""
     big = np.float64(1e6)
     entries = {
         "robot": spaces.Box(-big, big, shape=(9,), dtype=np.float64),
@@ -258,7 +261,7 @@ class SocialNavEnv(gym.Env):
     ):
         self._recorder = None
         if render_mode is not None:
-            from socialnav.viz.env_render import EnvRecorder, check_render_mode
+            from socialnav.sim.env_render import EnvRecorder, check_render_mode
 
             check_render_mode(render_mode)
             self._recorder = EnvRecorder()
@@ -269,7 +272,7 @@ class SocialNavEnv(gym.Env):
                             static_map=self._cfg.static_map)
         self._order: EpisodeOrder | None = None
         self._position = 0
-        self.observation_space, self.action_space = _spaces(
+        self.observation_space, self.action_space = observation_and_action_spaces(
             self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set, self._cfg.max_edges
         )
 
@@ -376,7 +379,7 @@ class SocialNavVectorEnv(VectorEnv):
         self._world = World(self._cfg.settings, self._cfg.scenario, self.num_envs, split=split,
                             record=False, static_map=self._cfg.static_map)
         self._order: EpisodeOrder | None = None
-        self.single_observation_space, self.single_action_space = _spaces(
+        self.single_observation_space, self.single_action_space = observation_and_action_spaces(
             self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set, self._cfg.max_edges
         )
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)

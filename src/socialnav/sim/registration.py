@@ -11,7 +11,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from socialnav.viz.env_render import RENDER_MODES
+from socialnav.sim.env_render import RENDER_MODES
 
 #: The protocol's scenarios (and CrowdNav's square crossing); ``Passing``, ``Overtaking`` and
 #: ``Crossing`` are the single-human side-preference sweeps (finite: their episodes cycle).

@@ -33,7 +33,7 @@ def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from socialnav.evaluate.files import json_safe
+    from socialnav._io import json_safe
     from socialnav.sweep.driver import run_sweep
     from socialnav.sweep.executors import make_executor
     from socialnav.sweep.spec import load_sweep

@@ -33,8 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from socialnav import __version__
-from socialnav.evaluate.blas import one_blas_thread
-from socialnav.evaluate.files import (
+from socialnav._io import (
     DirectoryLock,
     atomic_write_bytes,
     atomic_write_json,
@@ -42,6 +41,7 @@ from socialnav.evaluate.files import (
     make_output_dir,
     remove_orphan_temporaries,
 )
+from socialnav._runtime import one_blas_thread
 from socialnav.sweep.executors import Task, TaskFailed
 from socialnav.sweep.spec import TRAIN_REFERENCE, Job, SweepSpec, job_record
 from socialnav.sweep.tasks import build_job_policy, conclude_job, evaluate_chunk, job_preset, train_job
@@ -111,7 +111,7 @@ def run_sweep(
         )
         statuses: dict[str, dict[str, Any]] = {}
         failures: list[dict[str, Any]] = []
-        # the workers are the parallelism: the driver's summaries get one BLAS thread (evaluate/blas.py)
+        # the workers are the parallelism: the driver's summaries get one BLAS thread (socialnav/_runtime.py)
         with open(out / "sweep_log.jsonl", "a", encoding="utf-8") as task_log, one_blas_thread():
             _run_training(spec, out, executor, statuses, failures, task_log, say)
             summary = _run_evaluations(spec, out, executor, statuses, failures, task_log, progress, say)
@@ -167,9 +167,9 @@ def _run_evaluations(
     spec, out, executor, statuses, failures, task_log, progress, say
 ) -> list[dict[str, Any]]:
     from socialnav.evaluate.runner import (
-        _progress,
-        _reissue,
         chunk_path,
+        episode_progress,
+        reissue_warnings,
         trajectory_path,
     )
 
@@ -199,7 +199,7 @@ def _run_evaluations(
         for ev in jobs:
             if not ev.todo:  # resumed whole: only its conclusion is left
                 _queue_conclusion(ev, tasks, statuses, failures, say)
-        bar = _progress(total, 0, progress)
+        bar = episode_progress(total, 0, progress)
         bar.set_description("sweep")
         try:
             for task, result in executor.run(tasks):
@@ -222,7 +222,7 @@ def _run_evaluations(
                     )
                     say(f"{task.key}: FAILED: {result.message}")
                 else:
-                    _reissue(result["notes"])
+                    reissue_warnings(result["notes"])
                     if result["trajectories"] is not None:
                         atomic_write_bytes(trajectory_path(ev.dir, cell, a, b), result["trajectories"])
                     atomic_write_bytes(chunk_path(ev.dir, cell, a, b), result["rows_parquet"])
@@ -312,7 +312,7 @@ class _JobRefused(Exception):
 
 def _prepare(job: Job, out: Path) -> _EvalJob:
     """Builds the job's policy, writes or checks its manifest and lists the chunks still to compute."""
-    from socialnav.evaluate.files import file_sha256
+    from socialnav._io import file_sha256
     from socialnav.evaluate.plan import plan_cells
     from socialnav.evaluate.runner import (
         check_or_write_manifest,

@@ -44,7 +44,7 @@ def _one_line(err: BaseException) -> str:
 
 
 class LocalExecutor:
-    """Worker processes on this machine (forkserver; they die with the sweep, see evaluate/lifeline)."""
+    """Worker processes on this machine (forkserver; they die with the sweep, see socialnav/_runtime.py)."""
 
     name = "local"
 
@@ -128,7 +128,7 @@ class LocalExecutor:
                     pool = _process_pool(self.workers)
         except BaseException:
             # Interrupted (Ctrl-C, SIGTERM, an error in the caller): do not wait for running tasks (a
-            # training job takes hours); the workers die with this process (evaluate/lifeline.py) and
+            # training job takes hours); the workers die with this process (socialnav/_runtime.py) and
             # a rerun resumes. A generator closed early (GeneratorExit) lands here too.
             pool.shutdown(wait=False, cancel_futures=True)
             raise
@@ -186,10 +186,10 @@ def _snapshot(processes: dict[int, Any]) -> list[Any]:
 
 
 def _process_pool(workers: int):
-    # The evaluation runner's pool: forkserver workers that die with this process (evaluate/lifeline.py).
-    from socialnav.evaluate.runner import _scoring_pool
+    # The evaluation runner's pool: forkserver workers that die with this process (socialnav/_runtime.py).
+    from socialnav.evaluate.runner import scoring_pool
 
-    return _scoring_pool(workers)
+    return scoring_pool(workers)
 
 
 class RayExecutor:

@@ -106,8 +106,8 @@ def evaluate_chunk(
     are rebuilt here from ``params``). The chunk's rows come back as the bytes of its Parquet file,
     stamped with the run's ``stamp`` (``rows_parquet``), so that the driver only stores them.
     """
-    from socialnav.evaluate.blas import one_blas_thread_for_good
-    from socialnav.evaluate.files import rows_parquet_bytes
+    from socialnav._io import rows_parquet_bytes
+    from socialnav._runtime import one_blas_thread_for_good
     from socialnav.evaluate.runner import CHUNK_STAMP_KEY, simulate_chunk, store_and_score
 
     one_blas_thread_for_good()  # a worker (local or Ray): processes are the parallelism
@@ -155,7 +155,7 @@ def conclude_job(
     only stores the files (its serial share stays small however many workers there are)."""
     import warnings
 
-    from socialnav.evaluate.blas import one_blas_thread_for_good
+    from socialnav._runtime import one_blas_thread_for_good
     from socialnav.evaluate.runner import conclude_chunks
 
     one_blas_thread_for_good()

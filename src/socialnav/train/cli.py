@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
+
 
 def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr = sub.add_parser(
@@ -13,8 +15,8 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr.add_argument(
         "--policy",
         required=True,
-        help="cadrl, lstm_rl (ga3c_cadrl), sarl, om_sarl, rgl or mp_rgl (value-based, docs/training.md); "
-        "crowdnav_pp or ppo_mlp (PPO, docs/ppo.md)",
+        help=f"{', '.join(learned_policy_names('value'))} (value-based, docs/training.md); "
+        f"{', '.join(learned_policy_names('ppo'))} (PPO, docs/ppo.md)",
     )
     tr.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
     tr.add_argument(
@@ -65,9 +67,7 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from socialnav.policies.learned_entries import PPO_POLICIES
-
-    if args.policy in PPO_POLICIES:
+    if args.policy in learned_policy_names() and get_learned_spec(args.policy).trainer == "ppo":
         from socialnav.train.ppo import train_ppo_from_args
 
         return train_ppo_from_args(args)

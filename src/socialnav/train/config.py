@@ -19,6 +19,7 @@ import numpy as np
 import yaml
 
 from socialnav.config import ConfigError, check, from_dict
+from socialnav.policies.learned_catalog import VALUE_DEFAULTS, get_learned_spec
 
 INFORMATION = ("constant_velocity", "oracle", "learned")
 REWARD_RULES = ("end", "swept")
@@ -30,18 +31,6 @@ REWARD_RULES = ("end", "swept")
 #: repository's final version, commit 8dcd445: the same storage rule, the target r + γ̄·V_target(s')
 #: computed at each gradient step).
 TD_TARGETS = ("recomputed", "rgl_repo", "rgl_repo_final")
-#: Policies that plan with the learned state predictor and their defaults (information, depth, width,
-#: reward rule); every other policy defaults to a constant-velocity one-step lookahead with CrowdNav's
-#: end-of-step reward estimate.
-POLICY_DEFAULTS: dict[str, dict[str, Any]] = {
-    "mp_rgl": {"information": "learned", "planning_depth": 2, "planning_width": 2, "reward_rule": "swept"},
-}
-GENERIC_DEFAULTS: dict[str, Any] = {
-    "information": "constant_velocity",
-    "planning_depth": 1,
-    "planning_width": 1,
-    "reward_rule": "end",
-}
 #: Settings added after runs were started: a resumed run whose saved config lacks one of these keys is
 #: taken to have had this value (so older run directories stay resumable).
 ADDED_SETTINGS: dict[str, Any] = {
@@ -159,7 +148,8 @@ class TrainSettings:
     """Everything that defines a training run besides the preset.
 
     Attributes:
-        policy: learned policy name (cadrl, lstm_rl / ga3c_cadrl, sarl, om_sarl, rgl, mp_rgl).
+        policy: a value-based learned policy's name (``learned_policy_names("value")`` of
+            :mod:`socialnav.policies.learned_catalog`: cadrl, lstm_rl / ga3c_cadrl, sarl, ...).
         information: how the lookahead predicts the humans' next states ("constant_velocity", the
             fair default, "oracle", what CrowdNav's paper used, or "learned", a state predictor
             trained in the same run); "" takes the policy's default (mp_rgl: learned).
@@ -238,7 +228,11 @@ class TrainSettings:
             ConfigError: a combination the policy cannot train with (mp_rgl without its predictor,
                 planning beyond one step with the one-step oracle).
         """
-        defaults = {**GENERIC_DEFAULTS, **POLICY_DEFAULTS.get(policy, {})}
+        try:
+            spec = get_learned_spec(policy)
+        except KeyError:  # the trainer names unknown policies; their settings are the generic ones
+            spec = None
+        defaults = spec.value_defaults if spec is not None else dict(VALUE_DEFAULTS)
         out = dataclasses.replace(
             self,
             policy=policy,
@@ -247,11 +241,10 @@ class TrainSettings:
             planning_width=self.planning_width or defaults["planning_width"],
             reward_rule=self.reward_rule or defaults["reward_rule"],
         )
-        if policy == "mp_rgl" and out.information != "learned":
-            raise ConfigError(
-                f"information: mp_rgl plans with the state predictor it trains, so it needs 'learned', "
-                f"got {out.information!r}"
-            )
+        needed = spec.required_information if spec is not None else None
+        if needed is not None and out.information != needed:
+            why = "plans with the state predictor it trains" if needed == "learned" else "trains with it only"
+            raise ConfigError(f"information: {policy} {why}, so it needs {needed!r}, got {out.information!r}")
         if out.planning_depth > 1 and out.information == "oracle":
             raise ConfigError(
                 f"planning_depth: {out.planning_depth} needs predictions beyond one step; the oracle "

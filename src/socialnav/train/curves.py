@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.files import atomic_write_text
+from socialnav._io import atomic_write_text
 
 CURVE_COLUMNS = (
     "phase",

@@ -22,9 +22,12 @@ from socialnav.sim.world import World
 
 
 def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True) -> int:
-    """Humans per training episode: the preset's, or 1 for CADRL (trained with one human, as its
-    authors did). Scenarios that fix their own crowd keep it (:func:`scenario_crowd`)."""
-    if policy == "cadrl" and cadrl_one_human:
+    """Humans per training episode: the preset's, or 1 for a policy whose record asks for it (CADRL,
+    trained with one human, as its authors did) while ``cadrl_one_human`` is on. Scenarios that fix
+    their own crowd keep it (:func:`scenario_crowd`)."""
+    from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
+
+    if cadrl_one_human and policy in learned_policy_names() and get_learned_spec(policy).one_human_training:
         return 1
     return int(preset.training.n_humans)
 

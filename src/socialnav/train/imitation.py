@@ -136,7 +136,7 @@ def collect_demonstrations(
 def save_demonstrations(path, demos: Demonstrations, config_json: str) -> None:
     """Writes the demonstrations atomically (float32, as the regression uses them) with the run's
     config, so that a resumed imitation reuses them instead of collecting again."""
-    from socialnav.evaluate.files import atomic_write
+    from socialnav._io import atomic_write
 
     def write(tmp: str) -> None:
         with open(tmp, "wb") as f:

@@ -36,14 +36,14 @@ from typing import Any
 import numpy as np
 import torch
 
-from socialnav.config import ConfigError
-from socialnav.evaluate.files import (
+from socialnav._io import (
     DirectoryLock,
     atomic_write_json,
     atomic_write_text,
     make_output_dir,
     remove_orphan_temporaries,
 )
+from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
 from socialnav.train.common import better, load_optimizer_state, optimizer_state, progress_bar
 from socialnav.train.config import derive_seeds, flat_diff
@@ -154,13 +154,11 @@ def _train(preset, out_dir, s: PPOSettings, stack, progress, stop_after, log) ->
     from socialnav.policies.learned import build, load_checkpoint, save_checkpoint
     from socialnav.policies.learned.attn_graph import ROBOT_FEATURES, observation_tensors, squash_actions
     from socialnav.policies.learned.ppo_policy import RecurrentActorPolicy
-    from socialnav.policies.learned_entries import PPO_POLICIES
+    from socialnav.policies.learned_catalog import learned_policy_names
     from socialnav.train.trainer import resolve_device
 
-    if s.policy not in PPO_POLICIES:
-        raise ConfigError(
-            f"policy: {s.policy!r} is not trained with PPO (PPO policies: {', '.join(PPO_POLICIES)})"
-        )
+    if s.policy not in (ppo := learned_policy_names("ppo")):
+        raise ConfigError(f"policy: {s.policy!r} is not trained with PPO (PPO policies: {', '.join(ppo)})")
     t_call = time.perf_counter()
     say = log or (lambda line: print(line, file=sys.stderr, flush=True))
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset

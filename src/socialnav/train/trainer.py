@@ -31,14 +31,14 @@ from typing import Any
 import numpy as np
 import torch
 
-from socialnav.config import ConfigError
-from socialnav.evaluate.files import (
+from socialnav._io import (
     DirectoryLock,
     atomic_write_json,
     atomic_write_text,
     make_output_dir,
     remove_orphan_temporaries,
 )
+from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
 from socialnav.train.common import (
     AdamSteps,
@@ -173,7 +173,7 @@ def _train(
     """Imitation learning from ORCA, then value-based RL; resumes from ``out_dir/last.pt`` if present.
 
     Args:
-        policy_name: cadrl, lstm_rl (ga3c_cadrl), sarl or om_sarl.
+        policy_name: a value-based learned policy: cadrl, lstm_rl (ga3c_cadrl), sarl, om_sarl, rgl, mp_rgl.
         preset: a Preset or a preset name/path (world semantics, robot, training scenario mix).
         out_dir: run directory (created; resumed when it holds last.pt).
         settings: training settings (default: TrainSettings()); ``settings.policy`` is replaced by
@@ -207,9 +207,9 @@ def _train(
     t_call = time.perf_counter()
     say = log or (lambda s: print(s, file=sys.stderr, flush=True))
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset
-    from socialnav.policies.learned_entries import PPO_POLICIES
+    from socialnav.policies.learned_catalog import learned_policy_names
 
-    if policy_name in PPO_POLICIES:
+    if policy_name in learned_policy_names("ppo"):
         raise ValueError(f"{policy_name} is trained with PPO: socialnav.train.ppo.train_ppo (docs/ppo.md)")
     if canonical_name(policy_name) not in LEARNED_POLICIES:
         raise KeyError(

@@ -59,7 +59,7 @@ def write_gif(
     """
     from PIL import Image
 
-    from socialnav.evaluate.files import atomic_write
+    from socialnav._io import atomic_write
 
     n = FrameRenderer.n_samples_of(traj)
     idx = frame_indices(n, stride, max_frames)
@@ -107,7 +107,7 @@ def write_mp4(
     Raises:
         FfmpegMissingError: ffmpeg is not installed (the message says how to get it, or to use GIF).
     """
-    from socialnav.evaluate.files import atomic_write
+    from socialnav._io import atomic_write
 
     exe = ffmpeg_path()
     if exe is None:

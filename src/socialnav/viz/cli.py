@@ -151,7 +151,7 @@ def _run_render(args: argparse.Namespace) -> int:
     progress = not args.quiet
     detail = ""
     if fmt in ("png", "svg"):
-        from socialnav.evaluate.files import atomic_write
+        from socialnav._io import atomic_write
         from socialnav.viz.draw import plot_trajectory
 
         fig = plot_trajectory(traj, overlays=overlays, every=args.every, eps=args.eps, tau=args.tau)
@@ -171,7 +171,7 @@ def _run_render(args: argparse.Namespace) -> int:
         )
         detail = f" ({n} frames)"
     else:
-        from socialnav.evaluate.files import atomic_write_text
+        from socialnav._io import atomic_write_text
         from socialnav.viz.report import episode_page
 
         atomic_write_text(out, episode_page(traj, eps=args.eps, tau=args.tau))

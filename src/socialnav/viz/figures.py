@@ -205,7 +205,7 @@ def training_curves(rows: Sequence[dict[str, Any]], title: str = "Training"):
 
 def save_figure(fig, stem: str | Path, formats: Sequence[str] = ("png", "svg"), dpi: int = 100) -> list[Path]:
     """Writes ``stem.png`` / ``stem.svg`` atomically; returns the paths."""
-    from socialnav.evaluate.files import atomic_write
+    from socialnav._io import atomic_write
 
     paths = []
     for fmt in formats:

@@ -99,7 +99,7 @@ def write_report(
     """
     from tqdm.auto import tqdm
 
-    from socialnav.evaluate.files import atomic_write_text
+    from socialnav._io import atomic_write_text
     from socialnav.viz import require_viz
 
     require_viz()

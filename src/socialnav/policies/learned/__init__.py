@@ -2,7 +2,8 @@
 RGL and model-predictive RGL (with the learned state predictor), and CrowdNav++'s attention-graph
 actor-critic trained with PPO (``crowdnav_pp``), with a plain MLP actor-critic beside it (``ppo_mlp``).
 
-Importing this package registers the networks in :data:`LEARNED_POLICIES`. See docs/policies_learned.md.
+The policies themselves are named by their registration records (:mod:`socialnav.policies.learned_catalog`);
+:data:`LEARNED_POLICIES` maps each name to its network. See docs/policies_learned.md.
 """
 
 from socialnav.policies.learned.actions import discrete_actions

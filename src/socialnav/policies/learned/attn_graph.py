@@ -40,8 +40,6 @@ import numpy as np
 import torch
 from torch import nn
 
-from socialnav.policies.learned.registry import register_learned
-
 __all__ = [
     "AttnGraphNet",
     "ObservationStatistics",
@@ -156,7 +154,6 @@ class ObservationStatistics(nn.Module):
         return norm(robot, self.robot_mean, self.robot_var), norm(humans, self.human_mean, self.human_var)
 
 
-@register_learned("crowdnav_pp")
 class AttnGraphNet(ObservationStatistics):
     """CrowdNav++'s attention-graph actor-critic (module docstring); sizes default to the repository's.
 

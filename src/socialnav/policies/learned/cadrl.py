@@ -16,13 +16,11 @@ from collections.abc import Sequence
 import torch
 
 from socialnav.policies.learned.networks import ValueNetwork, mlp
-from socialnav.policies.learned.registry import register_learned
 from socialnav.policies.learned.state import JOINT_DIM, SELF_DIM
 
 __all__ = ["CADRL"]
 
 
-@register_learned("cadrl")
 class CADRL(ValueNetwork):
     """Pairwise value network, min over humans.
 

@@ -18,7 +18,6 @@ from __future__ import annotations
 import dataclasses
 import enum
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -27,6 +26,7 @@ import torch
 from torch import nn
 
 from socialnav import __version__
+from socialnav._io import atomic_write
 from socialnav.policies.learned.registry import LEARNED_POLICIES, build, canonical_name
 
 __all__ = [
@@ -129,22 +129,14 @@ def save_checkpoint(
             "state_dict": {k: v.detach().cpu().clone() for k, v in predictor.state_dict().items()},
         },
     }
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as f:
             torch.save(payload, f)
             f.flush()
             os.fsync(f.fileno())
-        from socialnav.evaluate.files import default_file_mode
 
-        os.chmod(tmp, default_file_mode())  # as open() would, not mkstemp's 0600
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    path = Path(path)
+    atomic_write(path, write)
     return path
 
 

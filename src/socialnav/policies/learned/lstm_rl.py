@@ -22,7 +22,6 @@ from torch import nn
 from torch.nn.utils.rnn import pack_padded_sequence
 
 from socialnav.policies.learned.networks import ValueNetwork, mlp
-from socialnav.policies.learned.registry import register_learned
 from socialnav.policies.learned.state import JOINT_DIM, SELF_DIM
 
 __all__ = ["LSTMRL"]
@@ -30,7 +29,6 @@ __all__ = ["LSTMRL"]
 DA_COLUMN = 11  # robot-human distance in the 13-value joint state
 
 
-@register_learned("lstm_rl", "ga3c_cadrl")
 class LSTMRL(ValueNetwork):
     """LSTM value network over distance-sorted humans.
 

@@ -13,12 +13,10 @@ import torch
 from torch import nn
 
 from socialnav.policies.learned.attn_graph import ROBOT_FEATURES, ObservationStatistics, _init
-from socialnav.policies.learned.registry import register_learned
 
 __all__ = ["MLPActorCritic"]
 
 
-@register_learned("ppo_mlp")
 class MLPActorCritic(ObservationStatistics):
     """MLP actor-critic over the robot and the ``max_humans`` nearest humans (module docstring)."""
 

@@ -1,58 +1,47 @@
-"""Registry of learned value networks, keyed by short policy names.
+"""The learned networks by policy name, read from the registration records
+(:mod:`socialnav.policies.learned_catalog`).
 
-Each network module registers its factory where it is defined (``@register_learned("sarl")``);
-importing :mod:`socialnav.policies.learned` populates the table. ``build(name, **kw)`` makes a fresh,
-randomly initialised network (seed torch beforehand or pass ``generator``-seeded init yourself).
+``build(name, **kw)`` makes a fresh, randomly initialised network (seed torch beforehand).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TypeVar
+from collections.abc import Callable, Iterator, Mapping
 
 from torch import nn
 
-__all__ = ["LEARNED_POLICIES", "ALIASES", "register_learned", "build", "canonical_name"]
+from socialnav.policies.learned_catalog import canonical_name, get_learned_spec, learned_policy_names
 
-LEARNED_POLICIES: dict[str, Callable[..., nn.Module]] = {}
-# Names that denote the same network; the value is the name stored in checkpoints.
-ALIASES: dict[str, str] = {"ga3c_cadrl": "lstm_rl"}
-
-F = TypeVar("F", bound=Callable[..., nn.Module])
+__all__ = ["LEARNED_POLICIES", "build", "canonical_name"]
 
 
-def register_learned(*names: str) -> Callable[[F], F]:
-    """Decorator registering a network factory (a class or a function) under one or more names."""
+class _NetworkFactories(Mapping[str, Callable[..., nn.Module]]):
+    """Policy name (aliases included) → network factory, a live view of the registration records."""
 
-    def deco(factory: F) -> F:
-        for name in names:
-            if name in LEARNED_POLICIES:
-                raise ValueError(f"learned policy {name!r} is already registered")
-            LEARNED_POLICIES[name] = factory
-        return factory
+    def __getitem__(self, name: str) -> Callable[..., nn.Module]:
+        if name not in learned_policy_names():
+            raise KeyError(name)
+        return get_learned_spec(name).network_factory()
 
-    return deco
+    def __iter__(self) -> Iterator[str]:
+        return iter(learned_policy_names())
+
+    def __len__(self) -> int:
+        return len(learned_policy_names())
 
 
-def canonical_name(name: str) -> str:
-    """Canonical policy name (``ga3c_cadrl`` → ``lstm_rl``; others unchanged)."""
-    return ALIASES.get(name, name)
+LEARNED_POLICIES: Mapping[str, Callable[..., nn.Module]] = _NetworkFactories()
 
 
 def build(name: str, **kwargs: object) -> nn.Module:
-    """Build a fresh value network by policy name.
+    """Build a fresh network by policy name.
 
     Args:
-        name: one of ``LEARNED_POLICIES`` (cadrl, lstm_rl / ga3c_cadrl, sarl, om_sarl).
+        name: a learned policy's name or alias (``learned_policy_names()`` of
+            :mod:`socialnav.policies.learned_catalog`).
         **kwargs: keyword arguments of the network's constructor.
 
     Raises:
         KeyError: unknown name (the message lists the known ones).
     """
-    import socialnav.policies.learned  # noqa: F401  (populates the registry)
-
-    try:
-        factory = LEARNED_POLICIES[name]
-    except KeyError:
-        raise KeyError(f"unknown learned policy {name!r}; known: {sorted(LEARNED_POLICIES)}") from None
-    return factory(**kwargs)
+    return get_learned_spec(name).network_factory()(**kwargs)

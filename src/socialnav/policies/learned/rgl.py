@@ -22,13 +22,11 @@ import torch
 
 from socialnav.policies.learned.graph import RelationalGraph
 from socialnav.policies.learned.networks import ValueNetwork, mlp, self_state_of
-from socialnav.policies.learned.registry import register_learned
 from socialnav.policies.learned.state import JOINT_DIM, SELF_DIM
 
 __all__ = ["RGL", "mp_rgl"]
 
 
-@register_learned("rgl")
 class RGL(ValueNetwork):
     """Relational-graph value network.
 
@@ -83,7 +81,6 @@ class RGL(ValueNetwork):
         return self.value_mlp(h[:, 0]).squeeze(-1)
 
 
-@register_learned("mp_rgl")
 def mp_rgl(**kwargs: object) -> RGL:
     """Model-predictive RGL: the RGL value network, planned with the learned state predictor."""
     net = RGL(**kwargs)  # type: ignore[arg-type]

@@ -26,13 +26,11 @@ import torch
 from torch import nn
 
 from socialnav.policies.learned.networks import ValueNetwork, masked_mean, masked_softmax, mlp
-from socialnav.policies.learned.registry import register_learned
 from socialnav.policies.learned.state import JOINT_DIM, OM_DIM, SELF_DIM
 
 __all__ = ["SARL", "om_sarl"]
 
 
-@register_learned("sarl")
 class SARL(ValueNetwork):
     """SARL value network; ``with_om=True`` gives OM-SARL.
 
@@ -139,7 +137,6 @@ class SARL(ValueNetwork):
         return self.mlp3(torch.cat([self_state, feat], dim=1)).squeeze(-1)
 
 
-@register_learned("om_sarl")
 def om_sarl(**kwargs: object) -> SARL:
     """OM-SARL: SARL whose per-human input is the 13 joint-state values + a 4×4×3 occupancy map (61)."""
     kwargs.pop("with_om", None)

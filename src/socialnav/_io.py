@@ -1,0 +1,230 @@
+"""Files every package writes and reads safely: atomic writes, directory locks, checksums.
+
+The layer below every package (docs/internals.md, "Layers"): results, trajectories, checkpoints,
+training curves, maps and reports are all written through :func:`atomic_write`.
+
+Atomic writes: write to a temporary file in the same directory, then rename.
+
+A reader (or a resumed run) therefore sees either the previous complete file or the new complete
+file, never a partial one, even if the process is killed mid-write. The file gets the permissions a
+plain ``open()`` would give it (0666 masked by the process umask), not the temporary file's 0600, so
+colleagues on a shared server can read results. JSON files hold ``null`` where a value is NaN or
+infinite (JSON has no NaN).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+
+def atomic_write(path: Path, write: Callable[[str], object]) -> None:
+    """Calls ``write(tmp_path)`` and renames the result onto ``path``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.chmod(tmp, default_file_mode())
+        os.replace(tmp, path)
+    except BaseException as err:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        if isinstance(err, OSError) and err.filename is None:  # e.g. a full disk: say which file
+            raise OSError(err.errno, f"cannot write {path}: {err.strerror or err}") from None
+        raise
+
+
+def process_umask() -> int:
+    """The process umask, read without changing it where the OS allows (Linux: /proc)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)  # the only portable way to read it; restored at once
+    os.umask(mask)
+    return mask
+
+
+def default_file_mode() -> int:
+    """Mode of a newly created regular file: 0666 minus the umask (temporary files get 0600)."""
+    return 0o666 & ~process_umask()
+
+
+def make_output_dir(out: Path) -> None:
+    """Creates ``out`` (and parents), refusing a path through a file or a directory it cannot write."""
+    for parent in [out, *out.parents]:
+        if parent.exists() and not parent.is_dir():
+            raise NotADirectoryError(f"--out {out}: {parent} exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise PermissionError(f"--out {out}: directory is not writable")
+
+
+def json_safe(value: Any) -> Any:
+    """A copy of ``value`` that ``json.dumps(allow_nan=False)`` accepts: NaN/inf become None,
+    NumPy scalars and arrays become Python values, tuples become lists."""
+    import math
+
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_safe(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, str | bytes):  # NumPy scalar or array
+        return json_safe(value.tolist())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+
+    atomic_write(path, write)
+
+
+def atomic_write_json(path: Path, data: Any) -> None:
+    atomic_write_text(path, json_text(data))
+
+
+def json_text(data: Any) -> str:
+    """The text :func:`atomic_write_json` writes (NaN and infinities as null, numpy values as numbers)."""
+    text = json.dumps(json_safe(data), indent=2, sort_keys=False, default=_json_default, allow_nan=False)
+    return text + "\n"
+
+
+def atomic_write_rows_parquet(
+    path: Path, rows: list[dict[str, Any]], metadata: dict[str, str] | None = None
+) -> None:
+    """Writes ``rows`` as Parquet with page checksums; ``metadata`` goes in the file's key-value metadata."""
+    atomic_write_bytes(path, rows_parquet_bytes(rows, metadata))
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    atomic_write(path, lambda tmp: Path(tmp).write_bytes(data))
+
+
+def rows_parquet_bytes(rows: list[dict[str, Any]], metadata: dict[str, str] | None = None) -> bytes:
+    """``rows`` as the bytes of a Parquet file with page checksums (a sweep's worker builds a chunk's
+    file and the driver, which alone writes results, stores it)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.Table.from_pylist(rows)
+    if metadata:
+        table = table.replace_schema_metadata({**(table.schema.metadata or {}), **metadata})
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink, write_page_checksum=True)
+    return sink.getvalue().to_pybytes()
+
+
+def read_parquet_verified(path: Path, filters: Any = None, data: bytes | None = None):
+    """Reads a Parquet file verifying its page checksums; a damaged file is an error naming it.
+    With ``data``, the file's bytes are read from memory (``path`` names them in errors).
+
+    Raises:
+        CorruptFileError: The file is truncated, not Parquet, or a page fails its checksum.
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        source = path if data is None else pa.BufferReader(data)
+        return pq.read_table(source, page_checksum_verification=True, filters=filters)
+    except (OSError, pa.ArrowException) as err:
+        if isinstance(err, FileNotFoundError | IsADirectoryError | PermissionError):
+            raise
+        raise CorruptFileError(f"{path}: damaged or not a Parquet file ({_one_line(err)})") from None
+
+
+class CorruptFileError(ValueError):
+    """A result or input file that cannot be trusted (truncated, or failing its checksums)."""
+
+
+class DirectoryLockedError(RuntimeError):
+    """Another process is writing to the same output directory."""
+
+
+class DirectoryLock:
+    """An exclusive advisory lock on a directory (``.lock`` inside it), held while a run writes there.
+
+    The kernel drops the lock when the holder exits, however it dies, so a killed run never leaves a
+    stale lock behind. A second run on the same directory is refused at once instead of interleaving.
+    """
+
+    def __init__(self, directory: Path, what: str = "run") -> None:
+        self.directory = Path(directory)
+        self.what = what
+        self._fd: int | None = None
+
+    def __enter__(self) -> DirectoryLock:
+        import fcntl
+
+        path = self.directory / ".lock"
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+            os.close(fd)
+            raise DirectoryLockedError(
+                f"{self.directory} is in use by another {self.what} (pid {holder}); "
+                "wait for it to finish or use another --out"
+            ) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        self._fd = fd
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # closing releases the lock; the file stays (removing it would race)
+            self._fd = None
+
+
+def remove_orphan_temporaries(directory: Path) -> list[Path]:
+    """Deletes ``.*.tmp`` files left under ``directory`` by a killed writer (call under the lock)."""
+    removed = []
+    for tmp in Path(directory).rglob(".*.tmp"):
+        if tmp.is_file():
+            tmp.unlink(missing_ok=True)
+            removed.append(tmp)
+    return removed
+
+
+def _one_line(err: BaseException) -> str:
+    return " ".join(str(err).split()) or type(err).__name__
+
+
+def _json_default(value: Any) -> Any:
+    import numpy as np
+
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, tuple):
+        return list(value)
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def file_sha256(path: str | Path) -> str:
+    """SHA-256 of a file's bytes, hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

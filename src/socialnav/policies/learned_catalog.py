@@ -1,0 +1,292 @@
+"""One registration record per learned policy: the single place that names a learned policy.
+
+Everything else reads these records: the policy registry and ``socialnav list`` (description,
+evaluation parameters), ``socialnav train`` (which trainer, the policy's training defaults),
+checkpoint saving and loading (the network factory, aliases), result tables (display label, paper
+row) and the table in docs/policies_learned.md (:func:`markdown_table`, checked by a test). Adding a
+learned policy is one :class:`LearnedPolicySpec` appended to :data:`BUILTIN` (or, from outside the
+package, :func:`register_learned_policy`).
+
+This module is plain data: importing it imports neither torch nor the networks (``network`` names
+its factory as ``module:attribute``, imported when a network is built).
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+__all__ = [
+    "TRAINERS",
+    "VALUE_DEFAULTS",
+    "LearnedPolicySpec",
+    "BUILTIN",
+    "register_learned_policy",
+    "learned_policy_specs",
+    "learned_policy_names",
+    "get_learned_spec",
+    "canonical_name",
+    "markdown_table",
+]
+
+#: How a learned policy is trained: ``value`` (imitation from ORCA, then value-based RL with a
+#: one-step or model-predictive lookahead; train/trainer.py) or ``ppo`` (an actor-critic trained
+#: with PPO; train/ppo.py).
+TRAINERS = ("value", "ppo")
+
+#: The lookahead a value-based policy gets unless its record says otherwise: constant-velocity
+#: prediction, one step deep and wide, CrowdNav's end-of-step reward estimate.
+VALUE_DEFAULTS: Mapping[str, Any] = MappingProxyType(
+    {"information": "constant_velocity", "planning_depth": 1, "planning_width": 1, "reward_rule": "end"}
+)
+
+
+@dataclass(frozen=True)
+class LearnedPolicySpec:
+    """The facts about one learned policy.
+
+    Attributes:
+        name: registry name, stored in checkpoints (``--policy NAME``).
+        network: the network's factory (a class or a function building an ``nn.Module``), or its
+            ``"module.path:attribute"`` so that reading the record does not import torch.
+        description: one line shown by ``socialnav list``.
+        label: display name in result tables and reports.
+        trainer: ``value`` or ``ppo`` (:data:`TRAINERS`).
+        observes: what the network is fed, one phrase (docs table).
+        paper: the publication it implements (docs table).
+        paper_row: its row in Wang et al. 2022's tables, if it has one.
+        aliases: other names of the same network and their ``socialnav list`` descriptions; a
+            checkpoint always stores :attr:`name`.
+        defaults: value-based only: overrides of :data:`VALUE_DEFAULTS` (information, planning_depth,
+            planning_width, reward_rule), used for training and as evaluation parameters.
+        required_information: value-based only: the one information setting the policy can be
+            trained with (mp_rgl plans with the predictor it trains, so it needs ``learned``).
+        one_human_training: trained with one human per episode when the training setting
+            ``cadrl_one_human`` is on (CADRL's authors' setting).
+    """
+
+    name: str
+    network: str | Callable[..., Any]
+    description: str
+    label: str
+    trainer: str
+    observes: str
+    paper: str
+    paper_row: str | None = None
+    aliases: Mapping[str, str] = field(default_factory=dict)
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+    required_information: str | None = None
+    one_human_training: bool = False
+
+    def __post_init__(self) -> None:
+        if self.trainer not in TRAINERS:
+            raise ValueError(
+                f"learned policy {self.name!r}: trainer {self.trainer!r} must be one of {TRAINERS}"
+            )
+        unknown = sorted(set(self.defaults) - set(VALUE_DEFAULTS))
+        if unknown:
+            raise ValueError(
+                f"learned policy {self.name!r}: unknown default(s) {unknown}; valid: {sorted(VALUE_DEFAULTS)}"
+            )
+        needed = self.required_information
+        if needed is not None and self.value_defaults["information"] != needed:
+            raise ValueError(
+                f"learned policy {self.name!r}: required_information {needed!r} must also be its default "
+                f"information (defaults: information {self.value_defaults['information']!r})"
+            )
+        if self.trainer == "ppo" and (self.defaults or self.required_information):
+            raise ValueError(
+                f"learned policy {self.name!r}: lookahead defaults apply to value-based policies only"
+            )
+
+    @property
+    def value_defaults(self) -> dict[str, Any]:
+        """The lookahead settings it trains and evaluates with unless told otherwise (value-based)."""
+        return {**VALUE_DEFAULTS, **self.defaults}
+
+    def evaluation_parameters(self) -> dict[str, Any]:
+        """The parameters ``socialnav evaluate --policy NAME`` accepts, with their defaults."""
+        if self.trainer == "ppo":
+            return {"device": "cpu", "deterministic": True}
+        d = self.value_defaults
+        return {
+            "information": d["information"],
+            "device": "cpu",
+            "planning_depth": d["planning_depth"],
+            "planning_width": d["planning_width"],
+            "scorer": "auto",
+        }
+
+    def network_factory(self) -> Callable[..., Any]:
+        """The network's factory, imported now if the record names it by path (imports torch)."""
+        if not isinstance(self.network, str):
+            return self.network
+        module, _, attr = self.network.partition(":")
+        return getattr(importlib.import_module(module), attr)
+
+
+_NETS = "socialnav.policies.learned"
+_CROWDNAV_2019 = (
+    "Chen, Liu, Kreiss, Alahi, \"Crowd-Robot Interaction: Crowd-aware Robot Navigation with "
+    "Attention-based Deep Reinforcement Learning\", ICRA 2019"
+)
+_RGL_2020 = "Chen, Hu, Nikdel, Mori, Savva, \"Relational Graph Learning for Crowd Navigation\", IROS 2020"
+_JOINT = "robot state + each human's 13-value agent-centric joint state"
+
+#: The learned policies that ship, in the order of the docs table.
+BUILTIN: tuple[LearnedPolicySpec, ...] = (
+    LearnedPolicySpec(
+        name="cadrl",
+        network=f"{_NETS}.cadrl:CADRL",
+        description="CADRL value network (Chen et al., ICRA 2017), one-step lookahead",
+        label="CADRL",
+        paper_row="CADRL",
+        trainer="value",
+        observes=_JOINT + ", pairwise (min over humans)",
+        paper="Chen, Liu, Everett, How, \"Decentralized Non-communicating Multiagent Collision "
+        "Avoidance with Deep Reinforcement Learning\", ICRA 2017",
+        one_human_training=True,
+    ),
+    LearnedPolicySpec(
+        name="lstm_rl",
+        network=f"{_NETS}.lstm_rl:LSTMRL",
+        description="LSTM value network in the spirit of GA3C-CADRL (Everett et al., IROS 2018), value-based",
+        label="GA3C-CADRL (LSTM-RL)",
+        paper_row="GA3C-CADRL",
+        trainer="value",
+        observes=_JOINT + ", LSTM over humans sorted by distance",
+        paper="Everett, Chen, How, \"Motion Planning Among Dynamic, Decision-Making Agents with Deep "
+        "Reinforcement Learning\", IROS 2018",
+        aliases={
+            "ga3c_cadrl": "alias of lstm_rl: an LSTM value network, not the A3C policy-gradient original"
+        },
+    ),
+    LearnedPolicySpec(
+        name="sarl",
+        network=f"{_NETS}.sarl:SARL",
+        description="SARL: attention over humans (Chen et al., ICRA 2019), one-step lookahead",
+        label="SARL",
+        trainer="value",
+        observes=_JOINT + ", attention over humans",
+        paper=_CROWDNAV_2019,
+    ),
+    LearnedPolicySpec(
+        name="om_sarl",
+        network=f"{_NETS}.sarl:om_sarl",
+        description="OM-SARL: SARL with local occupancy maps (Chen et al., ICRA 2019)",
+        label="OM-SARL",
+        paper_row="OM-SARL",
+        trainer="value",
+        observes=_JOINT + " + a 4×4×3 local occupancy map around each human",
+        paper=_CROWDNAV_2019,
+    ),
+    LearnedPolicySpec(
+        name="rgl",
+        network=f"{_NETS}.rgl:RGL",
+        description="RGL: relational graph value network (Chen et al., IROS 2020), one-step lookahead",
+        label="RGL",
+        paper_row="RGL",
+        trainer="value",
+        observes=_JOINT + ", relational graph (relation matrix + 2 graph convolutions)",
+        paper=_RGL_2020,
+    ),
+    LearnedPolicySpec(
+        name="mp_rgl",
+        network=f"{_NETS}.rgl:mp_rgl",
+        description="model-predictive RGL: learned state predictor, d-step w-wide planning "
+        "(Chen et al., 2020)",
+        label="MP-RGL",
+        trainer="value",
+        observes=_JOINT + ", RGL's graph; humans' next states from a learned state predictor",
+        paper=_RGL_2020,
+        defaults={"information": "learned", "planning_depth": 2, "planning_width": 2, "reward_rule": "swept"},
+        required_information="learned",
+    ),
+    LearnedPolicySpec(
+        name="crowdnav_pp",
+        network=f"{_NETS}.attn_graph:AttnGraphNet",
+        description="CrowdNav++ attention graph (Liu et al., ICRA 2023): robot-human and human-human "
+        "attention, GRU over time, continuous actions, trained with PPO; constant-velocity prediction",
+        label="CrowdNav++ (attention graph, PPO)",
+        trainer="ppo",
+        observes="robot state + humans' positions and velocities with constant-velocity predictions",
+        paper="Liu et al., \"Intention Aware Robot Crowd Navigation "
+        "with Attention-Based Interaction Graph\", ICRA 2023",
+    ),
+    LearnedPolicySpec(
+        name="ppo_mlp",
+        network=f"{_NETS}.ppo_mlp:MLPActorCritic",
+        description="plain MLP actor-critic over the robot and the nearest humans, continuous actions, "
+        "trained with PPO (the reference for crowdnav_pp)",
+        label="MLP (PPO)",
+        trainer="ppo",
+        observes="robot state + the nearest humans' positions and velocities (constant-velocity predictions)",
+        paper="none (a baseline for crowdnav_pp)",
+    ),
+)
+
+_SPECS: dict[str, LearnedPolicySpec] = {}
+_ALIASES: dict[str, str] = {}
+
+
+def register_learned_policy(spec: LearnedPolicySpec) -> LearnedPolicySpec:
+    """Adds a learned policy; from then on the CLI, training, loading and ``socialnav list`` know it.
+
+    Raises:
+        ValueError: its name or one of its aliases is already taken.
+    """
+    for name in (spec.name, *spec.aliases):
+        if name in _SPECS or name in _ALIASES:
+            raise ValueError(f"learned policy {name!r} is already registered")
+    _SPECS[spec.name] = spec
+    _ALIASES.update({alias: spec.name for alias in spec.aliases})
+    return spec
+
+
+for _spec in BUILTIN:
+    register_learned_policy(_spec)
+
+
+def learned_policy_specs(trainer: str | None = None) -> list[LearnedPolicySpec]:
+    """The registered records in registration order, all or those of one ``trainer``."""
+    return [s for s in _SPECS.values() if trainer is None or s.trainer == trainer]
+
+
+def learned_policy_names(trainer: str | None = None, aliases: bool = True) -> list[str]:
+    """Every name ``--policy`` accepts for a learned policy (aliases after their policy)."""
+    out = []
+    for spec in learned_policy_specs(trainer):
+        out += [spec.name, *(spec.aliases if aliases else ())]
+    return out
+
+
+def canonical_name(name: str) -> str:
+    """The name a checkpoint stores (``ga3c_cadrl`` → ``lstm_rl``; other names unchanged)."""
+    return _ALIASES.get(name, name)
+
+
+def get_learned_spec(name: str) -> LearnedPolicySpec:
+    """The record of a learned policy by name or alias.
+
+    Raises:
+        KeyError: not a learned policy (the message lists the known ones).
+    """
+    try:
+        return _SPECS[canonical_name(name)]
+    except KeyError:
+        raise KeyError(
+            f"unknown learned policy {name!r}; known: {', '.join(sorted(learned_policy_names()))}"
+        ) from None
+
+
+def markdown_table() -> str:
+    """The table of learned policies in docs/policies_learned.md (a test keeps the two equal)."""
+    lines = ["| name (registry) | trainer | observes | paper |", "|---|---|---|---|"]
+    for spec in learned_policy_specs():
+        names = " = ".join(f"`{n}`" for n in (spec.name, *spec.aliases))
+        trainer = "PPO" if spec.trainer == "ppo" else "value-based"
+        lines.append(f"| {names} | {trainer} | {spec.observes} | {spec.paper} |")
+    return "\n".join(lines)
