@@ -99,7 +99,7 @@ class ObservationSettings:
             self.max_humans,
             "must be an integer >= 1 or None",
         )
-        for name in ("length_scale", "speed_scale"):
+        for name in ("length_scale", "speed_scale", "obstacle_spacing", "obstacle_range"):
             value = getattr(self, name)
             check(
                 isinstance(value, int | float) and math.isfinite(value) and value > 0,
@@ -115,14 +115,6 @@ class ObservationSettings:
             self.obstacle_points,
             "must be an integer >= 0",
         )
-        for name in ("obstacle_spacing", "obstacle_range"):
-            value = getattr(self, name)
-            check(
-                isinstance(value, int | float) and math.isfinite(value) and value > 0,
-                f"observation.{name}",
-                value,
-                "must be a finite number > 0",
-            )
 
     @property
     def obstacle_encoding(self) -> ObstaclePoints | None:
