@@ -269,7 +269,7 @@ def run_protocol(
         )
         rows = read_episode_rows(out, cells, chunk, label, stamp, verified)
         summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
-        write_reports(out, summary, rows, preset, mismatch_caveats(policy.describe()))
+        write_reports(out, summary, rows, preset, mismatch_caveats(manifest["policy"]))
     return ProtocolResult(out, rows, summary, computed)
 
 
