@@ -23,13 +23,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from motion_decomposition import episode_motion  # noqa: E402
+from motion_decomposition import episode_motion, successful_multi_human  # noqa: E402
 
 from socialnav.evaluate.files import atomic_write_json  # noqa: E402
 from socialnav.metrics.naturalness import JERK_DIFFERENCES, squared_jerk  # noqa: E402
-from socialnav.trajectory import read_trajectories  # noqa: E402
 
-MULTI_HUMAN = ("circle_crossing", "random", "parallel_traffic", "perpendicular_traffic")
 VARIANTS = [(d, q) for q in (3, 2) for d in JERK_DIFFERENCES]
 PAPER_M4 = {"cadrl": (5.63, 3.10), "ga3c_cadrl": (10.88, 6.77), "om_sarl": (9.77, 5.59), "rgl": (9.22, 5.32)}
 """Wang et al., Table II: M_IV mean ± std per baseline [(m/s³)²] (shared/spec/paper_results.md)."""
@@ -56,17 +54,14 @@ def result_dirs(paths: list[Path]) -> dict[str, Path]:
 
 def summarise(results_dir: Path) -> dict[str, float]:
     rows = []
-    for path in sorted((results_dir / "trajectories").glob("*__invisible/*.parquet")):
-        if path.parent.name.split("__")[0] not in MULTI_HUMAN:
+    for traj in successful_multi_human(results_dir):
+        if traj.n_steps < 3:
             continue
-        for traj in read_trajectories(path):
-            if traj.outcome != "success" or traj.n_steps < 3:
-                continue
-            motion = episode_motion(traj)
-            row = {key: motion[key] for key in ("mean_abs_dv", "share_turns_over_10deg")}
-            for d, q in VARIANTS:
-                row[variant_name(d, q)] = squared_jerk(traj, difference=d, dt_power=q)["mean_sq"]
-            rows.append(row)
+        motion = episode_motion(traj)
+        row = {key: motion[key] for key in ("mean_abs_dv", "share_turns_over_10deg")}
+        for d, q in VARIANTS:
+            row[variant_name(d, q)] = squared_jerk(traj, difference=d, dt_power=q)["mean_sq"]
+        rows.append(row)
     if not rows:
         raise SystemExit(f"{results_dir}: no successful multi-human episode with a stored trajectory")
     out: dict[str, float] = {"episodes": len(rows)}

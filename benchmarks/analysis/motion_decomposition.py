@@ -56,20 +56,22 @@ def episode_motion(traj) -> dict[str, float]:
     }
 
 
+def successful_multi_human(results_dir: Path, visibility: str = "invisible"):
+    """The stored trajectories of a result directory's successful multi-human episodes (Table II's)."""
+    for path in sorted((results_dir / "trajectories").glob(f"*__{visibility}/*.parquet")):
+        if path.parent.name.split("__")[0] in ("passing", "overtaking", "crossing"):
+            continue
+        yield from (traj for traj in read_trajectories(path) if traj.outcome == "success")
+
+
 def summarise(results_dir: Path, visibility: str = "invisible") -> dict[str, float]:
     rows = []
-    for path in sorted((results_dir / "trajectories").glob(f"*__{visibility}/*.parquet")):
-        scenario = path.parent.name.split("__")[0]
-        if scenario in ("passing", "overtaking", "crossing"):
-            continue
-        for traj in read_trajectories(path):
-            if traj.outcome != "success":
-                continue
-            row = episode_motion(traj)
-            scores = score_episode(traj)
-            row[M4_KEY] = float(scores[M4_KEY])
-            row["navigation_time"] = float(scores["navigation_time"])
-            rows.append(row)
+    for traj in successful_multi_human(results_dir, visibility):
+        row = episode_motion(traj)
+        scores = score_episode(traj)
+        row[M4_KEY] = float(scores[M4_KEY])
+        row["navigation_time"] = float(scores["navigation_time"])
+        rows.append(row)
     if not rows:
         raise SystemExit(f"{results_dir}: no successful multi-human episode with a stored trajectory")
     keys = rows[0].keys()

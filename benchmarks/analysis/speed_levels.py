@@ -21,10 +21,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from jerk_discretisation import MULTI_HUMAN  # noqa: E402
+from motion_decomposition import successful_multi_human  # noqa: E402
 
 from socialnav.evaluate.files import atomic_write_json  # noqa: E402
-from socialnav.trajectory import read_trajectories  # noqa: E402
 
 TOLERANCE = 1e-3  # [m/s]
 
@@ -37,19 +36,14 @@ def speed_levels(v_pref: float) -> np.ndarray:
 def shares(results_dir: Path, v_pref: float) -> dict:
     levels = speed_levels(v_pref)
     counts = np.zeros(len(levels) + 2)  # standing, the five levels, other
-    for path in sorted((results_dir / "trajectories").glob("*__invisible/*.parquet")):
-        if path.parent.name.split("__")[0] not in MULTI_HUMAN:
-            continue
-        for traj in read_trajectories(path):
-            if traj.outcome != "success":
-                continue
-            speed = np.linalg.norm(np.diff(traj.positions[:, 0], axis=0) / traj.dt, axis=1)
-            nearest = np.argmin(np.abs(speed[:, None] - levels[None, :]), axis=1)
-            on_level = np.abs(levels[nearest] - speed) < TOLERANCE
-            standing = speed < TOLERANCE
-            counts[0] += standing.sum()
-            np.add.at(counts, 1 + nearest[on_level & ~standing], 1)
-            counts[-1] += (~on_level & ~standing).sum()
+    for traj in successful_multi_human(results_dir):
+        speed = np.linalg.norm(np.diff(traj.positions[:, 0], axis=0) / traj.dt, axis=1)
+        nearest = np.argmin(np.abs(speed[:, None] - levels[None, :]), axis=1)
+        on_level = np.abs(levels[nearest] - speed) < TOLERANCE
+        standing = speed < TOLERANCE
+        counts[0] += standing.sum()
+        np.add.at(counts, 1 + nearest[on_level & ~standing], 1)
+        counts[-1] += (~on_level & ~standing).sum()
     if counts.sum() == 0:
         raise SystemExit(f"{results_dir}: no successful multi-human episode with a stored trajectory")
     labels = ["0"] + [f"{v:.3f}" for v in levels] + ["other"]
