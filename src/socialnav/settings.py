@@ -454,6 +454,10 @@ def _coerce(value: Any, hint: Any, path: str) -> Any:
         if not isinstance(value, Mapping):
             raise ConfigError(f"{path} must be a mapping, got {_kind(value)}")
         return dict(value)
+    if origin is list or hint is list:
+        if not isinstance(value, list | tuple):
+            raise ConfigError(f"{path} must be a list, got {_kind(value)}")
+        return list(value)
     if hint is float and isinstance(value, int) and not isinstance(value, bool):
         if abs(value) > 1e300:
             raise ConfigError(f"{path} must be a finite number, got {value!r}")
@@ -476,15 +480,21 @@ def _coerce(value: Any, hint: Any, path: str) -> Any:
     if hint is int and isinstance(value, bool):
         raise ConfigError(f"{path} must be an integer, got {value!r}")
     if origin in (typing.Union, types.UnionType) and value is not None:
-        for arg in typing.get_args(hint):
-            if arg is type(None):
-                continue
+        options = [arg for arg in typing.get_args(hint) if arg is not type(None)]
+        if len(options) == 1:  # an optional value: the type's own message
+            return _coerce(value, options[0], path)
+        for arg in options:
             try:
                 return _coerce(value, arg, path)
             except ConfigError:
                 continue
-        raise ConfigError(f"{path} has an invalid value {value!r}")
+        kinds = " or ".join(_KINDS.get(typing.get_origin(a) or a, type_name(a)) for a in options)
+        raise ConfigError(f"{path} must be {kinds}, got {_kind(value)}")
     return value
+
+
+_KINDS = {dict: "a mapping", list: "a list", tuple: "a list", float: "a number", int: "an integer",
+          str: "a text", bool: "true or false"}
 
 
 #: What PyYAML (YAML 1.1) may leave as text although YAML 1.2 reads a number: exponent forms (1e-3,
