@@ -314,8 +314,10 @@ def validate_value(owner: str, name: str, value: Any, tp: Any, meta: Mapping[str
         ConfigError: A value out of its constraint (ConfigTypeError: of the wrong type).
     """
 
+    given = value  # errors show the value as given, not as normalised
+
     def refuse(detail: str, type_error: bool = False) -> ConfigError:
-        return _field_error(owner, name, f"{detail}, got {value!r}", type_error=type_error)
+        return _field_error(owner, name, f"{detail}, got {given!r}", type_error=type_error)
 
     args, origin = typing.get_args(tp), typing.get_origin(tp)
     if origin in (typing.Union, _UnionType) and type(None) in args:
