@@ -166,14 +166,14 @@ def _leaf_value(spec: SettingSpec) -> st.SearchStrategy[Any]:
     base = spec.type.removesuffix(" | None")
     low, high, open_low, open_high = -1e6, 1e6, False, False
     text = spec.constraint
-    for op in (">=", ">", "<=", "<"):
-        if text.startswith(op + " "):
-            value = float(text[len(op) + 1:])
-            if op.startswith(">"):
+    for part in [] if text.startswith("in ") else text.split(", "):  # "> 0, >= 0.0001 s": the tightest
+        op, _, number = part.partition(" ")
+        if op in (">", ">="):
+            value = float(number.split()[0])
+            if value >= low:
                 low, open_low = value, op == ">"
-            else:
-                high, open_high = value, op == "<"
-            break
+        elif op in ("<", "<="):
+            high, open_high = float(number.split()[0]), op == "<"
     if text.startswith("in "):
         a, b = text[4:-1].split(", ")
         low, high = float(a), (math.pi if b == "pi" else float(b))
@@ -210,7 +210,7 @@ def _nest(flat: dict[str, Any]) -> dict[str, Any]:
 
 
 #: The messages of the rules between fields of the classes below (each class's cross_check).
-CROSS_FIELD_RULES = ("steps per episode", "<= rl.capacity", "with wheels under 0.5 m")
+CROSS_FIELD_RULES = ("steps per episode, more than", "<= rl.capacity", "with wheels under 0.5 m")
 
 
 @pytest.mark.parametrize("cls", [WorldSettings, TrainSettings, SweepSettings, EvaluateJobSettings,

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
-import functools
 import math
 import re
 import types
@@ -173,19 +172,23 @@ class Settings:
         """The name errors give the instance's section (``section``, or the class name if none)."""
         return cls.section
 
-    def refuse(self, name: str, requirement: str, value: Any = dataclasses.MISSING) -> typing.NoReturn:
+    def refuse(self, name: str, requirement: str, value: Any = dataclasses.MISSING, *,
+               got: bool = True) -> typing.NoReturn:
         """Raises the ConfigError of field ``name`` (its path completed by `from_dict`).
 
         Args:
             name: The field.
             requirement: What it must satisfy (``must be <= rl.capacity (50)``).
             value: The value to show (default: the field's).
+            got: End the message with ``, got <value>``; False: ``requirement`` is the whole
+                message after the field's name.
 
         Raises:
             ConfigError: Always.
         """
         value = getattr(self, name) if value is dataclasses.MISSING else value
-        raise _field_error(self.setting_owner(), name, f"{requirement}, got {value!r}")
+        detail = f"{requirement}, got {value!r}" if got else requirement
+        raise _field_error(self.setting_owner(), name, detail)
 
     @classmethod
     def from_dict(cls: type[T], data: Mapping[str, Any] | None, *, source: str | None = None,
@@ -263,27 +266,33 @@ def constraint_text(meta: Mapping[str, Any]) -> str:
     """A field's constraint as the docs and errors say it: ``> 0``, ``in [0, 64]``, ``one of 'a', 'b'``."""
     if meta.get("choices"):
         return "one of " + ", ".join(map(repr, meta["choices"]))
-    if meta.get("requirement"):
-        return str(meta["requirement"]).removeprefix("must be ").removeprefix("must ")
     low = ("[", meta["ge"]) if meta.get("ge") is not None else ("(", meta.get("gt"))
     high = ("]", meta["le"]) if meta.get("le") is not None else (")", meta.get("lt"))
     if low[1] is not None and high[1] is not None:
-        return f"in {low[0]}{_number(low[1])}, {_number(high[1])}{high[0]}"
-    if low[1] is not None:
-        return f"{'>=' if low[0] == '[' else '>'} {_number(low[1])}"
-    if high[1] is not None:
-        return f"{'<=' if high[0] == ']' else '<'} {_number(high[1])}"
-    return ""
+        bounds = f"in {low[0]}{_number(low[1])}, {_number(high[1])}{high[0]}"
+    elif low[1] is not None:
+        bounds = f"{'>=' if low[0] == '[' else '>'} {_number(low[1])}"
+    elif high[1] is not None:
+        bounds = f"{'<=' if high[0] == ']' else '<'} {_number(high[1])}"
+    else:
+        bounds = ""
+    extra = str(meta.get("requirement") or "").removeprefix("must be ").removeprefix("must ")
+    return ", ".join(part for part in (bounds, extra) if part)
 
 
 def _number(x: float) -> str:
     return "pi" if x == math.pi else repr(x)
 
 
-@functools.cache
-def _type_hints(cls: type) -> dict[str, Any]:
+_HINTS: dict[Any, dict[str, Any]] = {}
+
+
+def _type_hints(cls: Any) -> dict[str, Any]:
     # resolving annotations costs ≈ 0.5 ms a class, and scenario settings are built per world refill
-    return typing.get_type_hints(cls)
+    hints = _HINTS.get(cls)
+    if hints is None:
+        hints = _HINTS[cls] = typing.get_type_hints(cls)
+    return hints
 
 
 def _field_error(owner: str, name: str, detail: str, *, type_error: bool = False) -> ConfigError:
@@ -363,7 +372,7 @@ def validate_value(owner: str, name: str, value: Any, tp: Any, meta: Mapping[str
     choices = meta.get("choices")
     if choices and value not in choices:
         raise refuse("must be one of " + ", ".join(map(repr, choices)))
-    bounds = constraint_text({k: meta.get(k) for k in ("gt", "ge", "lt", "le")})
+    bounds = constraint_text({k: meta.get(k) for k in ("gt", "ge", "lt", "le")})  # bounds only
     if bounds and not (
         (meta.get("gt") is None or value > meta["gt"]) and (meta.get("ge") is None or value >= meta["ge"])
         and (meta.get("lt") is None or value < meta["lt"]) and (meta.get("le") is None or value <= meta["le"])
@@ -405,12 +414,12 @@ def from_dict(cls: type[T], data: Mapping[str, Any] | None, path: str = "") -> T
             named.append(where + str(key) + (f" (did you mean {where}{close[0]}?)" if close else ""))
         raise ConfigError(f"unknown setting(s) {', '.join(named)}; valid: {', '.join(sorted(fields))}")
     hints = _type_hints(cls)
-    kwargs = {}
+    kwargs: dict[str, Any] = {}
     for name, value in data.items():
         hint = hints.get(name)
         sub = f"{where}{name}"
         if dataclasses.is_dataclass(hint):
-            kwargs[name] = from_dict(hint, value, sub)  # type: ignore[arg-type]  (None: the defaults)
+            kwargs[name] = from_dict(typing.cast(type, hint), value, sub)  # value None: the defaults
         else:
             kwargs[name] = _coerce(value, hint, sub)
     try:

@@ -89,7 +89,8 @@ class RewardSettings(Settings):
 class WorldSettings(Settings):
     """Everything that defines the simulator's behaviour (not the scenario, not the policy)."""
 
-    dt: float = setting(0.25, "time step", unit="s", ge=MIN_DT)
+    dt: float = setting(0.25, "time step", unit="s", gt=0, check=lambda dt: dt >= MIN_DT,
+                        requirement=f"must be >= {MIN_DT} s")
     time_limit: float = setting(25.0, "episode time limit (a timeout after it)", unit="s", gt=0)
     human_model: str = setting("orca", "how the humans move", choices=HUMAN_MODELS)
     orca_mode: str = setting(
@@ -133,9 +134,9 @@ class WorldSettings(Settings):
             value = getattr(self, name)
             self.refuse(
                 name,
-                f"must make at most {MAX_STEPS} steps per episode; with dt {self.dt!r} it makes {steps} "
-                f"(raise dt or lower {name})",
-                value,
+                f"{value!r} with dt {self.dt!r} makes {steps} steps per episode, more than the "
+                f"{MAX_STEPS} allowed (raise dt or lower {name})",
+                got=False,
             )
 
     @property
