@@ -227,3 +227,20 @@ def test_from_dict_of_to_dict_is_the_identity(cls, data):
         return
     again = cls.from_dict(instance.to_dict())
     assert again == instance and again.to_dict() == instance.to_dict()
+
+
+def test_a_preset_names_a_nested_world_section_once(tmp_path):
+    # before the one settings system this read "world.orca.orca.time_horizon"
+    from importlib import resources
+
+    import yaml
+
+    from socialnav.presets import load_preset
+
+    data = yaml.safe_load((resources.files("socialnav.configs") / "wang2022.yaml").read_text())
+    data["world"].setdefault("orca", {})["time_horizon"] = -1
+    path = tmp_path / "wang.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError) as err:
+        load_preset(path)
+    assert str(err.value) == f"{path}: world.orca.time_horizon must be > 0, got -1.0"

@@ -322,7 +322,6 @@ def validate_value(owner: str, name: str, value: Any, tp: Any, meta: Mapping[str
     Raises:
         ConfigError: A value out of its constraint (ConfigTypeError: of the wrong type).
     """
-
     given = value  # errors show the value as given, not as normalised
 
     def refuse(detail: str, type_error: bool = False) -> ConfigError:

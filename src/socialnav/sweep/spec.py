@@ -127,11 +127,21 @@ class Job:
     where: str  # the entry of the sweep file it comes from, for messages
 
     def get(self, key: str, default: Any = None) -> Any:
+        """The job's value of ``key``, or ``default`` when the job does not set it."""
         return self.params.get(key, default)
 
 
 @dataclass(frozen=True)
 class SweepSpec:
+    """A validated sweep: its jobs and the top-level settings (see `SweepSettings`).
+
+    Attributes:
+        jobs: Every job, the grids' expanded.
+        out, executor, workers, retries, address, threads: As in `SweepSettings`.
+        source: The sweep file (for messages).
+        raw: The parsed YAML as given (recorded in ``sweep.json``).
+    """
+
     jobs: list[Job]
     out: str | None = None
     executor: str = "local"
@@ -144,10 +154,12 @@ class SweepSpec:
 
     @property
     def train_jobs(self) -> list[Job]:
+        """The training jobs, in file order."""
         return [j for j in self.jobs if j.kind == "train"]
 
     @property
     def evaluate_jobs(self) -> list[Job]:
+        """The evaluation jobs, in file order."""
         return [j for j in self.jobs if j.kind == "evaluate"]
 
 
@@ -172,8 +184,20 @@ def load_sweep(path: str | Path) -> SweepSpec:
 
 
 def parse_sweep(data: Any, source: str = "<sweep>", base: Path | None = None) -> SweepSpec:
-    """Validates a sweep given as a mapping (the parsed YAML); relative checkpoint and config paths are
-    taken relative to ``base`` when they exist there, else to the working directory."""
+    """Validates a sweep given as a mapping (the parsed YAML).
+
+    Args:
+        data: The parsed sweep file.
+        source: Its name in messages.
+        base: Relative checkpoint and config paths are taken relative to it when they exist there,
+            else to the working directory.
+
+    Returns:
+        The validated sweep.
+
+    Raises:
+        ConfigError: The file, the entry and the problem are named.
+    """
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: expected a mapping with grid: and/or jobs:, got {type(data).__name__}")
     top = SweepSettings.from_dict({k: v for k, v in data.items() if v is not None}, source=source)

@@ -218,8 +218,19 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
 
 
 def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[str, Any]) -> T:
-    """``cls`` from a YAML file (a path or a shipped config's name) with top-level ``overrides``
-    applied after it (None values ignored); errors name the file and the field."""
+    """Settings of class ``cls`` from a YAML file, with top-level ``overrides`` applied after it.
+
+    Args:
+        cls: The settings class.
+        path: A YAML file or a shipped config's name; None: the defaults.
+        overrides: Top-level fields (None values ignored).
+
+    Returns:
+        The settings.
+
+    Raises:
+        ConfigError: Naming the file and the field.
+    """
     data: dict[str, Any] = {}
     if path is not None:
         path = _resolve_config(path)
@@ -250,8 +261,10 @@ def resolve_train_settings(
     rl_episodes: int | None = None,
     compile: bool | None = None,
 ) -> TrainSettings:
-    """The settings of ``socialnav train`` (and of a sweep's training job): the config file, then the
-    command-line options that override it (None: not given)."""
+    """The settings of ``socialnav train`` (and of a sweep's training job).
+
+    The config file, then the command-line options that override it (None: not given).
+    """
     settings = load_train_settings(config, seed=seed, device=device)
     for key, value in (
         ("collection_batch", collection_batch), ("information", information), ("compile", compile)
@@ -303,9 +316,11 @@ def derive_seeds(seed: int) -> dict[str, int]:
 
 
 def resume_diff(saved: dict[str, Any], current: dict[str, Any]) -> list[str]:
-    """Dotted keys where a saved run config and the current one differ, ignoring the settings a
-    resumed run may change (:data:`RESUMABLE_CHANGES`) and settings added since the run was saved
-    when the current value is the one such runs had (:data:`ADDED_SETTINGS`)."""
+    """Dotted keys where a saved run config and the current one differ.
+
+    Ignores the settings a resumed run may change (:data:`RESUMABLE_CHANGES`) and settings added
+    since the run was saved when the current value is the one such runs had (:data:`ADDED_SETTINGS`).
+    """
     out = []
     for key in flat_diff(saved, current):
         if any(key == f"train.{r}" or key.startswith(f"train.{r}.") for r in RESUMABLE_CHANGES):
