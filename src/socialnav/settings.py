@@ -156,12 +156,12 @@ class Settings:
     def __post_init__(self) -> None:
         """Validates every field against its annotation and constraint, then `cross_check`."""
         owner = self.setting_owner()
-        hints = _type_hints(type(self))
-        for f in dataclasses.fields(self):  # type: ignore[arg-type]
-            value = getattr(self, f.name)
-            new = validate_value(owner, f.name, value, hints[f.name], f.metadata)
-            if self.normalise and new is not value:
-                object.__setattr__(self, f.name, new)
+        normalise = self.normalise
+        for rule in _rules(type(self)):
+            value = getattr(self, rule.name)
+            new = _check(owner, rule, value)
+            if normalise and new is not value:
+                object.__setattr__(self, rule.name, new)
         self.cross_check()
 
     def cross_check(self) -> None:
@@ -306,6 +306,22 @@ def _is_real(x: Any) -> bool:
     return number and not isinstance(x, (bool, np.bool_))
 
 
+class _Rule(typing.NamedTuple):
+    """One field's declaration, prepared once per class for validation."""
+
+    name: str
+    kind: str  # float, int, str, bool, section, tuple or other
+    inner: Any  # the annotation without None
+    optional: bool
+    choices: tuple[Any, ...] | None
+    gt: Any
+    ge: Any
+    lt: Any
+    le: Any
+    check: Callable[[Any], bool] | None
+    requirement: str
+
+
 def validate_value(owner: str, name: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
     """Checks one value against its annotation and its :func:`setting` constraint.
 
@@ -322,64 +338,95 @@ def validate_value(owner: str, name: str, value: Any, tp: Any, meta: Mapping[str
     Raises:
         ConfigError: A value out of its constraint (ConfigTypeError: of the wrong type).
     """
-    given = value  # errors show the value as given, not as normalised
+    return _check(owner, _rule(name, tp, meta), value)
 
-    def refuse(detail: str, type_error: bool = False) -> ConfigError:
-        return _field_error(owner, name, f"{detail}, got {given!r}", type_error=type_error)
 
-    args, origin = typing.get_args(tp), typing.get_origin(tp)
-    if origin in (typing.Union, _UnionType) and type(None) in args:
-        if value is None:
-            return value
+def _rule(name: str, tp: Any, meta: Mapping[str, Any]) -> _Rule:
+    inner, optional = tp, False
+    args = typing.get_args(tp)
+    if typing.get_origin(tp) in (typing.Union, _UnionType) and type(None) in args:
         rest = [a for a in args if a is not type(None)]
-        if len(rest) != 1:
-            return value  # a union of several types: left to the class's cross_check
-        tp = rest[0]
-        args, origin = typing.get_args(tp), typing.get_origin(tp)
-    if dataclasses.is_dataclass(tp):
-        if not isinstance(value, tp):  # type: ignore[arg-type]
-            raise refuse(f"must be a {tp.__name__} (a section of settings)", True)  # type: ignore[union-attr]
+        optional = True
+        inner = rest[0] if len(rest) == 1 else tp
+    if inner in (float, int, str, bool):
+        kind = inner.__name__
+    elif dataclasses.is_dataclass(inner):
+        kind = "section"
+    elif typing.get_origin(inner) is tuple:
+        kind = "tuple"
+    else:
+        kind = "other"
+    return _Rule(name, kind, inner, optional, meta.get("choices"), meta.get("gt"), meta.get("ge"),
+                 meta.get("lt"), meta.get("le"), meta.get("check"), str(meta.get("requirement") or ""))
+
+
+_RULES: dict[Any, tuple[_Rule, ...]] = {}
+
+
+def _rules(cls: Any) -> tuple[_Rule, ...]:
+    # prepared once per class: scenario settings are built on every world refill
+    rules = _RULES.get(cls)
+    if rules is None:
+        hints = _type_hints(cls)
+        rules = _RULES[cls] = tuple(_rule(f.name, hints[f.name], f.metadata) for f in dataclasses.fields(cls))
+    return rules
+
+
+def _refuse(owner: str, rule: _Rule, detail: str, given: Any, type_error: bool = False) -> ConfigError:
+    return _field_error(owner, rule.name, f"{detail}, got {given!r}", type_error=type_error)
+
+
+def _check(owner: str, r: _Rule, value: Any) -> Any:
+    """`validate_value` for a prepared rule."""
+    given = value  # errors show the value as given, not as normalised
+    kind = r.kind
+    if value is None and r.optional:
         return value
-    if tp is bool:
-        if not isinstance(value, (bool, np.bool_)):
-            raise refuse("must be a bool (true or false)", True)
-        value = bool(value)
-    elif tp is int:
-        if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)):
-            raise refuse("must be an int", True)
-        value = int(value)
-    elif tp is float:
-        if not _is_real(value):
-            raise refuse("must be a number", True)
-        if not math.isfinite(float(value)):
-            raise refuse("must be finite")
-        value = float(value)
-    elif tp is str:
+    if kind == "float":
+        if type(value) is not float or not math.isfinite(value):  # the common case costs one test
+            if not _is_real(value):
+                raise _refuse(owner, r, "must be a number", given, True)
+            if not math.isfinite(float(value)):
+                raise _refuse(owner, r, "must be finite", given)
+            value = float(value)
+    elif kind == "int":
+        if type(value) is not int:
+            if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)):
+                raise _refuse(owner, r, "must be an int", given, True)
+            value = int(value)
+    elif kind == "str":
         if not isinstance(value, str):
-            raise refuse("must be a string", True)
-    elif origin is tuple:
+            raise _refuse(owner, r, "must be a string", given, True)
+    elif kind == "bool":
+        if not isinstance(value, (bool, np.bool_)):
+            raise _refuse(owner, r, "must be a bool (true or false)", given, True)
+        value = bool(value)
+    elif kind == "section":
+        if not isinstance(value, r.inner):
+            raise _refuse(owner, r, f"must be a {r.inner.__name__} (a section of settings)", given, True)
+        return value
+    elif kind == "tuple":
+        args = typing.get_args(r.inner)
         fixed = not (len(args) == 2 and args[1] is Ellipsis)
         if not isinstance(value, (tuple, list)) or (fixed and len(value) != len(args)):
-            size = f"{len(args)} " if fixed else ""
-            raise refuse(f"must be a sequence of {size}{'numbers' if float in args else 'values'}", True)
+            what = f"{len(args) if fixed else ''} {'numbers' if float in args else 'values'}".lstrip()
+            raise _refuse(owner, r, f"must be a sequence of {what}", given, True)
         if float in args:
             if not all(_is_real(v) and math.isfinite(float(v)) for v in value):
-                raise refuse("must hold finite numbers")
+                raise _refuse(owner, r, "must hold finite numbers", given)
             value = tuple(float(v) for v in value)
         else:
             value = tuple(value)
-    choices = meta.get("choices")
-    if choices and value not in choices:
-        raise refuse("must be one of " + ", ".join(map(repr, choices)))
-    bounds = constraint_text({k: meta.get(k) for k in ("gt", "ge", "lt", "le")})  # bounds only
-    if bounds and not (
-        (meta.get("gt") is None or value > meta["gt"]) and (meta.get("ge") is None or value >= meta["ge"])
-        and (meta.get("lt") is None or value < meta["lt"]) and (meta.get("le") is None or value <= meta["le"])
-    ):
-        raise refuse(f"must be {bounds}")
-    predicate = meta.get("check")
-    if predicate is not None and not predicate(value):
-        raise refuse(str(meta["requirement"]))
+    else:
+        return value  # a mapping, a list, a union of several types: the loader checked the type
+    if r.choices and value not in r.choices:
+        raise _refuse(owner, r, "must be one of " + ", ".join(map(repr, r.choices)), given)
+    gt, ge, lt, le = r.gt, r.ge, r.lt, r.le
+    if ((gt is not None and not value > gt) or (ge is not None and not value >= ge)
+            or (lt is not None and not value < lt) or (le is not None and not value <= le)):
+        raise _refuse(owner, r, "must be " + constraint_text({"gt": gt, "ge": ge, "lt": lt, "le": le}), given)
+    if r.check is not None and not r.check(value):
+        raise _refuse(owner, r, r.requirement, given)
     return value
 
 
