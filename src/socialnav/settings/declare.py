@@ -36,7 +36,7 @@ def setting(
         default: Default value (immutable: numbers, strings, tuples, None); use
             ``default_factory`` for a nested settings section.
         doc: One-line description (``socialnav list``, the docs tables).
-        unit: SI unit in brackets' form (``m``, ``m/s``, ``s``, ``rad``); "" when dimensionless.
+        unit: SI unit (``m``, ``m/s``, ``s``, ``rad``); "" when dimensionless.
         gt: The value must be > gt.
         ge: The value must be >= ge.
         lt: The value must be < lt.

@@ -82,7 +82,10 @@ class EvaluateJobSettings(Settings):
     human_model: str | None = setting(
         None, "the humans' model (overrides the preset's)", choices=HUMAN_MODELS
     )
-    information: str | None = setting(None, "what a learned policy's lookahead predicts")
+    information: str | None = setting(
+        None, "how a learned policy's lookahead predicts the humans (default: the checkpoint's)",
+        choices=INFORMATION,
+    )
     planning_depth: int | None = setting(None, "model-predictive planning depth", ge=1)
     planning_width: int | None = setting(None, "model-predictive planning width", ge=1)
     policy_args: dict[str, Any] | None = setting(None, "policy parameters (as --policy-arg)")
@@ -139,7 +142,7 @@ class SweepSpec:
         jobs: Every job, the grids' expanded.
         out, executor, workers, retries, address, threads: As in `SweepSettings`.
         source: The sweep file (for messages).
-        raw: The parsed YAML as given (recorded in ``sweep.json``).
+        raw: The parsed YAML as given.
     """
 
     jobs: list[Job]
