@@ -5,8 +5,10 @@
 
 - cli.md: every command and option of ``socialnav``, read from its argparse parser.
 - settings.md: every field of a preset file (world, robot, evaluation, training), of a training settings
-  file (value-based and PPO) and every scenario parameter, read from the settings dataclasses (their
-  defaults and the ``# [unit] why`` comment on the field's line) and the scenarios' ``param()`` registry.
+  file (value-based and PPO), of a sweep file and every scenario parameter, read from the parameter
+  tables of the one settings system (``socialnav.settings.parameter_table``: type, default, unit,
+  constraint, meaning); dataclasses not declared with ``setting()`` yet (the preset's robot, evaluation
+  and training sections, PPO) give their meaning in the ``# [unit] why`` comment on the field's line.
 - metric_registry.md: the registered metrics with their units, directions, parameters and outputs.
 
 tests/test_docs_site.py runs ``--check``; run this script after changing a command, a setting or a metric.
@@ -19,10 +21,10 @@ import ast
 import dataclasses
 import inspect
 import io
+import re
 import sys
 import textwrap
 import tokenize
-import typing
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -124,37 +126,51 @@ def _default_text(value: object) -> str:
 
 
 def settings_rows(cls: type, prefix: str = "") -> list[str]:
-    """One table row per leaf field of the settings dataclass ``cls`` (nested ones flattened with
-    dotted names), with its type, default and documentation comment."""
+    """One table row per row of the parameter table of ``cls`` (``socialnav.settings``): nested
+    sections flattened with dotted names, each with its type, default, unit, constraint and meaning.
+
+    A dataclass not (yet) declared with ``setting()`` has its meaning read from the ``# comment`` on
+    each field's line instead."""
+    from socialnav.settings import parameter_table
+
     rows = []
-    hints = typing.get_type_hints(cls)
-    comments = _field_comments(cls)
-    instance = cls()
-    for f in dataclasses.fields(cls):
-        if not f.init:
+    comments: dict[str, dict[str, str]] = {}
+    for spec in parameter_table(cls, prefix):
+        if spec.is_section:
+            rows.append(f"| **`{spec.name}`** | section | | | | {cell(spec.doc)} |")
             continue
-        value = getattr(instance, f.name)
-        name = f"{prefix}{f.name}"
-        if dataclasses.is_dataclass(value):
-            doc = (inspect.getdoc(type(value)) or "").split("\n\n")[0]
-            rows.append(f"| **`{name}`** | section | | {cell(doc)} |")
-            rows += settings_rows(type(value), f"{name}.")
-            continue
-        hint = hints.get(f.name)
-        kind = getattr(hint, "__name__", None) or str(hint or "").replace("typing.", "")
-        doc = cell(comments.get(f.name, ""))
-        rows.append(f"| `{name}` | {cell(kind)} | {_default_text(value)} | {doc} |")
+        doc, unit = spec.doc, spec.unit
+        if not doc:  # a plain dataclass field: its source comment, "[unit] meaning"
+            owner = _owner_class(cls, spec.name[len(prefix):])
+            doc = comments.setdefault(owner.__qualname__, _field_comments(owner)).get(
+                spec.name.rpartition(".")[2], "")
+            bracket = re.match(r"\[([^\]]+)\]\s*(.*)", doc)
+            if bracket and not unit:
+                unit, doc = bracket.groups()
+        rows.append(f"| `{spec.name}` | {cell(spec.type)} | {_default_text(spec.default)} | "
+                    f"{cell(unit)} | {cell(spec.constraint)} | {cell(doc)} |")
     return rows
 
 
+def _owner_class(cls: type, dotted: str) -> type:
+    """The (nested) dataclass that declares the field ``dotted`` of ``cls``."""
+    for part in dotted.split(".")[:-1]:
+        field = {f.name: f for f in dataclasses.fields(cls)}[part]
+        cls = type(field.default_factory()) if field.default_factory is not dataclasses.MISSING else \
+            type(field.default)
+    return cls
+
+
 def _settings_table(cls: type, prefix: str = "") -> list[str]:
-    return ["| field | type | default | meaning |", "|---|---|---|---|", *settings_rows(cls, prefix), ""]
+    return ["| field | type | default | unit | constraint | meaning |", "|---|---|---|---|---|---|",
+            *settings_rows(cls, prefix), ""]
 
 
 def settings_page() -> str:
     from socialnav.presets import EvaluationSettings, RobotSettings, TrainingScenarios
     from socialnav.scenarios import list_scenarios
     from socialnav.sim.settings import WorldSettings
+    from socialnav.sweep.spec import EvaluateJobSettings, SweepSettings, TrainJobSettings
     from socialnav.train.config import TrainSettings
     from socialnav.train.ppo_config import PPOSettings
 
@@ -163,7 +179,7 @@ def settings_page() -> str:
         "",
         "Every field of the settings files, with its default. A file needs only the fields it changes;",
         "an unknown field, a value of the wrong type or out of range is refused with the file and the",
-        "dotted field named. Units are in brackets.",
+        "dotted field named. The tables come from the settings classes themselves (`socialnav.settings`).",
         "",
         "## Preset files (`socialnav evaluate --preset FILE.yaml`)",
         "",
@@ -191,6 +207,22 @@ def settings_page() -> str:
         "### PPO policies (`crowdnav_pp`, `ppo_mlp`)",
         "",
         *_settings_table(PPOSettings),
+        "## Sweep files (`socialnav sweep FILE.yaml`)",
+        "",
+        "The format and its semantics are in [Sweeps](../sweeps.md). Top-level fields:",
+        "",
+        *_settings_table(SweepSettings),
+        "### Keys of an evaluation job (`kind: evaluate`)",
+        "",
+        "Besides `kind` and `name` (a template over the job's keys); a key left out takes",
+        "`socialnav evaluate`'s default.",
+        "",
+        *_settings_table(EvaluateJobSettings),
+        "### Keys of a training job (`kind: train`)",
+        "",
+        "Besides `kind` and `name`; a key left out takes `socialnav train`'s default.",
+        "",
+        *_settings_table(TrainJobSettings),
         "## Scenario parameters",
         "",
         "Set per scenario in code (`get_scenario(name, **params)`) or through the Gymnasium ids' keyword",
@@ -200,8 +232,10 @@ def settings_page() -> str:
     for name, params in list_scenarios().items():
         lines += [f"### `{name}`", ""]
         if params:
-            lines += ["| parameter | default | meaning |", "|---|---|---|"]
-            lines += [f"| `{p.name}` | {_default_text(p.default)} | {cell(p.doc)} |" for p in params]
+            lines += ["| parameter | type | default | unit | constraint | meaning |",
+                      "|---|---|---|---|---|---|"]
+            lines += [f"| `{p.name}` | {cell(p.type)} | {_default_text(p.default)} | {cell(p.unit)} | "
+                      f"{cell(p.constraint)} | {cell(p.doc)} |" for p in params]
         else:
             lines.append("No parameters.")
         lines.append("")

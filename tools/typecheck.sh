@@ -5,6 +5,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python -m mypy --no-incremental \
-  -p socialnav._io -p socialnav._runtime -p socialnav.policies.learned_catalog \
+  -p socialnav._io -p socialnav._runtime -p socialnav.settings -p socialnav.policies.learned_catalog \
   -m socialnav -m socialnav.sim -m socialnav.evaluate -m socialnav.train -m socialnav.sweep \
   -m socialnav.metrics -m socialnav.policies -m socialnav.logs -m socialnav.scenarios

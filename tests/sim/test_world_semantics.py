@@ -208,7 +208,7 @@ def test_wrong_action_shape_is_refused():
     ("dt", -0.25, "dt must be"),
     ("dt", float("nan"), "dt must be"),
     ("time_limit", -1.0, "time_limit must be"),
-    ("human_model", "boids", "human_model must be one of orca, social_force, linear"),
+    ("human_model", "boids", "human_model must be one of 'orca', 'social_force', 'linear', got 'boids'"),
     ("visibility", "seen", "visibility must be one of"),
     ("kinematics", "car", "kinematics must be one of"),
 ])

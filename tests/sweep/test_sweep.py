@@ -108,7 +108,7 @@ def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
     [
         (
             {"jobs": [{"kind": "evaluate", "policy": "orca", "episodez": 3}]},
-            r"jobs\[0\].*unknown key.*episodez",
+            r"jobs\[0\]: unknown setting\(s\) episodez \(did you mean episodes\?\)",
         ),
         ({"jobs": [{"kind": "evaluate", "policy": "nope"}]}, r"jobs\[0\].*unknown policy 'nope'"),
         (
@@ -132,7 +132,10 @@ def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
         ({"jobs": [{"kind": "fly", "policy": "orca"}]}, r"jobs\[0\]: kind must be"),
         ({"jobs": [{"kind": "evaluate", "policy": "orca", "name": "{nope}"}]}, r"name template"),
         ({"jobs": [{"kind": "evaluate", "policy": "orca"}], "executor": "slurm"}, r"executor must be"),
-        ({"jobs": [{"kind": "evaluate", "policy": "orca"}], "wokers": 2}, r"unknown key.*wokers"),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "orca"}], "wokers": 2},
+            r"unknown setting.*wokers \(did you mean workers\?\)",
+        ),
         ({"grid": {"kind": "evaluate", "policy": []}}, r"policy is an empty list"),
         ({}, r"no jobs"),
     ],

@@ -1,26 +1,30 @@
-"""Scenario base class, the `EpisodeBatch` it produces, and the episode seed scheme.
+"""Scenario base class: common settings, the robot's set-up and batch generation.
 
-A scenario is a frozen dataclass of settings with a method ``generate(indices, seeds)`` that
-returns the initial state of a batch of episodes (see docs/internals.md, "EpisodeBatch"). All
-randomness comes from `EpisodeRandom` keyed by the episode seed and the scenario's registered name,
-so an episode depends only on (scenario, settings, seed, index), never on the batch it is in.
+A scenario is a frozen dataclass of settings (declared with `param`, validated by the settings
+system, `socialnav.settings`) with a method ``generate(indices, seeds)`` that returns the initial
+state of a batch of episodes (`EpisodeBatch`, see docs/internals.md). All randomness comes from
+`EpisodeRandom` keyed by the episode seed and the scenario's registered name, so an episode depends
+only on (scenario, settings, seed, index), never on the batch it is in. The episode seed scheme is
+in `socialnav.scenarios.seeds`, the batch container in `socialnav.scenarios.episode_batch` (both
+re-exported here).
 """
 
 from __future__ import annotations
 
 import abc
 import dataclasses
-import functools
-import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar, NamedTuple
+from typing import Any, ClassVar
 
 import numpy as np
 
-from socialnav.scenarios._params import ParamSpec, check_value, param, type_name
+from socialnav.scenarios._params import ParamSpec, param
+from socialnav.scenarios.episode_batch import EpisodeBatch, HumanArrays
 from socialnav.scenarios.random import EpisodeRandom
-from socialnav.static_map import MapStack, StaticMap
+from socialnav.scenarios.seeds import SPLIT_BASES, SPLIT_SIZE, as_indices, episode_seeds
+from socialnav.settings import Settings
+from socialnav.static_map import StaticMap
 
 __all__ = [
     "SPLIT_BASES",
@@ -33,19 +37,6 @@ __all__ = [
     "param",
 ]
 
-
-@functools.cache
-def _type_hints(cls: type) -> dict[str, Any]:
-    """A settings class's resolved annotations, computed once per class (resolving them costs ≈ 0.5 ms,
-    and settings are built for every chunk of a sweep and every episode stream)."""
-    return typing.get_type_hints(cls)
-
-
-SPLIT_BASES: dict[str, int] = {"val": 0, "test": 1000, "train": 2000}
-"""First seed of each split (CrowdNav's scheme: val 0 + i, test 1000 + i, train from 2000 on)."""
-#: Largest number of val / test episodes per scenario that keeps the splits' seeds disjoint.
-SPLIT_SIZE = 1000
-
 # Key streams of `EpisodeRandom` draws. A draw's key starts with one of these so that, say, the
 # attributes of human j never share numbers with the attempts at placing it.
 STREAM_ATTRIBUTES = 1
@@ -55,296 +46,8 @@ STREAM_GOAL = 4
 STREAM_JITTER = 5
 
 
-def episode_seeds(split: str, indices: np.ndarray | Sequence[int] | int) -> np.ndarray:
-    """Seeds of the episodes ``indices`` of a split: ``SPLIT_BASES[split] + index``.
-
-    Validation and test indices must lie in [0, 1000) so the splits never share a seed; training
-    indices are unbounded (seeds 2000 and up).
-
-    Args:
-        split: "val", "test" or "train".
-        indices: Episode indices within the split [(B,) int, or a scalar].
-
-    Returns:
-        Seeds [(B,) int64].
-
-    Raises:
-        ValueError: Unknown split, or an index outside the split's range.
-    """
-    if split not in SPLIT_BASES:
-        valid = ", ".join(repr(s) for s in SPLIT_BASES)
-        raise ValueError(f"unknown split {split!r}; valid splits: {valid}")
-    idx = _as_indices(indices, copy=False)  # only read here (a world's refill calls this every step)
-    if idx.size and idx.min() < 0:
-        raise ValueError(f"episode indices must be >= 0, got {int(idx.min())}")
-    if split != "train" and idx.size and idx.max() >= SPLIT_SIZE:
-        raise ValueError(
-            f"split {split!r} holds indices 0..{SPLIT_SIZE - 1} (seeds would overlap the next "
-            f"split); got index {int(idx.max())}"
-        )
-    return SPLIT_BASES[split] + idx
-
-
-def _as_indices(indices: np.ndarray | Sequence[int] | int, copy: bool = True) -> np.ndarray:
-    """``indices`` checked as a 1-D int64 array; ``copy=False`` returns an int64 input itself (for
-    callers that only read it)."""
-    if type(indices) is np.ndarray and indices.dtype == np.int64 and indices.ndim == 1:
-        return indices.copy() if copy else indices  # the common case (a world's refill, every step)
-    arr = np.atleast_1d(np.asarray(indices))
-    if arr.ndim != 1:
-        raise ValueError(f"indices must be 1-D, got shape {arr.shape}")
-    if arr.size == 0:
-        return arr.astype(np.int64, copy=copy)
-    if not np.issubdtype(arr.dtype, np.integer):
-        raise TypeError(f"indices must be integers, got dtype {arr.dtype}")
-    return arr.astype(np.int64, copy=copy)
-
-
-# --------------------------------------------------------------------------------------------
-# EpisodeBatch
-# --------------------------------------------------------------------------------------------
-
-_B_FIELDS = ("seeds", "indices", "robot_theta", "robot_radius", "robot_v_pref")
-_B2_FIELDS = ("robot_start", "robot_goal")
-_BN2_FIELDS = ("human_start", "human_goal")
-_BN_FIELDS = ("human_radius", "human_v_pref")
-
-
-@dataclass(frozen=True, eq=False)
-class EpisodeBatch:
-    """Initial states of B episodes with up to N humans each (padded, see `human_mask`).
-
-    Units are SI. Padded human slots hold zeros. Arrays are float64 unless noted.
-
-    Attributes:
-        seeds: Episode seeds [(B,) int64].
-        indices: Episode indices within their split [(B,) int64].
-        robot_start: Robot start position [(B, 2) m].
-        robot_goal: Robot goal position [(B, 2) m].
-        robot_theta: Initial robot heading [(B,) rad]; π/2 faces +y.
-        robot_radius: [(B,) m].
-        robot_v_pref: Robot preferred (maximum) speed [(B,) m/s].
-        human_start: Human start positions [(B, N, 2) m].
-        human_goal: Human goal positions [(B, N, 2) m].
-        human_radius: [(B, N) m].
-        human_v_pref: Human preferred speeds [(B, N) m/s].
-        human_mask: Real human slots [(B, N) bool].
-        static_maps: The obstacles of each episode (B StaticMaps; an empty one is an open floor), or
-            None when every episode is on an open floor (the original protocol). Episodes often share
-            one map object.
-    """
-
-    seeds: np.ndarray
-    indices: np.ndarray
-    robot_start: np.ndarray
-    robot_goal: np.ndarray
-    robot_theta: np.ndarray
-    robot_radius: np.ndarray
-    robot_v_pref: np.ndarray
-    human_start: np.ndarray
-    human_goal: np.ndarray
-    human_radius: np.ndarray
-    human_v_pref: np.ndarray
-    human_mask: np.ndarray
-    static_maps: tuple[StaticMap, ...] | None = None
-
-    @property
-    def batch_size(self) -> int:
-        """Number of episodes B."""
-        return int(self.seeds.shape[0])
-
-    @property
-    def max_humans(self) -> int:
-        """Number of human slots N (the padded width)."""
-        return int(self.human_mask.shape[1])
-
-    @property
-    def n_humans(self) -> np.ndarray:
-        """Number of real humans per episode [(B,) int64]."""
-        return self.human_mask.sum(axis=1).astype(np.int64)
-
-    def __len__(self) -> int:
-        """Number of episodes B."""
-        return self.batch_size
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        """All array fields as a name → array dict (no copies); ``static_maps`` is not an array."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "static_maps"}
-
-    def static_map(self, i: int) -> StaticMap | None:
-        """The obstacles of episode ``i``, or None on an open floor."""
-        if self.static_maps is None:
-            return None
-        smap = self.static_maps[i]
-        return smap if smap else None
-
-    def validate(self) -> EpisodeBatch:
-        """Check shapes, dtypes, finiteness, positivity and zero padding.
-
-        Returns:
-            self, so that ``batch.validate()`` can be chained.
-
-        Raises:
-            ValueError: Naming the first offending field.
-        """
-        b = self.batch_size
-        if self.human_mask.ndim != 2 or self.human_mask.shape[0] != b:
-            raise ValueError(f"human_mask must have shape (B={b}, N), got {self.human_mask.shape}")
-        n = self.max_humans
-        expected = {name: (b,) for name in _B_FIELDS}
-        expected.update({name: (b, 2) for name in _B2_FIELDS})
-        expected.update({name: (b, n, 2) for name in _BN2_FIELDS})
-        expected.update({name: (b, n) for name in _BN_FIELDS})
-        for name, shape in expected.items():
-            arr = getattr(self, name)
-            if not isinstance(arr, np.ndarray) or arr.shape != shape:
-                got = getattr(arr, "shape", type(arr).__name__)
-                raise ValueError(f"EpisodeBatch.{name} must have shape {shape}, got {got}")
-        for name in ("seeds", "indices"):
-            if getattr(self, name).dtype != np.int64:
-                dtype = getattr(self, name).dtype
-                raise ValueError(f"EpisodeBatch.{name} must be int64, got {dtype}")
-        if self.human_mask.dtype != np.bool_:
-            raise ValueError(f"EpisodeBatch.human_mask must be bool, got {self.human_mask.dtype}")
-        for name in _B_FIELDS[2:] + _B2_FIELDS + _BN2_FIELDS + _BN_FIELDS:
-            arr = getattr(self, name)
-            if arr.dtype != np.float64:
-                raise ValueError(f"EpisodeBatch.{name} must be float64, got {arr.dtype}")
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"EpisodeBatch.{name} contains non-finite values")
-        for name in ("robot_radius", "robot_v_pref"):
-            if np.any(getattr(self, name) <= 0):
-                raise ValueError(f"EpisodeBatch.{name} must be > 0")
-        mask = self.human_mask
-        for name in _BN_FIELDS:
-            arr = getattr(self, name)
-            if np.any(arr[mask] <= 0):
-                raise ValueError(f"EpisodeBatch.{name} must be > 0 for real humans")
-        for name in _BN2_FIELDS + _BN_FIELDS:
-            if np.any(getattr(self, name)[~mask] != 0):
-                raise ValueError(f"EpisodeBatch.{name} must be 0 in padded slots")
-        if self.static_maps is not None:
-            self._validate_maps()
-        return self
-
-    def _validate_maps(self) -> None:
-        """Every map a StaticMap, and no start or goal covered by an obstacle (distance < radius)."""
-        maps = self.static_maps
-        if not isinstance(maps, tuple) or len(maps) != self.batch_size:
-            got = len(maps) if isinstance(maps, (tuple, list)) else type(maps).__name__
-            raise ValueError(f"EpisodeBatch.static_maps must be a tuple of {self.batch_size} StaticMaps, "
-                             f"got {got}")
-        for i, smap in enumerate(maps):
-            if not isinstance(smap, StaticMap):
-                raise ValueError(f"EpisodeBatch.static_maps[{i}] must be a StaticMap, "
-                                 f"got {type(smap).__name__}")
-        # one query per distinct map object when episodes share maps, one stacked query otherwise
-        groups: dict[int, list[int]] = {}
-        for i, smap in enumerate(maps):
-            if smap:
-                groups.setdefault(id(smap), []).append(i)
-        if len(groups) > 8:
-            walled = [i for rows in groups.values() for i in rows]
-            self._check_clear(np.array(walled), MapStack([maps[i] for i in walled]).distance)
-            return
-        for rows in groups.values():
-            self._check_clear(np.array(rows), maps[rows[0]].distance)
-
-    def _check_clear(self, idx: np.ndarray, distance: Any) -> None:
-        """Starts and goals of episodes ``idx`` clear of their obstacles (``distance(points)`` with
-        points of shape (len(idx), M, 2))."""
-        rows = idx.tolist()
-        points = {
-            "robot_start": (self.robot_start[idx][:, None], self.robot_radius[idx][:, None]),
-            "robot_goal": (self.robot_goal[idx][:, None], self.robot_radius[idx][:, None]),
-            "human_start": (self.human_start[idx], self.human_radius[idx]),
-            "human_goal": (self.human_goal[idx], self.human_radius[idx]),
-        }
-        for name, (pts, radius) in points.items():
-            real = self.human_mask[idx] if name.startswith("human") else np.ones(radius.shape, bool)
-            dist = distance(pts)
-            bad = (dist < radius) & real
-            if bad.any():
-                e, a = (int(v) for v in np.argwhere(bad)[0])
-                who = "" if name.startswith("robot") else f", human {a}"
-                raise ValueError(
-                    f"EpisodeBatch.{name}: episode {rows[e]} (seed {int(self.seeds[rows[e]])}){who}: "
-                    f"{pts[e, a].tolist()} is covered by an obstacle (distance "
-                    f"{float(dist[e, a]):.3g} m < radius {float(radius[e, a]):.3g} m)")
-
-    def take(self, idx: np.ndarray | Sequence[int] | slice) -> EpisodeBatch:
-        """Select episodes along the batch axis.
-
-        Args:
-            idx: Integer indices, boolean mask [(B,)] or slice.
-
-        Returns:
-            A new batch with the selected episodes (N unchanged).
-        """
-        if not isinstance(idx, slice):
-            idx = np.asarray(idx)
-            if idx.ndim == 0:
-                idx = idx[None]
-        maps = None
-        if self.static_maps is not None:
-            picked = np.arange(self.batch_size)[idx]
-            maps = tuple(self.static_maps[int(i)] for i in picked)
-        return EpisodeBatch(**{k: v[idx] for k, v in self.arrays().items()}, static_maps=maps)
-
-    @staticmethod
-    def concat(batches: Sequence[EpisodeBatch]) -> EpisodeBatch:
-        """Concatenate batches along the batch axis, padding to the largest N.
-
-        Args:
-            batches: One or more batches.
-
-        Returns:
-            A batch of size sum(B_k) with N = max(N_k).
-        """
-        if not batches:
-            raise ValueError("EpisodeBatch.concat needs at least one batch")
-        n = max(bt.max_humans for bt in batches)
-        out: dict[str, list[np.ndarray]] = {name: [] for name in batches[0].arrays()}
-        maps = None
-        if any(bt.static_maps is not None for bt in batches):
-            # open-floor batches beside walled ones: an empty map per episode
-            open_floor = StaticMap()
-            maps = tuple(m for bt in batches
-                         for m in (bt.static_maps or (open_floor,) * bt.batch_size))
-        for bt in batches:
-            pad = n - bt.max_humans
-            for name, arr in bt.arrays().items():
-                if name.startswith("human_") and pad:
-                    widths = [(0, 0)] * arr.ndim
-                    widths[1] = (0, pad)
-                    arr = np.pad(arr, widths)  # zeros / False, as padding requires
-                out[name].append(arr)
-        return EpisodeBatch(**{k: np.concatenate(v, axis=0) for k, v in out.items()}, static_maps=maps)
-
-
-class HumanArrays(NamedTuple):
-    """What `Scenario.sample_humans` returns for B episodes and N humans.
-
-    Attributes:
-        start: [(B, N, 2) m].
-        goal: [(B, N, 2) m].
-        radius: [(B, N) m].
-        v_pref: [(B, N) m/s].
-    """
-
-    start: np.ndarray
-    goal: np.ndarray
-    radius: np.ndarray
-    v_pref: np.ndarray
-
-
-# --------------------------------------------------------------------------------------------
-# Scenario
-# --------------------------------------------------------------------------------------------
-
-
 @dataclass(frozen=True, kw_only=True)
-class Scenario(abc.ABC):
+class Scenario(Settings, abc.ABC):
     """Base class of scenario generators: common settings and the robot's set-up.
 
     The robot starts at (0, −R) facing +y with goal (0, +R), R = `circle_radius`. Subclasses
@@ -352,11 +55,13 @@ class Scenario(abc.ABC):
     `EpisodeRandom` they are given, with keys that name the human and the attempt, never the
     episode's position in the batch. Register them with ``@register_scenario(name)``.
 
-    Settings are validated on construction: a bad value raises ValueError (or TypeError) naming
-    the field and the value. Integers are accepted for float settings and lists for tuple
-    settings (as YAML gives them) and converted.
+    Settings are validated on construction: a bad value raises ConfigError, a ValueError
+    (ConfigTypeError, also a TypeError, for a wrong type) naming the field and the value. Integers
+    are accepted for float settings and lists for tuple settings (as YAML gives them) and converted.
+    The parameter table (`parameters`) comes from the `param` declarations.
     """
 
+    normalise: ClassVar[bool] = True
     name: ClassVar[str] = ""
     #: Whether `n_humans` may differ from its default (False for the single-human scenarios).
     fixed_n_humans: ClassVar[bool] = False
@@ -388,49 +93,27 @@ class Scenario(abc.ABC):
         1000, "redraws per human before the scene is declared impossible", gt=0
     )
 
-    def __post_init__(self) -> None:
-        """Validate and normalise every setting from its annotation and `param` metadata."""
-        hints = _type_hints(type(self))
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            new = check_value(type(self).__name__, f.name, value, hints[f.name], f.metadata)
-            if new is not value:
-                object.__setattr__(self, f.name, new)
+    @classmethod
+    def setting_owner(cls) -> str:
+        """Errors name a scenario's settings by its class (``CircleCrossing.n_humans``)."""
+        return cls.__name__
+
+    def cross_check(self) -> None:
+        """Checks the attribute ranges and, for fixed-size scenarios, `n_humans`.
+
+        Raises:
+            ConfigError: A range with low > high (or <= 0), or n_humans off its fixed value.
+        """
         for name in ("random_v_pref_range", "random_radius_range"):
             low, high = getattr(self, name)
             if not 0 < low <= high:
-                raise ValueError(
-                    f"{type(self).__name__}.{name} must satisfy 0 < low <= high, "
-                    f"got {getattr(self, name)!r}"
-                )
+                self.refuse(name, "must satisfy 0 < low <= high")
         if self.fixed_n_humans:
             default = next(f.default for f in dataclasses.fields(self) if f.name == "n_humans")
             if self.n_humans != default:
-                raise ValueError(
-                    f"{type(self).__name__}.n_humans must be {default} for this scenario, "
-                    f"got {self.n_humans}"
-                )
+                self.refuse("n_humans", f"must be {default} for this scenario")
 
     # ---- public API -------------------------------------------------------------------------
-
-    @classmethod
-    def parameters(cls) -> tuple[ParamSpec, ...]:
-        """The parameter table: name, default, type, doc, unit, choices of every setting."""
-        hints = _type_hints(cls)
-        rows = []
-        for f in dataclasses.fields(cls):
-            tp = hints[f.name]
-            rows.append(
-                ParamSpec(
-                    name=f.name,
-                    default=f.default,
-                    type=type_name(tp),
-                    doc=f.metadata.get("doc", ""),
-                    unit=f.metadata.get("unit", ""),
-                    choices=f.metadata.get("choices"),
-                )
-            )
-        return tuple(rows)
 
     def settings(self) -> dict[str, Any]:
         """The resolved settings with a ``type`` key, ready to record beside results."""
@@ -473,8 +156,8 @@ class Scenario(abc.ABC):
         Raises:
             ValueError: Mismatched or malformed indices / seeds, or an impossible scene.
         """
-        idx = _as_indices(indices)
-        sd = _as_indices(seeds)
+        idx = as_indices(indices)
+        sd = as_indices(seeds)
         if idx.shape != sd.shape:
             raise ValueError(
                 f"indices and seeds must have the same shape, got {idx.shape} and {sd.shape}"

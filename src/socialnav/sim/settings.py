@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import ClassVar
 
-from socialnav.config import ConfigError, check
+from socialnav.settings import Settings, setting
 
 HUMAN_MODELS = ("orca", "social_force", "linear")
 ORCA_MODES = ("centralized", "decentralized")
@@ -27,156 +28,120 @@ MAX_OBSTACLE_VERTICES = 100_000  # the largest bound max_obstacle_vertices may b
 
 
 @dataclass(frozen=True)
-class OrcaSettings:
+class OrcaSettings(Settings):
     """ORCA parameters CrowdSim passes to RVO2 (van den Berg et al., 2011)."""
 
-    neighbor_dist: float = 10.0  # [m]
-    max_neighbors: int = 10
-    time_horizon: float = 5.0  # [s]
-    time_horizon_obst: float = 5.0  # [s] for static obstacles (CrowdSim's timeHorizonObst)
-    radius_margin: float = 0.01  # [m] CrowdSim inflates every radius by 1 cm
-    safety_space: float = 0.0  # [m] extra inflation used by the humans
+    section: ClassVar[str] = "orca"
 
-    def __post_init__(self) -> None:
-        check(self.neighbor_dist > 0, "orca.neighbor_dist", self.neighbor_dist, "must be > 0")
-        check(0 <= self.max_neighbors <= 64, "orca.max_neighbors", self.max_neighbors, "must be in [0, 64]")
-        check(self.time_horizon > 0, "orca.time_horizon", self.time_horizon, "must be > 0")
-        check(self.time_horizon_obst > 0, "orca.time_horizon_obst", self.time_horizon_obst, "must be > 0")
-        check(self.radius_margin >= 0, "orca.radius_margin", self.radius_margin, "must be >= 0")
-        check(self.safety_space >= 0, "orca.safety_space", self.safety_space, "must be >= 0")
+    neighbor_dist: float = setting(10.0, "agents farther than this are ignored", unit="m", gt=0)
+    max_neighbors: int = setting(10, "nearest agents considered", ge=0, le=64)
+    time_horizon: float = setting(5.0, "time horizon of the velocity obstacles of agents", unit="s", gt=0)
+    time_horizon_obst: float = setting(
+        5.0, "time horizon for static obstacles (CrowdSim's timeHorizonObst)", unit="s", gt=0
+    )
+    radius_margin: float = setting(0.01, "CrowdSim inflates every radius by 1 cm", unit="m", ge=0)
+    safety_space: float = setting(0.0, "extra inflation used by the humans", unit="m", ge=0)
 
 
 @dataclass(frozen=True)
-class SocialForceSettings:
+class SocialForceSettings(Settings):
     """Helbing & Molnár (1995) parameters (their published values)."""
 
-    relaxation_time: float = 0.5  # tau [s]
-    v0: float = 2.1  # repulsion strength V0 [m^2/s^2]
-    sigma: float = 0.3  # repulsion range [m]
-    step_time: float = 2.0  # delta t for the other's step [s]
-    fov_half_angle: float = 100.0  # phi [deg]
-    outside_fov_weight: float = 0.5  # c
-    max_speed_factor: float = 1.3  # v_max / v_desired
-    wall_u0: float = 10.0  # wall repulsion strength U0 [m^2/s^2] (Helbing & Molnár 1995)
-    wall_r: float = 0.2  # wall repulsion range R [m] (Helbing & Molnár 1995)
+    section: ClassVar[str] = "social_force"
 
-    def __post_init__(self) -> None:
-        check(self.wall_u0 >= 0, "social_force.wall_u0", self.wall_u0, "must be >= 0")
-        for name in ("relaxation_time", "sigma", "step_time", "max_speed_factor", "wall_r"):
-            value = getattr(self, name)
-            check(value > 0, f"social_force.{name}", value, "must be > 0")
-        check(self.v0 >= 0, "social_force.v0", self.v0, "must be >= 0")
-        check(
-            0 <= self.outside_fov_weight <= 1,
-            "social_force.outside_fov_weight",
-            self.outside_fov_weight,
-            "must be in [0, 1]",
-        )
+    relaxation_time: float = setting(0.5, "tau: relaxation time towards the desired velocity", unit="s", gt=0)
+    v0: float = setting(2.1, "V0: repulsion strength", unit="m^2/s^2", ge=0)
+    sigma: float = setting(0.3, "repulsion range", unit="m", gt=0)
+    step_time: float = setting(2.0, "delta t for the other's step", unit="s", gt=0)
+    fov_half_angle: float = setting(100.0, "phi: half angle of the field of view", unit="deg")
+    outside_fov_weight: float = setting(0.5, "c: weight of forces from outside the field of view", ge=0, le=1)
+    max_speed_factor: float = setting(1.3, "v_max / v_desired", gt=0)
+    wall_u0: float = setting(
+        10.0, "U0: wall repulsion strength (Helbing & Molnár 1995)", unit="m^2/s^2", ge=0
+    )
+    wall_r: float = setting(0.2, "R: wall repulsion range (Helbing & Molnár 1995)", unit="m", gt=0)
 
 
 @dataclass(frozen=True)
-class RewardSettings:
+class RewardSettings(Settings):
     """CrowdSim's reward (recorded with every checkpoint)."""
 
-    success_reward: float = 1.0
-    collision_penalty: float = -0.25
-    discomfort_dist: float = 0.2  # [m]
-    discomfort_penalty_factor: float = 0.5
-    #: Reward when the robot touches a static obstacle; None: the same as collision_penalty.
-    obstacle_collision_penalty: float | None = None
+    section: ClassVar[str] = "reward"
 
-    def __post_init__(self) -> None:
-        check(self.discomfort_dist >= 0, "reward.discomfort_dist", self.discomfort_dist, "must be >= 0")
+    success_reward: float = setting(1.0, "reward for reaching the goal")
+    collision_penalty: float = setting(-0.25, "reward for touching a human")
+    discomfort_dist: float = setting(
+        0.2, "clearance below which the discomfort penalty applies", unit="m", ge=0
+    )
+    discomfort_penalty_factor: float = setting(0.5, "penalty per metre inside discomfort_dist, per second")
+    obstacle_collision_penalty: float | None = setting(
+        None, "reward for touching a static obstacle; None: the same as collision_penalty"
+    )
 
     @property
     def resolved_obstacle_collision_penalty(self) -> float:
+        """The obstacle collision reward, ``collision_penalty`` when not set."""
         p = self.obstacle_collision_penalty
         return self.collision_penalty if p is None else p
 
 
 @dataclass(frozen=True)
-class WorldSettings:
+class WorldSettings(Settings):
     """Everything that defines the simulator's behaviour (not the scenario, not the policy)."""
 
-    dt: float = 0.25  # [s]
-    time_limit: float = 25.0  # [s]
-    human_model: str = "orca"
-    orca_mode: str = "centralized"
-    visibility: str = "invisible"
-    kinematics: str = "holonomic"
-    rotation_limit: float = math.pi / 4  # [rad] per step, unicycle robot
-    crowdsim_compat: bool = False
-    reward: RewardSettings = field(default_factory=RewardSettings)
-    orca: OrcaSettings = field(default_factory=OrcaSettings)
-    social_force: SocialForceSettings = field(default_factory=SocialForceSettings)
-    continue_after_success: bool = False  # keep simulating humans after the robot arrives (M_III)
-    continuation_cap: float = 100.0  # [s] since the episode's start
-    threads: int = 0  # native worker threads; 0 = all cores (at most 8)
-    #: Bound on one episode's static-map vertices (a wall segment has 2); a larger map is refused.
-    max_obstacle_vertices: int = 4096
-    #: Touching a static obstacle ends the episode as a collision (else: the step's reward is
-    #: reward.obstacle_collision_penalty and the episode goes on).
-    obstacle_collision_ends: bool = True
+    dt: float = setting(0.25, "time step", unit="s", gt=0, check=lambda dt: dt >= MIN_DT,
+                        requirement=f"must be >= {MIN_DT} s")
+    time_limit: float = setting(25.0, "episode time limit (a timeout after it)", unit="s", gt=0)
+    human_model: str = setting("orca", "how the humans move", choices=HUMAN_MODELS)
+    orca_mode: str = setting(
+        "centralized", "ORCA humans solved in one simulator (CrowdSim) or each alone", choices=ORCA_MODES
+    )
+    visibility: str = setting(
+        "invisible", "whether the humans see (react to) the robot", choices=VISIBILITIES
+    )
+    kinematics: str = setting("holonomic", "the robot's kinematics", choices=KINEMATICS)
+    rotation_limit: float = setting(math.pi / 4, "heading change per step of a unicycle robot", unit="rad",
+                                    gt=0, le=math.pi)
+    crowdsim_compat: bool = setting(False, "restore CrowdSim's quirks (docs/simulator.md)")
+    reward: RewardSettings = setting(default_factory=RewardSettings)
+    orca: OrcaSettings = setting(default_factory=OrcaSettings)
+    social_force: SocialForceSettings = setting(default_factory=SocialForceSettings)
+    continue_after_success: bool = setting(
+        False, "keep simulating the humans after the robot arrives (M_III)"
+    )
+    continuation_cap: float = setting(100.0, "end of that continuation, since the episode's start", unit="s",
+                                      gt=0)
+    threads: int = setting(0, "native worker threads; 0 = all cores (at most 8)", ge=0, le=MAX_THREADS)
+    max_obstacle_vertices: int = setting(
+        4096, "bound on one episode's static-map vertices (a wall segment has 2); a larger map is refused",
+        ge=0, le=MAX_OBSTACLE_VERTICES,
+    )
+    obstacle_collision_ends: bool = setting(
+        True, "touching a static obstacle ends the episode as a collision (else: the step's reward is "
+        "reward.obstacle_collision_penalty and the episode goes on)"
+    )
 
-    def __post_init__(self) -> None:
-        check(math.isfinite(self.dt) and self.dt > 0, "dt", self.dt, "must be a finite number > 0")
-        check(
-            math.isfinite(self.time_limit) and self.time_limit > 0,
-            "time_limit",
-            self.time_limit,
-            "must be a finite number > 0",
-        )
-        check(
-            self.human_model in HUMAN_MODELS,
-            "human_model",
-            self.human_model,
-            f"must be one of {', '.join(HUMAN_MODELS)}",
-        )
-        check(
-            self.orca_mode in ORCA_MODES,
-            "orca_mode",
-            self.orca_mode,
-            f"must be one of {', '.join(ORCA_MODES)}",
-        )
-        check(
-            self.visibility in VISIBILITIES,
-            "visibility",
-            self.visibility,
-            f"must be one of {', '.join(VISIBILITIES)}",
-        )
-        check(
-            self.kinematics in KINEMATICS,
-            "kinematics",
-            self.kinematics,
-            f"must be one of {', '.join(KINEMATICS)}",
-        )
-        check(0 < self.rotation_limit <= math.pi, "rotation_limit", self.rotation_limit, "must be in (0, pi]")
-        check(
-            math.isfinite(self.continuation_cap) and self.continuation_cap > 0,
-            "continuation_cap",
-            self.continuation_cap,
-            "must be a finite number > 0",
-        )
-        check(self.dt >= MIN_DT, "dt", self.dt, f"must be >= {MIN_DT} s")
+    def cross_check(self) -> None:
+        """Refuses episodes longer than `MAX_STEPS` samples (before anything is allocated).
+
+        Raises:
+            ConfigError: naming time_limit or continuation_cap, whichever makes the episode long.
+        """
         steps = self.history_length() - 2
         if steps > MAX_STEPS:
             by_cap = self.continue_after_success and self.continuation_cap > self.time_limit
             name = "continuation_cap" if by_cap else "time_limit"
             value = getattr(self, name)
-            raise ConfigError(
-                f"{name} {value!r} with dt {self.dt!r} makes {steps} steps per episode, "
-                f"more than the {MAX_STEPS} allowed (raise dt or lower {name})"
+            self.refuse(
+                name,
+                f"{value!r} with dt {self.dt!r} makes {steps} steps per episode, more than the "
+                f"{MAX_STEPS} allowed (raise dt or lower {name})",
+                got=False,
             )
-        check(0 <= self.threads <= MAX_THREADS, "threads", self.threads, f"must be in [0, {MAX_THREADS}]")
-        check(
-            0 <= self.max_obstacle_vertices <= MAX_OBSTACLE_VERTICES,
-            "max_obstacle_vertices",
-            self.max_obstacle_vertices,
-            f"must be in [0, {MAX_OBSTACLE_VERTICES}]",
-        )
 
     @property
     def resolved_threads(self) -> int:
+        """Native worker threads: ``threads``, or all cores (at most 8) when 0."""
         return self.threads or max(1, min(os.cpu_count() or 1, 8))
 
     def history_length(self) -> int:

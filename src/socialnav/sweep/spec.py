@@ -30,54 +30,94 @@ jobs of one name) is refused before any job starts, naming the entry.
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
 import itertools
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from socialnav.config import ConfigError
+from socialnav.settings import ConfigError, Settings, setting
+from socialnav.sim.settings import HUMAN_MODELS
+from socialnav.train.config import DEVICES, INFORMATION
 
 KINDS = ("evaluate", "train")
 EXECUTORS = ("local", "ray")
-
-#: Keys of an evaluation job and what each means (docs/sweeps.md).
-EVALUATE_KEYS = {
-    "kind",
-    "name",
-    "policy",
-    "checkpoint",
-    "preset",
-    "scenarios",
-    "episodes",
-    "visibility",
-    "human_model",
-    "information",
-    "planning_depth",
-    "planning_width",
-    "policy_args",
-    "batch_size",
-    "trajectories",
-    "seed",
-    "allow_preset_mismatch",
-}
-#: Keys of a training job (those of ``socialnav train``).
-TRAIN_KEYS = {
-    "kind",
-    "name",
-    "policy",
-    "preset",
-    "seed",
-    "config",
-    "device",
-    "information",
-    "rl_episodes",
-    "collection_batch",
-    "human_model",
-}
-TOP_KEYS = {"out", "executor", "workers", "retries", "address", "threads", "defaults", "grid", "jobs"}
 TRAIN_REFERENCE = "train:"
 _NAME_OK = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.=+-]*$")
+
+
+@dataclass(frozen=True)
+class SweepSettings(Settings):
+    """The top level of a sweep file (its jobs are `EvaluateJobSettings` and `TrainJobSettings`)."""
+
+    out: str | None = setting(None, "result directory (--out overrides; default runs/sweep/<file name>)")
+    executor: str = setting("local", "where the tasks run (--executor overrides)", choices=EXECUTORS)
+    workers: int | None = setting(
+        None, "local processes / CPUs of a Ray instance started here (default: one per core)", ge=1
+    )
+    retries: int = setting(3, "how often a task whose worker died is run again", ge=0)
+    address: str | None = setting(None, "an existing Ray cluster's address (HEAD_IP:6379)")
+    threads: int = setting(1, "torch and native threads per worker", ge=1)
+    defaults: dict[str, Any] = setting(
+        default_factory=dict, doc="keys applied to every job whose kind takes them"
+    )
+    grid: dict[str, Any] | list[Any] | None = setting(
+        None, "one job mapping or a list of them; list values are the axes of a product"
+    )
+    jobs: list[Any] | None = setting(None, "single jobs (a list value is an axis here too)")
+
+
+@dataclass(frozen=True)
+class EvaluateJobSettings(Settings):
+    """The keys of an evaluation job (those of ``socialnav evaluate``); None: the command's default."""
+
+    policy: str | None = setting(None, "a registered name, an entry point, or module.path:Class (required)")
+    checkpoint: str | None = setting(None, "a checkpoint file, or train:<job name> (best.pt of that job)")
+    preset: str | None = setting(None, "preset name or YAML file (default wang2022)")
+    scenarios: tuple[str, ...] | None = setting(None, "scenario names (a list: one value, not an axis)")
+    episodes: int | None = setting(None, "episodes per scenario", ge=1)
+    visibility: str | None = setting(None, "the humans' visibility", choices=("invisible", "visible", "both"))
+    human_model: str | None = setting(
+        None, "the humans' model (overrides the preset's)", choices=HUMAN_MODELS
+    )
+    information: str | None = setting(
+        None, "how a learned policy's lookahead predicts the humans (default: the checkpoint's)",
+        choices=INFORMATION,
+    )
+    planning_depth: int | None = setting(None, "model-predictive planning depth", ge=1)
+    planning_width: int | None = setting(None, "model-predictive planning width", ge=1)
+    policy_args: dict[str, Any] | None = setting(None, "policy parameters (as --policy-arg)")
+    batch_size: int | None = setting(None, "episodes simulated together", ge=1)
+    trajectories: bool | None = setting(None, "store the trajectories (default true)")
+    seed: int | None = setting(None, "only a value for name templates (the protocol's episodes are fixed)")
+    allow_preset_mismatch: bool | None = setting(None, "evaluate a checkpoint in another preset's world")
+
+
+@dataclass(frozen=True)
+class TrainJobSettings(Settings):
+    """The keys of a training job (those of ``socialnav train``); None: the command's default."""
+
+    policy: str | None = setting(None, "a learned policy to train (required)")
+    preset: str | None = setting(None, "preset name or YAML file (default wang2022)")
+    seed: int | None = setting(None, "master seed (default 0)", ge=0)
+    config: str | None = setting(None, "training settings: a YAML file or a shipped config name (smoke)")
+    device: str | None = setting(None, "torch device", choices=DEVICES)
+    information: str | None = setting(None, "the lookahead's prediction", choices=INFORMATION)
+    rl_episodes: int | None = setting(None, "RL episodes", ge=0)
+    collection_batch: int | None = setting(None, "episodes stepped in lockstep while collecting", ge=1)
+    human_model: str | None = setting(
+        None, "the humans' model (overrides the preset's)", choices=HUMAN_MODELS
+    )
+
+
+#: Keys of an evaluation job and what each means (docs/sweeps.md).
+EVALUATE_KEYS = {"kind", "name", *(f.name for f in dataclasses.fields(EvaluateJobSettings))}
+#: Keys of a training job (those of ``socialnav train``).
+TRAIN_KEYS = {"kind", "name", *(f.name for f in dataclasses.fields(TrainJobSettings))}
+TOP_KEYS = {f.name for f in dataclasses.fields(SweepSettings)}
+_JOB_SETTINGS: dict[str, type[Settings]] = {"evaluate": EvaluateJobSettings, "train": TrainJobSettings}
 
 
 @dataclass(frozen=True)
@@ -90,11 +130,21 @@ class Job:
     where: str  # the entry of the sweep file it comes from, for messages
 
     def get(self, key: str, default: Any = None) -> Any:
+        """The job's value of ``key``, or ``default`` when the job does not set it."""
         return self.params.get(key, default)
 
 
 @dataclass(frozen=True)
 class SweepSpec:
+    """A validated sweep: its jobs and the top-level settings (see `SweepSettings`).
+
+    Attributes:
+        jobs: Every job, the grids' expanded.
+        out, executor, workers, retries, address, threads: As in `SweepSettings`.
+        source: The sweep file (for messages).
+        raw: The parsed YAML as given.
+    """
+
     jobs: list[Job]
     out: str | None = None
     executor: str = "local"
@@ -107,10 +157,12 @@ class SweepSpec:
 
     @property
     def train_jobs(self) -> list[Job]:
+        """The training jobs, in file order."""
         return [j for j in self.jobs if j.kind == "train"]
 
     @property
     def evaluate_jobs(self) -> list[Job]:
+        """The evaluation jobs, in file order."""
         return [j for j in self.jobs if j.kind == "evaluate"]
 
 
@@ -135,30 +187,36 @@ def load_sweep(path: str | Path) -> SweepSpec:
 
 
 def parse_sweep(data: Any, source: str = "<sweep>", base: Path | None = None) -> SweepSpec:
-    """Validates a sweep given as a mapping (the parsed YAML); relative checkpoint and config paths are
-    taken relative to ``base`` when they exist there, else to the working directory."""
+    """Validates a sweep given as a mapping (the parsed YAML).
+
+    Args:
+        data: The parsed sweep file.
+        source: Its name in messages.
+        base: Relative checkpoint and config paths are taken relative to it when they exist there,
+            else to the working directory.
+
+    Returns:
+        The validated sweep.
+
+    Raises:
+        ConfigError: The file, the entry and the problem are named.
+    """
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: expected a mapping with grid: and/or jobs:, got {type(data).__name__}")
-    unknown = sorted(set(data) - TOP_KEYS)
-    if unknown:
-        raise ConfigError(f"{source}: unknown key(s) {unknown}; valid: {sorted(TOP_KEYS)}")
-    defaults = data.get("defaults") or {}
-    if not isinstance(defaults, dict):
-        raise ConfigError(f"{source}: defaults must be a mapping, got {type(defaults).__name__}")
-    bad = sorted(set(defaults) - (EVALUATE_KEYS | TRAIN_KEYS) | ({"kind", "name"} & set(defaults)))
-    if bad:
-        raise ConfigError(f"{source}: defaults: key(s) {bad} are not job settings")
+    top = SweepSettings.from_dict({k: v for k, v in data.items() if v is not None}, source=source)
+    defaults = top.defaults
+    for key in sorted(defaults, key=str):
+        if key in ("kind", "name") or key not in EVALUATE_KEYS | TRAIN_KEYS:
+            close = difflib.get_close_matches(str(key), sorted(EVALUATE_KEYS | TRAIN_KEYS - {"kind", "name"}),
+                                              n=1)
+            hint = f" (did you mean {close[0]}?)" if close else ""
+            raise ConfigError(f"{source}: defaults: {key!r} is not a job setting{hint}")
     entries: list[tuple[str, dict[str, Any], list[str]]] = []
-    grids = data.get("grid") or []
-    grids = [grids] if isinstance(grids, dict) else grids
-    if not isinstance(grids, list):
-        raise ConfigError(f"{source}: grid must be a mapping or a list of mappings")
+    grids = top.grid or []
+    grids = [grids] if isinstance(grids, dict) else grids  # each entry is checked by _expand
     for i, grid in enumerate(grids):
         entries.extend(_expand(grid, f"{source}: grid[{i}]"))
-    jobs_raw = data.get("jobs") or []
-    if not isinstance(jobs_raw, list):
-        raise ConfigError(f"{source}: jobs must be a list of mappings")
-    for i, job in enumerate(jobs_raw):
+    for i, job in enumerate(top.jobs or []):
         entries.extend(_expand(job, f"{source}: jobs[{i}]"))
     if not entries:
         raise ConfigError(f"{source}: no jobs (give grid: and/or jobs:)")
@@ -174,12 +232,12 @@ def parse_sweep(data: Any, source: str = "<sweep>", base: Path | None = None) ->
         names[key] = job.where
     spec = SweepSpec(
         jobs=jobs,
-        out=_opt(data, "out", str, source),
-        executor=_choice(data.get("executor", "local"), EXECUTORS, f"{source}: executor"),
-        workers=_positive(data.get("workers"), f"{source}: workers"),
-        retries=_count(data.get("retries", 3), f"{source}: retries"),
-        address=_opt(data, "address", str, source),
-        threads=_positive(data.get("threads", 1), f"{source}: threads") or 1,
+        out=top.out,
+        executor=top.executor,
+        workers=top.workers,
+        retries=top.retries,
+        address=top.address,
+        threads=top.threads,
         source=source,
         raw=data,
     )
@@ -212,11 +270,10 @@ def _make_job(params: dict[str, Any], axes: list[str], where: str, defaults: dic
     if kind not in KINDS:
         raise ConfigError(f"{where}: kind must be one of {', '.join(KINDS)}, got {kind!r}")
     valid = EVALUATE_KEYS if kind == "evaluate" else TRAIN_KEYS
-    unknown = sorted(set(params) - valid)
-    if unknown:
-        raise ConfigError(f"{where}: unknown key(s) {unknown} for a {kind} job; valid: {sorted(valid)}")
     merged = {k: v for k, v in defaults.items() if k in valid}
     merged.update({k: v for k, v in params.items() if k not in ("kind", "name")})
+    # the keys, types and ranges, declared once by the job's settings class
+    _JOB_SETTINGS[kind].from_dict(merged, source=where)
     if "policy" not in merged:
         raise ConfigError(f"{where}: a {kind} job needs policy:")
     merged.setdefault("preset", "wang2022")
@@ -250,11 +307,10 @@ def _fill(value: Any, context: dict[str, Any], where: str, key: str) -> Any:
 
 
 def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None) -> None:
-    """Everything that can be checked without running: names, presets, files, types."""
+    """What the settings classes cannot check without running: policies, presets, scenarios, files."""
     from socialnav.policies.base import get_policy_entry
     from socialnav.presets import load_preset
     from socialnav.scenarios import get_scenario
-    from socialnav.sim.settings import HUMAN_MODELS
 
     params["preset"] = _path_or_name(params["preset"], base)
     try:
@@ -264,17 +320,12 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
             get_scenario(scenario)
     except (KeyError, ValueError, ConfigError) as err:
         raise ConfigError(f"{where}: {err.args[0] if err.args else err}") from None
-    if params.get("human_model") is not None:
-        _choice(params["human_model"], HUMAN_MODELS, f"{where}: human_model")
     if kind == "train":
         if not entry.learned:
             raise ConfigError(
                 f"{where}: policy {params['policy']!r} does not learn; train takes cadrl, "
                 "lstm_rl, sarl, om_sarl, rgl or mp_rgl"
             )
-        for key in ("seed", "rl_episodes", "collection_batch"):
-            if params.get(key) is not None and (not isinstance(params[key], int) or params[key] < 0):
-                raise ConfigError(f"{where}: {key} must be a whole number >= 0, got {params[key]!r}")
         if params.get("config") is not None:
             from socialnav.train.config import load_train_settings
 
@@ -284,15 +335,6 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
             except ConfigError as err:
                 raise ConfigError(f"{where}: config: {err}") from None
         return
-    for key in ("episodes", "batch_size", "planning_depth", "planning_width"):
-        if params.get(key) is not None and (not isinstance(params[key], int) or params[key] < 1):
-            raise ConfigError(f"{where}: {key} must be a whole number >= 1, got {params[key]!r}")
-    if params.get("scenarios") is not None and not isinstance(params["scenarios"], list):
-        raise ConfigError(f"{where}: scenarios must be a list of scenario names")
-    if params.get("policy_args") is not None and not isinstance(params["policy_args"], dict):
-        raise ConfigError(f"{where}: policy_args must be a mapping of parameter: value")
-    if params.get("visibility") is not None:
-        _choice(params["visibility"], ("invisible", "visible", "both"), f"{where}: visibility")
     checkpoint = params.get("checkpoint")
     if checkpoint is not None:
         if not entry.learned:
@@ -329,33 +371,6 @@ def _path_or_name(value: Any, base: Path | None) -> str:
     if base is not None and not Path(text).is_absolute() and (base / text).exists():
         return str(base / text)
     return text
-
-
-def _choice(value: Any, valid: tuple[str, ...] | list[str], where: str) -> str:
-    if value not in valid:
-        raise ConfigError(f"{where} must be one of {', '.join(valid)}, got {value!r}")
-    return value
-
-
-def _positive(value: Any, where: str) -> int | None:
-    if value is None:
-        return None
-    if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-        raise ConfigError(f"{where} must be a whole number >= 1, got {value!r}")
-    return value
-
-
-def _count(value: Any, where: str) -> int:
-    if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-        raise ConfigError(f"{where} must be a whole number >= 0, got {value!r}")
-    return value
-
-
-def _opt(data: dict, key: str, typ: type, source: str) -> Any:
-    value = data.get(key)
-    if value is not None and not isinstance(value, typ):
-        raise ConfigError(f"{source}: {key} must be a {typ.__name__}, got {value!r}")
-    return value
 
 
 def job_record(job: Job) -> dict[str, Any]:

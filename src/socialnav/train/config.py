@@ -10,16 +10,15 @@ docs/training.md has the measurements behind the chosen default. Set it back to 
 from __future__ import annotations
 
 import dataclasses
-import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 import yaml
 
-from socialnav.config import ConfigError, check, from_dict
 from socialnav.policies.learned_catalog import VALUE_DEFAULTS, get_learned_spec
+from socialnav.settings import ConfigError, Settings, from_dict, setting
 
 INFORMATION = ("constant_velocity", "oracle", "learned")
 REWARD_RULES = ("end", "swept")
@@ -56,95 +55,69 @@ T = TypeVar("T")
 
 
 @dataclass(frozen=True)
-class ImitationSettings:
+class ImitationSettings(Settings):
     """Imitation learning from ORCA demonstrations (the robot invisible, teacher safety space 0.15 m)."""
 
-    episodes: int = 2000  # teacher episodes collected (timeouts are dropped, as CrowdNav does)
-    epochs: int = 50
-    lr: float = 1e-3  # Adam
-    batch_size: int = 100
-    teacher_safety_space: float = 0.15  # [m]
+    section: ClassVar[str] = "imitation"
 
-    def __post_init__(self) -> None:
-        check(self.episodes >= 0, "imitation.episodes", self.episodes, "must be >= 0")
-        check(self.epochs >= 0, "imitation.epochs", self.epochs, "must be >= 0")
-        check(self.lr > 0, "imitation.lr", self.lr, "must be > 0")
-        check(self.batch_size >= 1, "imitation.batch_size", self.batch_size, "must be >= 1")
-        check(
-            self.teacher_safety_space >= 0,
-            "imitation.teacher_safety_space",
-            self.teacher_safety_space,
-            "must be >= 0",
-        )
+    episodes: int = setting(2000, "teacher episodes collected (timeouts are dropped, as CrowdNav does)", ge=0)
+    epochs: int = setting(50, "passes over the demonstrations", ge=0)
+    lr: float = setting(1e-3, "Adam learning rate", gt=0)
+    batch_size: int = setting(100, "minibatch size", ge=1)
+    teacher_safety_space: float = setting(0.15, "the ORCA teacher's safety space", unit="m", ge=0)
 
 
 @dataclass(frozen=True)
-class RLSettings:
+class RLSettings(Settings):
     """Value-based RL with a replay memory and a target network (CrowdNav/RGL style)."""
 
-    episodes: int = 10000
-    epsilon_start: float = 0.5
-    epsilon_end: float = 0.1
-    epsilon_decay_episodes: int = 4000  # linear decay over the first episodes
-    capacity: int = 100000  # replay memory [transitions]
-    batch_size: int = 100
-    gradient_steps_per_episode: float = 10.0  # replay ratio; RGL: 100 (see docs/training.md)
-    warmup_transitions: int = 1000  # no gradient step before the memory holds this many transitions
-    lr: float = 1e-3  # Adam
-    target_update_every: int = 1000  # [episodes]
-    validate_every: int = 1000  # [episodes]
-    val_episodes: int = 100  # split over the scenarios of the training mix
-    gamma: float = 0.9  # discount per second of travel at v_pref: γ^(dt·v_pref) per step
-    td_targets: str = "recomputed"  # or "rgl_repo", "rgl_repo_final" (TD_TARGETS)
+    section: ClassVar[str] = "rl"
 
-    def __post_init__(self) -> None:
-        check(self.episodes >= 0, "rl.episodes", self.episodes, "must be >= 0")
-        check(
-            self.td_targets in TD_TARGETS,
-            "rl.td_targets",
-            self.td_targets,
-            f"must be one of {', '.join(TD_TARGETS)}",
-        )
-        for name in ("epsilon_start", "epsilon_end"):
-            v = getattr(self, name)
-            check(0 <= v <= 1, f"rl.{name}", v, "must be in [0, 1]")
-        check(
-            self.epsilon_decay_episodes >= 0,
-            "rl.epsilon_decay_episodes",
-            self.epsilon_decay_episodes,
-            "must be >= 0",
-        )
-        check(self.capacity >= 1, "rl.capacity", self.capacity, "must be >= 1")
-        check(self.batch_size >= 1, "rl.batch_size", self.batch_size, "must be >= 1")
-        check(
-            math.isfinite(self.gradient_steps_per_episode) and self.gradient_steps_per_episode >= 0,
-            "rl.gradient_steps_per_episode",
-            self.gradient_steps_per_episode,
-            "must be a finite number >= 0",
-        )
-        check(self.warmup_transitions >= 0, "rl.warmup_transitions", self.warmup_transitions, "must be >= 0")
-        # The memory never holds more than `capacity` transitions, and a gradient step waits for
-        # max(batch_size, warmup_transitions) of them: beyond capacity, the run would never learn.
-        check(
-            self.batch_size <= self.capacity, "rl.batch_size", self.batch_size,
-            f"must be <= rl.capacity ({self.capacity}): the replay memory can never fill a minibatch",
-        )
-        check(
-            self.warmup_transitions <= self.capacity, "rl.warmup_transitions", self.warmup_transitions,
-            f"must be <= rl.capacity ({self.capacity}): the replay memory never holds that many, so no "
-            "gradient step would ever be taken",
-        )
-        check(self.lr > 0, "rl.lr", self.lr, "must be > 0")
-        check(
-            self.target_update_every >= 1, "rl.target_update_every", self.target_update_every, "must be >= 1"
-        )
-        check(self.validate_every >= 1, "rl.validate_every", self.validate_every, "must be >= 1")
-        check(self.val_episodes >= 1, "rl.val_episodes", self.val_episodes, "must be >= 1")
-        check(0 < self.gamma <= 1, "rl.gamma", self.gamma, "must be in (0, 1]")
+    episodes: int = setting(10000, "training episodes", ge=0)
+    epsilon_start: float = setting(0.5, "epsilon-greedy exploration at the start", ge=0, le=1)
+    epsilon_end: float = setting(0.1, "epsilon after the decay", ge=0, le=1)
+    epsilon_decay_episodes: int = setting(4000, "linear decay over the first episodes", ge=0)
+    capacity: int = setting(100000, "replay memory [transitions]", ge=1)
+    batch_size: int = setting(100, "minibatch size", ge=1)
+    gradient_steps_per_episode: float = setting(
+        10.0, "replay ratio; RGL: 100 (see docs/training.md)", ge=0
+    )
+    warmup_transitions: int = setting(
+        1000, "no gradient step before the memory holds this many transitions", ge=0
+    )
+    lr: float = setting(1e-3, "Adam learning rate", gt=0)
+    target_update_every: int = setting(1000, "target network update period [episodes]", ge=1)
+    validate_every: int = setting(1000, "validation period [episodes]", ge=1)
+    val_episodes: int = setting(
+        100, "validation episodes, split over the scenarios of the training mix", ge=1
+    )
+    gamma: float = setting(
+        0.9, "discount per second of travel at v_pref: γ^(dt·v_pref) per step", gt=0, le=1
+    )
+    td_targets: str = setting(
+        "recomputed", "how the value targets are formed (docs/training.md, \"TD targets\")",
+        choices=TD_TARGETS,
+    )
+
+    def cross_check(self) -> None:
+        """Refuses a replay memory that can never feed a gradient step.
+
+        The memory never holds more than `capacity` transitions, and a gradient step waits for
+        max(batch_size, warmup_transitions) of them: beyond capacity, the run would never learn.
+
+        Raises:
+            ConfigError: naming rl.batch_size or rl.warmup_transitions.
+        """
+        if self.batch_size > self.capacity:
+            self.refuse("batch_size", f"must be <= rl.capacity ({self.capacity}): the replay memory can "
+                        "never fill a minibatch")
+        if self.warmup_transitions > self.capacity:
+            self.refuse("warmup_transitions", f"must be <= rl.capacity ({self.capacity}): the replay memory "
+                        "never holds that many, so no gradient step would ever be taken")
 
 
 @dataclass(frozen=True)
-class TrainSettings:
+class TrainSettings(Settings):
     """Everything that defines a training run besides the preset.
 
     Attributes:
@@ -177,49 +150,28 @@ class TrainSettings:
         cadrl_one_human: train CADRL with one human (its authors' setting) in every scenario of the mix.
     """
 
-    policy: str = "sarl"
-    information: str = ""
-    collection_batch: int = 128
-    seed: int = 0
-    device: str = "cpu"
-    threads: int = 0
-    compile: bool = False
-    checkpoint_every: int = 500
-    log_every: int = 100
-    cadrl_one_human: bool = True
-    planning_depth: int = 0
-    planning_width: int = 0
-    reward_rule: str = ""
-    predictor_lr: float = 1e-3
-    imitation: ImitationSettings = field(default_factory=ImitationSettings)
-    rl: RLSettings = field(default_factory=RLSettings)
-
-    def __post_init__(self) -> None:
-        check(
-            self.information in ("", *INFORMATION),
-            "information",
-            self.information,
-            f"must be one of {', '.join(INFORMATION)}",
-        )
-        check(self.planning_depth >= 0, "planning_depth", self.planning_depth, "must be >= 1 (0: default)")
-        check(self.planning_width >= 0, "planning_width", self.planning_width, "must be >= 1 (0: default)")
-        check(
-            self.reward_rule in ("", *REWARD_RULES),
-            "reward_rule",
-            self.reward_rule,
-            f"must be one of {', '.join(REWARD_RULES)}",
-        )
-        check(self.predictor_lr > 0, "predictor_lr", self.predictor_lr, "must be > 0")
-        check(self.collection_batch >= 1, "collection_batch", self.collection_batch, "must be >= 1")
-        check(self.seed >= 0, "seed", self.seed, "must be >= 0")
-        check(self.device in DEVICES, "device", self.device, f"must be one of {', '.join(DEVICES)}")
-        check(self.threads >= 0, "threads", self.threads, "must be >= 0")
-        check(isinstance(self.compile, bool), "compile", self.compile, "must be true or false")
-        check(self.checkpoint_every >= 1, "checkpoint_every", self.checkpoint_every, "must be >= 1")
-        check(self.log_every >= 1, "log_every", self.log_every, "must be >= 1")
-
-    def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+    policy: str = setting("sarl", "value-based learned policy to train (socialnav train --policy)")
+    information: str = setting(
+        "", "how the lookahead predicts the humans' next states; \"\": the policy's default",
+        choices=("", *INFORMATION),
+    )
+    collection_batch: int = setting(128, "episodes stepped in lockstep while collecting", ge=1)
+    seed: int = setting(0, "master seed (the run's other seeds derive from it)", ge=0)
+    device: str = setting("cpu", "torch device; auto: cuda when available", choices=DEVICES)
+    threads: int = setting(0, "torch intra-op threads (0: all cores, at most 8)", ge=0)
+    compile: bool = setting(False, "compile the training steps (docs/training.md, \"Compiled training\")")
+    checkpoint_every: int = setting(500, "write last.pt every this many RL episodes (and at the end)", ge=1)
+    log_every: int = setting(100, "one curves.csv row every this many RL episodes", ge=1)
+    cadrl_one_human: bool = setting(True, "train CADRL with one human (its authors' setting)")
+    planning_depth: int = setting(0, "model-predictive planning depth d; 0: the policy's default", ge=0)
+    planning_width: int = setting(0, "model-predictive planning width w; 0: the policy's default", ge=0)
+    reward_rule: str = setting(
+        "", "the lookahead's reward estimate; \"\": the policy's default", choices=("", *REWARD_RULES)
+    )
+    predictor_lr: float = setting(1e-3, "Adam learning rate of the state predictor (information learned)",
+                                  gt=0)
+    imitation: ImitationSettings = setting(default_factory=ImitationSettings)
+    rl: RLSettings = setting(default_factory=RLSettings)
 
     def resolved(self, policy: str) -> TrainSettings:
         """These settings with the policy's defaults filled in (information, planning, reward rule).
@@ -266,8 +218,19 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
 
 
 def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[str, Any]) -> T:
-    """``cls`` from a YAML file (a path or a shipped config's name) with top-level ``overrides``
-    applied after it (None values ignored); errors name the file and the field."""
+    """Settings of class ``cls`` from a YAML file, with top-level ``overrides`` applied after it.
+
+    Args:
+        cls: The settings class.
+        path: A YAML file or a shipped config's name; None: the defaults.
+        overrides: Top-level fields (None values ignored).
+
+    Returns:
+        The settings.
+
+    Raises:
+        ConfigError: Naming the file and the field.
+    """
     data: dict[str, Any] = {}
     if path is not None:
         path = _resolve_config(path)
@@ -298,8 +261,10 @@ def resolve_train_settings(
     rl_episodes: int | None = None,
     compile: bool | None = None,
 ) -> TrainSettings:
-    """The settings of ``socialnav train`` (and of a sweep's training job): the config file, then the
-    command-line options that override it (None: not given)."""
+    """The settings of ``socialnav train`` (and of a sweep's training job).
+
+    The config file, then the command-line options that override it (None: not given).
+    """
     settings = load_train_settings(config, seed=seed, device=device)
     for key, value in (
         ("collection_batch", collection_batch), ("information", information), ("compile", compile)
@@ -351,9 +316,11 @@ def derive_seeds(seed: int) -> dict[str, int]:
 
 
 def resume_diff(saved: dict[str, Any], current: dict[str, Any]) -> list[str]:
-    """Dotted keys where a saved run config and the current one differ, ignoring the settings a
-    resumed run may change (:data:`RESUMABLE_CHANGES`) and settings added since the run was saved
-    when the current value is the one such runs had (:data:`ADDED_SETTINGS`)."""
+    """Dotted keys where a saved run config and the current one differ.
+
+    Ignores the settings a resumed run may change (:data:`RESUMABLE_CHANGES`) and settings added
+    since the run was saved when the current value is the one such runs had (:data:`ADDED_SETTINGS`).
+    """
     out = []
     for key in flat_diff(saved, current):
         if any(key == f"train.{r}" or key.startswith(f"train.{r}.") for r in RESUMABLE_CHANGES):
