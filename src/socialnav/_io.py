@@ -72,7 +72,8 @@ def make_output_dir(out: Path) -> None:
 
 def json_safe(value: Any) -> Any:
     """A copy of ``value`` that ``json.dumps(allow_nan=False)`` accepts: NaN/inf become None,
-    NumPy scalars and arrays become Python values, tuples become lists."""
+    NumPy scalars and arrays become Python values, tuples become lists.
+    """
     import math
 
     if isinstance(value, dict):
@@ -119,7 +120,8 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
 
 def rows_parquet_bytes(rows: list[dict[str, Any]], metadata: dict[str, str] | None = None) -> bytes:
     """``rows`` as the bytes of a Parquet file with page checksums (a sweep's worker builds a chunk's
-    file and the driver, which alone writes results, stores it)."""
+    file and the driver, which alone writes results, stores it).
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 

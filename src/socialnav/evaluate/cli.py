@@ -1,5 +1,6 @@
 """`socialnav replay`, `socialnav reproduce` and `socialnav evaluate --policy all` (argument parsing
-kept free of torch imports)."""
+kept free of torch imports).
+"""
 
 from __future__ import annotations
 

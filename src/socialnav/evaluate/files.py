@@ -1,5 +1,6 @@
 """Moved to :mod:`socialnav._io` (the I/O layer below every package); this name is kept for scripts
-written against earlier releases that import ``socialnav.evaluate.files``."""
+written against earlier releases that import ``socialnav.evaluate.files``.
+"""
 
 from socialnav._io import (
     CorruptFileError,

@@ -93,7 +93,8 @@ _STAT_NAMES = ("mean", "std", "ci_low", "ci_high", "n")  # the order of column_s
 def _layout(metric_keys: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[tuple[int, int], ...]]:
     """Summary column names and, for each, (metric column, statistic) it takes: outcome rates as
     ``success_rate`` with its CI, navigation time also as ``nav_time_s``/``nav_time_s_std``, every
-    other key as ``<key>.mean/.std/.ci_low/.ci_high/.n``. Built once per set of keys."""
+    other key as ``<key>.mean/.std/.ci_low/.ci_high/.n``. Built once per set of keys.
+    """
     names: list[str] = []
     picks: list[tuple[int, int]] = []
     for j, k in enumerate(metric_keys):

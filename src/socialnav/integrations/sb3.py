@@ -139,7 +139,8 @@ class SocialNavVecEnv(VecEnv):
 
     def get_attr(self, attr_name: str, indices: Iterable[int] | int | None = None) -> list[Any]:
         """An attribute of the native vector env, the same for every slot (slots share one world);
-        ``render_mode`` is None."""
+        ``render_mode`` is None.
+        """
         n = len(self._indices(indices))
         if attr_name == "render_mode":
             return [None] * n
@@ -155,7 +156,8 @@ class SocialNavVecEnv(VecEnv):
 
     def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list[Any]:
         """``training_record`` (the same for every slot); other per-env methods do not exist here,
-        since the slots are rows of one native world, not env objects."""
+        since the slots are rows of one native world, not env objects.
+        """
         n = len(self._indices(indices))
         if method_name == "training_record":
             return [self.training_record()] * n
@@ -190,7 +192,8 @@ class SocialNavVecEnv(VecEnv):
 def find_training_record(env: Any) -> dict[str, Any]:
     """The training record of the env a model was trained on: a SocialNavVecEnv (through any SB3
     wrappers such as VecMonitor or VecNormalize), or SB3's Dummy/SubprocVecEnv of single envs wrapped
-    in :class:`~socialnav.sim.learner_wrappers.LearnerObservation`."""
+    in :class:`~socialnav.sim.learner_wrappers.LearnerObservation`.
+    """
     while isinstance(env, VecEnvWrapper):
         env = env.venv
     if isinstance(env, SocialNavVecEnv):

@@ -307,7 +307,8 @@ def summarize_scores(rows: Sequence[dict[str, Any]], label: str,
     """Per-scene summaries, plus one over the dataset when there are several scenes.
 
     ``scene_summaries`` holds scenes already summarised (by a worker that had all their rows, with
-    this label); the others are summarised here."""
+    this label); the others are summarised here.
+    """
     from socialnav.evaluate.summary import summarize_group
 
     by_scene = _metric_rows_by_scene(rows, label)
@@ -377,7 +378,8 @@ def score_file(
 
 def _episode_keys(path: Path) -> tuple[list[Any], np.ndarray | None]:
     """The file's episode keys in order of first appearance, and where each one's rows start when
-    every episode is one block of rows (then ``starts`` has one more entry, the row count)."""
+    every episode is one block of rows (then ``starts`` has one more entry, the row count).
+    """
     import pyarrow as pa
 
     if path.suffix.lower() == ".parquet":
@@ -405,7 +407,8 @@ def _score_chunk(path: str, keys: list[Any], rows: tuple[int, int] | None, requi
                  goal_tolerance: float | None, params: Any, load_kwargs: dict[str, Any]
                  ) -> tuple[list[dict], list[str], list[str], str, dict[str, dict[str, Any]]]:
     """Score one share of a file; also summarise its scenes (under the label its own rows give),
-    which the caller keeps for every scene that lies wholly in this share."""
+    which the caller keeps for every scene that lies wholly in this share.
+    """
     from socialnav.evaluate.summary import summarize_group
     from socialnav.trajectory_io import read_trajectories
 

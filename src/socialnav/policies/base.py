@@ -33,7 +33,8 @@ RECORDED_ONLY: tuple[str, ...] = ("native_kernel",)
 
 class PolicyError(RuntimeError):
     """A policy failed while acting, or returned actions the world cannot take; the message names the
-    policy, the scenario and visibility, and the episodes it was acting for."""
+    policy, the scenario and visibility, and the episodes it was acting for.
+    """
 
 
 @runtime_checkable
@@ -87,7 +88,8 @@ def is_registered(name: str) -> bool:
 
 def list_policies() -> list[PolicyEntry]:
     """Every registered policy (built-in, learned and from the ``socialnav.policies`` entry-point group),
-    sorted by name."""
+    sorted by name.
+    """
     _load_builtin()
     _load_plugins()
     return [_REGISTRY[k] for k in sorted(_REGISTRY)]
@@ -192,7 +194,8 @@ def _accepts_any_keyword(factory: Callable) -> bool:
 
 def _load_plugins() -> None:
     """Imports the entry points of group ``socialnav.policies`` once; each names a policy class or
-    factory (registered under the entry point's name) or a module whose import registers policies."""
+    factory (registered under the entry point's name) or a module whose import registers policies.
+    """
     global _plugins_loaded
     if _plugins_loaded:
         return

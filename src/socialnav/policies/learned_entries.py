@@ -118,7 +118,8 @@ def _walled_scenarios(names: Any) -> list[str]:
 
 def _walls_mismatch(trained: Any, preset: Any) -> list[str]:
     """A network trained without walls cannot see them (its input has no obstacles): evaluating it
-    among walls is refused like any other world mismatch, naming both sides."""
+    among walls is refused like any other world mismatch, naming both sides.
+    """
     training = trained.get("training") if isinstance(trained, dict) else None
     if not isinstance(training, dict) or "scenarios" not in training:
         return []  # the checkpoint does not record what it was trained on
@@ -174,7 +175,8 @@ def checked_preset_mismatches(
     checkpoint: Any, config: dict[str, Any], preset: Any, allow: bool
 ) -> list[str]:
     """The world differences of a checkpoint under ``preset``; a :class:`PresetMismatchError` naming
-    them unless ``allow`` (then the caller records them)."""
+    them unless ``allow`` (then the caller records them).
+    """
     mismatch = preset_mismatches(config, preset) if preset is not None else []
     if mismatch and not allow:
         raise PresetMismatchError(
@@ -339,7 +341,8 @@ def _ppo_factory(name: str):
 def register_catalog() -> None:
     """Registers every learned policy of the catalog not registered yet (records added after the
     first call appear on the next one): value-based ones load into a :class:`LearnedPolicy`, PPO
-    ones into a :class:`~socialnav.policies.learned.ppo_policy.RecurrentActorPolicy`."""
+    ones into a :class:`~socialnav.policies.learned.ppo_policy.RecurrentActorPolicy`.
+    """
     for spec in learned_policy_specs():
         factory = _ppo_factory if spec.trainer == "ppo" else _factory
         for name, description in ((spec.name, spec.description), *spec.aliases.items()):

@@ -46,7 +46,8 @@ def _door_fits(scenario: WalledScenario, wall: str) -> None:
 def _corridor_walls(width: float, length: float, end_wall: float) -> list[np.ndarray]:
     """A straight corridor along y between two halls: its two side walls and, at each end, walls
     turning outwards (``end_wall`` long each side), so that an agent pushed out of the corridor
-    comes back through it instead of walking round the outside of a free-standing pair of walls."""
+    comes back through it instead of walking round the outside of a free-standing pair of walls.
+    """
     h, half = width / 2, length / 2
     sides = [np.array([[-h, -half], [-h, half]]), np.array([[h, -half], [h, half]])]
     if end_wall <= 0:
@@ -95,14 +96,16 @@ class _Hallway(WalledScenario):
 @dataclass(frozen=True, kw_only=True)
 class NarrowHallway(_Hallway):
     """Francis (j): head-on in a corridor barely wide enough for two (1.8 m = two 0.6 m bodies and
-    three 0.2 m gaps: wall, each other, wall)."""
+    three 0.2 m gaps: wall, each other, wall).
+    """
 
 
 @register_scenario("frontal_approach")
 @dataclass(frozen=True, kw_only=True)
 class FrontalApproach(_Hallway):
     """Francis (a): one human head-on in a wide hall (4 m: the two can pass keeping M_I's outer
-    ε = 1.2 m apart and 0.2 m from the walls, 0.6 + 1.2 + 0.6 + 2·0.2 = 2.8 m, with room to spare)."""
+    ε = 1.2 m apart and 0.2 m from the walls, 0.6 + 1.2 + 0.6 + 2·0.2 = 2.8 m, with room to spare).
+    """
 
     corridor_width: float = param(4.0, "distance between the two walls", unit="m", gt=0)
 
@@ -299,7 +302,8 @@ class _Room(WalledScenario):
 @dataclass(frozen=True, kw_only=True)
 class EnteringRoom(_Room):
     """Francis (l): the robot enters a 4 m × 4 m room (a small office) by its 1 m door while a person
-    inside leaves."""
+    inside leaves.
+    """
 
     entering = True
 

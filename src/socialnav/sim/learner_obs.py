@@ -258,7 +258,8 @@ class ObservationTransform:
 
     def actions_from_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
         """The inverse of :meth:`actions_to_world`: a world-frame action (e.g. a teacher's, for
-        imitation) as the learner gives it."""
+        imitation) as the learner gives it.
+        """
         if not self.rotates_actions:
             return actions
         a, c, s = _actions_and_goal_heading(actions, robot)

@@ -94,7 +94,8 @@ class LearnerObservation(gym.Wrapper):
 
 class LearnerObservationVector(VectorWrapper):
     """The vector env (native or ``sync``/``async``) with the learner's observation; ``final_obs`` of
-    finished episodes is converted the same way."""
+    finished episodes is converted the same way.
+    """
 
     def __init__(self, env: gym.vector.VectorEnv, settings: ObservationSettings | None = None):
         super().__init__(env)

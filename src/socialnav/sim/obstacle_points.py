@@ -112,7 +112,8 @@ class ObstaclePoints:
         self, positions: np.ndarray, maps: Sequence[StaticMap | None]
     ) -> tuple[np.ndarray, np.ndarray]:
         """The kept points as standing agents: (B, K, 5) px, py, 0, 0, radius (zero rows where
-        padded) and the mask (B, K)."""
+        padded) and the mask (B, K).
+        """
         points, mask = self.nearest(positions, maps)
         out = np.zeros((*mask.shape, 5))
         out[..., :2] = points
@@ -125,7 +126,8 @@ _OUTLINES: dict[tuple[int, float], tuple[weakref.ref, np.ndarray]] = {}
 
 def outline_points(static_map: StaticMap, spacing: float) -> np.ndarray:
     """Points along every obstacle outline of ``static_map``, at most ``spacing`` apart along an
-    edge, every vertex included: (P, 2) [m], polygon after polygon (read-only, cached per map)."""
+    edge, every vertex included: (P, 2) [m], polygon after polygon (read-only, cached per map).
+    """
     key = (id(static_map), float(spacing))
     hit = _OUTLINES.get(key)
     if hit is not None and hit[0]() is static_map:
@@ -156,7 +158,8 @@ def append_obstacle_agents(
     encoding: ObstaclePoints,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``humans`` (B, N, 5) and ``mask`` (B, N) with the encoding's K point slots appended after
-    the human slots: (B, N + K, 5) and (B, N + K). ``maps`` None: every episode is an open floor."""
+    the human slots: (B, N + K, 5) and (B, N + K). ``maps`` None: every episode is an open floor.
+    """
     robot = np.asarray(robot, dtype=np.float64)
     maps = [None] * robot.shape[0] if maps is None else maps
     points, point_mask = encoding.agents(robot[:, :2], maps)

@@ -44,7 +44,8 @@ def _load_preset_once(name: str) -> Preset:
 
 def job_preset(params: dict[str, Any], threads: int | None = None) -> Preset:
     """The job's preset with its ``human_model`` override (and, in a worker, ``threads`` native
-    threads per world: parallelism comes from the workers; results do not depend on it)."""
+    threads per world: parallelism comes from the workers; results do not depend on it).
+    """
     preset = _load_preset_once(str(params["preset"]))
     world = preset.world
     if params.get("human_model") is not None:
@@ -69,7 +70,8 @@ def build_job_policy(
     """The job's policy. ``threads`` (in a worker): the native threads of a policy that has them
     (linear, ORCA, social force), unless the job sets them. Without it such a policy would start a
     thread per core in every worker, and on a machine whose cores the workers already fill, each of
-    its calls would wake a thread that has no core to run on (results do not depend on it)."""
+    its calls would wake a thread that has no core to run on (results do not depend on it).
+    """
     from socialnav.policies.base import get_policy_entry
     from socialnav.policies.loading import build_policy
 
@@ -152,7 +154,8 @@ def conclude_job(
 ) -> dict[str, Any]:
     """An evaluation job's conclusion (summary rows, tables) from its chunk files' bytes, in cell and
     index order: what ``socialnav evaluate`` writes when a run ends, computed here so that the driver
-    only stores the files (its serial share stays small however many workers there are)."""
+    only stores the files (its serial share stays small however many workers there are).
+    """
     import warnings
 
     from socialnav._runtime import one_blas_thread_for_good
@@ -174,7 +177,8 @@ def conclude_job(
 
 def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int) -> dict[str, Any]:
     """Runs (or resumes, from ``last.pt``) one training job of a sweep into ``out_dir`` (``_payload``:
-    unused, every task takes one)."""
+    unused, every task takes one).
+    """
     from socialnav.train.config import resolve_train_settings
     from socialnav.train.trainer import train
 

@@ -1,5 +1,6 @@
 """Pieces shared by the training phases: optimizers and their saved state, progress bars, the
-validation order, and the check that a run directory holds this run."""
+validation order, and the check that a run directory holds this run.
+"""
 
 from __future__ import annotations
 
@@ -27,7 +28,8 @@ def compile_loss(loss: Callable[[torch.Tensor], torch.Tensor], device: torch.dev
     """``torch.compile`` of a minibatch loss of index tensors (training setting ``compile``): static
     shapes (one graph per minibatch size) and, on CPU, Inductor's C++ wrapper, which calls the graph's
     kernels from C++ instead of Python: ≈ 30 % less time per call on the 2-core VM, at no extra
-    compile time (docs/training.md, "Compiled training")."""
+    compile time (docs/training.md, "Compiled training").
+    """
     options = {"cpp_wrapper": True} if device.type == "cpu" else {}
     return torch.compile(loss, dynamic=False, options=options)
 
@@ -123,7 +125,8 @@ class AdamSteps:
 def shared_step_counters(per_param: list[dict[str, Any]]) -> torch.Tensor:
     """Replaces each parameter's Adam ``step`` counter (a 0-d tensor) by a 0-d view of one stacked
     tensor with the same values, and returns that tensor: one add advances every counter, and the
-    optimizer's state (saved, loaded, stepped by ``optimizer.step()``) holds the views as before."""
+    optimizer's state (saved, loaded, stepped by ``optimizer.step()``) holds the views as before.
+    """
     steps = torch.stack([s["step"].detach() for s in per_param])
     for i, s in enumerate(per_param):
         s["step"] = steps[i]
@@ -190,7 +193,8 @@ def _dotted(data: Any, key: str) -> Any:
 
 def reward_config(world: Any) -> dict[str, float]:
     """The reward constants a checkpoint records for ``world`` (a preset's WorldSettings), as the
-    evaluator compares them (policies/learned_entries.py)."""
+    evaluator compares them (policies/learned_entries.py).
+    """
     return {
         "success_reward": world.reward.success_reward,
         "collision_penalty": world.reward.collision_penalty,

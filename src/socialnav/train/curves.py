@@ -1,5 +1,6 @@
 """``curves.csv`` of a training run (appended; trimmed to the resumed episode) and optional
-TensorBoard scalars."""
+TensorBoard scalars.
+"""
 
 from __future__ import annotations
 
@@ -64,7 +65,8 @@ class Curves:
         key: str = "episode",
     ) -> None:
         """``columns``: the CSV's columns; ``key``: the counter rows are trimmed by on resumption
-        (``episode`` for the value-based trainer, ``update`` for PPO's rows of phase ``ppo``)."""
+        (``episode`` for the value-based trainer, ``update`` for PPO's rows of phase ``ppo``).
+        """
         self.path = path
         self.columns = columns
         self.dropped = 0  # damaged rows left out on resumption

@@ -24,7 +24,8 @@ from socialnav.sim.world import World
 def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True) -> int:
     """Humans per training episode: the preset's, or 1 for a policy whose record asks for it (CADRL,
     trained with one human, as its authors did) while ``cadrl_one_human`` is on. Scenarios that fix
-    their own crowd keep it (:func:`scenario_crowd`)."""
+    their own crowd keep it (:func:`scenario_crowd`).
+    """
     from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
 
     if cadrl_one_human and policy in learned_policy_names() and get_learned_spec(policy).one_human_training:
@@ -34,13 +35,15 @@ def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True)
 
 def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
     """The ``n_humans`` keyword for scenario ``name``: none where the scenario fixes its own crowd
-    (the francis2023 scenarios with one person or a standing group refuse any other count)."""
+    (the francis2023 scenarios with one person or a standing group refuse any other count).
+    """
     return {} if get_scenario(name).fixed_n_humans else {"n_humans": int(n_humans)}
 
 
 def mix_human_slots(preset: Preset, n_humans: int) -> int:
     """Human slots of the training mix's observations: the largest crowd among its scenarios, a
-    fixed one (:func:`scenario_crowd`) or ``n_humans``."""
+    fixed one (:func:`scenario_crowd`) or ``n_humans``.
+    """
     import dataclasses as dc
 
     def crowd(name: str) -> int:
@@ -185,7 +188,8 @@ class MultiWorld:
 
     def step(self, actions: np.ndarray) -> MultiStep:
         """Steps every world; the ``final_*`` arrays hold each slot's state right after the step
-        (before the auto-reset of finished slots)."""
+        (before the auto-reset of finished slots).
+        """
         parts, walls = [], []
         for w, lo, hi in zip(self.worlds, self.offsets[:-1], self.offsets[1:], strict=True):
             stepped = tuple(w.static_maps)  # before the refill of finished slots

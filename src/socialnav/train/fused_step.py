@@ -54,7 +54,8 @@ _MEMORY_FIELDS = (
 
 class _Value(nn.Module):
     """``network.value`` as a module's forward, so that ``torch.func.functional_call`` can run it
-    with parameters passed in."""
+    with parameters passed in.
+    """
 
     def __init__(self, network: nn.Module) -> None:
         super().__init__()
@@ -128,7 +129,8 @@ class FusedTDStep:
     @classmethod
     def build(cls, *args, **kwargs) -> tuple[FusedTDStep | None, str | None]:
         """``(step, None)``, or ``(None, reason)`` where the network's value does not trace into
-        one graph (arguments: those of the constructor)."""
+        one graph (arguments: those of the constructor).
+        """
         step = cls(*args, **kwargs)
         try:
             step._compile()
@@ -141,7 +143,8 @@ class FusedTDStep:
         """Creates Adam's state as ``torch.optim.Adam(fused=True)`` does on its first step (zero
         moments, a float32 step counter per parameter), if it has none yet, and gathers the graph's
         inputs. The step counters become 0-d views of one tensor (``shared_step_counters``, as for
-        ``AdamSteps``), so the graph updates them with one add."""
+        ``AdamSteps``), so the graph updates them with one add.
+        """
         state = self.optimizer.state
         for p in self._params:
             if p not in state or not state[p]:
@@ -238,7 +241,8 @@ class FusedTDStep:
 
     def _record_cuda_graph(self) -> None:
         """Records one compiled step as a CUDA graph over fixed input addresses (the step's inputs
-        are the run's own tensors, updated in place; the indices are copied into ``_graph_idx``)."""
+        are the run's own tensors, updated in place; the indices are copied into ``_graph_idx``).
+        """
         idx = torch.zeros(self.batch_size, dtype=torch.long, device=self.memory.device)
         mutated = self._mutated_inputs()
         saved = [t.clone() for t in mutated]

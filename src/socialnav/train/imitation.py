@@ -135,7 +135,8 @@ def collect_demonstrations(
 
 def save_demonstrations(path, demos: Demonstrations, config_json: str) -> None:
     """Writes the demonstrations atomically (float32, as the regression uses them) with the run's
-    config, so that a resumed imitation reuses them instead of collecting again."""
+    config, so that a resumed imitation reuses them instead of collecting again.
+    """
     from socialnav._io import atomic_write
 
     def write(tmp: str) -> None:
@@ -276,7 +277,8 @@ def _epochs(
 ) -> list[float]:
     """Minibatch epochs over ``m`` samples in a fresh permutation each (from ``generator``): one
     optimizer step per ``batch_loss(indices)``; returns the mean loss per epoch. A non-finite loss
-    raises FloatingPointError naming ``what`` and the epoch."""
+    raises FloatingPointError naming ``what`` and the epoch.
+    """
     losses = []
     adam = AdamSteps(optimizer)  # optimizer.step() without its per-call Python, bit-identical
     for epoch in epochs:

@@ -1,5 +1,6 @@
 """The imitation phase of a training run: ORCA demonstrations, the value fit and (information
-``learned``) the state predictor's fit, resumable per epoch."""
+``learned``) the state predictor's fit, resumable per epoch.
+"""
 
 from __future__ import annotations
 
@@ -41,7 +42,8 @@ def run_imitation(
     complete ``il.pt`` is reused as it is. With a state predictor (information ``learned``), it is
     fitted on the demonstrations' human transitions after the value network (as RGL does during
     imitation), in one block: a kill during that block repeats only the predictor's fit.
-    Returns the last epoch's value loss and the predictor's losses per epoch."""
+    Returns the last epoch's value loss and the predictor's losses per epoch.
+    """
     from socialnav.policies.learned import load_checkpoint, save_checkpoint
     from socialnav.policies.learned.registry import canonical_name
     from socialnav.policies.native import NativePolicy

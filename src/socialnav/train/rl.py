@@ -45,7 +45,7 @@ def td_targets(
     dt: float,
     v_pref: torch.Tensor,
 ) -> torch.Tensor:
-    """y = r + γ^(dt·v_pref) · V(s') · (1 − done)  (done: terminal only; truncations bootstrap)."""
+    """Y = r + γ^(dt·v_pref) · V(s') · (1 − done)  (done: terminal only; truncations bootstrap)."""
     disc = torch.pow(
         torch.as_tensor(gamma, dtype=reward.dtype, device=reward.device), dt * v_pref.to(reward.dtype)
     )
@@ -68,7 +68,8 @@ def td_loss(
     fixed_targets: bool = False,
 ) -> torch.Tensor:
     """MSE between V(s) and the TD target computed now with the target network, or, with
-    ``fixed_targets`` (rl.td_targets: rgl_repo), the target stored with the transition."""
+    ``fixed_targets`` (rl.td_targets: rgl_repo), the target stored with the transition.
+    """
     if fixed_targets:
         y = batch.target
     else:
@@ -146,7 +147,8 @@ class EpisodeStats:
 
 def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> dict[str, float]:
     """Greedy rollouts of every episode of ``world`` (a finite val stream): success, collision and
-    timeout rates and the mean navigation time of successes."""
+    timeout rates and the mean navigation time of successes.
+    """
     world.reset()
     stats = EpisodeStats()
     encode = getattr(policy, "encode", None)  # a value policy's obstacle points (the PPO actor has none)
@@ -166,7 +168,8 @@ def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> 
 
 def encoded_step(policy, res):
     """``res`` (a MultiStep) with the policy's obstacle points appended to the states after the step
-    (``final_humans``/``final_mask``; each episode's own map, also where the slot was refilled)."""
+    (``final_humans``/``final_mask``; each episode's own map, also where the slot was refilled).
+    """
     if getattr(policy, "obstacle_encoding", None) is None:
         return res
     humans, mask = policy.encode_arrays(res.final_robot, res.final_humans, res.final_mask, res.final_maps)

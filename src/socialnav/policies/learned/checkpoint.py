@@ -191,7 +191,8 @@ def _describe(value: Any) -> str:
 
 def _require_finite_weights(path: Path, field: str, state_dict: dict) -> None:
     """A network with a NaN or infinite weight scores every action NaN and picks one arbitrarily: its
-    evaluation would be a table of numbers with no meaning, so it is refused, naming the tensor."""
+    evaluation would be a table of numbers with no meaning, so it is refused, naming the tensor.
+    """
     for name, tensor in state_dict.items():
         if torch.is_tensor(tensor) and tensor.is_floating_point() and not bool(torch.isfinite(tensor).all()):
             bad = int((~torch.isfinite(tensor)).sum())

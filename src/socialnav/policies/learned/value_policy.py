@@ -211,7 +211,8 @@ class ValuePolicy:
     def encode(self, obs: Any) -> Any:
         """``obs`` with the obstacle encoding's point slots appended (``static_slots`` set; all
         padded on an open floor) when this policy has an encoding; otherwise ``obs`` itself. An
-        observation already encoded, or given as a mapping, is returned as it is."""
+        observation already encoded, or given as a mapping, is returned as it is.
+        """
         if self.obstacle_encoding is None or isinstance(obs, Mapping) or _static_slots(obs):
             return obs
         walls = getattr(obs, "obstacles", None)
@@ -227,7 +228,8 @@ class ValuePolicy:
                       maps: Any) -> tuple[np.ndarray, np.ndarray]:
         """Raw state arrays (B, 9), (B, N, 5), (B, N) with the obstacle points of ``maps`` ((B,)
         StaticMap or None each; None: open floors) appended (see :meth:`encode`); unchanged when this
-        policy has no encoding."""
+        policy has no encoding.
+        """
         if self.obstacle_encoding is None:
             return humans, mask
         return append_obstacle_agents(robot, humans, mask, maps, self.obstacle_encoding)
@@ -268,7 +270,8 @@ class ValuePolicy:
         static: int = 0,
     ) -> torch.Tensor:
         """Humans' predicted next states (B, N, 5) under the information setting; the last
-        ``static`` slots (obstacle points) stay where they are."""
+        ``static`` slots (obstacle points) stay where they are.
+        """
         if static and self.information != "oracle":
             moving = self.predict_humans(robot, humans[:, :-static], mask[:, :-static], dt)
             return torch.cat([moving, humans[:, -static:]], dim=1)
@@ -308,7 +311,8 @@ class ValuePolicy:
         static: int,
     ) -> torch.Tensor:
         """r̂ (B, K) of every candidate action; the last ``static`` slots are obstacle points, which
-        count for collisions only (the world's reward has no discomfort term for walls)."""
+        count for collisions only (the world's reward has no discomfort term for walls).
+        """
         n = humans.shape[1] - static
         h, hn, m = humans[:, :n], humans_next[:, :n], mask[:, :n]
         if self.reward_rule == "swept":
@@ -342,7 +346,8 @@ class ValuePolicy:
         static: int = 0,
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """One-step lookahead from B states: q (B, K), actions (B, K, 2), r (B, K), discount (B, 1),
-        next robot states (B, K, 9) and predicted next human states (B, N, 5)."""
+        next robot states (B, K, 9) and predicted next human states (B, N, 5).
+        """
         b, n = humans.shape[:2]
         k = self.num_actions
         actions = discrete_actions(
@@ -393,7 +398,8 @@ class ValuePolicy:
         static: int = 0,
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """The top-w actions of each of M states by one-step value q (M, K), and their returns
-        r̂ + γ·V_depth(s') (M, w), the w successors of every state planned in one batched call."""
+        r̂ + γ·V_depth(s') (M, w), the w successors of every state planned in one batched call.
+        """
         m, w = q.shape[0], min(self.planning_width, q.shape[1])
         top = q.topk(w, dim=1).indices  # (M, w)
         rn = robot_next.gather(1, top.unsqueeze(-1).expand(m, w, robot_next.shape[-1]))
