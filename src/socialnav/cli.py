@@ -1,5 +1,6 @@
-"""The ``socialnav`` command line: evaluate, metrics, list, preset, train, replay, render, report,
-reproduce, sweep.
+"""The ``socialnav`` command line.
+
+Subcommands: evaluate, metrics, list, preset, train, replay, render, report, reproduce, sweep.
 
 socialnav evaluate --policy orca --preset wang2022 --report
 socialnav metrics my_robot_log.parquet --json

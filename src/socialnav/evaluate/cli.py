@@ -1,5 +1,7 @@
-"""`socialnav replay`, `socialnav reproduce` and `socialnav evaluate --policy all` (argument parsing
-kept free of torch imports).
+"""The ``replay``, ``reproduce`` and ``evaluate --policy all`` subcommands.
+
+`socialnav replay`, `socialnav reproduce` and `socialnav evaluate --policy all`; the argument parsing is kept
+free of torch imports.
 """
 
 from __future__ import annotations

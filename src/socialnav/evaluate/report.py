@@ -35,8 +35,9 @@ def write_reports(
     out: Path, summary: list[dict[str, Any]], rows: list[dict[str, Any]], preset: Preset,
     caveats: Sequence[str] = (),
 ) -> None:
-    """Writes summary.json/csv and the Table II/III layouts into ``out`` (all atomic); ``caveats``
-    (:func:`mismatch_caveats`) are stated above every table.
+    """Write summary.json/csv and the Table II/III layouts into ``out``, atomically.
+
+    ``caveats`` (:func:`mismatch_caveats`) are stated above every table.
     """
     for name, text in render_reports(summary, preset, caveats).items():
         atomic_write_text(out / name, text)
@@ -63,8 +64,9 @@ def with_caveats(table: str, caveats: Sequence[str], fmt: str = "md") -> str:
 def render_reports(
     summary: list[dict[str, Any]], preset: Preset, caveats: Sequence[str] = ()
 ) -> dict[str, str]:
-    """The text of every result file :func:`write_reports` writes, by file name (a sweep's worker
-    renders them and the driver, which alone writes results, stores them).
+    """Render the text of every result file :func:`write_reports` writes, by file name.
+
+    A sweep's worker renders them and the driver, which alone writes results, stores them.
     """
     metrics = [
         {
@@ -146,8 +148,10 @@ def _index(summary: Sequence[dict[str, Any]]) -> dict[tuple[str, str, str], dict
 
 
 def has_walls(summary: Sequence[dict[str, Any]]) -> bool:
-    """Whether any group was run with static maps: its ``wall_collision_rate`` is a number (it is NaN
-    on open floors), and Table II then shows wall collisions in a column of their own.
+    """Whether any group was run with static maps.
+
+    Such a group's ``wall_collision_rate`` is a number (it is NaN on open floors), and Table II then shows
+    wall collisions in a column of their own.
     """
     return any(_finite(r.get("wall_collision_rate")) for r in summary)
 
@@ -216,8 +220,10 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
 
 
 def table3_rows(summary: Sequence[dict[str, Any]]) -> list[list[str]]:
-    """Per policy and single-human scenario: left %, right %, the labelled cases the percentages are
-    of (n) and the episodes that failed (collisions ``c`` and timeouts ``t``), which carry no side.
+    """Passing sides per policy and single-human scenario.
+
+    Left %, right %, the labelled cases the percentages are of (n) and the episodes that failed (collisions
+    ``c`` and timeouts ``t``), which carry no side.
     """
     idx = _index(summary)
     policies = list(dict.fromkeys(r["policy"] for r in summary))

@@ -1,5 +1,6 @@
-"""`socialnav reproduce`: Wang et al. 2022's Tables I–III, ours beside the paper's, and the ranking's
-robustness to the human model.
+"""`socialnav reproduce`: Wang et al. 2022's Tables I–III, ours beside the paper's.
+
+Also reports the ranking's robustness to the human model.
 
     <out>/<human_model>/            one multi-policy run (``evaluate.multi``) per human model
     <out>/table1.md/.tex            Table I: CADRL trained the original way vs under the protocol

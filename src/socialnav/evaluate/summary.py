@@ -91,9 +91,11 @@ _STAT_NAMES = ("mean", "std", "ci_low", "ci_high", "n")  # the order of column_s
 
 @functools.lru_cache(maxsize=256)
 def _layout(metric_keys: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[tuple[int, int], ...]]:
-    """Summary column names and, for each, (metric column, statistic) it takes: outcome rates as
-    ``success_rate`` with its CI, navigation time also as ``nav_time_s``/``nav_time_s_std``, every
-    other key as ``<key>.mean/.std/.ci_low/.ci_high/.n``. Built once per set of keys.
+    """Summary column names, each with the (metric column, statistic) it takes.
+
+    Outcome rates appear as ``success_rate`` with its CI, navigation time also as
+    ``nav_time_s``/``nav_time_s_std``, every other key as ``<key>.mean/.std/.ci_low/.ci_high/.n``. Built once
+    per set of keys.
     """
     names: list[str] = []
     picks: list[tuple[int, int]] = []

@@ -138,8 +138,9 @@ class SocialNavVecEnv(VecEnv):
         return self._seeds
 
     def get_attr(self, attr_name: str, indices: Iterable[int] | int | None = None) -> list[Any]:
-        """An attribute of the native vector env, the same for every slot (slots share one world);
-        ``render_mode`` is None.
+        """An attribute of the native vector env, the same for every slot.
+
+        The slots share one world; ``render_mode`` is None.
         """
         n = len(self._indices(indices))
         if attr_name == "render_mode":
@@ -155,8 +156,10 @@ class SocialNavVecEnv(VecEnv):
         )
 
     def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list[Any]:
-        """``training_record`` (the same for every slot); other per-env methods do not exist here,
-        since the slots are rows of one native world, not env objects.
+        """Call ``training_record`` (the same for every slot).
+
+        Other per-env methods do not exist here, since the slots are rows of one native world, not env
+        objects.
         """
         n = len(self._indices(indices))
         if method_name == "training_record":
@@ -190,9 +193,10 @@ class SocialNavVecEnv(VecEnv):
 
 
 def find_training_record(env: Any) -> dict[str, Any]:
-    """The training record of the env a model was trained on: a SocialNavVecEnv (through any SB3
-    wrappers such as VecMonitor or VecNormalize), or SB3's Dummy/SubprocVecEnv of single envs wrapped
-    in :class:`~socialnav.sim.learner_wrappers.LearnerObservation`.
+    """The training record of the env a model was trained on.
+
+    The env is a SocialNavVecEnv (through any SB3 wrappers such as VecMonitor or VecNormalize), or SB3's
+    Dummy/SubprocVecEnv of single envs wrapped in :class:`~socialnav.sim.learner_wrappers.LearnerObservation`.
     """
     while isinstance(env, VecEnvWrapper):
         env = env.venv
@@ -210,9 +214,10 @@ def find_training_record(env: Any) -> dict[str, Any]:
 
 
 def save_model(model: Any, path: str | Path, env: Any = None) -> Path:
-    """Saves ``model`` (``model.save``) with the record of how its env converted observations, its
-    action space and world, so that ``socialnav evaluate --policy sb3:PATH`` converts the same way and
-    refuses a world the model was not trained for.
+    """Save ``model`` (``model.save``) with the record of the env it was trained on.
+
+    The record holds how its env converted observations, its action space and world, so that ``socialnav
+    evaluate --policy sb3:PATH`` converts the same way and refuses a world the model was not trained for.
 
     Args:
         model: An SB3 algorithm (PPO, SAC, …).

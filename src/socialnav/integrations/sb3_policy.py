@@ -1,5 +1,6 @@
-"""``sb3:PATH``: a saved Stable-Baselines3 model as a protocol policy (``socialnav evaluate --policy
-sb3:model.zip``).
+"""``sb3:PATH``: a saved Stable-Baselines3 model as a protocol policy.
+
+Used as ``socialnav evaluate --policy sb3:model.zip``.
 
 The model's zip carries the record :func:`socialnav.integrations.sb3.save_model` wrote: the observation
 conversion of its training env, its action set, kinematics, robot speed and world. Loading checks the

@@ -377,8 +377,9 @@ def score_file(
 
 
 def _episode_keys(path: Path) -> tuple[list[Any], np.ndarray | None]:
-    """The file's episode keys in order of first appearance, and where each one's rows start when
-    every episode is one block of rows (then ``starts`` has one more entry, the row count).
+    """The file's episode keys in order of first appearance, and where each one's rows start.
+
+    ``starts`` is given when every episode is one block of rows (then it has one more entry, the row count).
     """
     import pyarrow as pa
 
@@ -406,8 +407,10 @@ def _episode_keys(path: Path) -> tuple[list[Any], np.ndarray | None]:
 def _score_chunk(path: str, keys: list[Any], rows: tuple[int, int] | None, require_success: bool,
                  goal_tolerance: float | None, params: Any, load_kwargs: dict[str, Any]
                  ) -> tuple[list[dict], list[str], list[str], str, dict[str, dict[str, Any]]]:
-    """Score one share of a file; also summarise its scenes (under the label its own rows give),
-    which the caller keeps for every scene that lies wholly in this share.
+    """Score one share of a file and summarise its scenes.
+
+    Scenes are summarised under the label their own rows give; the caller keeps the summary of every scene
+    that lies wholly in this share.
     """
     from socialnav.evaluate.summary import summarize_group
     from socialnav.trajectory_io import read_trajectories

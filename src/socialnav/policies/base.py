@@ -32,8 +32,9 @@ RECORDED_ONLY: tuple[str, ...] = ("native_kernel",)
 
 
 class PolicyError(RuntimeError):
-    """A policy failed while acting, or returned actions the world cannot take; the message names the
-    policy, the scenario and visibility, and the episodes it was acting for.
+    """A policy failed while acting, or returned actions the world cannot take.
+
+    The message names the policy, the scenario and visibility, and the episodes it was acting for.
     """
 
 
@@ -87,8 +88,9 @@ def is_registered(name: str) -> bool:
 
 
 def list_policies() -> list[PolicyEntry]:
-    """Every registered policy (built-in, learned and from the ``socialnav.policies`` entry-point group),
-    sorted by name.
+    """Every registered policy name, sorted.
+
+    Built-in, learned and from the ``socialnav.policies`` entry-point group.
     """
     _load_builtin()
     _load_plugins()
@@ -193,8 +195,10 @@ def _accepts_any_keyword(factory: Callable) -> bool:
 
 
 def _load_plugins() -> None:
-    """Imports the entry points of group ``socialnav.policies`` once; each names a policy class or
-    factory (registered under the entry point's name) or a module whose import registers policies.
+    """Import the entry points of group ``socialnav.policies`` once.
+
+    Each names a policy class or factory (registered under the entry point's name) or a module whose import
+    registers policies.
     """
     global _plugins_loaded
     if _plugins_loaded:

@@ -1,5 +1,7 @@
-"""Scenarios with walls after Francis et al., "Principles and Guidelines for Evaluating Social Robot
-Navigation Algorithms" (arXiv 2306.16740, ACM THRI 2025), Fig. 7.
+"""Scenarios with walls after Francis et al. 2025, Fig. 7.
+
+Francis et al., "Principles and Guidelines for Evaluating Social Robot Navigation Algorithms" (arXiv
+2306.16740, ACM THRI 2025).
 
 The paper draws its scenarios without dimensions; every size here is a decision, stated with its
 reason in ``docs/walls_maps.md``. Common conventions: the robot and the humans keep the protocol's
@@ -44,9 +46,11 @@ def _door_fits(scenario: WalledScenario, wall: str) -> None:
 
 
 def _corridor_walls(width: float, length: float, end_wall: float) -> list[np.ndarray]:
-    """A straight corridor along y between two halls: its two side walls and, at each end, walls
-    turning outwards (``end_wall`` long each side), so that an agent pushed out of the corridor
-    comes back through it instead of walking round the outside of a free-standing pair of walls.
+    """A straight corridor along y between two halls, with walls turning outwards at its ends.
+
+    Its two side walls and, at each end, walls turning outwards (``end_wall`` long each side), so that an
+    agent pushed out of the corridor comes back through it instead of walking round the outside of a
+    free-standing pair of walls.
     """
     h, half = width / 2, length / 2
     sides = [np.array([[-h, -half], [-h, half]]), np.array([[h, -half], [h, half]])]
@@ -95,16 +99,19 @@ class _Hallway(WalledScenario):
 @register_scenario("narrow_hallway")
 @dataclass(frozen=True, kw_only=True)
 class NarrowHallway(_Hallway):
-    """Francis (j): head-on in a corridor barely wide enough for two (1.8 m = two 0.6 m bodies and
-    three 0.2 m gaps: wall, each other, wall).
+    """Francis (j): head-on in a corridor barely wide enough for two.
+
+    1.8 m = two 0.6 m bodies and three 0.2 m gaps: wall, each other, wall.
     """
 
 
 @register_scenario("frontal_approach")
 @dataclass(frozen=True, kw_only=True)
 class FrontalApproach(_Hallway):
-    """Francis (a): one human head-on in a wide hall (4 m: the two can pass keeping M_I's outer
-    ε = 1.2 m apart and 0.2 m from the walls, 0.6 + 1.2 + 0.6 + 2·0.2 = 2.8 m, with room to spare).
+    """Francis (a): one human head-on in a wide hall.
+
+    The hall is 4 m wide: the two can pass keeping M_I's outer ε = 1.2 m apart and 0.2 m from the walls, 0.6 +
+    1.2 + 0.6 + 2·0.2 = 2.8 m, with room to spare.
     """
 
     corridor_width: float = param(4.0, "distance between the two walls", unit="m", gt=0)
@@ -198,8 +205,10 @@ class NarrowDoorway(WalledScenario):
 @register_scenario("blind_corner")
 @dataclass(frozen=True, kw_only=True)
 class BlindCorner(WalledScenario):
-    """Francis (i): an L-shaped corridor; the robot goes up and turns right, a human comes the other
-    way round the corner. The inner corner is a solid block (the occluder); the outer wall a polyline.
+    """Francis (i): an L-shaped corridor with a human coming round the corner.
+
+    The robot goes up and turns right, a human comes the other way round the corner. The inner corner is a
+    solid block (the occluder); the outer wall a polyline.
 
     Robot (0, −R) → (R, 0); human start (R ± s, o), goal (o, −R − 2), out of the vertical leg.
     """
@@ -236,9 +245,10 @@ class BlindCorner(WalledScenario):
 @register_scenario("intersection")
 @dataclass(frozen=True, kw_only=True)
 class Intersection(WalledScenario):
-    """Francis (f): two corridors crossing at right angles; a human crosses the robot's corridor
-    from its left (four solid corner blocks). Robot (0, −R) → (0, R); human (−R ± s, o) → (R ∓ s, o),
-    so that with equal speeds both reach the junction at about the same time.
+    """Francis (f): two corridors crossing at right angles, a human crossing from the robot's left.
+
+    Four solid corner blocks. Robot (0, −R) → (0, R); human (−R ± s, o) → (R ∓ s, o), so that with equal
+    speeds both reach the junction at about the same time.
     """
 
     fixed_n_humans = True
@@ -301,8 +311,9 @@ class _Room(WalledScenario):
 @register_scenario("entering_room")
 @dataclass(frozen=True, kw_only=True)
 class EnteringRoom(_Room):
-    """Francis (l): the robot enters a 4 m × 4 m room (a small office) by its 1 m door while a person
-    inside leaves.
+    """Francis (l): the robot enters a room by its door while a person inside leaves.
+
+    The room is 4 m × 4 m (a small office) with a 1 m door.
     """
 
     entering = True
@@ -319,9 +330,11 @@ class ExitingRoom(_Room):
 @register_scenario("circle_crossing_obstacles")
 @dataclass(frozen=True, kw_only=True)
 class CircleCrossingObstacles(WalledScenario):
-    """Francis (x) with static obstacles (as social-jym and Social-Navigation-PyEnvs have): humans
-    cross a circle of radius R to the antipode of their start (CrowdSim's rule, start noise ±0.5 m)
-    around square pillars drawn per episode inside radius R/2.
+    """Francis (x) with static obstacles: circle crossing around square pillars.
+
+    As social-jym and Social-Navigation-PyEnvs have it: humans cross a circle of radius R to the antipode of
+    their start (CrowdSim's rule, start noise ±0.5 m) around square pillars drawn per episode inside radius
+    R/2.
 
     Pillar p: centre uniform in the disc of radius ``obstacle_area``·R, random rotation, redrawn while
     closer than 2·circumradius + 2·robot_radius + discomfort_dist to a placed pillar, so that the

@@ -1,5 +1,6 @@
-"""Rendering of the single Gymnasium env (``render_mode="rgb_array"`` or ``"human"``): the modes and
-the recording of the episode; the drawing is a viewer registered from above.
+"""Rendering of the single Gymnasium env (``render_mode="rgb_array"`` or ``"human"``).
+
+The modes and the recording of the episode; the drawing is a viewer registered from above.
 
 The env hands the recorder its observations (the terminal one included, before the auto-reset slot
 is refilled). Drawing needs the ``viz`` extra and sits above the simulator (socialnav.viz), so the

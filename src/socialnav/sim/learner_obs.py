@@ -1,5 +1,7 @@
-"""Observations a learner can use: one transformation shared by the single env, the vector env, the
-SB3 adapter and the ``sb3:`` evaluation policy (docs/train_your_own.md).
+"""Observations a learner can use.
+
+One transformation shared by the single env, the vector env, the SB3 adapter and the ``sb3:`` evaluation
+policy (docs/train_your_own.md).
 
 The raw observation (:mod:`socialnav.sim.observation`) is world-frame float64 with the scenario's own
 human count. :class:`ObservationSettings` names what a learner usually wants instead:
@@ -257,8 +259,9 @@ class ObservationTransform:
         return np.stack([a[:, 0] * c - a[:, 1] * s, a[:, 0] * s + a[:, 1] * c], axis=1)
 
     def actions_from_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
-        """The inverse of :meth:`actions_to_world`: a world-frame action (e.g. a teacher's, for
-        imitation) as the learner gives it.
+        """Convert a world-frame action to the learner's action; the inverse of :meth:`actions_to_world`.
+
+        Used e.g. for a teacher's actions in imitation.
         """
         if not self.rotates_actions:
             return actions

@@ -1,5 +1,7 @@
-"""Gymnasium wrappers applying :class:`~socialnav.sim.learner_obs.ObservationSettings` to the single
-env and to the native vector env, exactly as the SB3 adapter does (docs/train_your_own.md).
+"""Gymnasium wrappers applying :class:`~socialnav.sim.learner_obs.ObservationSettings`.
+
+They wrap the single env and the native vector env, converting exactly as the SB3 adapter does
+(docs/train_your_own.md).
 
 >>> env = LearnerObservation(gym.make("socialnav/CircleCrossing-v0"), ObservationSettings(frame="robot"))
 
@@ -93,8 +95,9 @@ class LearnerObservation(gym.Wrapper):
 
 
 class LearnerObservationVector(VectorWrapper):
-    """The vector env (native or ``sync``/``async``) with the learner's observation; ``final_obs`` of
-    finished episodes is converted the same way.
+    """The vector env (native or ``sync``/``async``) with the learner's observation.
+
+    ``final_obs`` of finished episodes is converted the same way.
     """
 
     def __init__(self, env: gym.vector.VectorEnv, settings: ObservationSettings | None = None):

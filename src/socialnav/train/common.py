@@ -1,5 +1,7 @@
-"""Pieces shared by the training phases: optimizers and their saved state, progress bars, the
-validation order, and the check that a run directory holds this run.
+"""Pieces shared by the training phases.
+
+Optimizers and their saved state, progress bars, the validation order, and the check that a run directory
+holds this run.
 """
 
 from __future__ import annotations
@@ -25,10 +27,11 @@ def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optim
 
 
 def compile_loss(loss: Callable[[torch.Tensor], torch.Tensor], device: torch.device):
-    """``torch.compile`` of a minibatch loss of index tensors (training setting ``compile``): static
-    shapes (one graph per minibatch size) and, on CPU, Inductor's C++ wrapper, which calls the graph's
-    kernels from C++ instead of Python: ≈ 30 % less time per call on the 2-core VM, at no extra
-    compile time (docs/training.md, "Compiled training").
+    """``torch.compile`` of a minibatch loss of index tensors (training setting ``compile``).
+
+    Static shapes (one graph per minibatch size) and, on CPU, Inductor's C++ wrapper, which calls the graph's
+    kernels from C++ instead of Python: ≈ 30 % less time per call on the 2-core VM, at no extra compile time
+    (docs/training.md, "Compiled training").
     """
     options = {"cpp_wrapper": True} if device.type == "cpu" else {}
     return torch.compile(loss, dynamic=False, options=options)
@@ -123,9 +126,10 @@ class AdamSteps:
 
 
 def shared_step_counters(per_param: list[dict[str, Any]]) -> torch.Tensor:
-    """Replaces each parameter's Adam ``step`` counter (a 0-d tensor) by a 0-d view of one stacked
-    tensor with the same values, and returns that tensor: one add advances every counter, and the
-    optimizer's state (saved, loaded, stepped by ``optimizer.step()``) holds the views as before.
+    """Make every Adam ``step`` counter a 0-d view of one stacked tensor, and return that tensor.
+
+    The views keep the counters' values: one add advances every counter, and the optimizer's state (saved,
+    loaded, stepped by ``optimizer.step()``) holds the views as before.
     """
     steps = torch.stack([s["step"].detach() for s in per_param])
     for i, s in enumerate(per_param):
@@ -192,8 +196,9 @@ def _dotted(data: Any, key: str) -> Any:
 
 
 def reward_config(world: Any) -> dict[str, float]:
-    """The reward constants a checkpoint records for ``world`` (a preset's WorldSettings), as the
-    evaluator compares them (policies/learned_entries.py).
+    """The reward constants a checkpoint records for ``world`` (a preset's WorldSettings).
+
+    They are what the evaluator compares (policies/learned_entries.py).
     """
     return {
         "success_reward": world.reward.success_reward,

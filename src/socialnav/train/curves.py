@@ -1,5 +1,6 @@
-"""``curves.csv`` of a training run (appended; trimmed to the resumed episode) and optional
-TensorBoard scalars.
+"""``curves.csv`` of a training run, and optional TensorBoard scalars.
+
+The CSV is appended to, and trimmed to the resumed episode on resumption.
 """
 
 from __future__ import annotations
@@ -64,8 +65,9 @@ class Curves:
         columns: tuple[str, ...] = CURVE_COLUMNS,
         key: str = "episode",
     ) -> None:
-        """``columns``: the CSV's columns; ``key``: the counter rows are trimmed by on resumption
-        (``episode`` for the value-based trainer, ``update`` for PPO's rows of phase ``ppo``).
+        """``columns``: the CSV's columns; ``key``: the counter rows are trimmed by on resumption.
+
+        ``key`` is ``episode`` for the value-based trainer, ``update`` for PPO's rows of phase ``ppo``.
         """
         self.path = path
         self.columns = columns

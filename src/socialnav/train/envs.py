@@ -22,9 +22,10 @@ from socialnav.sim.world import World
 
 
 def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True) -> int:
-    """Humans per training episode: the preset's, or 1 for a policy whose record asks for it (CADRL,
-    trained with one human, as its authors did) while ``cadrl_one_human`` is on. Scenarios that fix
-    their own crowd keep it (:func:`scenario_crowd`).
+    """Humans per training episode.
+
+    The preset's, or 1 for a policy whose record asks for it (CADRL, trained with one human, as its authors
+    did) while ``cadrl_one_human`` is on. Scenarios that fix their own crowd keep it (:func:`scenario_crowd`).
     """
     from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
 
@@ -34,15 +35,18 @@ def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True)
 
 
 def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
-    """The ``n_humans`` keyword for scenario ``name``: none where the scenario fixes its own crowd
-    (the francis2023 scenarios with one person or a standing group refuse any other count).
+    """The ``n_humans`` keyword for scenario ``name``.
+
+    None where the scenario fixes its own crowd (the francis2023 scenarios with one person or a standing group
+    refuse any other count).
     """
     return {} if get_scenario(name).fixed_n_humans else {"n_humans": int(n_humans)}
 
 
 def mix_human_slots(preset: Preset, n_humans: int) -> int:
-    """Human slots of the training mix's observations: the largest crowd among its scenarios, a
-    fixed one (:func:`scenario_crowd`) or ``n_humans``.
+    """Human slots of the training mix's observations.
+
+    The largest crowd among its scenarios, a fixed one (:func:`scenario_crowd`) or ``n_humans``.
     """
     import dataclasses as dc
 
@@ -187,8 +191,10 @@ class MultiWorld:
         )
 
     def step(self, actions: np.ndarray) -> MultiStep:
-        """Steps every world; the ``final_*`` arrays hold each slot's state right after the step
-        (before the auto-reset of finished slots).
+        """Step every world.
+
+        The ``final_*`` arrays hold each slot's state right after the step (before the auto-reset of finished
+        slots).
         """
         parts, walls = [], []
         for w, lo, hi in zip(self.worlds, self.offsets[:-1], self.offsets[1:], strict=True):

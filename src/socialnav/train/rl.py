@@ -67,8 +67,10 @@ def td_loss(
     dt: float,
     fixed_targets: bool = False,
 ) -> torch.Tensor:
-    """MSE between V(s) and the TD target computed now with the target network, or, with
-    ``fixed_targets`` (rl.td_targets: rgl_repo), the target stored with the transition.
+    """MSE between V(s) and the TD target.
+
+    The target is computed now with the target network, or, with ``fixed_targets`` (rl.td_targets: rgl_repo),
+    the one stored with the transition.
     """
     if fixed_targets:
         y = batch.target
@@ -146,8 +148,9 @@ class EpisodeStats:
 
 
 def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> dict[str, float]:
-    """Greedy rollouts of every episode of ``world`` (a finite val stream): success, collision and
-    timeout rates and the mean navigation time of successes.
+    """Greedy rollouts of every episode of ``world`` (a finite val stream).
+
+    Returns success, collision and timeout rates and the mean navigation time of successes.
     """
     world.reset()
     stats = EpisodeStats()
@@ -167,8 +170,9 @@ def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> 
 
 
 def encoded_step(policy, res):
-    """``res`` (a MultiStep) with the policy's obstacle points appended to the states after the step
-    (``final_humans``/``final_mask``; each episode's own map, also where the slot was refilled).
+    """``res`` (a MultiStep) with the policy's obstacle points appended to the states after the step.
+
+    Appended to ``final_humans``/``final_mask``; each episode's own map, also where the slot was refilled.
     """
     if getattr(policy, "obstacle_encoding", None) is None:
         return res
@@ -194,8 +198,9 @@ def push_step(memory: ReplayMemory, obs, res) -> None:
 
 
 class RGLRepoEpisodes:
-    """The RGL repository's storage rule (``rl.td_targets: rgl_repo`` and ``rgl_repo_final``), for
-    lockstep collection.
+    """The RGL repository's storage rule, for lockstep collection.
+
+    Used with ``rl.td_targets: rgl_repo`` and ``rgl_repo_final``.
 
     Its explorer (``crowd_nav/utils/explorer.py``, Chen et al., "Relational Graph Learning for Crowd
     Navigation", IROS 2020) keeps an episode's transitions until it ends, stores nothing of an episode

@@ -1,5 +1,7 @@
-"""The Gymnasium env's viewer: a frame is the same drawing as an episode animation's
-(viz.draw.FrameRenderer) of the episode so far; ``human`` mode shows it in a matplotlib window.
+"""The Gymnasium env's viewer.
+
+A frame is the same drawing as an episode animation's (viz.draw.FrameRenderer) of the episode so far;
+``human`` mode shows it in a matplotlib window.
 
 Registered with :func:`socialnav.sim.env_render.register_viewer` by the package root, so that the
 simulator never imports this package (docs/internals.md, "Layers").

@@ -125,8 +125,9 @@ WALL_CONTEXT = 2.0
 
 
 def scene_bounds(traj: Trajectory, margin: float = 0.6) -> tuple[float, float, float, float]:
-    """(xmin, xmax, ymin, ymax) [m] holding every sample, goal and disc, with a margin, and the
-    walls of the static map within ``WALL_CONTEXT`` of that.
+    """(xmin, xmax, ymin, ymax) [m] holding every sample, goal and disc, with a margin.
+
+    Also the walls of the static map within ``WALL_CONTEXT`` of that.
     """
     pts = [traj.positions.reshape(-1, 2), traj.goals]
     if traj.continuation is not None:

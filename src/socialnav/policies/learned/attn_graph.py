@@ -68,8 +68,9 @@ def robot_features(robot: torch.Tensor) -> torch.Tensor:
 def human_features(
     robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor, dt: float, steps: int
 ) -> torch.Tensor:
-    """(…, N, 2(1+steps)) each human's position relative to the robot now and at the next ``steps``
-    steps of constant-velocity extrapolation; zero in padded slots.
+    """Each human's position relative to the robot, now and extrapolated: (…, N, 2(1+steps)).
+
+    The next ``steps`` steps use constant-velocity extrapolation; padded slots are zero.
     """
     rel = humans[..., 0:2] - robot[..., None, 0:2]
     k = torch.arange(steps + 1, dtype=humans.dtype, device=humans.device) * dt  # 0, dt, …, K·dt
@@ -95,8 +96,9 @@ def _init(layer: nn.Linear, gain: float = math.sqrt(2.0)) -> nn.Linear:
 
 
 class _SelfAttention(nn.Module):
-    """Multi-head scaled dot-product self-attention over the real humans (Vaswani et al. 2017);
-    padded slots are neither attended to nor (their outputs are zeroed) attending.
+    """Multi-head scaled dot-product self-attention over the real humans (Vaswani et al. 2017).
+
+    Padded slots are neither attended to nor (their outputs are zeroed) attending.
     """
 
     def __init__(self, size: int, heads: int) -> None:
@@ -125,8 +127,9 @@ class _SelfAttention(nn.Module):
 
 
 class ObservationStatistics(nn.Module):
-    """Running mean and variance of the robot features and of the real humans' features (float64,
-    buffers: they travel with the checkpoint), and the normalisation they define.
+    """Running mean and variance of the robot's and the real humans' features.
+
+    Float64 buffers (they travel with the checkpoint), and the normalisation they define.
     """
 
     input_dim: int
@@ -142,8 +145,9 @@ class ObservationStatistics(nn.Module):
 
     @torch.no_grad()
     def update_obs_stats(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> None:
-        """Folds a batch into the running mean/variance (Chan et al.'s parallel update); padded
-        human slots are left out.
+        """Fold a batch into the running mean/variance (Chan et al.'s parallel update).
+
+        Padded human slots are left out.
         """
         _fold(self.obs_count, self.robot_mean, self.robot_var, robot.reshape(-1, ROBOT_FEATURES))
         _fold(self.human_count, self.human_mean, self.human_var, humans[mask])
@@ -280,8 +284,10 @@ class AttnGraphNet(ObservationStatistics):
         return mean, value, h
 
     def sequence(self, robot, humans, mask, h0, starts) -> tuple[torch.Tensor, torch.Tensor]:
-        """T steps of B episodes at once (training): robot (T, B, 9), humans (T, B, N, F), mask (T, B, N),
-        h0 (B, H), starts (T, B). The attention is batched over all T·B states; the GRU runs T steps.
+        """Run T steps of B episodes at once (training).
+
+        Inputs: robot (T, B, 9), humans (T, B, N, F), mask (T, B, N), h0 (B, H), starts (T, B). The attention
+        is batched over all T·B states; the GRU runs T steps.
 
         Returns action means (T, B, 2) and values (T, B).
         """
