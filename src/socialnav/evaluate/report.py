@@ -109,6 +109,7 @@ def table_notes(preset: Preset) -> list[str]:
 
 
 def to_csv(summary: Sequence[dict[str, Any]]) -> str:
+    """Summary rows as CSV text: one column per key in order of first appearance."""
     columns: list[str] = []
     for row in summary:
         columns.extend(k for k in row if k not in columns)
@@ -161,6 +162,7 @@ def _finite(x: Any) -> bool:
 
 
 def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> list[list[str]]:
+    """Table II's rows (one per policy and visibility) for ``scenario`` (default: pooled)."""
     idx = _index(summary)
     walls = has_walls(summary)
     policies = list(dict.fromkeys(r["policy"] for r in summary))
@@ -269,6 +271,15 @@ def _failures(row: dict[str, Any] | None) -> str:
 
 
 def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
+    """Table III: passing sides of every policy in the single-human scenarios.
+
+    Args:
+        summary: The evaluation's summary rows.
+        fmt: ``md`` (Markdown) or ``csv``.
+
+    Returns:
+        The table's text.
+    """
     header = ["Policy"]
     for scenario, (left, right) in (
         ("Passing", ("L %", "R %")),

@@ -53,6 +53,16 @@ def summarize_episodes(
 def summarize_group(
     key: tuple[str, str, str], rows: Sequence[dict[str, Any]], pooled_over: list[str] | None = None
 ) -> dict[str, Any]:
+    """One summary row of a (policy, scenario, visibility) group of per-episode rows.
+
+    Args:
+        key: The group's (policy, scenario, visibility).
+        rows: Its per-episode metric rows.
+        pooled_over: The scenarios a pooled row is over (None: a single scenario).
+
+    Returns:
+        Outcome rates with their CIs, and mean, std, CI and n of every other metric key.
+    """
     policy, scenario, visibility = key
     # A canonical order makes the bootstrap independent of the order rows were read in.
     rows = sorted(rows, key=lambda r: (str(r.get("scenario", "")), int(r.get("index", 0))))

@@ -87,6 +87,11 @@ class SocialNavVecEnv(VecEnv):
 
     # -- the VecEnv contract ----------------------------------------------------------------------
     def reset(self):
+        """Reset every slot (the seeds and options set by ``seed()``/``set_options()`` apply once).
+
+        Returns:
+            The converted observations of all slots.
+        """
         seed = self._seeds[0]
         options = self._options[0] or None
         obs, info = self.venv.reset(seed=None if seed is None else int(seed), options=options)
@@ -96,9 +101,19 @@ class SocialNavVecEnv(VecEnv):
         return self._convert(obs)
 
     def step_async(self, actions: np.ndarray) -> None:
+        """Store the actions (n_envs, 2) the next ``step_wait()`` applies."""
         self._actions = np.asarray(actions)
 
     def step_wait(self):
+        """Step every slot with the stored actions, auto-resetting finished ones.
+
+        Returns:
+            Observations, rewards (n_envs,), dones (n_envs,) and one info dict per slot (SB3's layout; a
+                finished slot's ``terminal_observation`` is in its info).
+
+        Raises:
+            RuntimeError: No ``step_async()`` came before.
+        """
         if self._actions is None:
             raise RuntimeError("step_wait() without step_async()")
         actions = self.transform.actions_to_world(self._actions, self._robot)
@@ -129,6 +144,7 @@ class SocialNavVecEnv(VecEnv):
         return self._convert(obs), reward.astype(np.float32), dones, infos
 
     def close(self) -> None:
+        """Close the native vector env."""
         self.venv.close()
 
     def seed(self, seed: int | None = None) -> list[int | None]:
@@ -150,6 +166,11 @@ class SocialNavVecEnv(VecEnv):
         return [getattr(self.venv, attr_name)] * n
 
     def set_attr(self, attr_name: str, value: Any, indices: Iterable[int] | int | None = None) -> None:
+        """Refused: the slots share one native world whose settings are fixed when it is built.
+
+        Raises:
+            NotImplementedError: Always, naming the attribute.
+        """
         raise NotImplementedError(
             f"set_attr({attr_name!r}): the slots share one native world, whose settings are fixed when it "
             "is built; build a new SocialNavVecEnv with the setting instead"
@@ -170,9 +191,15 @@ class SocialNavVecEnv(VecEnv):
         )
 
     def env_is_wrapped(self, wrapper_class: type, indices=None) -> list[bool]:
+        """Whether each slot is wrapped in ``wrapper_class``: never (the slots are not env objects)."""
         return [False] * len(self._indices(indices))
 
     def get_images(self):
+        """Refused: the vector env does not render.
+
+        Raises:
+            NotImplementedError: Always; ``gym.make(..., render_mode='rgb_array')`` renders one episode.
+        """
         raise NotImplementedError(
             "SocialNavVecEnv does not render; use gym.make(..., render_mode='rgb_array')"
         )

@@ -82,6 +82,14 @@ class SB3Policy:
             )
 
     def act(self, observation: Observation) -> np.ndarray:
+        """The model's actions for the active episodes, converted to world-frame velocities.
+
+        Args:
+            observation: The world's observation of B episodes.
+
+        Returns:
+            (B, 2) float64 velocities [m/s]; zero for inactive episodes.
+        """
         actions = np.zeros((observation.batch_size, 2))
         rows = np.flatnonzero(observation.active)
         if rows.size == 0:
@@ -100,6 +108,7 @@ class SB3Policy:
         return actions
 
     def describe(self) -> dict[str, Any]:
+        """The record stored with results: policy spec, information, model path and training record."""
         return {
             "policy": self.spec,
             "information": self.information,

@@ -86,6 +86,7 @@ class Scene:
 
     @property
     def n_agents(self) -> int:
+        """The number of agents A in the scene."""
         return self.positions.shape[1]
 
     def index_of(self, agent_id: Any) -> int:

@@ -45,13 +45,31 @@ class Policy(Protocol):
     name: str
     information: str
 
-    def act(self, observation: Observation) -> np.ndarray: ...
+    def act(self, observation: Observation) -> np.ndarray:
+        """Actions for a batch of episodes.
 
-    def describe(self) -> dict[str, Any]: ...
+        Args:
+            observation: What the policy may see of B episodes.
+
+        Returns:
+            (B, 2) float64 robot velocities [m/s] (the world's action set; holonomic or unicycle).
+        """
+
+    def describe(self) -> dict[str, Any]:
+        """The policy's parameters, recorded with results (at least ``policy`` and ``information``)."""
 
 
 @dataclasses.dataclass(frozen=True)
 class PolicyEntry:
+    """A registered policy.
+
+    Attributes:
+        name: The name it is built by (``make_policy(name)``).
+        factory: Builds the policy from keyword parameters.
+        description: One line shown by ``socialnav list``.
+        learned: Whether it is built from a checkpoint.
+        parameters: Its parameters and their defaults.
+    """
     name: str
     factory: Callable[..., Policy]
     description: str
