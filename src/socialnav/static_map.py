@@ -130,6 +130,7 @@ class StaticMap:
 
     @property
     def n_vertices(self) -> int:
+        """The number of vertices over all polygons."""
         return sum(p.shape[0] for p in self.polygons)
 
     def to_flat(self) -> tuple[np.ndarray, np.ndarray]:

@@ -93,7 +93,18 @@ def run_reproduction(
         human_models: ``orca`` (the paper's) and/or ``social_force``; both adds the ranking table.
         quick: A few episodes per scenario (smoke test; the numbers mean nothing).
         episodes: Episodes per scenario (default: the preset's, or 3 with ``quick``).
+        progress: Show progress bars.
+        batch_size: Episodes simulated in lockstep.
+        workers: Processes that score finished chunks (None: the evaluator's default; see
+            :func:`~socialnav.evaluate.runner.run_protocol`).
         specs: Policies (default: shipped checkpoints + native policies).
+        log: Called with a line per human model and policy evaluated (None: no lines).
+
+    Returns:
+        What was written.
+
+    Raises:
+        ValueError: An unknown human model.
     """
     for hm in human_models:
         if hm not in HUMAN_MODELS:

@@ -350,8 +350,16 @@ def score_file(
     into the result as well as re-issued.
 
     Args:
+        path: The trajectory file (CSV or Parquet; see docs/real_world_logs.md).
+        require_success: Social metrics only over successful episodes.
+        goal_tolerance: Distance to the goal [m] that counts as arrival (None: the file's or the default).
+        params: Metric parameter overrides (None: the registered defaults).
         workers: Processes that read and score disjoint sets of episodes of a long-format file
             (0: in this process). Rows come back in file order, so the result does not depend on it.
+        **load_kwargs: Passed to :func:`load_trajectories` (format, columns, ego, ...).
+
+    Returns:
+        The per-episode metric rows with their notes and warnings.
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

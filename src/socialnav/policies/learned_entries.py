@@ -41,6 +41,17 @@ class LearnedPolicy:
         self.preset_mismatch = list(preset_mismatch or [])  # allowed differences, recorded with results
 
     def act(self, observation: Observation) -> np.ndarray:
+        """Actions of the value-based policy for B episodes (one-step lookahead over the action set).
+
+        Args:
+            observation: The world's observation of B episodes; ``oracle`` information needs ``next_humans``.
+
+        Returns:
+            (B, 2) float64 robot velocities [m/s].
+
+        Raises:
+            ValueError: An oracle policy was given an observation without the humans' next states.
+        """
         if self.information == "oracle" and observation.next_humans is None:
             raise ValueError(
                 f"policy {self.name!r} uses oracle information: observe the world with oracle=True"
@@ -59,6 +70,7 @@ class LearnedPolicy:
         return actions
 
     def describe(self) -> dict[str, Any]:
+        """The record stored with results: policy, information, checkpoint and lookahead parameters."""
         vp = self.value_policy
         return {
             "policy": self.name,

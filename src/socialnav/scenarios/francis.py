@@ -150,6 +150,7 @@ class PedestrianObstruction(WalledScenario):
                              "formation is designed for the fixed radius)")
 
     def walls(self) -> list[np.ndarray]:
+        """The corridor's walls [m]: (2, 2) segments."""
         return _corridor_walls(self.corridor_width, self.corridor_length, self.end_wall)
 
     def flows(self) -> list[Flow]:
@@ -191,11 +192,13 @@ class NarrowDoorway(WalledScenario):
         super().__post_init__()
 
     def walls(self) -> list[np.ndarray]:
+        """The doorway's wall with its gap and the surrounding walls [m]: (2, 2) segments."""
         h, d, length = self.area_width / 2, self.door_width / 2, self.circle_radius + 1.0
         return [np.array([[-h, 0.0], [-d, 0.0]]), np.array([[d, 0.0], [h, 0.0]]),
                 *polyline((-h, -length), (h, -length), (h, length), (-h, length), (-h, -length))]
 
     def flows(self) -> list[Flow]:
+        """Humans alternate between the far and the near side of the door."""
         h, r = self.area_width / 2, self.circle_radius
         far, near = (-h, h, 1.0, r + 0.5), (-h, h, -r - 0.5, -1.0)
         return [Flow(far, goal_box=near) if j % 2 == 0 else Flow(near, goal_box=far)
@@ -230,10 +233,12 @@ class BlindCorner(WalledScenario):
         return float(np.pi / 2)
 
     def walls(self) -> list[np.ndarray]:
+        """The outer wall [m] ((2, 2) segments) and the inner corner, a solid (4, 2) block."""
         h, length = self.corridor_width / 2, self.circle_radius + 1.0
         return [*polyline((-h, -length), (-h, h), (length, h)), box(h, length, -length, -h)]
 
     def flows(self) -> list[Flow]:
+        """One human round the corner and out of the vertical leg, towards the robot's side."""
         # Round the corner and out of the vertical leg (1 m past its end), not to the robot's start,
         # where it would block the leg (see _Hallway.flows).
         r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
@@ -259,11 +264,13 @@ class Intersection(WalledScenario):
     start_jitter: float = param(0.5, "human start distance R ± U(-j, j) from the junction", unit="m", ge=0)
 
     def walls(self) -> list[np.ndarray]:
+        """The four solid corner blocks of the crossing: (4, 2) polygons [m]."""
         h, length = self.corridor_width / 2, self.circle_radius + 1.0
         return [box(h, length, h, length), box(-length, -h, h, length), box(-length, -h, -length, -h),
                 box(h, length, -length, -h)]
 
     def flows(self) -> list[Flow]:
+        """One human crossing the robot's corridor from its left to the mirrored side."""
         r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
         return [Flow((-r - s, -r + s, -o, o), goal=_mirror_x)]
 
@@ -348,9 +355,19 @@ class CircleCrossingObstacles(WalledScenario):
 
     @property
     def layout(self) -> StaticMap | None:
+        """None: the pillars are drawn per episode (:meth:`maps_per_episode`)."""
         return None  # drawn per episode
 
     def maps_per_episode(self, rng: EpisodeRandom, indices: np.ndarray) -> tuple[StaticMap, ...]:
+        """Square pillars drawn per episode inside radius ``obstacle_area`` · R, clear of each other.
+
+        Args:
+            rng: The episodes' random streams.
+            indices: (B,) episode indices.
+
+        Returns:
+            One StaticMap per episode (empty ones where ``n_obstacles`` is 0).
+        """
         b, p = len(rng), self.n_obstacles
         if p == 0:
             return (StaticMap(),) * b
@@ -378,6 +395,7 @@ class CircleCrossingObstacles(WalledScenario):
         return tuple(StaticMap(tuple(squares[i])) for i in range(b))
 
     def flows(self) -> list[Flow]:
+        """Not used: the humans are placed on the circle by :meth:`sample_humans`."""
         raise NotImplementedError  # humans are placed on the circle below
 
     def sample_humans(self, rng: EpisodeRandom, indices: np.ndarray) -> HumanArrays:

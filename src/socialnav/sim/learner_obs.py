@@ -128,10 +128,16 @@ class ObservationSettings:
         )
 
     def to_dict(self) -> dict[str, Any]:
+        """The settings as a plain dict (stored in the training record)."""
         return dataclasses.asdict(self)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> ObservationSettings:
+        """Settings from a dict such as :meth:`to_dict` writes (None: the defaults).
+
+        Raises:
+            ConfigError: An unknown key or a bad value, named.
+        """
         from socialnav.config import from_dict
 
         return from_dict(cls, data or {}, "observation")
@@ -175,6 +181,7 @@ class ObservationTransform:
 
     @property
     def max_humans(self) -> int:
+        """The human slots of the transformed observation."""
         return int(self.settings.max_humans)
 
     def single_space(self) -> spaces.Dict:

@@ -38,6 +38,7 @@ def env_config(env: Any) -> Any:
 
 
 def make_transform(cfg: Any, settings: ObservationSettings | None) -> ObservationTransform:
+    """The observation transform of a world configuration ``cfg`` under ``settings``."""
     return ObservationTransform(
         settings or ObservationSettings(), cfg.scenario.n_humans, cfg.settings.kinematics, cfg.action_set,
         static_map=getattr(cfg, "static_map", None),
@@ -76,16 +77,27 @@ class LearnerObservation(gym.Wrapper):
         self._robot: np.ndarray | None = None  # raw robot row the next action is chosen on
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Reset the env and convert its observation.
+
+        Returns:
+            The learner's observation and the env's info dict.
+        """
         obs, info = self.env.reset(seed=seed, options=options)
         return self._convert(obs), info
 
     def step(self, action):
+        """Step with the learner's action (rotated to the world frame where it is robot-frame).
+
+        Returns:
+            ``(observation, reward, terminated, truncated, info)`` with the learner's observation.
+        """
         if self._robot is not None and self.transform.rotates_actions:
             action = self.transform.actions_to_world(np.asarray(action)[None], self._robot[None])[0]
         obs, reward, terminated, truncated, info = self.env.step(action)
         return self._convert(obs), reward, terminated, truncated, info
 
     def training_record(self) -> dict[str, Any]:
+        """The record of how this env converts observations, its action space and world."""
         return training_record(self._cfg, self.transform)
 
     def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -109,10 +121,21 @@ class LearnerObservationVector(VectorWrapper):
         self._robot: np.ndarray | None = None
 
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
+        """Reset every slot and convert the observations.
+
+        Returns:
+            The learner's batched observations and the env's info dict.
+        """
         obs, info = self.env.reset(seed=seed, options=options)
         return self._convert(obs), info
 
     def step(self, actions):
+        """Step with the learner's actions (rotated to the world frame where they are robot-frame).
+
+        Returns:
+            ``(observations, rewards, terminations, truncations, infos)`` with the learner's observations,
+                ``final_obs`` included.
+        """
         if self._robot is not None and self.transform.rotates_actions:
             actions = self.transform.actions_to_world(actions, self._robot)
         obs, reward, terminated, truncated, info = self.env.step(actions)
@@ -126,6 +149,7 @@ class LearnerObservationVector(VectorWrapper):
         return self._convert(obs), reward, terminated, truncated, info
 
     def training_record(self) -> dict[str, Any]:
+        """The record of how this env converts observations, its action space and world."""
         return training_record(self._cfg, self.transform)
 
     def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

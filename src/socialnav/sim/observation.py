@@ -127,6 +127,7 @@ class Observation:
 
     @property
     def batch_size(self) -> int:
+        """The number of episodes B."""
         return self.robot.shape[0]
 
     def take(self, index: np.ndarray | slice) -> Observation:

@@ -60,6 +60,7 @@ class ObstaclePoints:
               "obstacle_encoding.radius", self.radius, "must be a finite number >= 0")
 
     def to_dict(self) -> dict[str, Any]:
+        """The encoding as a dict with ``kind`` (stored in checkpoints)."""
         return {"kind": "outline_points", **dataclasses.asdict(self)}
 
     @classmethod

@@ -19,6 +19,16 @@ from socialnav.train.config import resume_diff
 
 
 def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optimizer:
+    """Adam over ``params`` with learning rate ``lr``: the fused kernel where ``device`` has it.
+
+    Args:
+        params: The parameters to optimise.
+        lr: The learning rate.
+        device: Where the parameters live.
+
+    Returns:
+        ``torch.optim.Adam(fused=True)``, or the default implementation where fused is refused.
+    """
     params = list(params)
     try:  # fused Adam: one kernel for all parameters (2-3x faster steps for these small networks)
         return torch.optim.Adam(params, lr=lr, fused=True)
@@ -83,6 +93,7 @@ class AdamSteps:
         self._exp_avg_sqs: list[torch.Tensor] = []
 
     def zero_grad(self) -> None:
+        """Drop every parameter's gradient (``None``, as ``zero_grad(set_to_none=True)``)."""
         for p in self.params:
             p.grad = None
 
@@ -95,6 +106,11 @@ class AdamSteps:
         self._state = state
 
     def step(self) -> None:
+        """One Adam step: the fused kernel on the cached state, else ``optimizer.step()``.
+
+        The optimizer's own step runs where the fast path does not apply: the first step (which creates the
+        state), a parameter without gradient, or settings the fused kernel does not take.
+        """
         state = self.optimizer.state
         grads = [p.grad for p in self.params]
         if not self.fast or len(state) < len(self.params) or any(g is None for g in grads):
@@ -138,11 +154,13 @@ def shared_step_counters(per_param: list[dict[str, Any]]) -> torch.Tensor:
 
 
 def optimizer_state(opt: torch.optim.Optimizer) -> dict[str, Any]:
+    """The optimizer's ``state_dict`` with string keys (as saved in checkpoints)."""
     sd = opt.state_dict()
     return {"state": {str(k): v for k, v in sd["state"].items()}, "param_groups": sd["param_groups"]}
 
 
 def load_optimizer_state(opt: torch.optim.Optimizer, data: dict[str, Any]) -> None:
+    """Load a state saved by :func:`optimizer_state` into ``opt``."""
     groups = []
     for g in data["param_groups"]:
         g = dict(g)
@@ -153,6 +171,7 @@ def load_optimizer_state(opt: torch.optim.Optimizer, data: dict[str, Any]) -> No
 
 
 def progress_bar(total: int, initial: int, desc: str, enabled: bool):
+    """A tqdm progress bar of ``total`` items from ``initial``, disabled unless ``enabled``."""
     from tqdm.auto import tqdm
 
     return tqdm(

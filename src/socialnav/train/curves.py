@@ -94,6 +94,7 @@ class Curves:
             self.tb = None
 
     def write(self, row: dict[str, Any]) -> None:
+        """Append one row (missing or NaN values as empty cells) and its TensorBoard scalars."""
         def fmt(v: Any) -> str:
             if v is None or (isinstance(v, float) and math.isnan(v)):
                 return ""
@@ -113,6 +114,7 @@ class Curves:
             self.tb.flush()
 
     def close(self) -> None:
+        """Close the TensorBoard writer, if any."""
         if self.tb is not None:
             self.tb.close()
 

@@ -167,9 +167,18 @@ class MultiWorld:
 
     @property
     def busy(self) -> bool:
+        """Whether any world still has an episode running."""
         return any(w.busy for w in self.worlds)
 
     def observe(self, oracle: bool = False) -> Observation:
+        """The observation of every world's slots in one batch (humans padded to the mix's slots).
+
+        Args:
+            oracle: Include the humans' next states (oracle information).
+
+        Returns:
+            One Observation over every slot of every world, in world order.
+        """
         obs = [w.observe(oracle=oracle) for w in self.worlds]
         if len(obs) == 1:
             return obs[0]

@@ -269,6 +269,14 @@ class FusedTDStep:
     # -- the step -------------------------------------------------------------------------------------
 
     def __call__(self, idx: torch.Tensor) -> torch.Tensor:
+        """One fused gradient step on memory slots ``idx`` (batch_size,) int64.
+
+        Returns:
+            The minibatch loss before the update (a 0-d tensor, not synchronised).
+
+        Raises:
+            ValueError: ``idx`` has another shape than the step was compiled for.
+        """
         if idx.shape != (self.batch_size,):
             raise ValueError(
                 f"the fused step was compiled for {self.batch_size} indices, got {tuple(idx.shape)}"

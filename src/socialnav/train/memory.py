@@ -145,6 +145,7 @@ class ReplayMemory:
         return idx.to(self.device)
 
     def take(self, idx: torch.Tensor) -> Transitions:
+        """The transitions at slots ``idx`` (a gather on the memory's device)."""
         return Transitions(
             self.robot[idx],
             self.humans[idx],

@@ -121,9 +121,11 @@ class EpisodeStats:
 
     @property
     def total(self) -> int:
+        """The number of finished episodes."""
         return self.success + self.collision + self.timeout
 
     def rates(self) -> dict[str, float]:
+        """Outcome rates (0 when none finished) and the mean navigation time of successes [s] (NaN: none)."""
         n = max(self.total, 1)
         return {
             "success": self.success / n,
@@ -140,6 +142,15 @@ class EpisodeStats:
         time: np.ndarray,
         success_reward: float,
     ) -> None:
+        """Count the episodes that finished in one step.
+
+        Args:
+            terminated: (B,) bool, episodes that ended by success or collision.
+            truncated: (B,) bool, episodes that ran out of time.
+            reward: (B,) float rewards of the step.
+            time: (B,) float episode times [s].
+            success_reward: The reward of reaching the goal (tells success from collision).
+        """
         succ = terminated & np.isclose(reward, success_reward)
         self.success += int(succ.sum())
         self.collision += int((terminated & ~succ).sum())

@@ -29,6 +29,7 @@ class EnvViewer:
         return renderer.frame(trajectory.n_steps)
 
     def show(self, trajectory: Any, fps: float) -> None:
+        """Show the episode drawn at its last sample in a matplotlib window, paced at ``fps``."""
         import matplotlib.pyplot as plt
 
         image = self.frame(trajectory)
@@ -42,6 +43,7 @@ class EnvViewer:
         plt.pause(1.0 / fps)
 
     def close(self) -> None:
+        """Close the window, if one is open."""
         if self._window is not None:
             import matplotlib.pyplot as plt
 

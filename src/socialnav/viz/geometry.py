@@ -68,9 +68,11 @@ class EpisodeView:
 
     @property
     def n_samples(self) -> int:
+        """The number of samples S drawn (main samples, then continuation samples)."""
         return self.positions.shape[0]
 
     def time(self, k: int) -> float:
+        """The time [s] of sample ``k``: k·dt."""
         return k * self.traj.dt
 
 

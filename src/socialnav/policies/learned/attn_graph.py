@@ -246,6 +246,7 @@ class AttnGraphNet(ObservationStatistics):
         self._init_obs_stats()
 
     def model_kwargs(self) -> dict:
+        """The constructor's keyword arguments, saved with the checkpoint to rebuild the network."""
         return dict(self._kwargs)
 
     # -- forward passes --------------------------------------------------------------------------
@@ -271,6 +272,7 @@ class AttnGraphNet(ObservationStatistics):
         return self.mean(self.actor(o)), self.value_head(self.critic(o)).squeeze(-1)
 
     def initial_state(self, batch: int, device: torch.device | str = "cpu") -> torch.Tensor:
+        """The GRU's initial hidden state: (batch, H) zeros on ``device``."""
         return torch.zeros(batch, self.gru_hidden, device=device)
 
     def step(self, robot, humans, mask, h, start) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:

@@ -200,10 +200,12 @@ class ValuePolicy:
 
     @property
     def num_actions(self) -> int:
+        """The number K of candidate actions (speeds × rotations, plus stopping)."""
         return num_actions(self.speed_samples, self.rotation_samples)
 
     @property
     def model_dtype(self) -> torch.dtype:
+        """The floating-point type of the network's parameters (float32 for a network without any)."""
         p = next(self.network.parameters(), None)
         return p.dtype if p is not None else torch.float32
 
