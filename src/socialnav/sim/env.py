@@ -285,7 +285,7 @@ class SocialNavEnv(gym.Env):
             options: ``{"index": i}`` plays episode i next and continues from there.
 
         Returns:
-            The first observation and the info dict.
+            (tuple): The first observation and the info dict.
         """
         super().reset(seed=seed)
         options = _check_options(options)
@@ -309,10 +309,10 @@ class SocialNavEnv(gym.Env):
         """Apply one action (Gymnasium's ``step``).
 
         Args:
-            action: The robot's action in the env's action space.
+            action (Any): The robot's action in the env's action space.
 
         Returns:
-            ``(observation, reward, terminated, truncated, info)``.
+            (tuple): ``(observation, reward, terminated, truncated, info)``.
 
         Raises:
             RuntimeError: The episode is over and ``reset()`` was not called.
@@ -414,7 +414,7 @@ class SocialNavVectorEnv(VectorEnv):
             options: ``{"index": i}`` starts the stream at episode i.
 
         Returns:
-            The batched observations and the info dict.
+            (tuple): The batched observations and the info dict.
 
         Raises:
             ValueError: ``seed`` is not one int.
@@ -444,11 +444,11 @@ class SocialNavVectorEnv(VectorEnv):
         """Apply one action per slot; finished slots reset to the stream's next episodes.
 
         Args:
-            actions: (n_envs, ...) actions in the single action space's form.
+            actions (Any): (n_envs, ...) actions in the single action space's form.
 
         Returns:
-            ``(observations, rewards, terminations, truncations, infos)``; finished slots' last observations
-                are in ``infos["final_obs"]``.
+            (tuple): ``(observations, rewards, terminations, truncations, infos)``; finished slots' last
+                observations are in ``infos["final_obs"]``.
         """
         result = self._world.step(self._cfg.to_actions(actions), final_observation=True, observe=True)
         obs = _obs_rows(result.observation, self._cfg.max_edges)

@@ -80,7 +80,7 @@ class LearnerObservation(gym.Wrapper):
         """Reset the env and convert its observation.
 
         Returns:
-            The learner's observation and the env's info dict.
+            (tuple): The learner's observation and the env's info dict.
         """
         obs, info = self.env.reset(seed=seed, options=options)
         return self._convert(obs), info
@@ -89,7 +89,7 @@ class LearnerObservation(gym.Wrapper):
         """Step with the learner's action (rotated to the world frame where it is robot-frame).
 
         Returns:
-            ``(observation, reward, terminated, truncated, info)`` with the learner's observation.
+            (tuple): ``(observation, reward, terminated, truncated, info)`` with the learner's observation.
         """
         if self._robot is not None and self.transform.rotates_actions:
             action = self.transform.actions_to_world(np.asarray(action)[None], self._robot[None])[0]
@@ -124,7 +124,7 @@ class LearnerObservationVector(VectorWrapper):
         """Reset every slot and convert the observations.
 
         Returns:
-            The learner's batched observations and the env's info dict.
+            (tuple): The learner's batched observations and the env's info dict.
         """
         obs, info = self.env.reset(seed=seed, options=options)
         return self._convert(obs), info
@@ -133,8 +133,8 @@ class LearnerObservationVector(VectorWrapper):
         """Step with the learner's actions (rotated to the world frame where they are robot-frame).
 
         Returns:
-            ``(observations, rewards, terminations, truncations, infos)`` with the learner's observations,
-                ``final_obs`` included.
+            (tuple): ``(observations, rewards, terminations, truncations, infos)`` with the learner's
+                observations, ``final_obs`` included.
         """
         if self._robot is not None and self.transform.rotates_actions:
             actions = self.transform.actions_to_world(actions, self._robot)
