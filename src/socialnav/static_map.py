@@ -260,8 +260,8 @@ class MapStack:
     def distance(self, points: np.ndarray) -> np.ndarray:
         """Distance [m] from ``points[i, ...]`` to the obstacles of map i.
 
-        0 inside a solid polygon, ``inf`` for an empty map. ``points`` has shape (B, ..., 2), the result (B,
-        ...).
+        0 inside a solid polygon, ``inf`` for an empty map. ``points`` has shape (B, ..., 2), the result
+        (B, ...).
         """
         pts = np.asarray(points, dtype=np.float64)
         b = pts.shape[0]

@@ -215,7 +215,7 @@ def scene_from_tracks(
         agent: (n,) agent ids.
         xy: (n, 2) positions [m].
         rows: (n,) file rows of the samples, for messages.
-        velocity: (n, 2) velocities [m/s], or None (then they are derived from the positions).
+        velocity: (n, 2) velocities [m/s], or None (the grid's ``velocities`` is then None).
         dt: Grid step [s]; default the median step between consecutive samples of one agent, rounded
             to 12 significant digits (recovers a dt written as text).
         max_gap: Longest gap [s] bridged by interpolation when resampling; default 2·(median step).

@@ -352,7 +352,8 @@ def score_file(
     Args:
         path: The trajectory file (CSV or Parquet; see docs/real_world_logs.md).
         require_success: Social metrics only over successful episodes.
-        goal_tolerance: Distance to the goal [m] that counts as arrival (None: the file's or the default).
+        goal_tolerance: Distance to the goal [m] that counts as arrival (None: the agent's radius, as the
+            simulator's success test; see :func:`outcome_problems`).
         params: Metric parameter overrides (None: the registered defaults).
         workers: Processes that read and score disjoint sets of episodes of a long-format file
             (0: in this process). Rows come back in file order, so the result does not depend on it.
