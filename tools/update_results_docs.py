@@ -345,7 +345,7 @@ def history_cell(stem: str) -> str:
         return "–"
     runs = load_history(path)
     if not runs:
-        raise SystemExit(f"{path.relative_to(ROOT)}: no runs (delete the file or record a run)")
+        raise SystemExit(f"{path}: no runs (delete the file or record a run)")
     first, last = runs[0]["date"], runs[-1]["date"]
     span = first if first == last else f"{first} – {last}"
     return f"[{len(runs)} run{'s' if len(runs) != 1 else ''}, {span}](history/{stem}.jsonl)"

@@ -98,6 +98,13 @@ def test_a_malformed_history_line_is_an_error_naming_the_file_and_line(tmp_path,
         tool.load_history(path)
 
 
+def test_an_empty_history_is_an_error_naming_it(tmp_path, monkeypatch):
+    (tmp_path / "bench_x.jsonl").write_text("\n")
+    monkeypatch.setattr(tool, "HISTORY", tmp_path)
+    with pytest.raises(SystemExit, match=r"bench_x\.jsonl: no runs"):
+        tool.history_cell("bench_x")
+
+
 def test_every_committed_history_is_well_formed_and_linked_from_the_results_log():
     log = (RESULTS / "README.md").read_text()
     histories = sorted((RESULTS / "history").glob("*.jsonl"))
