@@ -12,7 +12,6 @@ reported too: on a shared machine the wall time says little. Prints one JSON obj
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -28,7 +27,7 @@ from socialnav.sim.world import World
 from socialnav.trajectory import write_trajectories
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 TARGET_SECONDS = 10.0
 
@@ -53,6 +52,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--episodes", type=int, default=10_000)
     parser.add_argument("--workers", type=int, default=2)
+    add_record_arguments(parser, "bench_metrics")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     trajs, sim_s = simulate(args.episodes)
@@ -72,7 +72,7 @@ def main() -> None:
     print(f"scored {len(trajs)} episodes from Parquet ({size_mb:.1f} MB) in {seconds:.2f} s with "
           f"{args.workers} workers (one process: {serial_s:.2f} s; simulating them: {sim_s:.2f} s); "
           f"target <= {TARGET_SECONDS} s")
-    print(json.dumps(run_record() | {
+    emit(run_record() | {
         "seconds": round(seconds, 3),
         "episodes": len(trajs),
         "workers": args.workers,
@@ -86,7 +86,7 @@ def main() -> None:
         "parquet_mb": round(size_mb, 2),
         "target_seconds": TARGET_SECONDS,
         "meets_target": seconds <= TARGET_SECONDS,
-    }))
+    }, args)
 
 
 if __name__ == "__main__":

@@ -37,7 +37,6 @@ The last line printed is one JSON object.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -50,7 +49,7 @@ from socialnav.policies.learned import StatePredictor, ValuePolicy, build
 from socialnav.policies.learned.native_scoring import KERNEL_ENV, KERNELS, SCORERS
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 N_ACTIONS = 81
 
@@ -263,6 +262,7 @@ def main() -> None:
     )
     ap.add_argument("--skip-rgl", action="store_true",
                     help="leave out the RGL / MP-RGL timings (a shorter run for the scorer figures alone)")
+    add_record_arguments(ap, "bench_policy")
     args = ap.parse_args()
     if args.threads > 0:
         torch.set_num_threads(args.threads)
@@ -354,7 +354,7 @@ def main() -> None:
         "device": args.device,
         **rgl,
     }
-    print(json.dumps(run_record() | out))
+    emit(run_record() | out, args)
 
 
 if __name__ == "__main__":

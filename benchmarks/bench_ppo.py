@@ -31,7 +31,6 @@ the same alternation, under its own key prefix.
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing
 import os
 import statistics
@@ -41,7 +40,7 @@ import time
 import torch
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import cpu_model, run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, cpu_model, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 SCENARIO = {"scenario": "circle_crossing", "scenario_params": {"n_humans": 5}}
 
@@ -168,6 +167,7 @@ def main(argv: list[str] | None = None) -> int:
         default=1,
         help="PyTorch intra-op threads of the learner (1: the least sensitive to other load)",
     )
+    add_record_arguments(ap, "bench_ppo")
     args = ap.parse_args(argv)
     if args.rounds < 2:
         ap.error("--rounds must be >= 2 (the first is not timed)")
@@ -225,7 +225,7 @@ def main(argv: list[str] | None = None) -> int:
                 out[f"sb3_adapter_learn_speedup_vs_{other}"] = round(
                     a["learn_env_steps_per_s"] / b["learn_env_steps_per_s"], 2
                 )
-    print(json.dumps(run_record() | out))
+    emit(run_record() | out, args)
     return 0
 
 

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import os
 import shutil
 import sys
@@ -37,7 +36,7 @@ from socialnav.train.ppo import train_ppo
 from socialnav.train.ppo_config import NetworkSettings, load_ppo_settings
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import cpu_model, run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, cpu_model, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 
 def measure(settings, updates: int) -> dict:
@@ -84,6 +83,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=1, help="torch threads (1: best on a shared 2-core VM)")
     ap.add_argument("--skip-repo-sizes", action="store_true")
     ap.add_argument("--device", default="cpu", help="where the network runs: cpu, cuda or auto (world: CPU)")
+    add_record_arguments(ap, "bench_ppo_trainer")
     args = ap.parse_args()
     load = os.getloadavg()[0]
     settings = dataclasses.replace(load_ppo_settings(args.config), threads=args.threads, device=args.device)
@@ -98,38 +98,37 @@ def main() -> None:
     reference = world_only(settings.n_envs, 200)
     print(f"world only: {reference:.0f} env steps/s", flush=True)
     rate = default["env_steps_per_s"]
-    print(
-        json.dumps(
-            run_record()
-            | {
-                "benchmark": "ppo_trainer",
-                "policy": settings.policy,
-                "config": args.config,
-                "n_envs": settings.n_envs,
-                "rollout_steps": settings.rollout_steps,
-                "epochs": settings.epochs,
-                "minibatches": settings.minibatches,
-                "network": dataclasses.asdict(settings.network),
-                "env_steps_per_s": round(rate, 1),
-                "goal_env_steps_per_s": 5000,
-                "collect_share": round(default["collect_share"], 3),
-                "update_share": round(default["update_share"], 3),
-                "env_steps_per_s_repo_sizes": None if repo is None else round(repo["env_steps_per_s"], 1),
-                "repo_sizes_collect_share": None if repo is None else round(repo["collect_share"], 3),
-                "world_only_env_steps_per_s": round(reference, 1),
-                "ratio_to_world_only": round(rate / reference, 4),
-                "budget_env_steps": settings.total_env_steps,
-                "budget_hours": round(settings.total_env_steps / rate / 3600, 2),
-                "paper_budget_env_steps": 20_000_000,
-                "paper_budget_hours": round(2e7 / rate / 3600, 2),
-                "threads": args.threads,
-                "device": args.device,
-                "load_average_1min": round(load, 2),
-                "load_average_1min_after": round(os.getloadavg()[0], 2),
-                "cpu": cpu_model(),
-                "cpu_count": os.cpu_count(),
-            }
-        )
+    emit(
+        run_record()
+        | {
+            "benchmark": "ppo_trainer",
+            "policy": settings.policy,
+            "config": args.config,
+            "n_envs": settings.n_envs,
+            "rollout_steps": settings.rollout_steps,
+            "epochs": settings.epochs,
+            "minibatches": settings.minibatches,
+            "network": dataclasses.asdict(settings.network),
+            "env_steps_per_s": round(rate, 1),
+            "goal_env_steps_per_s": 5000,
+            "collect_share": round(default["collect_share"], 3),
+            "update_share": round(default["update_share"], 3),
+            "env_steps_per_s_repo_sizes": None if repo is None else round(repo["env_steps_per_s"], 1),
+            "repo_sizes_collect_share": None if repo is None else round(repo["collect_share"], 3),
+            "world_only_env_steps_per_s": round(reference, 1),
+            "ratio_to_world_only": round(rate / reference, 4),
+            "budget_env_steps": settings.total_env_steps,
+            "budget_hours": round(settings.total_env_steps / rate / 3600, 2),
+            "paper_budget_env_steps": 20_000_000,
+            "paper_budget_hours": round(2e7 / rate / 3600, 2),
+            "threads": args.threads,
+            "device": args.device,
+            "load_average_1min": round(load, 2),
+            "load_average_1min_after": round(os.getloadavg()[0], 2),
+            "cpu": cpu_model(),
+            "cpu_count": os.cpu_count(),
+        },
+        args,
     )
 
 

@@ -19,7 +19,6 @@ the simulation-only reference (each about doubles the time of a slow policy's be
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -34,7 +33,7 @@ from socialnav.presets import load_preset
 from socialnav.sim.world import World
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 #: Goals for the whole protocol on 2 cores: ORCA's (issue #6), a learned policy's (issue #13) and
 #: ORCA's among walls (issue #28).
@@ -80,6 +79,7 @@ def main() -> None:
         action="store_true",
         help="skip simulating the protocol alone in this process (the simulator's share)",
     )
+    add_record_arguments(parser, "bench_protocol")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     preset = load_preset(args.preset)
@@ -112,32 +112,31 @@ def main() -> None:
         f"{'not measured' if sim is None else f'{sim:.2f} s'}; "
         f"target {'none' if target is None else f'<= {target} s'}"
     )
-    print(
-        json.dumps(
-            run_record()
-            | {
-                "preset": preset.name,
-                "policy": args.policy,
-                # learned SARL / OM-SARL: the network's evaluator in effect ("native" or "torch")
-                "scorer": policy.describe().get("scorer"),
-                "seconds": round(seconds, 3),
-                "seconds_without_trajectories": None if without is None else round(without, 3),
-                "trajectory_time_ratio": None if ratio is None else round(ratio, 3),
-                "trajectory_mb": round(traj_mb, 2),
-                "other_results_mb": round(results_mb, 2),
-                "trajectory_goal_met": None
-                if ratio is None
-                else ratio <= TRAJ_TIME_GOAL and traj_mb <= TRAJ_MB_GOAL,
-                "episodes": episodes,
-                "episodes_per_s": round(episodes / seconds, 1),
-                "simulation_only_seconds": None if sim is None else round(sim, 3),
-                "ratio_to_simulation": None if sim is None else round(seconds / sim, 2),
-                "target_seconds": target,
-                "meets_target": None if target is None else seconds <= target,
-                "cpu_count": os.cpu_count(),
-                "load_average_1min": round(os.getloadavg()[0], 2),
-            }
-        )
+    emit(
+        run_record()
+        | {
+            "preset": preset.name,
+            "policy": args.policy,
+            # learned SARL / OM-SARL: the network's evaluator in effect ("native" or "torch")
+            "scorer": policy.describe().get("scorer"),
+            "seconds": round(seconds, 3),
+            "seconds_without_trajectories": None if without is None else round(without, 3),
+            "trajectory_time_ratio": None if ratio is None else round(ratio, 3),
+            "trajectory_mb": round(traj_mb, 2),
+            "other_results_mb": round(results_mb, 2),
+            "trajectory_goal_met": None
+            if ratio is None
+            else ratio <= TRAJ_TIME_GOAL and traj_mb <= TRAJ_MB_GOAL,
+            "episodes": episodes,
+            "episodes_per_s": round(episodes / seconds, 1),
+            "simulation_only_seconds": None if sim is None else round(sim, 3),
+            "ratio_to_simulation": None if sim is None else round(seconds / sim, 2),
+            "target_seconds": target,
+            "meets_target": None if target is None else seconds <= target,
+            "cpu_count": os.cpu_count(),
+            "load_average_1min": round(os.getloadavg()[0], 2),
+        },
+        args,
     )
 
 

@@ -9,7 +9,7 @@ for the viewer's share. Goal: <= 60 s on 2 cores and <= 20 MB. Prints one JSON o
 
 from __future__ import annotations
 
-import json
+import argparse
 import os
 import sys
 import tempfile
@@ -23,13 +23,16 @@ from socialnav.presets import load_preset
 from socialnav.viz.report import write_report
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 TARGET_SECONDS = 60.0
 TARGET_MB = 20.0
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    add_record_arguments(parser, "bench_report")
+    args = parser.parse_args()
     warnings.simplefilter("ignore")
     preset = load_preset("wang2022")
     policy = make_policy("orca", **preset.policy_params("orca"))
@@ -51,22 +54,21 @@ def main() -> None:
         f"{bare_s:.1f} s, {bare['bytes'] / 1e6:.2f} MB; the evaluation itself {evaluate_s:.1f} s); "
         f"targets <= {TARGET_SECONDS:.0f} s, <= {TARGET_MB:.0f} MB"
     )
-    print(
-        json.dumps(
-            run_record()
-            | {
-                "seconds": round(seconds, 2),
-                "report_mb": round(mb, 3),
-                "viewer_episodes": info["viewer_episodes"],
-                "figures": info["figures"],
-                "seconds_without_viewer": round(bare_s, 2),
-                "ratio_to_without_viewer": round(seconds / bare_s, 2),
-                "evaluation_seconds": round(evaluate_s, 2),
-                "target_seconds": TARGET_SECONDS,
-                "target_mb": TARGET_MB,
-                "meets_target": seconds <= TARGET_SECONDS and mb <= TARGET_MB,
-            }
-        )
+    emit(
+        run_record()
+        | {
+            "seconds": round(seconds, 2),
+            "report_mb": round(mb, 3),
+            "viewer_episodes": info["viewer_episodes"],
+            "figures": info["figures"],
+            "seconds_without_viewer": round(bare_s, 2),
+            "ratio_to_without_viewer": round(seconds / bare_s, 2),
+            "evaluation_seconds": round(evaluate_s, 2),
+            "target_seconds": TARGET_SECONDS,
+            "target_mb": TARGET_MB,
+            "meets_target": seconds <= TARGET_SECONDS and mb <= TARGET_MB,
+        },
+        args,
     )
 
 

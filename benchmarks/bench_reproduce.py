@@ -17,7 +17,6 @@ bit-identical results (tests/evaluate/test_parallel_simulation.py). Prints one J
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import sys
@@ -32,7 +31,7 @@ from socialnav.evaluate.runner import run_protocol
 from socialnav.policies.loading import build_policy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 GOAL_SECONDS = 15 * 60
 LEARNED_POLICIES_EXPECTED = 6  # cadrl, lstm_rl, sarl, om_sarl, rgl, mp_rgl (+ cadrl_original: 7)
@@ -72,6 +71,7 @@ def main() -> int:
     parser.add_argument("--human-model", choices=["orca", "social_force", "both"], default="orca")
     parser.add_argument("--cores", type=int, default=2, help="cores to pin to (0: all)")
     parser.add_argument("--keep", type=Path, help="write results here instead of a temporary directory")
+    add_record_arguments(parser, "bench_reproduce")
     args = parser.parse_args()
     cores = pin(args.cores)
     models = HUMAN_MODELS if args.human_model == "both" else (args.human_model,)
@@ -109,7 +109,7 @@ def main() -> int:
         "reference": {"episodes_per_scenario": args.reference_episodes, "policies": ref},
         "load_average": os.getloadavg(),
     }
-    print(json.dumps(run_record() | result))
+    emit(run_record() | result, args)
     return 0
 
 

@@ -19,7 +19,6 @@ identical before anything is reported. Prints one JSON object last.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import tempfile
@@ -34,7 +33,7 @@ from socialnav.sweep.executors import LocalExecutor, RayExecutor, init_ray
 from socialnav.sweep.spec import parse_sweep
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 SPEEDUP_GOAL = 1.8
 RAY_OVERHEAD_GOAL = 0.10
@@ -51,6 +50,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--episodes", type=int, default=200, help="episodes per multi-human scenario")
     parser.add_argument("--repeats", type=int, default=2)
+    add_record_arguments(parser, "bench_sweep")
     args = parser.parse_args()
     warnings.simplefilter("ignore")
     spec = parse_sweep(
@@ -110,27 +110,26 @@ def main() -> None:
         f"(overhead {overhead:+.1%}, goal <= {RAY_OVERHEAD_GOAL:.0%}), "
         f"ray start-up {ray_startup:.1f} s apart; load average {os.getloadavg()[0]:.2f}"
     )
-    print(
-        json.dumps(
-            run_record()
-            | {
-                "jobs": len(spec.jobs),
-                "episodes": episodes,
-                "local_1_worker_s": round(best["local_1"], 3),
-                "local_2_workers_s": round(best["local_2"], 3),
-                "ray_2_cpus_s": round(best["ray_2"], 3),
-                "local_2_workers_beside_ray_s": round(best["local_2_beside_ray"], 3),
-                "ray_startup_s": round(ray_startup, 3),
-                "local_speedup_2_vs_1": round(speedup, 3),
-                "ray_overhead_fraction": round(overhead, 4),
-                "speedup_goal": SPEEDUP_GOAL,
-                "ray_overhead_goal": RAY_OVERHEAD_GOAL,
-                "identical_results": True,
-                "cpu_count": os.cpu_count(),
-                "load_average_1min": round(os.getloadavg()[0], 2),
-                "times_s": {k: [round(x, 3) for x in v] for k, v in times.items()},
-            }
-        )
+    emit(
+        run_record()
+        | {
+            "jobs": len(spec.jobs),
+            "episodes": episodes,
+            "local_1_worker_s": round(best["local_1"], 3),
+            "local_2_workers_s": round(best["local_2"], 3),
+            "ray_2_cpus_s": round(best["ray_2"], 3),
+            "local_2_workers_beside_ray_s": round(best["local_2_beside_ray"], 3),
+            "ray_startup_s": round(ray_startup, 3),
+            "local_speedup_2_vs_1": round(speedup, 3),
+            "ray_overhead_fraction": round(overhead, 4),
+            "speedup_goal": SPEEDUP_GOAL,
+            "ray_overhead_goal": RAY_OVERHEAD_GOAL,
+            "identical_results": True,
+            "cpu_count": os.cpu_count(),
+            "load_average_1min": round(os.getloadavg()[0], 2),
+            "times_s": {k: [round(x, 3) for x in v] for k, v in times.items()},
+        },
+        args,
     )
 
 

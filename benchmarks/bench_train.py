@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
-import json
 import math
 import os
 import shutil
@@ -50,7 +49,7 @@ from socialnav.train.rl import replay_td_loss
 from socialnav.train.trainer import resolve_device, train
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 #: Every hidden layer 1 unit wide: the same operations as the real network with next to no arithmetic.
 _NO_ARITHMETIC: dict[str, dict] = {
@@ -183,6 +182,7 @@ def main() -> None:
         action="store_true",
         help="only time a gradient step with and without the network's arithmetic (no training run)",
     )
+    add_record_arguments(ap, "bench_train")
     args = ap.parse_args()
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -217,7 +217,7 @@ def main() -> None:
                 f"({m['gradient_steps_per_s']:.0f}/s), {m['host_overhead_ms_per_gradient_step']:.3f} ms "
                 "of it without the arithmetic (goal <= 0.5 ms)"
             )
-        print(json.dumps(run_record() | report))
+        emit(run_record() | report, args)
         return
 
     s = load_train_settings(
@@ -324,7 +324,7 @@ def main() -> None:
     }
     if not args.out:
         shutil.rmtree(out, ignore_errors=True)
-    print(json.dumps(run_record() | report))
+    emit(run_record() | report, args)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,6 @@ open world and against navground's ORCA with the same walls, all in the same run
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import resource
@@ -38,7 +37,7 @@ from socialnav.sim.world import World
 from socialnav.static_map import StaticMap
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _machine import cpu_model, run_record  # noqa: E402  (benchmarks/ is not a package)
+from _machine import add_record_arguments, cpu_model, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 CROWDNAV_ENV_STEPS_PER_S = 4134  # CrowdNav's simulator on a 2-core machine (issue #2)
 
@@ -180,7 +179,7 @@ def main_obstacles(args: argparse.Namespace) -> None:
     print(f"navground with the same walls: {best['navground_obstacles']:,.0f} env-steps/s -> ratio "
           f"{result['ratio_vs_navground_obstacles']:.1f}x (goal 3)")
     rounded = {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
-    print(json.dumps(run_record() | rounded))
+    emit(run_record() | rounded, args)
 
 
 def main() -> None:
@@ -196,6 +195,7 @@ def main() -> None:
     parser.add_argument("--map", choices=sorted(MAPS), default="spokes",
                         help="--obstacles: the 8 walls (spokes: radial, in the crowd's way; room: the room's "
                         "4 walls and 4 short ones)")
+    add_record_arguments(parser, "bench_world")
     args = parser.parse_args()
     if args.obstacles:
         main_obstacles(args)
@@ -251,7 +251,7 @@ def main() -> None:
     )
     result["load_average_1min"] = os.getloadavg()[0]
     rounded = {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
-    print(json.dumps(run_record() | rounded))
+    emit(run_record() | rounded, args)
 
 
 if __name__ == "__main__":

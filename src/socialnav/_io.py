@@ -71,8 +71,11 @@ def make_output_dir(out: Path) -> None:
 
 
 def json_safe(value: Any) -> Any:
-    """A copy of ``value`` that ``json.dumps(allow_nan=False)`` accepts: NaN/inf become None,
-    NumPy scalars and arrays become Python values, tuples become lists."""
+    """Convert ``value`` to what ``json.dumps(allow_nan=False)`` accepts.
+
+    NaN and inf become None, NumPy scalars and arrays become Python values, tuples become lists; the input is
+    not modified.
+    """
     import math
 
     if isinstance(value, dict):
@@ -118,8 +121,10 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
 
 
 def rows_parquet_bytes(rows: list[dict[str, Any]], metadata: dict[str, str] | None = None) -> bytes:
-    """``rows`` as the bytes of a Parquet file with page checksums (a sweep's worker builds a chunk's
-    file and the driver, which alone writes results, stores it)."""
+    """Serialise ``rows`` to the bytes of a Parquet file with page checksums.
+
+    A sweep's worker builds a chunk's file this way and the driver, which alone writes results, stores it.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -132,8 +137,10 @@ def rows_parquet_bytes(rows: list[dict[str, Any]], metadata: dict[str, str] | No
 
 
 def read_parquet_verified(path: Path, filters: Any = None, data: bytes | None = None):
-    """Reads a Parquet file verifying its page checksums; a damaged file is an error naming it.
-    With ``data``, the file's bytes are read from memory (``path`` names them in errors).
+    """Read a Parquet file, verifying its page checksums.
+
+    A damaged file is an error naming it. With ``data``, the file's bytes are read from memory (``path`` names
+    them in errors).
 
     Raises:
         CorruptFileError: The file is truncated, not Parquet, or a page fails its checksum.

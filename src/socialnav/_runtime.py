@@ -162,8 +162,10 @@ _on_import_in_forkserver()
 
 # ---------------------------------------------------------------------------------- main guard
 def main_module_reruns_call(depth: int = 1) -> bool:
-    """True when the current call comes from top-level code of the ``__main__`` module (a script or
-    ``python -m`` module) that is not inside an ``if __name__ == "__main__":`` block.
+    """Whether the current call comes from unguarded top-level code of ``__main__``.
+
+    True when the caller is top-level code of the ``__main__`` module (a script or ``python -m`` module) that
+    is not inside an ``if __name__ == "__main__":`` block.
 
     Args:
         depth: Frames to skip (the caller of the function asking).

@@ -1,5 +1,6 @@
-"""The ``socialnav`` command line: evaluate, metrics, list, preset, train, replay, render, report,
-reproduce, sweep.
+"""The ``socialnav`` command line.
+
+Subcommands: evaluate, metrics, list, preset, train, replay, render, report, reproduce, sweep.
 
 socialnav evaluate --policy orca --preset wang2022 --report
 socialnav metrics my_robot_log.parquet --json
@@ -39,6 +40,14 @@ class Terminated(BaseException):
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the ``socialnav`` command line.
+
+    Args:
+        argv: The arguments after the program name (default: ``sys.argv[1:]``).
+
+    Returns:
+        The process exit status (0 on success).
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     if not hasattr(args, "run"):
@@ -109,6 +118,7 @@ def _restore_sigterm(previous) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``socialnav`` with every subcommand."""
     parser = argparse.ArgumentParser(
         prog="socialnav", description="Crowd navigation: simulate, evaluate, train."
     )
@@ -217,6 +227,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
+    """``socialnav evaluate``: run the protocol for one policy and write its results and tables.
+
+    Args:
+        args: The parsed command line.
+
+    Returns:
+        The exit status.
+    """
     from socialnav.evaluate.report import mismatch_caveats, table2, table3, table_notes, with_caveats
     from socialnav.evaluate.runner import run_protocol
     from socialnav.policies.loading import build_policy
@@ -309,6 +327,14 @@ def _version() -> str:
 
 
 def cmd_preset_show(args: argparse.Namespace) -> int:
+    """``socialnav preset show NAME``: print a shipped preset's YAML.
+
+    Args:
+        args: The parsed command line.
+
+    Returns:
+        The exit status.
+    """
     from socialnav.presets import shipped_preset_text
 
     text = shipped_preset_text(args.name)
@@ -322,6 +348,14 @@ def cmd_preset_show(args: argparse.Namespace) -> int:
 
 
 def cmd_preset_list(args: argparse.Namespace) -> int:
+    """``socialnav preset list``: print every shipped preset with its description.
+
+    Args:
+        args: The parsed command line.
+
+    Returns:
+        The exit status.
+    """
     from socialnav.presets import load_preset, shipped_presets
 
     for name in shipped_presets():
@@ -330,6 +364,14 @@ def cmd_preset_list(args: argparse.Namespace) -> int:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
+    """``socialnav list``: print the registered policies, metrics, scenarios, presets and checkpoints.
+
+    Args:
+        args: The parsed command line.
+
+    Returns:
+        The exit status.
+    """
     from socialnav.metrics import list_metrics
     from socialnav.policies import list_policies
     from socialnav.policies.loading import list_shipped_checkpoints

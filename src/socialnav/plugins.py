@@ -9,9 +9,11 @@ from typing import Any
 
 
 def load_entry_points(group: str, kind: str) -> Iterator[tuple[Any, Any]]:
-    """Yields ``(entry_point, loaded_object)`` for every entry point of ``group`` that imports; one
-    that fails is reported as a RuntimeWarning naming the ``kind`` of plugin and skipped, so that a
-    broken plugin cannot hide the built-in ones."""
+    """Yield ``(entry_point, loaded_object)`` for every entry point of ``group`` that imports.
+
+    One that fails is reported as a RuntimeWarning naming the ``kind`` of plugin and skipped, so that a broken
+    plugin cannot hide the built-in ones.
+    """
     for ep in importlib.metadata.entry_points(group=group):
         try:
             obj = ep.load()

@@ -26,6 +26,12 @@ VISIBILITY_CHOICES = (*VISIBILITIES, "both")
 
 @dataclass(frozen=True)
 class RobotSettings:
+    """The robot's body and speed.
+
+    Attributes:
+        v_pref: Preferred (and maximum) speed [m/s], in (0, 100].
+        radius: Disc radius [m], in (0, 100].
+    """
     v_pref: float = 1.0  # [m/s]
     radius: float = 0.3  # [m]
 
@@ -38,6 +44,19 @@ class RobotSettings:
 
 @dataclass(frozen=True)
 class EvaluationSettings:
+    """How the protocol evaluates a policy.
+
+    Attributes:
+        split: The episode split evaluated (``test``, ``val`` or ``train``).
+        multi_human: The multi-human scenarios.
+        single_human: The single-human scenarios (one human; Table III's passing sides).
+        n_humans: Humans per multi-human episode.
+        episodes: Episodes per multi-human scenario.
+        repeats: Episodes per single-human offset.
+        visibility: ``visible``, ``invisible`` or ``both`` (the robot seen by the humans or not).
+        continuation_cap: Longest M_III continuation after the robot's arrival [s].
+        chunk_size: Episodes per result file (the unit of resumption).
+    """
     split: str = "test"
     multi_human: tuple[str, ...] = MULTI_HUMAN
     single_human: tuple[str, ...] = SINGLE_HUMAN
@@ -78,6 +97,13 @@ class EvaluationSettings:
 
 @dataclass(frozen=True)
 class TrainingScenarios:
+    """The scenarios the learned policies train on.
+
+    Attributes:
+        scenarios: Registered scenario names, mixed in training.
+        n_humans: Humans per episode (scenarios that fix their own crowd keep it).
+        visibility: ``visible`` or ``invisible``.
+    """
     scenarios: tuple[str, ...] = MULTI_HUMAN
     n_humans: int = 5
     visibility: str = "invisible"
@@ -106,6 +132,17 @@ class TrainingScenarios:
 
 @dataclass(frozen=True)
 class Preset:
+    """A named protocol: world, robot, policy defaults, evaluation and training settings.
+
+    Attributes:
+        name: The preset's name (``wang2022``, ``francis2023``, ... or ``custom``).
+        description: One line shown by ``socialnav preset list``.
+        world: The simulator's settings.
+        robot: The robot's body and speed.
+        policies: Per-policy parameter defaults, by policy name.
+        evaluation: How the protocol evaluates.
+        training: What the learned policies train on.
+    """
     name: str = "custom"
     description: str = ""
     world: WorldSettings = field(default_factory=WorldSettings)
@@ -123,13 +160,16 @@ class Preset:
                 )
 
     def to_dict(self) -> dict[str, Any]:
+        """The preset as nested plain dicts (``dataclasses.asdict``)."""
         return dataclasses.asdict(self)
 
     def policy_params(self, policy: str) -> dict[str, Any]:
+        """The preset's parameter defaults of ``policy`` (a copy; empty where it sets none)."""
         return dict(self.policies.get(policy, {}))
 
 
 def shipped_presets() -> list[str]:
+    """The names of the presets shipped with the package, sorted."""
     return sorted(
         p.name[:-5] for p in resources.files("socialnav.configs").iterdir() if p.name.endswith(".yaml")
     )

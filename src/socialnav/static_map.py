@@ -130,6 +130,7 @@ class StaticMap:
 
     @property
     def n_vertices(self) -> int:
+        """The number of vertices over all polygons."""
         return sum(p.shape[0] for p in self.polygons)
 
     def to_flat(self) -> tuple[np.ndarray, np.ndarray]:
@@ -257,8 +258,11 @@ class MapStack:
         return out
 
     def distance(self, points: np.ndarray) -> np.ndarray:
-        """Distance [m] from ``points[i, ...]`` to the obstacles of map i; 0 inside a solid polygon,
-        ``inf`` for an empty map. ``points`` has shape (B, ..., 2), the result (B, ...)."""
+        """Distance [m] from ``points[i, ...]`` to the obstacles of map i.
+
+        0 inside a solid polygon, ``inf`` for an empty map. ``points`` has shape (B, ..., 2), the result
+        (B, ...).
+        """
         pts = np.asarray(points, dtype=np.float64)
         b = pts.shape[0]
         flat = pts.reshape(b, -1, 2)  # (B, M, 2)

@@ -1,0 +1,1 @@
+"""The shipped presets (``<name>.yaml``; ``socialnav preset list``) and training configurations."""

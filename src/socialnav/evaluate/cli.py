@@ -1,5 +1,8 @@
-"""`socialnav replay`, `socialnav reproduce` and `socialnav evaluate --policy all` (argument parsing
-kept free of torch imports)."""
+"""The ``replay``, ``reproduce`` and ``evaluate --policy all`` subcommands.
+
+`socialnav replay`, `socialnav reproduce` and `socialnav evaluate --policy all`; the argument parsing is kept
+free of torch imports.
+"""
 
 from __future__ import annotations
 
@@ -11,6 +14,7 @@ from pathlib import Path
 
 
 def add_replay_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``replay`` subcommand to ``sub``."""
     rp = sub.add_parser(
         "replay",
         help="re-simulate one stored episode of an evaluation and check it bit for bit",
@@ -53,6 +57,7 @@ def _run_replay(args: argparse.Namespace) -> int:
 
 
 def add_reproduce_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``reproduce`` subcommand to ``sub``."""
     rp = sub.add_parser(
         "reproduce",
         help="Wang et al. 2022's Tables I-III: every shipped wang2022 checkpoint plus linear, ORCA and "
@@ -82,6 +87,14 @@ def add_reproduce_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
+    """``socialnav reproduce``: evaluate the wang2022 checkpoints and write Tables I–III.
+
+    Args:
+        args: The parsed command line.
+
+    Returns:
+        The exit status.
+    """
     from socialnav._io import json_safe
     from socialnav.evaluate.reproduce import HUMAN_MODELS, PRESET, run_reproduction
 

@@ -1,5 +1,8 @@
-"""Moved to :mod:`socialnav._io` (the I/O layer below every package); this name is kept for scripts
-written against earlier releases that import ``socialnav.evaluate.files``."""
+"""Deprecated alias of :mod:`socialnav._io`.
+
+Moved to :mod:`socialnav._io` (the I/O layer below every package); this name is kept for scripts written
+against earlier releases that import ``socialnav.evaluate.files``.
+"""
 
 from socialnav._io import (
     CorruptFileError,

@@ -45,6 +45,14 @@ class PolicySpec:
 
 @dataclass(frozen=True)
 class MultiResult:
+    """The results of evaluating several policies into one directory.
+
+    Attributes:
+        out_dir: The result directory.
+        summary: One summary row per (policy, scenario, visibility) group.
+        timings: Per policy name, ``{"episodes": simulated in this run, "seconds": wall time [s]}``.
+        specs: The policies evaluated, in order.
+    """
     out_dir: Path
     summary: list[dict[str, Any]]
     timings: dict[str, dict[str, float]]  # name -> {"episodes": simulated now, "seconds": wall time}

@@ -69,6 +69,15 @@ def load_paper_results() -> dict[str, Any]:
 # -- values ------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Value:
+    """One table cell: a mean with its spread.
+
+    Attributes:
+        mean: The value (rates in %).
+        std: Standard deviation over episodes (NaN: not given).
+        low: Lower end of the 95 % confidence interval (NaN: not given).
+        high: Upper end of the 95 % confidence interval (NaN: not given).
+        n: The number of episodes it is over, where known.
+    """
     mean: float
     std: float = math.nan
     low: float = math.nan
@@ -77,6 +86,15 @@ class Value:
 
 
 def our_value(row: dict[str, Any] | None, col: Column) -> Value:
+    """Our value of column ``col`` in summary row ``row`` (rates as %, with their CI).
+
+    Args:
+        row: A summary row, or None where the policy was not run (the value is NaN).
+        col: The table column.
+
+    Returns:
+        The cell's value.
+    """
     if row is None:
         return Value(math.nan)
     if col.kind == "rate":
@@ -87,6 +105,15 @@ def our_value(row: dict[str, Any] | None, col: Column) -> Value:
 
 
 def paper_value(entry: dict[str, Any] | None, col: Column) -> Value:
+    """The paper's value of column ``col``: ``[mean, std]`` or a bare mean in the transcription.
+
+    Args:
+        entry: The paper's row (configs/paper/wang2022.yaml), or None where the paper has none.
+        col: The table column.
+
+    Returns:
+        The cell's value (NaN where the paper gives none).
+    """
     if entry is None or col.id not in entry:
         return Value(math.nan)
     v = entry[col.id]
@@ -105,10 +132,12 @@ def _row(summary: Sequence[dict[str, Any]], policy: str, scenario: str, visibili
 
 
 def pooled_row(summary: Sequence[dict[str, Any]], policy: str, visibility: str) -> dict | None:
+    """The summary row of ``policy`` pooled over the multi-human scenarios, or None."""
     return _row(summary, policy, "pooled", visibility)
 
 
 def fmt(x: float, digits: int = 2) -> str:
+    """``x`` with ``digits`` decimals, or an en dash where it is not finite."""
     return "–" if not math.isfinite(x) else f"{x:.{digits}f}"
 
 
@@ -179,6 +208,18 @@ CI_NOTE = ("ours: mean (± std over episodes for the social metrics) [95 % boots
 
 # -- Table I -----------------------------------------------------------------------------------
 def table1(summary, specs, paper, comparison, notes) -> tuple[str, str]:
+    """Table I: CADRL trained the original way vs under the protocol, ours beside the paper's.
+
+    Args:
+        summary: The evaluation's summary rows.
+        specs: The policies evaluated (PolicySpec).
+        paper: The paper's tables (:func:`load_paper_results`).
+        comparison: List the ours-vs-paper records of every cell are appended to.
+        notes: Notes stated under the table.
+
+    Returns:
+        The table as Markdown and as LaTeX.
+    """
     cols = BASIC
     rows: list[list[str]] = []
     extra = list(notes)
@@ -205,6 +246,18 @@ def table1(summary, specs, paper, comparison, notes) -> tuple[str, str]:
 
 # -- Table II ----------------------------------------------------------------------------------
 def table2(summary, specs, paper, comparison, notes) -> tuple[str, str]:
+    """Table II: basic and social metrics of every policy, ours beside the paper's.
+
+    Args:
+        summary: The evaluation's summary rows.
+        specs: The policies evaluated (PolicySpec).
+        paper: The paper's tables (:func:`load_paper_results`).
+        comparison: List the ours-vs-paper records of every cell are appended to.
+        notes: Notes stated under the table.
+
+    Returns:
+        The table as Markdown and as LaTeX.
+    """
     cols = [*BASIC, *SOCIAL]
     rows: list[list[str]] = []
     strict = []
@@ -246,6 +299,18 @@ def wilson_interval(successes: float, n: int, z: float = 1.959963984540054) -> t
 
 
 def table3(summary, specs, paper, comparison, notes) -> tuple[str, str]:
+    """Table III: passing sides in the single-human scenarios, ours beside the paper's.
+
+    Args:
+        summary: The evaluation's summary rows.
+        specs: The policies evaluated (PolicySpec).
+        paper: The paper's tables (:func:`load_paper_results`).
+        comparison: List the ours-vs-paper records of every cell are appended to.
+        notes: Notes stated under the table.
+
+    Returns:
+        The table as Markdown and as LaTeX.
+    """
     header = ["Policy"] + [f"{s.capitalize()} {side} %" for s in SIDE_SCENARIOS for side in ("L", "R")]
     rows: list[list[str]] = []
     for spec in specs:

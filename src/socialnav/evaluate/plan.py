@@ -26,9 +26,11 @@ class Cell:
 
     @property
     def key(self) -> str:
+        """The cell's name in result files: ``<scenario>__<visibility>``."""
         return f"{self.scenario}__{self.visibility}"
 
     def chunks(self, size: int) -> list[tuple[int, int]]:
+        """The cell's episodes as ``[start, stop)`` ranges of at most ``size`` (the result chunks)."""
         return [(start, min(start + size, self.episodes)) for start in range(0, self.episodes, size)]
 
 
@@ -81,11 +83,16 @@ def _is_single_human(name: str) -> bool:
 
 
 def make_single(preset: Preset, name: str) -> Scenario:
+    """Single-human scenario ``name`` as the preset evaluates it (its robot, one human, its repeats)."""
     return make_scenario(name, n_humans=1, robot_v_pref=preset.robot.v_pref, robot_radius=preset.robot.radius,
                          repeats=preset.evaluation.repeats)
 
 
 def cell_scenario(preset: Preset, cell: Cell) -> Scenario:
+    """The scenario a cell evaluates, with the preset's robot and crowd size.
+
+    Single-human cells use :func:`make_single`; scenarios that fix their own crowd keep it.
+    """
     if cell.single_human:
         return make_single(preset, cell.scenario)
     # scenarios whose design fixes the crowd (one person head-on, a standing group) keep their own count
@@ -96,6 +103,7 @@ def cell_scenario(preset: Preset, cell: Cell) -> Scenario:
 
 
 def cell_world_settings(preset: Preset, cell: Cell) -> WorldSettings:
+    """The preset's world settings for a cell: its visibility, and M_III's continuation when visible."""
     visible = cell.visibility == "visible"
     return dataclasses.replace(preset.world, visibility=cell.visibility, continue_after_success=visible,
                                continuation_cap=preset.evaluation.continuation_cap)

@@ -24,6 +24,16 @@ _ARRAYS = ("positions", "velocities", "radii", "v_pref", "goals", "min_clearance
 
 @dataclass(frozen=True)
 class ReplayResult:
+    """The outcome of re-simulating one stored episode.
+
+    Attributes:
+        episode_id: The episode replayed.
+        stored: Its trajectory as stored in the result directory.
+        replayed: Its trajectory simulated again.
+        identical: Whether every compared array is bit-identical.
+        max_abs_diff: The largest absolute difference over every compared array (inf when shapes differ).
+        differences: One line per field that differs.
+    """
     episode_id: str
     stored: Trajectory
     replayed: Trajectory
@@ -98,6 +108,7 @@ def _rebuild_sb3(desc: dict[str, Any], preset: Any) -> Any:
 
 
 def json_norm(value: Any) -> Any:
+    """``value`` as it reads back from JSON (tuples as lists, non-JSON values as strings)."""
     import json
 
     return json.loads(json.dumps(value, default=str))

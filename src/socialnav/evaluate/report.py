@@ -35,8 +35,10 @@ def write_reports(
     out: Path, summary: list[dict[str, Any]], rows: list[dict[str, Any]], preset: Preset,
     caveats: Sequence[str] = (),
 ) -> None:
-    """Writes summary.json/csv and the Table II/III layouts into ``out`` (all atomic); ``caveats``
-    (:func:`mismatch_caveats`) are stated above every table."""
+    """Write summary.json/csv and the Table II/III layouts into ``out``, atomically.
+
+    ``caveats`` (:func:`mismatch_caveats`) are stated above every table.
+    """
     for name, text in render_reports(summary, preset, caveats).items():
         atomic_write_text(out / name, text)
 
@@ -62,8 +64,10 @@ def with_caveats(table: str, caveats: Sequence[str], fmt: str = "md") -> str:
 def render_reports(
     summary: list[dict[str, Any]], preset: Preset, caveats: Sequence[str] = ()
 ) -> dict[str, str]:
-    """The text of every result file :func:`write_reports` writes, by file name (a sweep's worker
-    renders them and the driver, which alone writes results, stores them)."""
+    """Render the text of every result file :func:`write_reports` writes, by file name.
+
+    A sweep's worker renders them and the driver, which alone writes results, stores them.
+    """
     metrics = [
         {
             "name": m.name,
@@ -105,6 +109,7 @@ def table_notes(preset: Preset) -> list[str]:
 
 
 def to_csv(summary: Sequence[dict[str, Any]]) -> str:
+    """Summary rows as CSV text: one column per key in order of first appearance."""
     columns: list[str] = []
     for row in summary:
         columns.extend(k for k in row if k not in columns)
@@ -144,8 +149,11 @@ def _index(summary: Sequence[dict[str, Any]]) -> dict[tuple[str, str, str], dict
 
 
 def has_walls(summary: Sequence[dict[str, Any]]) -> bool:
-    """Whether any group was run with static maps: its ``wall_collision_rate`` is a number (it is NaN
-    on open floors), and Table II then shows wall collisions in a column of their own."""
+    """Whether any group was run with static maps.
+
+    Such a group's ``wall_collision_rate`` is a number (it is NaN on open floors), and Table II then shows
+    wall collisions in a column of their own.
+    """
     return any(_finite(r.get("wall_collision_rate")) for r in summary)
 
 
@@ -154,6 +162,7 @@ def _finite(x: Any) -> bool:
 
 
 def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> list[list[str]]:
+    """Table II's rows (one per policy and visibility) for ``scenario`` (default: pooled)."""
     idx = _index(summary)
     walls = has_walls(summary)
     policies = list(dict.fromkeys(r["policy"] for r in summary))
@@ -213,8 +222,11 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
 
 
 def table3_rows(summary: Sequence[dict[str, Any]]) -> list[list[str]]:
-    """Per policy and single-human scenario: left %, right %, the labelled cases the percentages are
-    of (n) and the episodes that failed (collisions ``c`` and timeouts ``t``), which carry no side."""
+    """Passing sides per policy and single-human scenario.
+
+    Left %, right %, the labelled cases the percentages are of (n) and the episodes that failed (collisions
+    ``c`` and timeouts ``t``), which carry no side.
+    """
     idx = _index(summary)
     policies = list(dict.fromkeys(r["policy"] for r in summary))
     out = []
@@ -259,6 +271,15 @@ def _failures(row: dict[str, Any] | None) -> str:
 
 
 def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
+    """Table III: passing sides of every policy in the single-human scenarios.
+
+    Args:
+        summary: The evaluation's summary rows.
+        fmt: ``md`` (Markdown) or ``csv``.
+
+    Returns:
+        The table's text.
+    """
     header = ["Policy"]
     for scenario, (left, right) in (
         ("Passing", ("L %", "R %")),

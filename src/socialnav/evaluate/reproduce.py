@@ -1,5 +1,6 @@
-"""`socialnav reproduce`: Wang et al. 2022's Tables I–III, ours beside the paper's, and the ranking's
-robustness to the human model.
+"""`socialnav reproduce`: Wang et al. 2022's Tables I–III, ours beside the paper's.
+
+Also reports the ranking's robustness to the human model.
 
     <out>/<human_model>/            one multi-policy run (``evaluate.multi``) per human model
     <out>/table1.md/.tex            Table I: CADRL trained the original way vs under the protocol
@@ -49,6 +50,15 @@ QUICK_EPISODES = 3  # per scenario (multi-human) and per single-human sweep
 # -- running -----------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Reproduction:
+    """What ``socialnav reproduce`` produced.
+
+    Attributes:
+        out_dir: The result directory.
+        runs: The evaluation under each human model, by human model.
+        comparison: One ours-vs-paper record per table cell.
+        ranking: The ranking of the policies per metric under each human model.
+        tables: The Markdown tables, by file stem.
+    """
     out_dir: Path
     runs: dict[str, MultiResult]  # human model -> run
     comparison: list[dict[str, Any]]
@@ -57,6 +67,7 @@ class Reproduction:
 
 
 def preset_for(human_model: str, base: Preset | None = None) -> Preset:
+    """The wang2022 preset (or ``base``) with its humans driven by ``human_model``."""
     preset = base or load_preset(PRESET)
     if human_model == preset.world.human_model:
         return preset
@@ -82,7 +93,18 @@ def run_reproduction(
         human_models: ``orca`` (the paper's) and/or ``social_force``; both adds the ranking table.
         quick: A few episodes per scenario (smoke test; the numbers mean nothing).
         episodes: Episodes per scenario (default: the preset's, or 3 with ``quick``).
+        progress: Show progress bars.
+        batch_size: Episodes simulated in lockstep.
+        workers: Processes that score finished chunks (None: the evaluator's default; see
+            :func:`~socialnav.evaluate.runner.run_protocol`).
         specs: Policies (default: shipped checkpoints + native policies).
+        log: Called with a line per human model and policy evaluated (None: no lines).
+
+    Returns:
+        What was written.
+
+    Raises:
+        ValueError: An unknown human model.
     """
     for hm in human_models:
         if hm not in HUMAN_MODELS:
@@ -106,6 +128,18 @@ def write_reproduction(
     out: Path, runs: dict[str, MultiResult], specs: Sequence[PolicySpec], *, quick: bool = False,
     episodes: int | None = None,
 ) -> Reproduction:
+    """Write Tables I–III, the comparison with the paper and the ranking's robustness into ``out``.
+
+    Args:
+        out: The result directory.
+        runs: The evaluation under each human model, by human model.
+        specs: The policies evaluated.
+        quick: The runs had a few episodes per scenario (stated above every table).
+        episodes: The episodes per scenario, where not the preset's.
+
+    Returns:
+        What was written.
+    """
     paper = load_paper_results()
     main_model = "orca" if "orca" in runs else next(iter(runs))
     summary = runs[main_model].summary
@@ -179,6 +213,7 @@ def ranking_rows(
 
 
 def ranking_markdown(rows: Sequence[dict], quick: bool) -> tuple[str, None]:
+    """The ranking's robustness to the human model as Markdown (``None``: it has no LaTeX form)."""
     lines = ["### Robustness of the ranking: ORCA humans vs social-force humans", ""]
     if quick:
         lines += ["**--quick: a few episodes per scenario; the rankings are a smoke test.**", ""]

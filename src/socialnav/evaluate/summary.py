@@ -53,6 +53,16 @@ def summarize_episodes(
 def summarize_group(
     key: tuple[str, str, str], rows: Sequence[dict[str, Any]], pooled_over: list[str] | None = None
 ) -> dict[str, Any]:
+    """One summary row of a (policy, scenario, visibility) group of per-episode rows.
+
+    Args:
+        key: The group's (policy, scenario, visibility).
+        rows: Its per-episode metric rows.
+        pooled_over: The scenarios a pooled row is over (None: a single scenario).
+
+    Returns:
+        Outcome rates with their CIs, and mean, std, CI and n of every other metric key.
+    """
     policy, scenario, visibility = key
     # A canonical order makes the bootstrap independent of the order rows were read in.
     rows = sorted(rows, key=lambda r: (str(r.get("scenario", "")), int(r.get("index", 0))))
@@ -91,9 +101,12 @@ _STAT_NAMES = ("mean", "std", "ci_low", "ci_high", "n")  # the order of column_s
 
 @functools.lru_cache(maxsize=256)
 def _layout(metric_keys: tuple[str, ...]) -> tuple[tuple[str, ...], tuple[tuple[int, int], ...]]:
-    """Summary column names and, for each, (metric column, statistic) it takes: outcome rates as
-    ``success_rate`` with its CI, navigation time also as ``nav_time_s``/``nav_time_s_std``, every
-    other key as ``<key>.mean/.std/.ci_low/.ci_high/.n``. Built once per set of keys."""
+    """Summary column names, each with the (metric column, statistic) it takes.
+
+    Outcome rates appear as ``success_rate`` with its CI, navigation time also as
+    ``nav_time_s``/``nav_time_s_std``, every other key as ``<key>.mean/.std/.ci_low/.ci_high/.n``. Built once
+    per set of keys.
+    """
     names: list[str] = []
     picks: list[tuple[int, int]] = []
     for j, k in enumerate(metric_keys):

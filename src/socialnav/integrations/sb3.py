@@ -87,6 +87,11 @@ class SocialNavVecEnv(VecEnv):
 
     # -- the VecEnv contract ----------------------------------------------------------------------
     def reset(self):
+        """Reset every slot (the seeds and options set by ``seed()``/``set_options()`` apply once).
+
+        Returns:
+            The converted observations of all slots.
+        """
         seed = self._seeds[0]
         options = self._options[0] or None
         obs, info = self.venv.reset(seed=None if seed is None else int(seed), options=options)
@@ -96,9 +101,19 @@ class SocialNavVecEnv(VecEnv):
         return self._convert(obs)
 
     def step_async(self, actions: np.ndarray) -> None:
+        """Store the actions (n_envs, 2) the next ``step_wait()`` applies."""
         self._actions = np.asarray(actions)
 
     def step_wait(self):
+        """Step every slot with the stored actions, auto-resetting finished ones.
+
+        Returns:
+            Observations, rewards (n_envs,), dones (n_envs,) and one info dict per slot (SB3's layout; a
+                finished slot's ``terminal_observation`` is in its info).
+
+        Raises:
+            RuntimeError: No ``step_async()`` came before.
+        """
         if self._actions is None:
             raise RuntimeError("step_wait() without step_async()")
         actions = self.transform.actions_to_world(self._actions, self._robot)
@@ -129,6 +144,7 @@ class SocialNavVecEnv(VecEnv):
         return self._convert(obs), reward.astype(np.float32), dones, infos
 
     def close(self) -> None:
+        """Close the native vector env."""
         self.venv.close()
 
     def seed(self, seed: int | None = None) -> list[int | None]:
@@ -138,8 +154,10 @@ class SocialNavVecEnv(VecEnv):
         return self._seeds
 
     def get_attr(self, attr_name: str, indices: Iterable[int] | int | None = None) -> list[Any]:
-        """An attribute of the native vector env, the same for every slot (slots share one world);
-        ``render_mode`` is None."""
+        """An attribute of the native vector env, the same for every slot.
+
+        The slots share one world; ``render_mode`` is None.
+        """
         n = len(self._indices(indices))
         if attr_name == "render_mode":
             return [None] * n
@@ -148,14 +166,22 @@ class SocialNavVecEnv(VecEnv):
         return [getattr(self.venv, attr_name)] * n
 
     def set_attr(self, attr_name: str, value: Any, indices: Iterable[int] | int | None = None) -> None:
+        """Refused: the slots share one native world whose settings are fixed when it is built.
+
+        Raises:
+            NotImplementedError: Always, naming the attribute.
+        """
         raise NotImplementedError(
             f"set_attr({attr_name!r}): the slots share one native world, whose settings are fixed when it "
             "is built; build a new SocialNavVecEnv with the setting instead"
         )
 
     def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list[Any]:
-        """``training_record`` (the same for every slot); other per-env methods do not exist here,
-        since the slots are rows of one native world, not env objects."""
+        """Call ``training_record`` (the same for every slot).
+
+        Other per-env methods do not exist here, since the slots are rows of one native world, not env
+        objects.
+        """
         n = len(self._indices(indices))
         if method_name == "training_record":
             return [self.training_record()] * n
@@ -165,9 +191,15 @@ class SocialNavVecEnv(VecEnv):
         )
 
     def env_is_wrapped(self, wrapper_class: type, indices=None) -> list[bool]:
+        """Whether each slot is wrapped in ``wrapper_class``: never (the slots are not env objects)."""
         return [False] * len(self._indices(indices))
 
     def get_images(self):
+        """Refused: the vector env does not render.
+
+        Raises:
+            NotImplementedError: Always; ``gym.make(..., render_mode='rgb_array')`` renders one episode.
+        """
         raise NotImplementedError(
             "SocialNavVecEnv does not render; use gym.make(..., render_mode='rgb_array')"
         )
@@ -188,9 +220,11 @@ class SocialNavVecEnv(VecEnv):
 
 
 def find_training_record(env: Any) -> dict[str, Any]:
-    """The training record of the env a model was trained on: a SocialNavVecEnv (through any SB3
-    wrappers such as VecMonitor or VecNormalize), or SB3's Dummy/SubprocVecEnv of single envs wrapped
-    in :class:`~socialnav.sim.learner_wrappers.LearnerObservation`."""
+    """The training record of the env a model was trained on.
+
+    The env is a SocialNavVecEnv (through any SB3 wrappers such as VecMonitor or VecNormalize), or SB3's
+    Dummy/SubprocVecEnv of single envs wrapped in :class:`~socialnav.sim.learner_wrappers.LearnerObservation`.
+    """
     while isinstance(env, VecEnvWrapper):
         env = env.venv
     if isinstance(env, SocialNavVecEnv):
@@ -207,9 +241,10 @@ def find_training_record(env: Any) -> dict[str, Any]:
 
 
 def save_model(model: Any, path: str | Path, env: Any = None) -> Path:
-    """Saves ``model`` (``model.save``) with the record of how its env converted observations, its
-    action space and world, so that ``socialnav evaluate --policy sb3:PATH`` converts the same way and
-    refuses a world the model was not trained for.
+    """Save ``model`` (``model.save``) with the record of the env it was trained on.
+
+    The record holds how its env converted observations, its action space and world, so that ``socialnav
+    evaluate --policy sb3:PATH`` converts the same way and refuses a world the model was not trained for.
 
     Args:
         model: An SB3 algorithm (PPO, SAC, …).

@@ -1,5 +1,6 @@
-"""``sb3:PATH``: a saved Stable-Baselines3 model as a protocol policy (``socialnav evaluate --policy
-sb3:model.zip``).
+"""``sb3:PATH``: a saved Stable-Baselines3 model as a protocol policy.
+
+Used as ``socialnav evaluate --policy sb3:model.zip``.
 
 The model's zip carries the record :func:`socialnav.integrations.sb3.save_model` wrote: the observation
 conversion of its training env, its action set, kinematics, robot speed and world. Loading checks the
@@ -81,6 +82,14 @@ class SB3Policy:
             )
 
     def act(self, observation: Observation) -> np.ndarray:
+        """The model's actions for the active episodes, converted to world-frame velocities.
+
+        Args:
+            observation: The world's observation of B episodes.
+
+        Returns:
+            (B, 2) float64 velocities [m/s]; zero for inactive episodes.
+        """
         actions = np.zeros((observation.batch_size, 2))
         rows = np.flatnonzero(observation.active)
         if rows.size == 0:
@@ -99,6 +108,7 @@ class SB3Policy:
         return actions
 
     def describe(self) -> dict[str, Any]:
+        """The record stored with results: policy spec, information, model path and training record."""
         return {
             "policy": self.spec,
             "information": self.information,

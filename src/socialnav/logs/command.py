@@ -23,6 +23,7 @@ _PER_EPISODE_LIMIT = 10
 
 
 def add_metrics_parser(sub: Any) -> None:
+    """Add the ``metrics`` subcommand to ``sub``."""
     me = sub.add_parser(
         "metrics",
         help="score trajectory files: robot logs, or pedestrians as the robot (ETH/UCY, any CSV/Parquet)",
@@ -71,6 +72,14 @@ def add_metrics_parser(sub: Any) -> None:
 
 
 def cmd_metrics(args: argparse.Namespace) -> int:
+    """``socialnav metrics``: score trajectory files with every metric.
+
+    Args:
+        args: The parsed command line.
+
+    Returns:
+        The exit status.
+    """
     import warnings
 
     from socialnav.logs.scoring import DataWarning, load_trajectories, score_trajectories

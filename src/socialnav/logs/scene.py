@@ -86,6 +86,7 @@ class Scene:
 
     @property
     def n_agents(self) -> int:
+        """The number of agents A in the scene."""
         return self.positions.shape[1]
 
     def index_of(self, agent_id: Any) -> int:
@@ -210,8 +211,11 @@ def scene_from_tracks(
     Args:
         name: The scene's name, for messages.
         source: The file it came from, for messages.
-        t: Sample times [s], (n,); agent: agent ids (n,); xy: positions (n, 2); rows: file rows (n,).
-        velocity: (n, 2) or None.
+        t: (n,) sample times [s].
+        agent: (n,) agent ids.
+        xy: (n, 2) positions [m].
+        rows: (n,) file rows of the samples, for messages.
+        velocity: (n, 2) velocities [m/s], or None (the grid's ``velocities`` is then None).
         dt: Grid step [s]; default the median step between consecutive samples of one agent, rounded
             to 12 significant digits (recovers a dt written as text).
         max_gap: Longest gap [s] bridged by interpolation when resampling; default 2·(median step).

@@ -307,7 +307,8 @@ def summarize_scores(rows: Sequence[dict[str, Any]], label: str,
     """Per-scene summaries, plus one over the dataset when there are several scenes.
 
     ``scene_summaries`` holds scenes already summarised (by a worker that had all their rows, with
-    this label); the others are summarised here."""
+    this label); the others are summarised here.
+    """
     from socialnav.evaluate.summary import summarize_group
 
     by_scene = _metric_rows_by_scene(rows, label)
@@ -349,8 +350,17 @@ def score_file(
     into the result as well as re-issued.
 
     Args:
+        path: The trajectory file (CSV or Parquet; see docs/real_world_logs.md).
+        require_success: Social metrics only over successful episodes.
+        goal_tolerance: Distance to the goal [m] that counts as arrival (None: the agent's radius, as the
+            simulator's success test; see :func:`outcome_problems`).
+        params: Metric parameter overrides (None: the registered defaults).
         workers: Processes that read and score disjoint sets of episodes of a long-format file
             (0: in this process). Rows come back in file order, so the result does not depend on it.
+        **load_kwargs: Passed to :func:`load_trajectories` (format, columns, ego, ...).
+
+    Returns:
+        The per-episode metric rows with their notes and warnings.
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -376,8 +386,10 @@ def score_file(
 
 
 def _episode_keys(path: Path) -> tuple[list[Any], np.ndarray | None]:
-    """The file's episode keys in order of first appearance, and where each one's rows start when
-    every episode is one block of rows (then ``starts`` has one more entry, the row count)."""
+    """The file's episode keys in order of first appearance, and where each one's rows start.
+
+    ``starts`` is given when every episode is one block of rows (then it has one more entry, the row count).
+    """
     import pyarrow as pa
 
     if path.suffix.lower() == ".parquet":
@@ -404,8 +416,11 @@ def _episode_keys(path: Path) -> tuple[list[Any], np.ndarray | None]:
 def _score_chunk(path: str, keys: list[Any], rows: tuple[int, int] | None, require_success: bool,
                  goal_tolerance: float | None, params: Any, load_kwargs: dict[str, Any]
                  ) -> tuple[list[dict], list[str], list[str], str, dict[str, dict[str, Any]]]:
-    """Score one share of a file; also summarise its scenes (under the label its own rows give),
-    which the caller keeps for every scene that lies wholly in this share."""
+    """Score one share of a file and summarise its scenes.
+
+    Scenes are summarised under the label their own rows give; the caller keeps the summary of every scene
+    that lies wholly in this share.
+    """
     from socialnav.evaluate.summary import summarize_group
     from socialnav.trajectory_io import read_trajectories
 

@@ -90,9 +90,11 @@ def summarize_rows(
 
 
 def metric_population(key: str, require_success: bool) -> str:
-    """The episodes a result key's mean is taken over: ``all``, ``success`` or ``known_outcome`` (the
-    metric's population; a social metric counts every episode unless ``require_success``), or
-    ``unknown`` for a key of no registered metric."""
+    """The episodes a result key's mean is taken over.
+
+    ``all``, ``success`` or ``known_outcome`` (the metric's population; a social metric counts every episode
+    unless ``require_success``), or ``unknown`` for a key of no registered metric.
+    """
     from socialnav.metrics.registry import _REGISTRY, parse_key
 
     metric = _REGISTRY.get(parse_key(key)[0])
@@ -104,8 +106,10 @@ def metric_population(key: str, require_success: bool) -> str:
 
 
 def _resampling_counts(rng: np.random.Generator, n: int, n_boot: int) -> np.ndarray:
-    """(n_boot, n) float counts: row b says how often each of n items is drawn in n draws with
-    replacement (the bootstrap's resampling weights)."""
+    """Bootstrap resampling weights: (n_boot, n) float counts.
+
+    Row b says how often each of n items is drawn in n draws with replacement.
+    """
     draws = rng.integers(0, n, size=(n_boot, n))
     draws += np.arange(n_boot)[:, None] * n  # each row counts into its own block
     return np.bincount(draws.ravel(), minlength=n_boot * n).reshape(n_boot, n).astype(float)

@@ -142,9 +142,12 @@ def rectangle_overlap_flags(pos_a: np.ndarray, vel_a: np.ndarray, r_a: np.ndarra
     products instead of corner arrays. Stopped agents (|v| ≤ 1e-6 m/s) have no rectangle: False.
 
     Args:
-        pos_a, vel_a: (..., 2) positions [m] and velocities [m/s] of the first agents.
+        pos_a: (..., 2) positions [m] of the first agents.
+        vel_a: (..., 2) velocities [m/s] of the first agents.
         r_a: (...) radii [m] (broadcastable).
-        pos_b, vel_b, r_b: the same for the second agents, broadcastable with the first.
+        pos_b: (..., 2) positions [m] of the second agents, broadcastable with the first.
+        vel_b: (..., 2) velocities [m/s] of the second agents.
+        r_b: (...) radii [m] of the second agents.
         tau: Time horizon τ [s]; the rectangle's length is τ·|v|.
         anchor: "rear" (rear edge on the centre) or "front" (rear edge at p + r·v/|v|).
         tol: Touching slack [m]: a gap ≤ tol counts as intersecting.

@@ -91,8 +91,11 @@ _DEFAULT_PLAN: tuple[tuple[int, ...], list[tuple[Metric, dict[str, Any], list[st
 
 
 def _plan(params: ParamsSpec | None) -> list[tuple[Metric, dict[str, Any], list[str]]]:
-    """(metric, resolved parameters, keys) of every call, in row order. Without overrides it is
-    built once per set of registered metrics: a file of 10 000 episodes asks for it 10 000 times."""
+    """(metric, resolved parameters, keys) of every call, in row order.
+
+    Without overrides it is built once per set of registered metrics: a file of 10 000 episodes asks for
+    it 10 000 times.
+    """
     global _DEFAULT_PLAN
     metrics = list_metrics()
     if params is None:

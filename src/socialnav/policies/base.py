@@ -32,8 +32,10 @@ RECORDED_ONLY: tuple[str, ...] = ("native_kernel",)
 
 
 class PolicyError(RuntimeError):
-    """A policy failed while acting, or returned actions the world cannot take; the message names the
-    policy, the scenario and visibility, and the episodes it was acting for."""
+    """A policy failed while acting, or returned actions the world cannot take.
+
+    The message names the policy, the scenario and visibility, and the episodes it was acting for.
+    """
 
 
 @runtime_checkable
@@ -43,13 +45,31 @@ class Policy(Protocol):
     name: str
     information: str
 
-    def act(self, observation: Observation) -> np.ndarray: ...
+    def act(self, observation: Observation) -> np.ndarray:
+        """Actions for a batch of episodes.
 
-    def describe(self) -> dict[str, Any]: ...
+        Args:
+            observation: What the policy may see of B episodes.
+
+        Returns:
+            (B, 2) float64 robot velocities [m/s] (the world's action set; holonomic or unicycle).
+        """
+
+    def describe(self) -> dict[str, Any]:
+        """The policy's parameters, recorded with results (at least ``policy`` and ``information``)."""
 
 
 @dataclasses.dataclass(frozen=True)
 class PolicyEntry:
+    """A registered policy.
+
+    Attributes:
+        name: The name it is built by (``make_policy(name)``).
+        factory: Builds the policy from keyword parameters.
+        description: One line shown by ``socialnav list``.
+        learned: Whether it is built from a checkpoint.
+        parameters: Its parameters and their defaults.
+    """
     name: str
     factory: Callable[..., Policy]
     description: str
@@ -86,8 +106,10 @@ def is_registered(name: str) -> bool:
 
 
 def list_policies() -> list[PolicyEntry]:
-    """Every registered policy (built-in, learned and from the ``socialnav.policies`` entry-point group),
-    sorted by name."""
+    """Every registered policy name, sorted.
+
+    Built-in, learned and from the ``socialnav.policies`` entry-point group.
+    """
     _load_builtin()
     _load_plugins()
     return [_REGISTRY[k] for k in sorted(_REGISTRY)]
@@ -191,8 +213,11 @@ def _accepts_any_keyword(factory: Callable) -> bool:
 
 
 def _load_plugins() -> None:
-    """Imports the entry points of group ``socialnav.policies`` once; each names a policy class or
-    factory (registered under the entry point's name) or a module whose import registers policies."""
+    """Import the entry points of group ``socialnav.policies`` once.
+
+    Each names a policy class or factory (registered under the entry point's name) or a module whose import
+    registers policies.
+    """
     global _plugins_loaded
     if _plugins_loaded:
         return

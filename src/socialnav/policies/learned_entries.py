@@ -41,6 +41,17 @@ class LearnedPolicy:
         self.preset_mismatch = list(preset_mismatch or [])  # allowed differences, recorded with results
 
     def act(self, observation: Observation) -> np.ndarray:
+        """Actions of the value-based policy for B episodes (one-step lookahead over the action set).
+
+        Args:
+            observation: The world's observation of B episodes; ``oracle`` information needs ``next_humans``.
+
+        Returns:
+            (B, 2) float64 robot velocities [m/s].
+
+        Raises:
+            ValueError: An oracle policy was given an observation without the humans' next states.
+        """
         if self.information == "oracle" and observation.next_humans is None:
             raise ValueError(
                 f"policy {self.name!r} uses oracle information: observe the world with oracle=True"
@@ -59,6 +70,7 @@ class LearnedPolicy:
         return actions
 
     def describe(self) -> dict[str, Any]:
+        """The record stored with results: policy, information, checkpoint and lookahead parameters."""
         vp = self.value_policy
         return {
             "policy": self.name,
@@ -117,8 +129,11 @@ def _walled_scenarios(names: Any) -> list[str]:
 
 
 def _walls_mismatch(trained: Any, preset: Any) -> list[str]:
-    """A network trained without walls cannot see them (its input has no obstacles): evaluating it
-    among walls is refused like any other world mismatch, naming both sides."""
+    """Refuse to evaluate a network trained without walls among walls.
+
+    Its input has no obstacles, so it cannot see them; this is refused like any other world mismatch, naming
+    both sides.
+    """
     training = trained.get("training") if isinstance(trained, dict) else None
     if not isinstance(training, dict) or "scenarios" not in training:
         return []  # the checkpoint does not record what it was trained on
@@ -173,8 +188,10 @@ def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
 def checked_preset_mismatches(
     checkpoint: Any, config: dict[str, Any], preset: Any, allow: bool
 ) -> list[str]:
-    """The world differences of a checkpoint under ``preset``; a :class:`PresetMismatchError` naming
-    them unless ``allow`` (then the caller records them)."""
+    """The world differences of a checkpoint under ``preset``.
+
+    A :class:`PresetMismatchError` names them unless ``allow`` (then the caller records them).
+    """
     mismatch = preset_mismatches(config, preset) if preset is not None else []
     if mismatch and not allow:
         raise PresetMismatchError(
@@ -295,8 +312,9 @@ def load_ppo_policy(
     allow_preset_mismatch: bool = False,
     deterministic: bool = True,
 ):
-    """Loads a PPO checkpoint of ``name`` into a :class:`RecurrentActorPolicy` (mean actions unless
-    ``deterministic`` is False).
+    """Load a PPO checkpoint of ``name`` into a :class:`RecurrentActorPolicy`.
+
+    It takes mean actions unless ``deterministic`` is False.
 
     Raises:
         CheckpointError: unreadable, another policy, or malformed ``config.ppo_policy``.
@@ -337,9 +355,12 @@ def _ppo_factory(name: str):
 
 
 def register_catalog() -> None:
-    """Registers every learned policy of the catalog not registered yet (records added after the
-    first call appear on the next one): value-based ones load into a :class:`LearnedPolicy`, PPO
-    ones into a :class:`~socialnav.policies.learned.ppo_policy.RecurrentActorPolicy`."""
+    """Register every learned policy of the catalog not registered yet.
+
+    Records added after the first call appear on the next one: value-based ones load into a
+    :class:`LearnedPolicy`, PPO ones into a
+    :class:`~socialnav.policies.learned.ppo_policy.RecurrentActorPolicy`.
+    """
     for spec in learned_policy_specs():
         factory = _ppo_factory if spec.trainer == "ppo" else _factory
         for name, description in ((spec.name, spec.description), *spec.aliases.items()):

@@ -56,10 +56,12 @@ class ShippedCheckpoint:
 
     @property
     def path(self) -> Path:
+        """Where the checkpoint file is (or would be) in the package's checkpoint directory."""
         return checkpoint_dir() / self.file
 
     @property
     def exists(self) -> bool:
+        """Whether the checkpoint file is present."""
         return self.path.is_file()
 
 

@@ -79,6 +79,7 @@ class NativePolicy:
         return self._out.copy()
 
     def describe(self) -> dict[str, Any]:
+        """The record stored with results: policy, information and ORCA's safety space [m]."""
         return {"policy": self.name, "information": self.information, "safety_space": self.safety_space}
 
 
@@ -89,6 +90,14 @@ _ROTATION_LIMIT = np.pi / 4
     "linear", description="straight to the goal at v_pref, ignoring humans", parameters={"threads": 0}
 )
 def linear(threads: int = 0) -> NativePolicy:
+    """Straight to the goal at v_pref, ignoring humans (the native C++ policy).
+
+    Args:
+        threads: Native threads over the batch (0: one per core).
+
+    Returns:
+        The policy.
+    """
     return NativePolicy("linear", threads=threads)
 
 
@@ -98,6 +107,15 @@ def linear(threads: int = 0) -> NativePolicy:
     parameters={"safety_space": 0.2, "threads": 0},
 )
 def orca(safety_space: float = 0.2, threads: int = 0) -> NativePolicy:
+    """ORCA (van den Berg et al. 2011) as the robot's policy (the native C++ solver).
+
+    Args:
+        safety_space: Extra clearance [m] added to the robot's radius in ORCA's constraints.
+        threads: Native threads over the batch (0: one per core).
+
+    Returns:
+        The policy.
+    """
     return NativePolicy("orca", safety_space=safety_space, threads=threads)
 
 
@@ -107,4 +125,12 @@ def orca(safety_space: float = 0.2, threads: int = 0) -> NativePolicy:
     parameters={"threads": 0},
 )
 def social_force(threads: int = 0) -> NativePolicy:
+    """The social force model (Helbing and Molnár 1995) as the robot's policy (native C++).
+
+    Args:
+        threads: Native threads over the batch (0: one per core).
+
+    Returns:
+        The policy.
+    """
     return NativePolicy("social_force", threads=threads)

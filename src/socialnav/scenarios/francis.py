@@ -1,5 +1,7 @@
-"""Scenarios with walls after Francis et al., "Principles and Guidelines for Evaluating Social Robot
-Navigation Algorithms" (arXiv 2306.16740, ACM THRI 2025), Fig. 7.
+"""Scenarios with walls after Francis et al. 2025, Fig. 7.
+
+Francis et al., "Principles and Guidelines for Evaluating Social Robot Navigation Algorithms" (arXiv
+2306.16740, ACM THRI 2025).
 
 The paper draws its scenarios without dimensions; every size here is a decision, stated with its
 reason in ``docs/walls_maps.md``. Common conventions: the robot and the humans keep the protocol's
@@ -44,9 +46,12 @@ def _door_fits(scenario: WalledScenario, wall: str) -> None:
 
 
 def _corridor_walls(width: float, length: float, end_wall: float) -> list[np.ndarray]:
-    """A straight corridor along y between two halls: its two side walls and, at each end, walls
-    turning outwards (``end_wall`` long each side), so that an agent pushed out of the corridor
-    comes back through it instead of walking round the outside of a free-standing pair of walls."""
+    """A straight corridor along y between two halls, with walls turning outwards at its ends.
+
+    Its two side walls and, at each end, walls turning outwards (``end_wall`` long each side), so that an
+    agent pushed out of the corridor comes back through it instead of walking round the outside of a
+    free-standing pair of walls.
+    """
     h, half = width / 2, length / 2
     sides = [np.array([[-h, -half], [-h, half]]), np.array([[h, -half], [h, half]])]
     if end_wall <= 0:
@@ -94,15 +99,20 @@ class _Hallway(WalledScenario):
 @register_scenario("narrow_hallway")
 @dataclass(frozen=True, kw_only=True)
 class NarrowHallway(_Hallway):
-    """Francis (j): head-on in a corridor barely wide enough for two (1.8 m = two 0.6 m bodies and
-    three 0.2 m gaps: wall, each other, wall)."""
+    """Francis (j): head-on in a corridor barely wide enough for two.
+
+    1.8 m = two 0.6 m bodies and three 0.2 m gaps: wall, each other, wall.
+    """
 
 
 @register_scenario("frontal_approach")
 @dataclass(frozen=True, kw_only=True)
 class FrontalApproach(_Hallway):
-    """Francis (a): one human head-on in a wide hall (4 m: the two can pass keeping M_I's outer
-    ε = 1.2 m apart and 0.2 m from the walls, 0.6 + 1.2 + 0.6 + 2·0.2 = 2.8 m, with room to spare)."""
+    """Francis (a): one human head-on in a wide hall.
+
+    The hall is 4 m wide: the two can pass keeping M_I's outer ε = 1.2 m apart and 0.2 m from the walls, 0.6 +
+    1.2 + 0.6 + 2·0.2 = 2.8 m, with room to spare.
+    """
 
     corridor_width: float = param(4.0, "distance between the two walls", unit="m", gt=0)
 
@@ -140,6 +150,7 @@ class PedestrianObstruction(WalledScenario):
                              "formation is designed for the fixed radius)")
 
     def walls(self) -> list[np.ndarray]:
+        """The corridor's walls [m]: (2, 2) segments."""
         return _corridor_walls(self.corridor_width, self.corridor_length, self.end_wall)
 
     def flows(self) -> list[Flow]:
@@ -181,11 +192,13 @@ class NarrowDoorway(WalledScenario):
         super().__post_init__()
 
     def walls(self) -> list[np.ndarray]:
+        """The doorway's wall with its gap and the surrounding walls [m]: (2, 2) segments."""
         h, d, length = self.area_width / 2, self.door_width / 2, self.circle_radius + 1.0
         return [np.array([[-h, 0.0], [-d, 0.0]]), np.array([[d, 0.0], [h, 0.0]]),
                 *polyline((-h, -length), (h, -length), (h, length), (-h, length), (-h, -length))]
 
     def flows(self) -> list[Flow]:
+        """Humans alternate between the far and the near side of the door."""
         h, r = self.area_width / 2, self.circle_radius
         far, near = (-h, h, 1.0, r + 0.5), (-h, h, -r - 0.5, -1.0)
         return [Flow(far, goal_box=near) if j % 2 == 0 else Flow(near, goal_box=far)
@@ -195,8 +208,10 @@ class NarrowDoorway(WalledScenario):
 @register_scenario("blind_corner")
 @dataclass(frozen=True, kw_only=True)
 class BlindCorner(WalledScenario):
-    """Francis (i): an L-shaped corridor; the robot goes up and turns right, a human comes the other
-    way round the corner. The inner corner is a solid block (the occluder); the outer wall a polyline.
+    """Francis (i): an L-shaped corridor with a human coming round the corner.
+
+    The robot goes up and turns right, a human comes the other way round the corner. The inner corner is a
+    solid block (the occluder); the outer wall a polyline.
 
     Robot (0, −R) → (R, 0); human start (R ± s, o), goal (o, −R − 2), out of the vertical leg.
     """
@@ -218,10 +233,12 @@ class BlindCorner(WalledScenario):
         return float(np.pi / 2)
 
     def walls(self) -> list[np.ndarray]:
+        """The outer wall [m] ((2, 2) segments) and the inner corner, a solid (4, 2) block."""
         h, length = self.corridor_width / 2, self.circle_radius + 1.0
         return [*polyline((-h, -length), (-h, h), (length, h)), box(h, length, -length, -h)]
 
     def flows(self) -> list[Flow]:
+        """One human round the corner and out of the vertical leg, towards the robot's side."""
         # Round the corner and out of the vertical leg (1 m past its end), not to the robot's start,
         # where it would block the leg (see _Hallway.flows).
         r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
@@ -233,9 +250,10 @@ class BlindCorner(WalledScenario):
 @register_scenario("intersection")
 @dataclass(frozen=True, kw_only=True)
 class Intersection(WalledScenario):
-    """Francis (f): two corridors crossing at right angles; a human crosses the robot's corridor
-    from its left (four solid corner blocks). Robot (0, −R) → (0, R); human (−R ± s, o) → (R ∓ s, o),
-    so that with equal speeds both reach the junction at about the same time.
+    """Francis (f): two corridors crossing at right angles, a human crossing from the robot's left.
+
+    Four solid corner blocks. Robot (0, −R) → (0, R); human (−R ± s, o) → (R ∓ s, o), so that with equal
+    speeds both reach the junction at about the same time.
     """
 
     fixed_n_humans = True
@@ -246,11 +264,13 @@ class Intersection(WalledScenario):
     start_jitter: float = param(0.5, "human start distance R ± U(-j, j) from the junction", unit="m", ge=0)
 
     def walls(self) -> list[np.ndarray]:
+        """The four solid corner blocks of the crossing: (4, 2) polygons [m]."""
         h, length = self.corridor_width / 2, self.circle_radius + 1.0
         return [box(h, length, h, length), box(-length, -h, h, length), box(-length, -h, -length, -h),
                 box(h, length, -length, -h)]
 
     def flows(self) -> list[Flow]:
+        """One human crossing the robot's corridor from its left to the mirrored side."""
         r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
         return [Flow((-r - s, -r + s, -o, o), goal=_mirror_x)]
 
@@ -298,8 +318,10 @@ class _Room(WalledScenario):
 @register_scenario("entering_room")
 @dataclass(frozen=True, kw_only=True)
 class EnteringRoom(_Room):
-    """Francis (l): the robot enters a 4 m × 4 m room (a small office) by its 1 m door while a person
-    inside leaves."""
+    """Francis (l): the robot enters a room by its door while a person inside leaves.
+
+    The room is 4 m × 4 m (a small office) with a 1 m door.
+    """
 
     entering = True
 
@@ -315,9 +337,11 @@ class ExitingRoom(_Room):
 @register_scenario("circle_crossing_obstacles")
 @dataclass(frozen=True, kw_only=True)
 class CircleCrossingObstacles(WalledScenario):
-    """Francis (x) with static obstacles (as social-jym and Social-Navigation-PyEnvs have): humans
-    cross a circle of radius R to the antipode of their start (CrowdSim's rule, start noise ±0.5 m)
-    around square pillars drawn per episode inside radius R/2.
+    """Francis (x) with static obstacles: circle crossing around square pillars.
+
+    As social-jym and Social-Navigation-PyEnvs have it: humans cross a circle of radius R to the antipode of
+    their start (CrowdSim's rule, start noise ±0.5 m) around square pillars drawn per episode inside radius
+    R/2.
 
     Pillar p: centre uniform in the disc of radius ``obstacle_area``·R, random rotation, redrawn while
     closer than 2·circumradius + 2·robot_radius + discomfort_dist to a placed pillar, so that the
@@ -331,9 +355,19 @@ class CircleCrossingObstacles(WalledScenario):
 
     @property
     def layout(self) -> StaticMap | None:
+        """None: the pillars are drawn per episode (:meth:`maps_per_episode`)."""
         return None  # drawn per episode
 
     def maps_per_episode(self, rng: EpisodeRandom, indices: np.ndarray) -> tuple[StaticMap, ...]:
+        """Square pillars drawn per episode inside radius ``obstacle_area`` · R, clear of each other.
+
+        Args:
+            rng: The episodes' random streams.
+            indices: (B,) episode indices.
+
+        Returns:
+            One StaticMap per episode (empty ones where ``n_obstacles`` is 0).
+        """
         b, p = len(rng), self.n_obstacles
         if p == 0:
             return (StaticMap(),) * b
@@ -361,6 +395,7 @@ class CircleCrossingObstacles(WalledScenario):
         return tuple(StaticMap(tuple(squares[i])) for i in range(b))
 
     def flows(self) -> list[Flow]:
+        """Not used: the humans are placed on the circle by :meth:`sample_humans`."""
         raise NotImplementedError  # humans are placed on the circle below
 
     def sample_humans(self, rng: EpisodeRandom, indices: np.ndarray) -> HumanArrays:

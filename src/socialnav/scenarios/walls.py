@@ -1,5 +1,6 @@
-"""Shared machinery of the scenarios with walls (`socialnav.scenarios.francis`): the layout, the
-placement of agents clear of the walls, and the geometry helpers that build the layouts.
+"""Shared machinery of the scenarios with walls (`socialnav.scenarios.francis`).
+
+The layout, the placement of agents clear of the walls, and the geometry helpers that build the layouts.
 
 A walled scenario declares its layout (a :class:`~socialnav.static_map.StaticMap`, fixed by the
 settings, or drawn per episode), the robot's start and goal, and per human a *flow*: a box its start

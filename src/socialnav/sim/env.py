@@ -118,6 +118,7 @@ class EpisodeOrder:
         self._perms: dict[int, np.ndarray] = {}
 
     def __call__(self, positions: np.ndarray) -> np.ndarray:
+        """The episode indices (same shape) that stream positions ``positions`` play."""
         pos = np.asarray(positions, dtype=np.int64)
         if self.start is not None:
             out = self.start + pos
@@ -277,6 +278,15 @@ class SocialNavEnv(gym.Env):
         )
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Start the next episode of the stream (Gymnasium's ``reset``).
+
+        Args:
+            seed: Seeds the episode order (one stream; see the module docstring).
+            options: ``{"index": i}`` plays episode i next and continues from there.
+
+        Returns:
+            (tuple): The first observation and the info dict.
+        """
         super().reset(seed=seed)
         options = _check_options(options)
         if "index" in options:
@@ -296,6 +306,17 @@ class SocialNavEnv(gym.Env):
         return single, self._info("running", float(self._world.dmin[0]), 0.0, index)
 
     def step(self, action):
+        """Apply one action (Gymnasium's ``step``).
+
+        Args:
+            action (Any): The robot's action in the env's action space.
+
+        Returns:
+            (tuple): ``(observation, reward, terminated, truncated, info)``.
+
+        Raises:
+            RuntimeError: The episode is over and ``reset()`` was not called.
+        """
         if not self._world.busy:
             raise RuntimeError("the episode is over: call reset() before step()")
         result = self._world.step(self._cfg.to_actions(action), final_observation=True)
@@ -386,6 +407,18 @@ class SocialNavVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Reset every slot to the next episodes of the shared stream (Gymnasium's vector ``reset``).
+
+        Args:
+            seed: One int: it names the stream all slots share.
+            options: ``{"index": i}`` starts the stream at episode i.
+
+        Returns:
+            (tuple): The batched observations and the info dict.
+
+        Raises:
+            ValueError: ``seed`` is not one int.
+        """
         options = _check_options(options)
         if seed is not None and not isinstance(seed, int | np.integer):
             raise ValueError(f"seed must be one int (it names the stream all slots share), got {seed!r}")
@@ -408,6 +441,15 @@ class SocialNavVectorEnv(VectorEnv):
             self._world.close()
 
     def step(self, actions):
+        """Apply one action per slot; finished slots reset to the stream's next episodes.
+
+        Args:
+            actions (Any): (n_envs, ...) actions in the single action space's form.
+
+        Returns:
+            (tuple): ``(observations, rewards, terminations, truncations, infos)``; finished slots' last
+                observations are in ``infos["final_obs"]``.
+        """
         result = self._world.step(self._cfg.to_actions(actions), final_observation=True, observe=True)
         obs = _obs_rows(result.observation, self._cfg.max_edges)
         done = result.terminated | result.truncated

@@ -1,5 +1,6 @@
-"""Rendering of the single Gymnasium env (``render_mode="rgb_array"`` or ``"human"``): the modes and
-the recording of the episode; the drawing is a viewer registered from above.
+"""Rendering of the single Gymnasium env (``render_mode="rgb_array"`` or ``"human"``).
+
+The modes and the recording of the episode; the drawing is a viewer registered from above.
 
 The env hands the recorder its observations (the terminal one included, before the auto-reset slot
 is refilled). Drawing needs the ``viz`` extra and sits above the simulator (socialnav.viz), so the
@@ -25,11 +26,14 @@ RENDER_MODES = ("rgb_array", "human")
 class Viewer(Protocol):
     """Draws an episode so far (a :class:`~socialnav.trajectory.Trajectory`) for the env."""
 
-    def frame(self, trajectory: Any) -> np.ndarray: ...
+    def frame(self, trajectory: Any) -> np.ndarray:
+        """The episode drawn at its last sample: (H, W, 3) uint8."""
 
-    def show(self, trajectory: Any, fps: float) -> None: ...
+    def show(self, trajectory: Any, fps: float) -> None:
+        """Show the episode drawn at its last sample in a window, at ``fps`` frames per second."""
 
-    def close(self) -> None: ...
+    def close(self) -> None:
+        """Close the viewer's window, if any."""
 
 
 _VIEWER_FACTORY: Callable[[tuple[int, int]], Viewer] | None = None
@@ -47,6 +51,12 @@ def available_render_modes() -> list[str]:
 
 
 def check_render_mode(mode: str | None) -> None:
+    """Check ``render_mode`` and that what it needs is available.
+
+    Raises:
+        ValueError: Unknown mode.
+        RuntimeError: matplotlib is missing, or ``human`` mode has no display.
+    """
     if mode is not None and mode not in RENDER_MODES:
         raise ValueError(f"render_mode must be one of {', '.join(RENDER_MODES)} or None, got {mode!r}")
     if mode is not None:
@@ -64,6 +74,7 @@ def check_render_mode(mode: str | None) -> None:
 
 
 def has_display() -> bool:
+    """Whether a window can be shown (macOS, Windows, or ``$DISPLAY``/``$WAYLAND_DISPLAY`` set)."""
     if sys.platform in ("darwin", "win32"):
         return True
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
@@ -79,6 +90,13 @@ class EnvRecorder:
         self._viewer: Viewer | None = None
 
     def start(self, world, obs: dict[str, np.ndarray], index: int) -> None:
+        """Start recording an episode from its first observation.
+
+        Args:
+            world: The env's world (one slot): radii, goals and v_pref of its agents.
+            obs: The first observation (the env's dict).
+            index: The episode's index in its split.
+        """
         agents = np.flatnonzero(world.mask[0])
         self.agents = agents
         self.radii = world.radius[0, agents].copy()
@@ -92,6 +110,7 @@ class EnvRecorder:
         self.record(obs)
 
     def record(self, obs: dict[str, np.ndarray], outcome: str = "running") -> None:
+        """Record one observation's positions, and the outcome once it is known."""
         robot = obs["robot"][[ROBOT_PX, ROBOT_PY]]
         humans = obs["humans"][:, [HUMAN_PX, HUMAN_PY]][self.agents[1:] - 1]
         self.positions.append(np.vstack([robot[None], humans]))
@@ -117,14 +136,21 @@ class EnvRecorder:
         return self.viewer().frame(self.trajectory())
 
     def show(self, fps: float) -> None:
+        """Show the episode so far in the viewer's window at ``fps`` frames per second."""
         self.viewer().show(self.trajectory(), fps)
 
     def close(self) -> None:
+        """Close the viewer, if one was made."""
         if self._viewer is not None:
             self._viewer.close()
             self._viewer = None
 
     def viewer(self) -> Viewer:
+        """The registered viewer, made on first use.
+
+        Raises:
+            RuntimeError: No viewer is registered.
+        """
         if self._viewer is None:
             if _VIEWER_FACTORY is None:
                 raise RuntimeError("no viewer registered to draw the env (import socialnav registers one)")

@@ -1,5 +1,7 @@
-"""Observations a learner can use: one transformation shared by the single env, the vector env, the
-SB3 adapter and the ``sb3:`` evaluation policy (docs/train_your_own.md).
+"""Observations a learner can use.
+
+One transformation shared by the single env, the vector env, the SB3 adapter and the ``sb3:`` evaluation
+policy (docs/train_your_own.md).
 
 The raw observation (:mod:`socialnav.sim.observation`) is world-frame float64 with the scenario's own
 human count. :class:`ObservationSettings` names what a learner usually wants instead:
@@ -126,10 +128,16 @@ class ObservationSettings:
         )
 
     def to_dict(self) -> dict[str, Any]:
+        """The settings as a plain dict (stored in the training record)."""
         return dataclasses.asdict(self)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> ObservationSettings:
+        """Settings from a dict such as :meth:`to_dict` writes (None: the defaults).
+
+        Raises:
+            ConfigError: An unknown key or a bad value, named.
+        """
         from socialnav.config import from_dict
 
         return from_dict(cls, data or {}, "observation")
@@ -173,6 +181,7 @@ class ObservationTransform:
 
     @property
     def max_humans(self) -> int:
+        """The human slots of the transformed observation."""
         return int(self.settings.max_humans)
 
     def single_space(self) -> spaces.Dict:
@@ -257,8 +266,10 @@ class ObservationTransform:
         return np.stack([a[:, 0] * c - a[:, 1] * s, a[:, 0] * s + a[:, 1] * c], axis=1)
 
     def actions_from_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
-        """The inverse of :meth:`actions_to_world`: a world-frame action (e.g. a teacher's, for
-        imitation) as the learner gives it."""
+        """Convert a world-frame action to the learner's action; the inverse of :meth:`actions_to_world`.
+
+        Used e.g. for a teacher's actions in imitation.
+        """
         if not self.rotates_actions:
             return actions
         a, c, s = _actions_and_goal_heading(actions, robot)

@@ -1,5 +1,7 @@
-"""Gymnasium wrappers applying :class:`~socialnav.sim.learner_obs.ObservationSettings` to the single
-env and to the native vector env, exactly as the SB3 adapter does (docs/train_your_own.md).
+"""Gymnasium wrappers applying :class:`~socialnav.sim.learner_obs.ObservationSettings`.
+
+They wrap the single env and the native vector env, converting exactly as the SB3 adapter does
+(docs/train_your_own.md).
 
 >>> env = LearnerObservation(gym.make("socialnav/CircleCrossing-v0"), ObservationSettings(frame="robot"))
 
@@ -36,6 +38,7 @@ def env_config(env: Any) -> Any:
 
 
 def make_transform(cfg: Any, settings: ObservationSettings | None) -> ObservationTransform:
+    """The observation transform of a world configuration ``cfg`` under ``settings``."""
     return ObservationTransform(
         settings or ObservationSettings(), cfg.scenario.n_humans, cfg.settings.kinematics, cfg.action_set,
         static_map=getattr(cfg, "static_map", None),
@@ -74,16 +77,27 @@ class LearnerObservation(gym.Wrapper):
         self._robot: np.ndarray | None = None  # raw robot row the next action is chosen on
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Reset the env and convert its observation.
+
+        Returns:
+            (tuple): The learner's observation and the env's info dict.
+        """
         obs, info = self.env.reset(seed=seed, options=options)
         return self._convert(obs), info
 
     def step(self, action):
+        """Step with the learner's action (rotated to the world frame where it is robot-frame).
+
+        Returns:
+            (tuple): ``(observation, reward, terminated, truncated, info)`` with the learner's observation.
+        """
         if self._robot is not None and self.transform.rotates_actions:
             action = self.transform.actions_to_world(np.asarray(action)[None], self._robot[None])[0]
         obs, reward, terminated, truncated, info = self.env.step(action)
         return self._convert(obs), reward, terminated, truncated, info
 
     def training_record(self) -> dict[str, Any]:
+        """The record of how this env converts observations, its action space and world."""
         return training_record(self._cfg, self.transform)
 
     def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -93,8 +107,10 @@ class LearnerObservation(gym.Wrapper):
 
 
 class LearnerObservationVector(VectorWrapper):
-    """The vector env (native or ``sync``/``async``) with the learner's observation; ``final_obs`` of
-    finished episodes is converted the same way."""
+    """The vector env (native or ``sync``/``async``) with the learner's observation.
+
+    ``final_obs`` of finished episodes is converted the same way.
+    """
 
     def __init__(self, env: gym.vector.VectorEnv, settings: ObservationSettings | None = None):
         super().__init__(env)
@@ -105,10 +121,21 @@ class LearnerObservationVector(VectorWrapper):
         self._robot: np.ndarray | None = None
 
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
+        """Reset every slot and convert the observations.
+
+        Returns:
+            (tuple): The learner's batched observations and the env's info dict.
+        """
         obs, info = self.env.reset(seed=seed, options=options)
         return self._convert(obs), info
 
     def step(self, actions):
+        """Step with the learner's actions (rotated to the world frame where they are robot-frame).
+
+        Returns:
+            (tuple): ``(observations, rewards, terminations, truncations, infos)`` with the learner's
+                observations, ``final_obs`` included.
+        """
         if self._robot is not None and self.transform.rotates_actions:
             actions = self.transform.actions_to_world(actions, self._robot)
         obs, reward, terminated, truncated, info = self.env.step(actions)
@@ -122,6 +149,7 @@ class LearnerObservationVector(VectorWrapper):
         return self._convert(obs), reward, terminated, truncated, info
 
     def training_record(self) -> dict[str, Any]:
+        """The record of how this env converts observations, its action space and world."""
         return training_record(self._cfg, self.transform)
 
     def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

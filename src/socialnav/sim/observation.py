@@ -58,9 +58,11 @@ class ObstacleArrays:
         return _core.PreparedObstacleBatch(self.vertices, self.polygon_offsets, self.episode_polygons)
 
     def padded_edges(self, max_edges: int) -> tuple[np.ndarray, np.ndarray]:
-        """Every episode's obstacle edges as a fixed-size list: segments (B, max_edges, 4) of
-        (x1, y1, x2, y2) [m] (a wall is one edge, a k-gon k edges, in map order), zero-padded, and
-        their mask (B, max_edges) bool (the Gymnasium envs' ``obstacles`` / ``obstacle_mask``).
+        """Every episode's obstacle edges as a fixed-size, zero-padded list.
+
+        Segments (B, max_edges, 4) of (x1, y1, x2, y2) [m] (a wall is one edge, a k-gon k edges, in map
+        order), zero-padded, and their mask (B, max_edges) bool (the Gymnasium envs' ``obstacles`` /
+        ``obstacle_mask``).
 
         Raises:
             ValueError: an episode's map has more than ``max_edges`` edges.
@@ -125,6 +127,7 @@ class Observation:
 
     @property
     def batch_size(self) -> int:
+        """The number of episodes B."""
         return self.robot.shape[0]
 
     def take(self, index: np.ndarray | slice) -> Observation:

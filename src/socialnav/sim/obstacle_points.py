@@ -60,6 +60,7 @@ class ObstaclePoints:
               "obstacle_encoding.radius", self.radius, "must be a finite number >= 0")
 
     def to_dict(self) -> dict[str, Any]:
+        """The encoding as a dict with ``kind`` (stored in checkpoints)."""
         return {"kind": "outline_points", **dataclasses.asdict(self)}
 
     @classmethod
@@ -78,8 +79,9 @@ class ObstaclePoints:
     def nearest(
         self, positions: np.ndarray, maps: Sequence[StaticMap | None]
     ) -> tuple[np.ndarray, np.ndarray]:
-        """The kept points of B episodes: (B, K, 2) world-frame positions [m] (nearest first, zero
-        rows where padded) and their mask (B, K) bool.
+        """The kept points of B episodes and their mask.
+
+        (B, K, 2) world-frame positions [m] (nearest first, zero rows where padded) and the mask (B, K) bool.
 
         Args:
             positions: (B, 2) the robots' positions [m].
@@ -111,8 +113,10 @@ class ObstaclePoints:
     def agents(
         self, positions: np.ndarray, maps: Sequence[StaticMap | None]
     ) -> tuple[np.ndarray, np.ndarray]:
-        """The kept points as standing agents: (B, K, 5) px, py, 0, 0, radius (zero rows where
-        padded) and the mask (B, K)."""
+        """The kept points as standing agents, and their mask.
+
+        (B, K, 5) rows px, py, 0, 0, radius [m] (zero rows where padded) and the mask (B, K) bool.
+        """
         points, mask = self.nearest(positions, maps)
         out = np.zeros((*mask.shape, 5))
         out[..., :2] = points
@@ -124,8 +128,11 @@ _OUTLINES: dict[tuple[int, float], tuple[weakref.ref, np.ndarray]] = {}
 
 
 def outline_points(static_map: StaticMap, spacing: float) -> np.ndarray:
-    """Points along every obstacle outline of ``static_map``, at most ``spacing`` apart along an
-    edge, every vertex included: (P, 2) [m], polygon after polygon (read-only, cached per map)."""
+    """Points along every obstacle outline of ``static_map``: (P, 2) [m].
+
+    At most ``spacing`` apart along an edge, every vertex included, polygon after polygon (read-only, cached
+    per map).
+    """
     key = (id(static_map), float(spacing))
     hit = _OUTLINES.get(key)
     if hit is not None and hit[0]() is static_map:
@@ -155,8 +162,11 @@ def append_obstacle_agents(
     maps: Sequence[StaticMap | None] | None,
     encoding: ObstaclePoints,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``humans`` (B, N, 5) and ``mask`` (B, N) with the encoding's K point slots appended after
-    the human slots: (B, N + K, 5) and (B, N + K). ``maps`` None: every episode is an open floor."""
+    """``humans`` and ``mask`` with the encoding's K point slots appended after the human slots.
+
+    ``humans`` (B, N, 5) and ``mask`` (B, N) become (B, N + K, 5) and (B, N + K). ``maps`` None: every episode
+    is an open floor.
+    """
     robot = np.asarray(robot, dtype=np.float64)
     maps = [None] * robot.shape[0] if maps is None else maps
     points, point_mask = encoding.agents(robot[:, :2], maps)

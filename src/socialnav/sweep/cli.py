@@ -10,6 +10,7 @@ from pathlib import Path
 
 
 def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``sweep`` subcommand to ``sub``."""
     sw = sub.add_parser(
         "sweep",
         help="a grid of evaluation and training jobs (policies x seeds x crowd models …) on this machine "
@@ -33,6 +34,14 @@ def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
+    """``socialnav sweep``: run (or resume) a sweep file's jobs here or on a Ray cluster.
+
+    Args:
+        args: The parsed command line.
+
+    Returns:
+        The exit status.
+    """
     from socialnav._io import json_safe
     from socialnav.sweep.driver import run_sweep
     from socialnav.sweep.executors import make_executor

@@ -43,8 +43,11 @@ def _load_preset_once(name: str) -> Preset:
 
 
 def job_preset(params: dict[str, Any], threads: int | None = None) -> Preset:
-    """The job's preset with its ``human_model`` override (and, in a worker, ``threads`` native
-    threads per world: parallelism comes from the workers; results do not depend on it)."""
+    """The job's preset with its ``human_model`` override.
+
+    In a worker, also ``threads`` native threads per world: parallelism comes from the workers; results do not
+    depend on it.
+    """
     preset = _load_preset_once(str(params["preset"]))
     world = preset.world
     if params.get("human_model") is not None:
@@ -66,10 +69,13 @@ def policy_overrides(params: dict[str, Any]) -> dict[str, Any]:
 def build_job_policy(
     params: dict[str, Any], preset: Preset, checkpoint: str | None, threads: int | None = None
 ):
-    """The job's policy. ``threads`` (in a worker): the native threads of a policy that has them
-    (linear, ORCA, social force), unless the job sets them. Without it such a policy would start a
-    thread per core in every worker, and on a machine whose cores the workers already fill, each of
-    its calls would wake a thread that has no core to run on (results do not depend on it)."""
+    """The job's policy.
+
+    ``threads`` (in a worker): the native threads of a policy that has them (linear, ORCA, social force),
+    unless the job sets them. Without it such a policy would start a thread per core in every worker, and on a
+    machine whose cores the workers already fill, each of its calls would wake a thread that has no core to
+    run on (results do not depend on it).
+    """
     from socialnav.policies.base import get_policy_entry
     from socialnav.policies.loading import build_policy
 
@@ -150,9 +156,12 @@ def conclude_job(
     label: str,
     stamp: str,
 ) -> dict[str, Any]:
-    """An evaluation job's conclusion (summary rows, tables) from its chunk files' bytes, in cell and
-    index order: what ``socialnav evaluate`` writes when a run ends, computed here so that the driver
-    only stores the files (its serial share stays small however many workers there are)."""
+    """An evaluation job's conclusion (summary rows, tables) from its chunk files' bytes.
+
+    Chunks are taken in cell and index order: what ``socialnav evaluate`` writes when a run ends, computed
+    here so that the driver only stores the files (its serial share stays small however many workers there
+    are).
+    """
     import warnings
 
     from socialnav._runtime import one_blas_thread_for_good
@@ -173,8 +182,10 @@ def conclude_job(
 
 
 def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int) -> dict[str, Any]:
-    """Runs (or resumes, from ``last.pt``) one training job of a sweep into ``out_dir`` (``_payload``:
-    unused, every task takes one)."""
+    """Run (or resume, from ``last.pt``) one training job of a sweep into ``out_dir``.
+
+    ``_payload`` is unused; every task takes one.
+    """
     from socialnav.train.config import resolve_train_settings
     from socialnav.train.trainer import train
 

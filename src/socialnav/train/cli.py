@@ -8,6 +8,7 @@ from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_
 
 
 def add_train_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``train`` subcommand to ``sub``."""
     tr = sub.add_parser(
         "train",
         help="train a learned policy (value-based: imitation from ORCA, then RL; crowdnav_pp: PPO)",

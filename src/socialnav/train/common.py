@@ -1,5 +1,8 @@
-"""Pieces shared by the training phases: optimizers and their saved state, progress bars, the
-validation order, and the check that a run directory holds this run."""
+"""Pieces shared by the training phases.
+
+Optimizers and their saved state, progress bars, the validation order, and the check that a run directory
+holds this run.
+"""
 
 from __future__ import annotations
 
@@ -16,6 +19,16 @@ from socialnav.train.config import resume_diff
 
 
 def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optimizer:
+    """Adam over ``params`` with learning rate ``lr``: the fused kernel where ``device`` has it.
+
+    Args:
+        params: The parameters to optimise.
+        lr: The learning rate.
+        device: Where the parameters live.
+
+    Returns:
+        ``torch.optim.Adam(fused=True)``, or the default implementation where fused is refused.
+    """
     params = list(params)
     try:  # fused Adam: one kernel for all parameters (2-3x faster steps for these small networks)
         return torch.optim.Adam(params, lr=lr, fused=True)
@@ -24,10 +37,12 @@ def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optim
 
 
 def compile_loss(loss: Callable[[torch.Tensor], torch.Tensor], device: torch.device):
-    """``torch.compile`` of a minibatch loss of index tensors (training setting ``compile``): static
-    shapes (one graph per minibatch size) and, on CPU, Inductor's C++ wrapper, which calls the graph's
-    kernels from C++ instead of Python: ≈ 30 % less time per call on the 2-core VM, at no extra
-    compile time (docs/training.md, "Compiled training")."""
+    """``torch.compile`` of a minibatch loss of index tensors (training setting ``compile``).
+
+    Static shapes (one graph per minibatch size) and, on CPU, Inductor's C++ wrapper, which calls the graph's
+    kernels from C++ instead of Python: ≈ 30 % less time per call on the 2-core VM, at no extra compile time
+    (docs/training.md, "Compiled training").
+    """
     options = {"cpp_wrapper": True} if device.type == "cpu" else {}
     return torch.compile(loss, dynamic=False, options=options)
 
@@ -78,6 +93,7 @@ class AdamSteps:
         self._exp_avg_sqs: list[torch.Tensor] = []
 
     def zero_grad(self) -> None:
+        """Drop every parameter's gradient (``None``, as ``zero_grad(set_to_none=True)``)."""
         for p in self.params:
             p.grad = None
 
@@ -90,6 +106,11 @@ class AdamSteps:
         self._state = state
 
     def step(self) -> None:
+        """One Adam step: the fused kernel on the cached state, else ``optimizer.step()``.
+
+        The optimizer's own step runs where the fast path does not apply: the first step (which creates the
+        state), a parameter without gradient, or settings the fused kernel does not take.
+        """
         state = self.optimizer.state
         grads = [p.grad for p in self.params]
         if not self.fast or len(state) < len(self.params) or any(g is None for g in grads):
@@ -121,9 +142,11 @@ class AdamSteps:
 
 
 def shared_step_counters(per_param: list[dict[str, Any]]) -> torch.Tensor:
-    """Replaces each parameter's Adam ``step`` counter (a 0-d tensor) by a 0-d view of one stacked
-    tensor with the same values, and returns that tensor: one add advances every counter, and the
-    optimizer's state (saved, loaded, stepped by ``optimizer.step()``) holds the views as before."""
+    """Make every Adam ``step`` counter a 0-d view of one stacked tensor, and return that tensor.
+
+    The views keep the counters' values: one add advances every counter, and the optimizer's state (saved,
+    loaded, stepped by ``optimizer.step()``) holds the views as before.
+    """
     steps = torch.stack([s["step"].detach() for s in per_param])
     for i, s in enumerate(per_param):
         s["step"] = steps[i]
@@ -131,11 +154,13 @@ def shared_step_counters(per_param: list[dict[str, Any]]) -> torch.Tensor:
 
 
 def optimizer_state(opt: torch.optim.Optimizer) -> dict[str, Any]:
+    """The optimizer's ``state_dict`` with string keys (as saved in checkpoints)."""
     sd = opt.state_dict()
     return {"state": {str(k): v for k, v in sd["state"].items()}, "param_groups": sd["param_groups"]}
 
 
 def load_optimizer_state(opt: torch.optim.Optimizer, data: dict[str, Any]) -> None:
+    """Load a state saved by :func:`optimizer_state` into ``opt``."""
     groups = []
     for g in data["param_groups"]:
         g = dict(g)
@@ -146,6 +171,7 @@ def load_optimizer_state(opt: torch.optim.Optimizer, data: dict[str, Any]) -> No
 
 
 def progress_bar(total: int, initial: int, desc: str, enabled: bool):
+    """A tqdm progress bar of ``total`` items from ``initial``, disabled unless ``enabled``."""
     from tqdm.auto import tqdm
 
     return tqdm(
@@ -189,8 +215,10 @@ def _dotted(data: Any, key: str) -> Any:
 
 
 def reward_config(world: Any) -> dict[str, float]:
-    """The reward constants a checkpoint records for ``world`` (a preset's WorldSettings), as the
-    evaluator compares them (policies/learned_entries.py)."""
+    """The reward constants a checkpoint records for ``world`` (a preset's WorldSettings).
+
+    They are what the evaluator compares (policies/learned_entries.py).
+    """
     return {
         "success_reward": world.reward.success_reward,
         "collision_penalty": world.reward.collision_penalty,

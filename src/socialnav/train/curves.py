@@ -1,5 +1,7 @@
-"""``curves.csv`` of a training run (appended; trimmed to the resumed episode) and optional
-TensorBoard scalars."""
+"""``curves.csv`` of a training run, and optional TensorBoard scalars.
+
+The CSV is appended to, and trimmed to the resumed episode on resumption.
+"""
 
 from __future__ import annotations
 
@@ -63,8 +65,10 @@ class Curves:
         columns: tuple[str, ...] = CURVE_COLUMNS,
         key: str = "episode",
     ) -> None:
-        """``columns``: the CSV's columns; ``key``: the counter rows are trimmed by on resumption
-        (``episode`` for the value-based trainer, ``update`` for PPO's rows of phase ``ppo``)."""
+        """``columns``: the CSV's columns; ``key``: the counter rows are trimmed by on resumption.
+
+        ``key`` is ``episode`` for the value-based trainer, ``update`` for PPO's rows of phase ``ppo``.
+        """
         self.path = path
         self.columns = columns
         self.dropped = 0  # damaged rows left out on resumption
@@ -90,6 +94,7 @@ class Curves:
             self.tb = None
 
     def write(self, row: dict[str, Any]) -> None:
+        """Append one row (missing or NaN values as empty cells) and its TensorBoard scalars."""
         def fmt(v: Any) -> str:
             if v is None or (isinstance(v, float) and math.isnan(v)):
                 return ""
@@ -109,6 +114,7 @@ class Curves:
             self.tb.flush()
 
     def close(self) -> None:
+        """Close the TensorBoard writer, if any."""
         if self.tb is not None:
             self.tb.close()
 

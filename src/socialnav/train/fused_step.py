@@ -53,8 +53,10 @@ _MEMORY_FIELDS = (
 
 
 class _Value(nn.Module):
-    """``network.value`` as a module's forward, so that ``torch.func.functional_call`` can run it
-    with parameters passed in."""
+    """``network.value`` as a module's forward.
+
+    So that ``torch.func.functional_call`` can run it with parameters passed in.
+    """
 
     def __init__(self, network: nn.Module) -> None:
         super().__init__()
@@ -65,9 +67,10 @@ class _Value(nn.Module):
 
 
 class FusedTDStep:
-    """``step(idx)``: one TD gradient step on memory slots ``idx`` — the loss of
-    ``train/rl.py: td_loss`` and Adam's update of ``optimizer``'s parameters — in one compiled
-    graph; returns the minibatch loss (before the update; a 0-d tensor, not synchronised).
+    """One compiled TD gradient step: ``step(idx)`` on memory slots ``idx``.
+
+    The loss of ``train/rl.py: td_loss`` and Adam's update of ``optimizer``'s parameters run in one compiled
+    graph; ``step`` returns the minibatch loss (before the update; a 0-d tensor, not synchronised).
 
     Build it with :meth:`build`, after the optimizer's state is loaded (a resume).
     """
@@ -127,8 +130,10 @@ class FusedTDStep:
 
     @classmethod
     def build(cls, *args, **kwargs) -> tuple[FusedTDStep | None, str | None]:
-        """``(step, None)``, or ``(None, reason)`` where the network's value does not trace into
-        one graph (arguments: those of the constructor)."""
+        """``(step, None)``, or ``(None, reason)`` where the network's value does not trace into one graph.
+
+        The arguments are those of the constructor.
+        """
         step = cls(*args, **kwargs)
         try:
             step._compile()
@@ -138,10 +143,12 @@ class FusedTDStep:
         return step, None
 
     def _ensure_state(self) -> None:
-        """Creates Adam's state as ``torch.optim.Adam(fused=True)`` does on its first step (zero
-        moments, a float32 step counter per parameter), if it has none yet, and gathers the graph's
-        inputs. The step counters become 0-d views of one tensor (``shared_step_counters``, as for
-        ``AdamSteps``), so the graph updates them with one add."""
+        """Create Adam's state if it has none yet, and gather the graph's inputs.
+
+        The state is what ``torch.optim.Adam(fused=True)`` creates on its first step (zero moments, a float32
+        step counter per parameter). The step counters become 0-d views of one tensor
+        (``shared_step_counters``, as for ``AdamSteps``), so the graph updates them with one add.
+        """
         state = self.optimizer.state
         for p in self._params:
             if p not in state or not state[p]:
@@ -237,8 +244,11 @@ class FusedTDStep:
         return [*self._inputs[:n_p], *self._inputs[at:]]
 
     def _record_cuda_graph(self) -> None:
-        """Records one compiled step as a CUDA graph over fixed input addresses (the step's inputs
-        are the run's own tensors, updated in place; the indices are copied into ``_graph_idx``)."""
+        """Record one compiled step as a CUDA graph over fixed input addresses.
+
+        The step's inputs are the run's own tensors, updated in place; the indices are copied into
+        ``_graph_idx``.
+        """
         idx = torch.zeros(self.batch_size, dtype=torch.long, device=self.memory.device)
         mutated = self._mutated_inputs()
         saved = [t.clone() for t in mutated]
@@ -259,6 +269,14 @@ class FusedTDStep:
     # -- the step -------------------------------------------------------------------------------------
 
     def __call__(self, idx: torch.Tensor) -> torch.Tensor:
+        """One fused gradient step on memory slots ``idx`` (batch_size,) int64.
+
+        Returns:
+            The minibatch loss before the update (a 0-d tensor, not synchronised).
+
+        Raises:
+            ValueError: ``idx`` has another shape than the step was compiled for.
+        """
         if idx.shape != (self.batch_size,):
             raise ValueError(
                 f"the fused step was compiled for {self.batch_size} indices, got {tuple(idx.shape)}"

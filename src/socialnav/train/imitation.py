@@ -134,8 +134,10 @@ def collect_demonstrations(
 
 
 def save_demonstrations(path, demos: Demonstrations, config_json: str) -> None:
-    """Writes the demonstrations atomically (float32, as the regression uses them) with the run's
-    config, so that a resumed imitation reuses them instead of collecting again."""
+    """Write the demonstrations atomically (float32, as the regression uses them) with the run's config.
+
+    So that a resumed imitation reuses them instead of collecting again.
+    """
     from socialnav._io import atomic_write
 
     def write(tmp: str) -> None:
@@ -233,8 +235,9 @@ def fit_predictor(
     generator: torch.Generator,
     device: torch.device | str = "cpu",
 ) -> list[float]:
-    """Supervised training (position MSE) of the state predictor on the demonstrations' human
-    transitions (s → s'), as RGL trains its state predictor during imitation learning.
+    """Fit the state predictor on the demonstrations' human transitions (s → s').
+
+    Supervised, position MSE, as RGL trains its state predictor during imitation learning.
 
     Returns:
         Mean loss per epoch [m²].
@@ -274,9 +277,11 @@ def _epochs(
     what: str,
     on_epoch: Callable[[int, float], None] | None = None,
 ) -> list[float]:
-    """Minibatch epochs over ``m`` samples in a fresh permutation each (from ``generator``): one
-    optimizer step per ``batch_loss(indices)``; returns the mean loss per epoch. A non-finite loss
-    raises FloatingPointError naming ``what`` and the epoch."""
+    """Minibatch epochs over ``m`` samples, each in a fresh permutation from ``generator``.
+
+    One optimizer step per ``batch_loss(indices)``; returns the mean loss per epoch. A non-finite loss raises
+    FloatingPointError naming ``what`` and the epoch.
+    """
     losses = []
     adam = AdamSteps(optimizer)  # optimizer.step() without its per-call Python, bit-identical
     for epoch in epochs:

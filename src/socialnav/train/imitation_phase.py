@@ -1,5 +1,7 @@
-"""The imitation phase of a training run: ORCA demonstrations, the value fit and (information
-``learned``) the state predictor's fit, resumable per epoch."""
+"""The imitation phase of a training run, resumable per epoch.
+
+ORCA demonstrations, the value fit and (information ``learned``) the state predictor's fit.
+"""
 
 from __future__ import annotations
 
@@ -36,12 +38,14 @@ def run_imitation(
     predictor=None,
     predictor_opt=None,
 ) -> tuple[float, list[float]]:
-    """Imitation learning, resumable: the demonstrations are kept in ``il_demos.npz`` once collected,
-    and ``il_state.pt`` holds the network, optimizer and sampling generator after every epoch. A
-    complete ``il.pt`` is reused as it is. With a state predictor (information ``learned``), it is
-    fitted on the demonstrations' human transitions after the value network (as RGL does during
-    imitation), in one block: a kill during that block repeats only the predictor's fit.
-    Returns the last epoch's value loss and the predictor's losses per epoch."""
+    """Imitation learning, resumable.
+
+    The demonstrations are kept in ``il_demos.npz`` once collected, and ``il_state.pt`` holds the network,
+    optimizer and sampling generator after every epoch. A complete ``il.pt`` is reused as it is. With a state
+    predictor (information ``learned``), it is fitted on the demonstrations' human transitions after the value
+    network (as RGL does during imitation), in one block: a kill during that block repeats only the
+    predictor's fit. Returns the last epoch's value loss and the predictor's losses per epoch.
+    """
     from socialnav.policies.learned import load_checkpoint, save_checkpoint
     from socialnav.policies.learned.registry import canonical_name
     from socialnav.policies.native import NativePolicy

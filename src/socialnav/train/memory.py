@@ -78,8 +78,11 @@ class ReplayMemory:
     def push(
         self, robot, humans, mask, reward, next_robot, next_humans, next_mask, done, target=None
     ) -> None:
-        """Appends k transitions (arrays with a leading dimension k; NumPy or torch); ``target``: value
-        targets fixed now (the RGL repository's rule), or None (computed at each gradient step)."""
+        """Append k transitions (arrays with a leading dimension k; NumPy or torch).
+
+        ``target``: value targets fixed now (the RGL repository's rule), or None (computed at each gradient
+        step).
+        """
         if target is None:
             target = torch.full((int(np.shape(reward)[0]),), float("nan"))
         arrays = [
@@ -128,8 +131,10 @@ class ReplayMemory:
         return self.take(self.sample_indices(batch_size, generator))
 
     def sample_indices(self, batch_size: int, generator: torch.Generator) -> torch.Tensor:
-        """The slots :meth:`sample` would take (on the memory's device): the same draw, so that a
-        caller may gather the transitions itself (e.g. inside a compiled loss)."""
+        """The slots :meth:`sample` would take (on the memory's device).
+
+        The same draw, so that a caller may gather the transitions itself (e.g. inside a compiled loss).
+        """
         if self.size == 0:
             raise ValueError("cannot sample from an empty replay memory")
         if generator is None:
@@ -140,6 +145,7 @@ class ReplayMemory:
         return idx.to(self.device)
 
     def take(self, idx: torch.Tensor) -> Transitions:
+        """The transitions at slots ``idx`` (a gather on the memory's device)."""
         return Transitions(
             self.robot[idx],
             self.humans[idx],

@@ -45,7 +45,7 @@ def td_targets(
     dt: float,
     v_pref: torch.Tensor,
 ) -> torch.Tensor:
-    """y = r + γ^(dt·v_pref) · V(s') · (1 − done)  (done: terminal only; truncations bootstrap)."""
+    """Y = r + γ^(dt·v_pref) · V(s') · (1 − done)  (done: terminal only; truncations bootstrap)."""
     disc = torch.pow(
         torch.as_tensor(gamma, dtype=reward.dtype, device=reward.device), dt * v_pref.to(reward.dtype)
     )
@@ -67,8 +67,11 @@ def td_loss(
     dt: float,
     fixed_targets: bool = False,
 ) -> torch.Tensor:
-    """MSE between V(s) and the TD target computed now with the target network, or, with
-    ``fixed_targets`` (rl.td_targets: rgl_repo), the target stored with the transition."""
+    """MSE between V(s) and the TD target.
+
+    The target is computed now with the target network, or, with ``fixed_targets`` (rl.td_targets: rgl_repo),
+    the one stored with the transition.
+    """
     if fixed_targets:
         y = batch.target
     else:
@@ -118,9 +121,11 @@ class EpisodeStats:
 
     @property
     def total(self) -> int:
+        """The number of finished episodes."""
         return self.success + self.collision + self.timeout
 
     def rates(self) -> dict[str, float]:
+        """Outcome rates (0 when none finished) and the mean navigation time of successes [s] (NaN: none)."""
         n = max(self.total, 1)
         return {
             "success": self.success / n,
@@ -137,6 +142,15 @@ class EpisodeStats:
         time: np.ndarray,
         success_reward: float,
     ) -> None:
+        """Count the episodes that finished in one step.
+
+        Args:
+            terminated: (B,) bool, episodes that ended by success or collision.
+            truncated: (B,) bool, episodes that ran out of time.
+            reward: (B,) float rewards of the step.
+            time: (B,) float episode times [s].
+            success_reward: The reward of reaching the goal (tells success from collision).
+        """
         succ = terminated & np.isclose(reward, success_reward)
         self.success += int(succ.sum())
         self.collision += int((terminated & ~succ).sum())
@@ -145,8 +159,10 @@ class EpisodeStats:
 
 
 def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> dict[str, float]:
-    """Greedy rollouts of every episode of ``world`` (a finite val stream): success, collision and
-    timeout rates and the mean navigation time of successes."""
+    """Greedy rollouts of every episode of ``world`` (a finite val stream).
+
+    Returns success, collision and timeout rates and the mean navigation time of successes.
+    """
     world.reset()
     stats = EpisodeStats()
     encode = getattr(policy, "encode", None)  # a value policy's obstacle points (the PPO actor has none)
@@ -165,8 +181,10 @@ def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> 
 
 
 def encoded_step(policy, res):
-    """``res`` (a MultiStep) with the policy's obstacle points appended to the states after the step
-    (``final_humans``/``final_mask``; each episode's own map, also where the slot was refilled)."""
+    """``res`` (a MultiStep) with the policy's obstacle points appended to the states after the step.
+
+    Appended to ``final_humans``/``final_mask``; each episode's own map, also where the slot was refilled.
+    """
     if getattr(policy, "obstacle_encoding", None) is None:
         return res
     humans, mask = policy.encode_arrays(res.final_robot, res.final_humans, res.final_mask, res.final_maps)
@@ -191,8 +209,9 @@ def push_step(memory: ReplayMemory, obs, res) -> None:
 
 
 class RGLRepoEpisodes:
-    """The RGL repository's storage rule (``rl.td_targets: rgl_repo`` and ``rgl_repo_final``), for
-    lockstep collection.
+    """The RGL repository's storage rule, for lockstep collection.
+
+    Used with ``rl.td_targets: rgl_repo`` and ``rgl_repo_final``.
 
     Its explorer (``crowd_nav/utils/explorer.py``, Chen et al., "Relational Graph Learning for Crowd
     Navigation", IROS 2020) keeps an episode's transitions until it ends, stores nothing of an episode

@@ -88,6 +88,7 @@ def write_gif(
 
 
 def ffmpeg_path() -> str | None:
+    """The ffmpeg to use: ``$SOCIALNAV_FFMPEG``, else the one on PATH, else None."""
     return os.environ.get("SOCIALNAV_FFMPEG") or shutil.which("ffmpeg")
 
 

@@ -11,6 +11,7 @@ FORMATS = ("png", "svg", "gif", "mp4", "html")
 
 
 def add_viz_parsers(sub: argparse._SubParsersAction) -> None:
+    """Add the ``render`` and ``report`` subcommands to ``sub``."""
     rd = sub.add_parser(
         "render",
         help="draw one episode: plot (png/svg), animation (gif/mp4) or a viewer page (html)",

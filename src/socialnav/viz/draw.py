@@ -42,6 +42,7 @@ def draw_static_map(ax, smap) -> None:
 
 
 def agent_colour(agent: int) -> str:
+    """Agent ``agent``'s colour: the robot's (agent 0), else one of a cycle of human colours."""
     return ROBOT_EDGE if agent == 0 else _HUMAN_COLOURS[(agent - 1) % len(_HUMAN_COLOURS)]
 
 
@@ -85,7 +86,9 @@ def plot_trajectory(
         overlays: Metric geometry to add (see :mod:`socialnav.viz.geometry`).
         every: Steps between stamped discs (default: about eight stamps on round times).
         title: Axes title (default: the episode id, outcome and duration).
-        eps, tau: M_I threshold [m] and M_II horizon [s] of the overlays.
+        eps: M_I's threshold ε [m] of the overlays.
+        tau: M_II's time horizon τ [s] of the overlays.
+        size_px: (width, height) of the figure [px].
 
     Returns:
         A matplotlib Figure on the Agg canvas (save it with ``fig.savefig("x.png")`` or ``.svg``).
@@ -196,6 +199,7 @@ def plot_trajectory(
 
 
 def describe_episode(traj: Trajectory) -> str:
+    """One line naming an episode: policy, episode id, outcome and duration [s]."""
     ep = traj.settings.get("episode", "")
     policy = traj.settings.get("policy")
     who = f"{policy} · " if policy else ""
@@ -301,9 +305,11 @@ class FrameRenderer:
 
     @staticmethod
     def n_samples_of(traj: Trajectory) -> int:
+        """Samples S of ``traj`` as drawn: main samples plus the continuation's."""
         return traj.positions.shape[0] + (0 if traj.continuation is None else traj.continuation.shape[0])
 
     def frame(self, k: int) -> np.ndarray:
+        """Draw sample ``k`` (moving the artists) and return the frame: (H, W, 3) uint8."""
         v, traj = self.view, self.traj
         pos = v.positions
         for a in range(traj.n_agents):

@@ -1,5 +1,7 @@
-"""The Gymnasium env's viewer: a frame is the same drawing as an episode animation's
-(viz.draw.FrameRenderer) of the episode so far; ``human`` mode shows it in a matplotlib window.
+"""The Gymnasium env's viewer.
+
+A frame is the same drawing as an episode animation's (viz.draw.FrameRenderer) of the episode so far;
+``human`` mode shows it in a matplotlib window.
 
 Registered with :func:`socialnav.sim.env_render.register_viewer` by the package root, so that the
 simulator never imports this package (docs/internals.md, "Layers").
@@ -27,6 +29,7 @@ class EnvViewer:
         return renderer.frame(trajectory.n_steps)
 
     def show(self, trajectory: Any, fps: float) -> None:
+        """Show the episode drawn at its last sample in a matplotlib window, paced at ``fps``."""
         import matplotlib.pyplot as plt
 
         image = self.frame(trajectory)
@@ -40,6 +43,7 @@ class EnvViewer:
         plt.pause(1.0 / fps)
 
     def close(self) -> None:
+        """Close the window, if one is open."""
         if self._window is not None:
             import matplotlib.pyplot as plt
 

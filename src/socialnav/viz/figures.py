@@ -216,6 +216,7 @@ def save_figure(fig, stem: str | Path, formats: Sequence[str] = ("png", "svg"), 
 
 
 def figure_png_bytes(fig, dpi: int = 100) -> bytes:
+    """``fig`` rendered as PNG bytes at ``dpi``."""
     import io
 
     buf = io.BytesIO()

@@ -68,9 +68,11 @@ class EpisodeView:
 
     @property
     def n_samples(self) -> int:
+        """The number of samples S drawn (main samples, then continuation samples)."""
         return self.positions.shape[0]
 
     def time(self, k: int) -> float:
+        """The time [s] of sample ``k``: k·dt."""
         return k * self.traj.dt
 
 
@@ -125,8 +127,10 @@ WALL_CONTEXT = 2.0
 
 
 def scene_bounds(traj: Trajectory, margin: float = 0.6) -> tuple[float, float, float, float]:
-    """(xmin, xmax, ymin, ymax) [m] holding every sample, goal and disc, with a margin, and the
-    walls of the static map within ``WALL_CONTEXT`` of that."""
+    """(xmin, xmax, ymin, ymax) [m] holding every sample, goal and disc, with a margin.
+
+    Also the walls of the static map within ``WALL_CONTEXT`` of that.
+    """
     pts = [traj.positions.reshape(-1, 2), traj.goals]
     if traj.continuation is not None:
         pts.append(traj.continuation.reshape(-1, 2))

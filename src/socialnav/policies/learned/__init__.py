@@ -1,6 +1,8 @@
-"""Learned navigation policies (PyTorch): the value-based CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL,
-RGL and model-predictive RGL (with the learned state predictor), and CrowdNav++'s attention-graph
-actor-critic trained with PPO (``crowdnav_pp``), with a plain MLP actor-critic beside it (``ppo_mlp``).
+"""Learned navigation policies (PyTorch).
+
+The value-based CADRL, LSTM-RL (GA3C-CADRL-style), SARL, OM-SARL, RGL and model-predictive RGL (with the
+learned state predictor), and CrowdNav++'s attention-graph actor-critic trained with PPO (``crowdnav_pp``),
+with a plain MLP actor-critic beside it (``ppo_mlp``).
 
 The policies themselves are named by their registration records (:mod:`socialnav.policies.learned_catalog`);
 :data:`LEARNED_POLICIES` maps each name to its network. See docs/policies_learned.md.

@@ -68,8 +68,10 @@ def robot_features(robot: torch.Tensor) -> torch.Tensor:
 def human_features(
     robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor, dt: float, steps: int
 ) -> torch.Tensor:
-    """(…, N, 2(1+steps)) each human's position relative to the robot now and at the next ``steps``
-    steps of constant-velocity extrapolation; zero in padded slots."""
+    """Each human's position relative to the robot, now and extrapolated: (…, N, 2(1+steps)).
+
+    The next ``steps`` steps use constant-velocity extrapolation; padded slots are zero.
+    """
     rel = humans[..., 0:2] - robot[..., None, 0:2]
     k = torch.arange(steps + 1, dtype=humans.dtype, device=humans.device) * dt  # 0, dt, …, K·dt
     pred = rel[..., None, :] + k[:, None] * humans[..., None, 2:4]  # (…, N, K+1, 2)
@@ -94,8 +96,10 @@ def _init(layer: nn.Linear, gain: float = math.sqrt(2.0)) -> nn.Linear:
 
 
 class _SelfAttention(nn.Module):
-    """Multi-head scaled dot-product self-attention over the real humans (Vaswani et al. 2017);
-    padded slots are neither attended to nor (their outputs are zeroed) attending."""
+    """Multi-head scaled dot-product self-attention over the real humans (Vaswani et al. 2017).
+
+    Padded slots are neither attended to nor (their outputs are zeroed) attending.
+    """
 
     def __init__(self, size: int, heads: int) -> None:
         super().__init__()
@@ -123,8 +127,10 @@ class _SelfAttention(nn.Module):
 
 
 class ObservationStatistics(nn.Module):
-    """Running mean and variance of the robot features and of the real humans' features (float64,
-    buffers: they travel with the checkpoint), and the normalisation they define."""
+    """Running mean and variance of the robot's and the real humans' features.
+
+    Float64 buffers (they travel with the checkpoint), and the normalisation they define.
+    """
 
     input_dim: int
     normalize_obs: bool
@@ -139,8 +145,10 @@ class ObservationStatistics(nn.Module):
 
     @torch.no_grad()
     def update_obs_stats(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> None:
-        """Folds a batch into the running mean/variance (Chan et al.'s parallel update); padded
-        human slots are left out."""
+        """Fold a batch into the running mean/variance (Chan et al.'s parallel update).
+
+        Padded human slots are left out.
+        """
         _fold(self.obs_count, self.robot_mean, self.robot_var, robot.reshape(-1, ROBOT_FEATURES))
         _fold(self.human_count, self.human_mean, self.human_var, humans[mask])
 
@@ -238,6 +246,7 @@ class AttnGraphNet(ObservationStatistics):
         self._init_obs_stats()
 
     def model_kwargs(self) -> dict:
+        """The constructor's keyword arguments, saved with the checkpoint to rebuild the network."""
         return dict(self._kwargs)
 
     # -- forward passes --------------------------------------------------------------------------
@@ -263,22 +272,27 @@ class AttnGraphNet(ObservationStatistics):
         return self.mean(self.actor(o)), self.value_head(self.critic(o)).squeeze(-1)
 
     def initial_state(self, batch: int, device: torch.device | str = "cpu") -> torch.Tensor:
+        """The GRU's initial hidden state: (batch, H) zeros on ``device``."""
         return torch.zeros(batch, self.gru_hidden, device=device)
 
     def step(self, robot, humans, mask, h, start) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """One time step for B episodes: ``h`` is zeroed where ``start`` (a new episode begins).
 
-        Returns (action mean (B, 2), value (B,), new h (B, H))."""
+        Returns (action mean (B, 2), value (B,), new h (B, H)).
+        """
         h = h * (~start)[:, None].to(h.dtype)
         h = self.gru(self.encode(robot, humans, mask), h)
         mean, value = self.heads(h)
         return mean, value, h
 
     def sequence(self, robot, humans, mask, h0, starts) -> tuple[torch.Tensor, torch.Tensor]:
-        """T steps of B episodes at once (training): robot (T, B, 9), humans (T, B, N, F), mask (T, B, N),
-        h0 (B, H), starts (T, B). The attention is batched over all T·B states; the GRU runs T steps.
+        """Run T steps of B episodes at once (training).
 
-        Returns action means (T, B, 2) and values (T, B)."""
+        Inputs: robot (T, B, 9), humans (T, B, N, F), mask (T, B, N), h0 (B, H), starts (T, B). The attention
+        is batched over all T·B states; the GRU runs T steps.
+
+        Returns action means (T, B, 2) and values (T, B).
+        """
         t, b = robot.shape[:2]
         x = self.encode(
             robot.reshape(t * b, -1), humans.reshape(t * b, *humans.shape[2:]), mask.reshape(t * b, -1)

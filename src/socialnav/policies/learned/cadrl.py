@@ -38,6 +38,7 @@ class CADRL(ValueNetwork):
         self.value_mlp = mlp(self.input_dim, self.mlp_dims)
 
     def model_kwargs(self) -> dict[str, object]:
+        """The constructor's keyword arguments, saved with the checkpoint to rebuild the network."""
         return {"input_dim": self.input_dim, "mlp_dims": list(self.mlp_dims)}
 
     def _value(self, self_state: torch.Tensor, joint: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:

@@ -190,8 +190,11 @@ def _describe(value: Any) -> str:
 
 
 def _require_finite_weights(path: Path, field: str, state_dict: dict) -> None:
-    """A network with a NaN or infinite weight scores every action NaN and picks one arbitrarily: its
-    evaluation would be a table of numbers with no meaning, so it is refused, naming the tensor."""
+    """Refuse a network with a NaN or infinite weight, naming the tensor.
+
+    Such a network scores every action NaN and picks one arbitrarily: its evaluation would be a table of
+    numbers with no meaning.
+    """
     for name, tensor in state_dict.items():
         if torch.is_tensor(tensor) and tensor.is_floating_point() and not bool(torch.isfinite(tensor).all()):
             bad = int((~torch.isfinite(tensor)).sum())

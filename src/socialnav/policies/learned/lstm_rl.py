@@ -66,6 +66,7 @@ class LSTMRL(ValueNetwork):
         self.mlp2 = mlp(SELF_DIM + self.lstm_hidden_dim, self.mlp2_dims)
 
     def model_kwargs(self) -> dict[str, object]:
+        """The constructor's keyword arguments, saved with the checkpoint to rebuild the network."""
         return {
             "input_dim": self.input_dim,
             "mlp1_dims": list(self.mlp1_dims),

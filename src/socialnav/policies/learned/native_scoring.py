@@ -103,8 +103,10 @@ def _attention_layers(
 
 
 def requested_kernel(kernel: str | None = None) -> str:
-    """The vector kernel asked for: ``kernel``, else ``$SOCIALNAV_SCORER_KERNEL``, else ``auto``;
-    a :class:`ScorerError` names an unknown one or one this CPU cannot run."""
+    """The vector kernel asked for: ``kernel``, else ``$SOCIALNAV_SCORER_KERNEL``, else ``auto``.
+
+    A :class:`ScorerError` names an unknown one or one this CPU cannot run.
+    """
     import os
 
     from socialnav import _core

@@ -84,6 +84,7 @@ class ValueNetwork(nn.Module):
     with_om: bool = False
 
     def model_kwargs(self) -> dict[str, object]:  # pragma: no cover - overridden
+        """The constructor's keyword arguments, saved with the checkpoint to rebuild the network."""
         raise NotImplementedError
 
     def value(self, joint_state: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
@@ -109,6 +110,7 @@ class ValueNetwork(nn.Module):
         return self._value(self_state, joint, mask)
 
     def forward(self, joint_state: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+        """State values (M,) of joint states (M, N, D) with mask (M, N): the same as :meth:`value`."""
         return self.value(joint_state, mask)
 
     def _value(self, self_state: torch.Tensor, joint: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:

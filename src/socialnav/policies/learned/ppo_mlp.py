@@ -62,9 +62,11 @@ class MLPActorCritic(ObservationStatistics):
         self._init_obs_stats()
 
     def model_kwargs(self) -> dict:
+        """The constructor's keyword arguments, saved with the checkpoint to rebuild the network."""
         return dict(self._kwargs)
 
     def initial_state(self, batch: int, device: torch.device | str = "cpu") -> torch.Tensor:
+        """A placeholder recurrent state, (batch, 1) zeros: the MLP keeps none between steps."""
         return torch.zeros(batch, 1, device=device)
 
     def flat_input(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:

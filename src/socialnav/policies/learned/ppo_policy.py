@@ -62,6 +62,14 @@ class RecurrentActorPolicy:
 
     @torch.no_grad()
     def act(self, observation: Observation) -> np.ndarray:
+        """Actions of the actor for B episodes, carrying its recurrent state between calls.
+
+        Args:
+            observation: The world's observation of B episodes.
+
+        Returns:
+            (B, 2) float64 robot velocities [m/s]: the mean action, or a sample where not deterministic.
+        """
         net = self.network
         b = observation.batch_size
         if self._h is None or self._h.shape[0] != b:
@@ -80,6 +88,7 @@ class RecurrentActorPolicy:
         return actions
 
     def describe(self) -> dict[str, Any]:
+        """The record stored with results: policy, information, checkpoint and network parameters."""
         return {
             "policy": self.name,
             "information": self.information,

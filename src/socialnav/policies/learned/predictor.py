@@ -64,6 +64,7 @@ class StatePredictor(nn.Module):
         nn.init.zeros_(last.bias)
 
     def model_kwargs(self) -> dict[str, object]:
+        """The constructor's keyword arguments, saved with the checkpoint to rebuild the network."""
         return {
             "robot_dims": list(self.robot_dims),
             "human_dims": list(self.human_dims),

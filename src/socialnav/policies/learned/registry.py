@@ -1,5 +1,6 @@
-"""The learned networks by policy name, read from the registration records
-(:mod:`socialnav.policies.learned_catalog`).
+"""The learned networks by policy name.
+
+Read from the registration records (:mod:`socialnav.policies.learned_catalog`).
 
 ``build(name, **kw)`` makes a fresh, randomly initialised network (seed torch beforehand).
 """

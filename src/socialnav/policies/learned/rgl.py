@@ -59,6 +59,7 @@ class RGL(ValueNetwork):
         self.value_mlp = mlp(self.graph.x_dim, self.value_dims)
 
     def model_kwargs(self) -> dict[str, object]:
+        """The constructor's keyword arguments, saved with the checkpoint to rebuild the network."""
         return {
             "input_dim": self.input_dim,
             "robot_dims": list(self.robot_dims),

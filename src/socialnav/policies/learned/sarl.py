@@ -74,6 +74,7 @@ class SARL(ValueNetwork):
         self.mlp3 = mlp(SELF_DIM + self.mlp2_dims[-1], self.mlp3_dims)
 
     def model_kwargs(self) -> dict[str, object]:
+        """The constructor's keyword arguments, saved with the checkpoint to rebuild the network."""
         return {
             "input_dim": self.input_dim,
             "mlp1_dims": list(self.mlp1_dims),

@@ -196,8 +196,10 @@ def reward(
 def _reward_from_clearance(
     clearance: torch.Tensor, mask: torch.Tensor, robot_next: torch.Tensor, params: RewardParams
 ) -> torch.Tensor:
-    """CrowdSim's reward from per-human clearances (…, N) and the robot's next state (…, 9):
-    collision, else success at the goal, else discomfort, else 0; padded humans ignored."""
+    """CrowdSim's reward from per-human clearances (…, N) and the robot's next state (…, 9).
+
+    Collision, else success at the goal, else discomfort, else 0; padded humans are ignored.
+    """
     clearance = torch.where(mask, clearance, torch.full_like(clearance, float("inf")))
     if clearance.shape[-1] > 0:
         dmin = clearance.amin(dim=-1)

@@ -200,18 +200,22 @@ class ValuePolicy:
 
     @property
     def num_actions(self) -> int:
+        """The number K of candidate actions (speeds × rotations, plus stopping)."""
         return num_actions(self.speed_samples, self.rotation_samples)
 
     @property
     def model_dtype(self) -> torch.dtype:
+        """The floating-point type of the network's parameters (float32 for a network without any)."""
         p = next(self.network.parameters(), None)
         return p.dtype if p is not None else torch.float32
 
     # ------------------------------------------------------------------ helpers
     def encode(self, obs: Any) -> Any:
-        """``obs`` with the obstacle encoding's point slots appended (``static_slots`` set; all
-        padded on an open floor) when this policy has an encoding; otherwise ``obs`` itself. An
-        observation already encoded, or given as a mapping, is returned as it is."""
+        """``obs`` with the obstacle encoding's point slots appended, when this policy has an encoding.
+
+        ``static_slots`` is set (all padded on an open floor); without an encoding ``obs`` itself is returned.
+        An observation already encoded, or given as a mapping, is returned as it is.
+        """
         if self.obstacle_encoding is None or isinstance(obs, Mapping) or _static_slots(obs):
             return obs
         walls = getattr(obs, "obstacles", None)
@@ -225,9 +229,11 @@ class ValuePolicy:
 
     def encode_arrays(self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray,
                       maps: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Raw state arrays (B, 9), (B, N, 5), (B, N) with the obstacle points of ``maps`` ((B,)
-        StaticMap or None each; None: open floors) appended (see :meth:`encode`); unchanged when this
-        policy has no encoding."""
+        """Raw state arrays with the obstacle points of ``maps`` appended.
+
+        Robot (B, 9), humans (B, N, 5) and mask (B, N); ``maps`` is (B,) StaticMap or None each (None: open
+        floors); see :meth:`encode`. Unchanged when this policy has no encoding.
+        """
         if self.obstacle_encoding is None:
             return humans, mask
         return append_obstacle_agents(robot, humans, mask, maps, self.obstacle_encoding)
@@ -267,8 +273,10 @@ class ValuePolicy:
         next_humans: torch.Tensor | None = None,
         static: int = 0,
     ) -> torch.Tensor:
-        """Humans' predicted next states (B, N, 5) under the information setting; the last
-        ``static`` slots (obstacle points) stay where they are."""
+        """Humans' predicted next states (B, N, 5) under the information setting.
+
+        The last ``static`` slots (obstacle points) stay where they are.
+        """
         if static and self.information != "oracle":
             moving = self.predict_humans(robot, humans[:, :-static], mask[:, :-static], dt)
             return torch.cat([moving, humans[:, -static:]], dim=1)
@@ -307,8 +315,11 @@ class ValuePolicy:
         mask: torch.Tensor,
         static: int,
     ) -> torch.Tensor:
-        """r̂ (B, K) of every candidate action; the last ``static`` slots are obstacle points, which
-        count for collisions only (the world's reward has no discomfort term for walls)."""
+        """r̂ (B, K) of every candidate action.
+
+        The last ``static`` slots are obstacle points, which count for collisions only (the world's reward has
+        no discomfort term for walls).
+        """
         n = humans.shape[1] - static
         h, hn, m = humans[:, :n], humans_next[:, :n], mask[:, :n]
         if self.reward_rule == "swept":
@@ -341,8 +352,11 @@ class ValuePolicy:
         nh: torch.Tensor | None,
         static: int = 0,
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """One-step lookahead from B states: q (B, K), actions (B, K, 2), r (B, K), discount (B, 1),
-        next robot states (B, K, 9) and predicted next human states (B, N, 5)."""
+        """One-step lookahead from B states.
+
+        Returns q (B, K), actions (B, K, 2) [m/s], r (B, K), discount (B, 1), next robot states (B, K, 9) and
+        predicted next human states (B, N, 5).
+        """
         b, n = humans.shape[:2]
         k = self.num_actions
         actions = discrete_actions(
@@ -392,8 +406,11 @@ class ValuePolicy:
         dt: float,
         static: int = 0,
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        """The top-w actions of each of M states by one-step value q (M, K), and their returns
-        r̂ + γ·V_depth(s') (M, w), the w successors of every state planned in one batched call."""
+        """The top-w actions of each of M states by one-step value q (M, K), and their returns.
+
+        Returns are r̂ + γ·V_depth(s') (M, w); the w successors of every state are planned in one batched
+        call.
+        """
         m, w = q.shape[0], min(self.planning_width, q.shape[1])
         top = q.topk(w, dim=1).indices  # (M, w)
         rn = robot_next.gather(1, top.unsqueeze(-1).expand(m, w, robot_next.shape[-1]))
