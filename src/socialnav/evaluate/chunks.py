@@ -18,7 +18,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from socialnav._io import atomic_write_rows_parquet, read_parquet_verified, rows_parquet_bytes
+from socialnav._io import (
+    atomic_write_bytes,
+    atomic_write_rows_parquet,
+    read_parquet_verified,
+    rows_parquet_bytes,
+)
 from socialnav.evaluate.plan import Cell
 
 #: Parquet metadata key of a chunk file: the fingerprint of the manifest of the run that wrote it.
@@ -97,6 +102,27 @@ def write_chunk(out: Path, cell: Cell, start: int, stop: int, rows: list[dict[st
         stamp: The run's manifest fingerprint (:func:`socialnav.evaluate.manifest.manifest_stamp`).
     """
     atomic_write_rows_parquet(chunk_path(out, cell, start, stop), rows, {CHUNK_STAMP_KEY: stamp})
+
+
+def store_chunk_files(
+    out: Path, cell: Cell, start: int, stop: int, episode_file: bytes, trajectory_file: bytes | None
+) -> None:
+    """Stores a chunk computed elsewhere (a sweep's worker), as :func:`write_chunk` would.
+
+    The trajectory file lands first: a chunk counts as done once its episode file exists
+    (:func:`chunk_done`).
+
+    Args:
+        out: The result directory.
+        cell: The chunk's cell.
+        start: Its first episode index.
+        stop: One past its last episode index.
+        episode_file: The episode file's bytes (:func:`chunk_file_bytes`).
+        trajectory_file: The trajectory file's bytes, or None when the run keeps no trajectories.
+    """
+    if trajectory_file is not None:
+        atomic_write_bytes(trajectory_path(out, cell, start, stop), trajectory_file)
+    atomic_write_bytes(chunk_path(out, cell, start, stop), episode_file)
 
 
 def chunk_file_bytes(rows: list[dict[str, Any]], stamp: str) -> bytes:

@@ -35,7 +35,6 @@ from typing import Any
 from socialnav import __version__
 from socialnav._io import (
     DirectoryLock,
-    atomic_write_bytes,
     atomic_write_json,
     atomic_write_text,
     file_sha256,
@@ -43,7 +42,7 @@ from socialnav._io import (
     remove_orphan_temporaries,
 )
 from socialnav._runtime import one_blas_thread
-from socialnav.evaluate.chunks import ResumeMismatchError, chunk_path, trajectory_path
+from socialnav.evaluate.chunks import ResumeMismatchError, chunk_path, store_chunk_files
 from socialnav.evaluate.execution import episode_progress, reissue_warnings, validate_cells
 from socialnav.evaluate.manifest import manifest_stamp, protocol_manifest, resume_directory
 from socialnav.evaluate.plan import plan_cells
@@ -246,9 +245,7 @@ def _run_evaluations(
                     say(f"{task.key}: FAILED: {result.message}")
                 else:
                     reissue_warnings(result["notes"])
-                    if result["trajectories"] is not None:
-                        atomic_write_bytes(trajectory_path(ev.dir, cell, a, b), result["trajectories"])
-                    atomic_write_bytes(chunk_path(ev.dir, cell, a, b), result["rows_parquet"])
+                    store_chunk_files(ev.dir, cell, a, b, result["rows_parquet"], result["trajectories"])
                     ev.chunk_bytes[(cell.key, a)] = result["rows_parquet"]
                     # logged after the chunk landed: a logged chunk is never computed again
                     _log_task(task_log, task, result)
