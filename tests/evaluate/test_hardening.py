@@ -20,7 +20,8 @@ from socialnav._io import (
 )
 from socialnav.cli import main
 from socialnav.config import ConfigError
-from socialnav.evaluate.runner import ResumeMismatchError, describe_differences, run_protocol
+from socialnav.evaluate.manifest import describe_differences
+from socialnav.evaluate.runner import ResumeMismatchError, run_protocol
 from socialnav.policies import make_policy
 from socialnav.presets import load_preset
 from socialnav.sim.settings import MAX_STEPS, MAX_THREADS, WorldSettings

@@ -7,7 +7,7 @@ import os
 import numpy as np
 import pytest
 
-import socialnav.evaluate.runner as runner_module
+import socialnav.evaluate.execution as execution_module
 from socialnav.evaluate.runner import ResumeMismatchError, run_protocol
 from socialnav.policies import make_policy
 from socialnav.presets import load_preset
@@ -67,7 +67,7 @@ def test_run_writes_every_result_file_and_consistent_rates(tmp_path, orca):
 
 def test_interrupted_run_resumes_without_recomputing(tmp_path, orca, monkeypatch):
     preset = small_preset()
-    real = runner_module.simulate_chunk
+    real = execution_module.simulate_chunk
     calls = {"n": 0}
 
     def flaky(*args, **kwargs):
@@ -76,7 +76,7 @@ def test_interrupted_run_resumes_without_recomputing(tmp_path, orca, monkeypatch
             raise KeyboardInterrupt  # killed in the middle of the third chunk
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(runner_module, "simulate_chunk", flaky)
+    monkeypatch.setattr(execution_module, "simulate_chunk", flaky)
     with pytest.raises(KeyboardInterrupt):
         run_protocol(
             orca, preset, tmp_path, scenarios=["circle_crossing"], visibility="invisible", progress=False
@@ -84,7 +84,7 @@ def test_interrupted_run_resumes_without_recomputing(tmp_path, orca, monkeypatch
     files = sorted((tmp_path / "episodes").rglob("*.parquet"))
     assert len(files) == 2 and not list(tmp_path.rglob("*.tmp"))  # finished chunks kept, no partial file
     stamps = {f: os.stat(f).st_mtime_ns for f in files}
-    monkeypatch.setattr(runner_module, "simulate_chunk", real)
+    monkeypatch.setattr(execution_module, "simulate_chunk", real)
     result = run_protocol(
         orca, preset, tmp_path, scenarios=["circle_crossing"], visibility="invisible", progress=False
     )

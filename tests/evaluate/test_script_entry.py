@@ -43,13 +43,14 @@ def test_guarded_script_still_scores_in_worker_processes(tmp_path):
     code = textwrap.dedent(
         """
         import dataclasses
+        import socialnav.evaluate.execution as execution
         import socialnav.evaluate.runner as runner
         from socialnav.policies import make_policy
         from socialnav.presets import load_preset
 
         pools = []
-        original = runner.scoring_pool
-        runner.scoring_pool = lambda n: pools.append(n) or original(n)
+        original = execution.scoring_pool
+        execution.scoring_pool = lambda n: pools.append(n) or original(n)
 
         if __name__ == "__main__":
             preset = load_preset("crowdnav")

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from socialnav.cli import main
+from socialnav.evaluate.execution import simulate_chunk
 from socialnav.evaluate.plan import plan_cells
 from socialnav.evaluate.replay import replay_episode
 from socialnav.evaluate.results import ResultsError, list_episodes, load_episode
-from socialnav.evaluate.runner import run_protocol, simulate_chunk
+from socialnav.evaluate.runner import run_protocol
 from socialnav.policies import make_policy
 from socialnav.presets import load_preset
 from socialnav.trajectory import write_trajectories

@@ -409,6 +409,28 @@ def test_a_damaged_chunk_fails_its_job_by_name_and_the_other_jobs_conclude(tmp_p
     assert damaged.stat().st_size == 100
 
 
+def test_a_foreign_chunk_refuses_its_job_by_name_and_the_other_jobs_conclude(tmp_path):
+    # The sweep decides what to resume exactly as `socialnav evaluate` does (evaluate.manifest): a
+    # chunk file that is not part of the job's run refuses that job before anything is computed.
+    preset = small_preset(tmp_path)
+    spec = parse_sweep(
+        {
+            "defaults": {"preset": preset, "episodes": 4, "scenarios": ["circle_crossing"]},
+            "grid": {"kind": "evaluate", "policy": ["linear", "orca"]},
+        }
+    )
+    foreign = tmp_path / "out/evaluate/orca/episodes/circle_crossing__invisible/00004-00008.parquet"
+    foreign.parent.mkdir(parents=True)
+    foreign.write_bytes(b"not this run's")
+    result = run_sweep(spec, tmp_path / "out", LocalExecutor(1), progress=False)
+    assert result.jobs["evaluate/linear"]["status"] == "done"
+    refused = result.jobs["evaluate/orca"]
+    assert refused["status"] == "failed" and str(foreign) in refused["error"]
+    assert "not part of this run" in refused["error"]
+    assert [f["job"] for f in result.failures] == ["evaluate/orca"]
+    assert not (foreign.parent / "00000-00004.parquet").exists()  # nothing computed for it
+
+
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM], ids=["SIGKILL", "SIGTERM"])
 def test_a_killed_driver_resumes_without_recomputing_or_duplicating(tmp_path, sig):
     preset = small_preset(tmp_path, chunk_size=25)

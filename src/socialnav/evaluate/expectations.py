@@ -30,8 +30,8 @@ def fingerprint(entry: Any) -> list[dict[str, Any]]:
 
     import torch
 
+    from socialnav.evaluate.execution import simulate_chunk
     from socialnav.evaluate.plan import plan_cells
-    from socialnav.evaluate.runner import simulate_chunk
     from socialnav.metrics import score_episode
     from socialnav.policies.loading import build_policy
     from socialnav.presets import load_preset

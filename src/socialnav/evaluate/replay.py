@@ -121,9 +121,9 @@ def replay_episode(results_dir: str | Path, episode_id: str) -> ReplayResult:
         ResultsError: Not a result directory, unknown episode, or a policy that cannot be rebuilt.
     """
     from socialnav.config import ConfigError, from_dict
+    from socialnav.evaluate.execution import episode_id as make_id
+    from socialnav.evaluate.execution import simulate_chunk
     from socialnav.evaluate.plan import Cell, _is_single_human
-    from socialnav.evaluate.runner import episode_id as make_id
-    from socialnav.evaluate.runner import simulate_chunk
     from socialnav.presets import Preset
 
     root = Path(results_dir)

@@ -35,13 +35,17 @@ from typing import Any
 from socialnav import __version__
 from socialnav._io import (
     DirectoryLock,
-    atomic_write_bytes,
     atomic_write_json,
     atomic_write_text,
+    file_sha256,
     make_output_dir,
     remove_orphan_temporaries,
 )
 from socialnav._runtime import one_blas_thread
+from socialnav.evaluate.chunks import ResumeMismatchError, chunk_path, store_chunk_files
+from socialnav.evaluate.execution import episode_progress, reissue_warnings, validate_cells
+from socialnav.evaluate.manifest import manifest_stamp, protocol_manifest, resume_directory
+from socialnav.evaluate.plan import plan_cells
 from socialnav.sweep.executors import Task, TaskFailed
 from socialnav.sweep.spec import TRAIN_REFERENCE, Job, SweepSpec, job_record
 from socialnav.sweep.tasks import build_job_policy, conclude_job, evaluate_chunk, job_preset, train_job
@@ -49,13 +53,23 @@ from socialnav.sweep.tasks import build_job_policy, conclude_job, evaluate_chunk
 
 @dataclass
 class SweepResult:
+    """What :func:`run_sweep` returns.
+
+    Attributes:
+        out_dir: The sweep's result directory.
+        summary: Every evaluation job's summary rows.
+        jobs: Each job's status by ``"<kind>/<name>"`` (as in ``jobs.json``).
+        failures: Every job or chunk that failed, with its error (as in ``failures.json``).
+    """
+
     out_dir: Path
     summary: list[dict[str, Any]]
-    jobs: dict[str, dict[str, Any]]  # "<kind>/<name>" -> status
+    jobs: dict[str, dict[str, Any]]
     failures: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
+        """Whether every job finished."""
         return not self.failures
 
 
@@ -93,7 +107,22 @@ def run_sweep(
     progress: bool = True,
     log: Callable[[str], None] | None = None,
 ) -> SweepResult:
-    """Runs (or resumes) every job of ``spec`` into ``out_dir`` on ``executor``."""
+    """Runs (or resumes) every job of ``spec`` into ``out_dir`` on ``executor``.
+
+    Args:
+        spec: The sweep's jobs.
+        out_dir: Its result directory (an existing one is resumed).
+        executor: Where tasks run (:class:`~socialnav.sweep.executors.LocalExecutor` or
+            :class:`~socialnav.sweep.executors.RayExecutor`).
+        progress: Show a progress bar on stderr.
+        log: Called with one line per event (a job started, finished or failed).
+
+    Returns:
+        The summary rows, each job's status and the failures.
+
+    Raises:
+        DirectoryLockedError: Another sweep is writing to ``out_dir``.
+    """
     out = Path(out_dir)
     say = log or (lambda line: None)
     make_output_dir(out)
@@ -166,13 +195,6 @@ def _run_training(spec, out, executor, statuses, failures, task_log, say) -> Non
 def _run_evaluations(
     spec, out, executor, statuses, failures, task_log, progress, say
 ) -> list[dict[str, Any]]:
-    from socialnav.evaluate.runner import (
-        chunk_path,
-        episode_progress,
-        reissue_warnings,
-        trajectory_path,
-    )
-
     jobs: list[_EvalJob] = []
     tasks: deque[Task] = deque()  # the executor takes tasks from it as it goes: conclusions join later
     summaries: dict[str, list[dict[str, Any]]] = {}
@@ -223,9 +245,7 @@ def _run_evaluations(
                     say(f"{task.key}: FAILED: {result.message}")
                 else:
                     reissue_warnings(result["notes"])
-                    if result["trajectories"] is not None:
-                        atomic_write_bytes(trajectory_path(ev.dir, cell, a, b), result["trajectories"])
-                    atomic_write_bytes(chunk_path(ev.dir, cell, a, b), result["rows_parquet"])
+                    store_chunk_files(ev.dir, cell, a, b, result["rows_parquet"], result["trajectories"])
                     ev.chunk_bytes[(cell.key, a)] = result["rows_parquet"]
                     # logged after the chunk landed: a logged chunk is never computed again
                     _log_task(task_log, task, result)
@@ -244,14 +264,14 @@ def _run_evaluations(
 
 
 def _queue_conclusion(ev: _EvalJob, tasks: deque[Task], statuses, failures, say) -> None:
-    """Queues the conclusion of a job whose chunks all came back, at the front; a job with a failed
-    chunk has none (it is marked failed)."""
+    """Queues the conclusion of a job whose chunks all came back, at the front.
+
+    A job with a failed chunk has none (it is marked failed).
+    """
     key = f"evaluate/{ev.job.name}"
     if ev.failed:
         _mark_failed(ev, f"{len(ev.failed)} chunk(s) failed (failures.json); rerun to retry them", statuses)
         return
-    from socialnav.evaluate.runner import chunk_path
-
     chunks = []
     try:
         for cell in ev.cells:
@@ -312,18 +332,6 @@ class _JobRefused(Exception):
 
 def _prepare(job: Job, out: Path) -> _EvalJob:
     """Builds the job's policy, writes or checks its manifest and lists the chunks still to compute."""
-    from socialnav._io import file_sha256
-    from socialnav.evaluate.plan import plan_cells
-    from socialnav.evaluate.runner import (
-        check_or_write_manifest,
-        chunk_done,
-        chunk_path,
-        manifest_stamp,
-        protocol_manifest,
-        refuse_foreign_chunks,
-        validate_cells,
-    )
-
     checkpoint = job.get("checkpoint")
     if checkpoint is not None and str(checkpoint).startswith(TRAIN_REFERENCE):
         trained = out / "train" / str(checkpoint)[len(TRAIN_REFERENCE) :] / "best.pt"
@@ -350,24 +358,15 @@ def _prepare(job: Job, out: Path) -> _EvalJob:
     make_output_dir(job_dir)
     lock = DirectoryLock(job_dir, "evaluation").__enter__()
     try:
-        remove_orphan_temporaries(job_dir)
-        from socialnav.evaluate.runner import ResumeMismatchError
-
         try:
-            check_or_write_manifest(job_dir, manifest)
+            plan = resume_directory(job_dir, manifest, cells, preset.evaluation.chunk_size, trajectories)
         except ResumeMismatchError as err:
             raise _JobRefused(str(err)) from None
-        chunk = preset.evaluation.chunk_size
-        expected = {chunk_path(job_dir, c, a, b): (c, a, b) for c in cells for a, b in c.chunks(chunk)}
-        refuse_foreign_chunks(job_dir, expected)
-        todo = [
-            (c, a, b) for (c, a, b) in expected.values() if not chunk_done(job_dir, c, a, b, trajectories)
-        ]
     except BaseException:
         lock.__exit__(None, None, None)
         raise
     return _EvalJob(
-        job, job_dir, policy, preset, checkpoint, cells, manifest_stamp(manifest), extra, todo, lock
+        job, job_dir, policy, preset, checkpoint, cells, manifest_stamp(manifest), extra, plan.todo, lock
     )
 
 

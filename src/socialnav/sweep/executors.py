@@ -22,8 +22,16 @@ from typing import Any
 
 @dataclass(frozen=True)
 class Task:
-    """One unit of work: ``fn(payload, *args)``. ``payload`` is shared by many tasks (a pickled
-    policy): Ray stores it once in its object store."""
+    """One unit of work: ``fn(payload, *args)``.
+
+    Attributes:
+        key: The task's name in logs and failures, unique in a sweep.
+        fn: A picklable module-level function.
+        args: Its arguments after ``payload`` (plain data).
+        payload: Bytes shared by many tasks (a pickled policy): Ray stores them once in its object
+            store.
+        meta: The caller's bookkeeping; never sent to a worker.
+    """
 
     key: str
     fn: Callable[..., Any]
@@ -34,6 +42,13 @@ class Task:
 
 @dataclass(frozen=True)
 class TaskFailed:
+    """The result of a task that could not be run.
+
+    Attributes:
+        message: Its error, on one line.
+        attempts: How many times it was run.
+    """
+
     message: str
     attempts: int
 
@@ -49,15 +64,35 @@ class LocalExecutor:
     name = "local"
 
     def __init__(self, workers: int | None = None, retries: int = 3) -> None:
+        """Describes the pool; no process starts before :meth:`run`.
+
+        Args:
+            workers: Worker processes (default: one per core).
+            retries: Times a task whose worker died is run again, alone.
+        """
         self.workers = max(1, workers or (os.cpu_count() or 1))
         self.retries = retries
 
     def describe(self) -> dict[str, Any]:
+        """The executor's settings, as recorded in ``sweep.json``.
+
+        Returns:
+            Its name, workers and retries.
+        """
         return {"executor": self.name, "workers": self.workers, "retries": self.retries}
 
     def run(self, tasks: Iterable[Task]) -> Iterator[tuple[Task, Any]]:
-        """Tasks in flight when a worker dies are *suspects*: each is run again alone, so that a death
-        is charged to the task that caused it, never to the ones that shared the pool with it."""
+        """Runs the tasks on a pool of worker processes.
+
+        Tasks in flight when a worker dies are *suspects*: each is run again alone, so that a death
+        is charged to the task that caused it, never to the ones that shared the pool with it.
+
+        Args:
+            tasks: The tasks; a ``deque`` is consumed as it goes (the caller may add to it).
+
+        Yields:
+            ``(task, result)`` as tasks finish, a :class:`TaskFailed` as the result of one that failed.
+        """
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
@@ -185,9 +220,9 @@ def _snapshot(processes: dict[int, Any]) -> list[Any]:
     return []
 
 
-def _process_pool(workers: int):
+def _process_pool(workers: int) -> Any:
     # The evaluation runner's pool: forkserver workers that die with this process (socialnav/_runtime.py).
-    from socialnav.evaluate.runner import scoring_pool
+    from socialnav.evaluate.execution import scoring_pool
 
     return scoring_pool(workers)
 
@@ -208,6 +243,17 @@ class RayExecutor:
         retries: int = 3,
         cpus_per_task: float = 1,
     ) -> None:
+        """Describes the cluster; Ray is started or joined by :meth:`run`.
+
+        Args:
+            address: A Ray cluster's address (None: a Ray instance for this machine).
+            workers: CPUs of a Ray instance started here (default: all).
+            retries: Times Ray re-runs a task whose worker or node died.
+            cpus_per_task: CPUs each task asks for.
+
+        Raises:
+            RuntimeError: Ray is not installed.
+        """
         # No usage report to Ray's servers from a research tool's sweep (set the variable to 1 to send one).
         os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
         try:
@@ -222,6 +268,11 @@ class RayExecutor:
         self.cpus_per_task = cpus_per_task
 
     def describe(self) -> dict[str, Any]:
+        """The executor's settings, as recorded in ``sweep.json``.
+
+        Returns:
+            Its name, address, workers, retries and CPUs per task.
+        """
         return {
             "executor": self.name,
             "address": self.address,
@@ -231,6 +282,14 @@ class RayExecutor:
         }
 
     def run(self, tasks: Iterable[Task]) -> Iterator[tuple[Task, Any]]:
+        """Runs the tasks as Ray tasks (starting Ray here if it is not running).
+
+        Args:
+            tasks: The tasks; a ``deque`` is consumed as it goes (the caller may add to it).
+
+        Yields:
+            ``(task, result)`` as tasks finish, a :class:`TaskFailed` as the result of one that failed.
+        """
         import ray
 
         started_here = not ray.is_initialized()
@@ -279,11 +338,17 @@ class RayExecutor:
 
 
 def init_ray(address: str | None = None, cpus: int | None = None) -> None:
-    """Connects this process to the Ray cluster at ``address`` or, without one, starts a Ray instance
-    for this machine alone with ``cpus`` CPUs (default: all): on loopback, reachable from nowhere
-    else, its workers at normal priority (Ray's default, nice 15, lets any other process, this driver
-    included, starve the sweep's own work). No dashboard, no usage report to Ray's servers (set
-    ``RAY_USAGE_STATS_ENABLED=1`` to send one), no worker logs echoed to the driver."""
+    """Connects this process to a Ray cluster, or starts a Ray instance for this machine alone.
+
+    A Ray instance started here listens on loopback, reachable from nowhere else, its workers at
+    normal priority (Ray's default, nice 15, lets any other process, this driver included, starve the
+    sweep's own work). No dashboard, no usage report to Ray's servers (set
+    ``RAY_USAGE_STATS_ENABLED=1`` to send one), no worker logs echoed to the driver.
+
+    Args:
+        address: The cluster's address (None: start an instance here).
+        cpus: CPUs of an instance started here (default: all).
+    """
     import ray
 
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
@@ -298,7 +363,23 @@ def _call(fn: Callable[..., Any], payload: Any, *args: Any) -> Any:
     return fn(payload, *args)
 
 
-def make_executor(name: str, *, workers: int | None = None, retries: int = 3, address: str | None = None):
+def make_executor(
+    name: str, *, workers: int | None = None, retries: int = 3, address: str | None = None
+) -> LocalExecutor | RayExecutor:
+    """The executor ``socialnav sweep --executor`` names.
+
+    Args:
+        name: ``local`` or ``ray``.
+        workers: Worker processes (local) or CPUs of a Ray instance started here.
+        retries: Times a task whose worker died is run again.
+        address: A Ray cluster's address (ray only).
+
+    Returns:
+        The executor.
+
+    Raises:
+        ValueError: An unknown name, or an address for the local executor.
+    """
     if name == "local":
         if address is not None:
             raise ValueError("--address is for the ray executor (the local one runs on this machine)")

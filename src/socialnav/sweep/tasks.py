@@ -112,9 +112,9 @@ def evaluate_chunk(
     are rebuilt here from ``params``). The chunk's rows come back as the bytes of its Parquet file,
     stamped with the run's ``stamp`` (``rows_parquet``), so that the driver only stores them.
     """
-    from socialnav._io import rows_parquet_bytes
     from socialnav._runtime import one_blas_thread_for_good
-    from socialnav.evaluate.runner import CHUNK_STAMP_KEY, simulate_chunk, store_and_score
+    from socialnav.evaluate.chunks import chunk_file_bytes
+    from socialnav.evaluate.execution import simulate_chunk, store_and_score
 
     one_blas_thread_for_good()  # a worker (local or Ray): processes are the parallelism
     t0 = time.perf_counter()
@@ -141,7 +141,7 @@ def evaluate_chunk(
     else:
         rows, notes = store_and_score(trajs, cell, label, None)
     return {
-        "rows_parquet": rows_parquet_bytes(rows, {CHUNK_STAMP_KEY: stamp}),
+        "rows_parquet": chunk_file_bytes(rows, stamp),
         "notes": notes,
         "trajectories": traj_bytes,
         "where": where_am_i(),
