@@ -109,8 +109,9 @@ class EpisodeStream:
             k = min(k, self.stop - self.next_index)
         if k <= 0:
             return None
-        buffered = 0 if self._buffer is None else len(self._buffer) - self._buffer_pos
-        if buffered < k:
+        buffer = self._buffer
+        buffered = 0 if buffer is None else len(buffer) - self._buffer_pos
+        if buffer is None or buffered < k:
             n = max(k - buffered, self.chunk_size)
             if self.stop is not None:
                 n = min(n, self.stop - self._generated)
@@ -119,10 +120,12 @@ class EpisodeStream:
                 indices = np.asarray(self.index_map(indices), dtype=np.int64)
             fresh = self.scenario.generate(indices, episode_seeds(self.split, indices))
             self._generated += n
-            parts = [fresh] if buffered == 0 else [self._buffer.take(slice(self._buffer_pos, None)), fresh]
-            self._buffer = parts[0] if len(parts) == 1 else EpisodeBatch.concat(parts)
-            self._buffer_pos = 0
-        out = self._buffer.take(slice(self._buffer_pos, self._buffer_pos + k))
+            if buffer is None or buffered == 0:
+                buffer = fresh
+            else:
+                buffer = EpisodeBatch.concat([buffer.take(slice(self._buffer_pos, None)), fresh])
+            self._buffer, self._buffer_pos = buffer, 0
+        out = buffer.take(slice(self._buffer_pos, self._buffer_pos + k))
         self._buffer_pos += k
         self.next_index += k
         return out

@@ -51,6 +51,9 @@ __all__ = [
     "world_bytes",
 ]
 
+#: (robot, humans, human_mask, active, time): the arrays an Observation starts with, filled by the core.
+ObservationArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
 
 class World:
     """B episode slots of (1 robot + N humans) stepped in lockstep by the native core.
@@ -120,8 +123,13 @@ class World:
         self.episode_index = np.full(B, -1, dtype=np.int64)
         self.episode_seed = np.full(B, -1, dtype=np.int64)
         T = settings.history_length() if record else 0
-        hist = (np.zeros((B, T, A, 2)), np.zeros((B, T, A, 2)), np.zeros((B, T))) if record else (None,) * 3
-        self._recorder = Recorder(self, *hist, tags or {}) if record else None
+        # The core writes each step's sample into these histories (None: not recording).
+        hist: tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None] = (None, None, None)
+        self._recorder: Recorder | None = None
+        if record:
+            position_h, velocity_h, dmin_h = np.zeros((B, T, A, 2)), np.zeros((B, T, A, 2)), np.zeros((B, T))
+            self._recorder = Recorder(self, position_h, velocity_h, dmin_h, tags or {})
+            hist = (position_h, velocity_h, dmin_h)
         # The core steps these arrays in place: the World's state is what the core sees.
         state = (
             self.position, self.velocity, self.goal, self.radius, self.v_pref, self.mask, self.theta,
@@ -240,7 +248,7 @@ class World:
             return
         episodes = self.stream.take(len(slots))
         n = 0 if episodes is None else len(episodes.indices)
-        if n:
+        if episodes is not None and n:
             self._load(slots[:n], episodes)
         self.status[slots[n:]] = _core.STATUS_IDLE
         self.episode_index[slots[n:]] = -1
@@ -364,7 +372,7 @@ class World:
             obs = dataclasses.replace(obs, next_humans=nxt)
         return obs
 
-    def _observation_arrays(self, rows: int | None = None) -> tuple[np.ndarray, ...]:
+    def _observation_arrays(self, rows: int | None = None) -> ObservationArrays:
         """Fresh (robot, humans, human_mask, active, time) arrays of ``rows`` rows (B by default).
 
         The core fills them; fresh ones each time, since callers may keep an observation while the
@@ -428,7 +436,7 @@ class World:
             if n_done or observe:
                 final_obs, next_obs = self._refill_natively(n_done, final_observation, observe, done_slots)
         else:
-            if n_done:
+            if done_slots is not None:  # not None exactly when an episode ended (n_done)
                 if final_observation:
                     final_obs = self.observe().take(done_slots)
                 self._fill(done_slots)
@@ -458,7 +466,7 @@ class World:
             raise_on_failure(self.scenario, self._failure[: len(indices)], seeds)
         dt, kinematics = self.settings.dt, self.settings.kinematics
         walls = self.obstacles
-        final_walls = None if walls is None or final is None else walls.take(done_slots)
+        final_walls = None if walls is None or final is None or done_slots is None else walls.take(done_slots)
         if self._maps.custom and done_slots is not None:
             self._maps.restore_fixed(self._native(), done_slots)  # the new episodes have the fixed map
             walls = self.obstacles
