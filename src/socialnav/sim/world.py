@@ -8,8 +8,8 @@ and episodes never interact, an episode's trajectory is the same whatever the ba
 in.
 
 The World's parts live beside it: the stream (``episode_stream``), the step's report (``step_result``),
-the native configuration and size bounds (``world_config``). Their public names are importable from
-here too, as they always were.
+the native configuration and size bounds (``world_config``), the slots' static maps (``slot_maps``).
+The names users imported from here still are (``__all__``).
 """
 
 from __future__ import annotations
