@@ -29,8 +29,8 @@ namespace {
 template <typename T>
 T* checked(Array<T>& a, const char* name, size_t expected) {
   if (a.size() != expected)
-    throw std::invalid_argument(std::string(name) + ": expected " + std::to_string(expected) +
-                                " elements, got " + std::to_string(a.size()));
+    throw std::invalid_argument(std::string(name) + ": expected " + std::to_string(expected) + " elements, got " +
+                                std::to_string(a.size()));
   return a.data();
 }
 
@@ -63,8 +63,7 @@ bool observation_buffers(nb::object arrays, const char* name, size_t rows, int h
 void check_fits(const socialnav::ScenarioConfig& scenario, const socialnav::WorldConfig& world) {
   if (scenario.n_humans != world.agents - 1)
     throw std::invalid_argument("scenario n_humans " + std::to_string(scenario.n_humans) +
-                                " does not match the world's " + std::to_string(world.agents - 1) +
-                                " human slots");
+                                " does not match the world's " + std::to_string(world.agents - 1) + " human slots");
 }
 
 // Keeps the arrays alive for as long as the world points into them.
@@ -220,12 +219,11 @@ NB_MODULE(_core, m) {
   nb::class_<PyWorld>(m, "World")
       .def(
           "__init__",
-          [](PyWorld* self, const C& config, Array<double> position, Array<double> velocity,
-             Array<double> goal, Array<double> radius, Array<double> v_pref, Array<uint8_t> mask,
-             Array<double> theta, Array<int32_t> steps, Array<int8_t> status, Array<double> reward,
-             Array<double> dmin, Array<uint8_t> done, Array<int32_t> overlaps, Array<double> arrival,
-             Array<int32_t> end_step, nb::object hist_position, nb::object hist_velocity,
-             nb::object hist_dmin, nb::object pool, nb::object collision_kind) {
+          [](PyWorld* self, const C& config, Array<double> position, Array<double> velocity, Array<double> goal,
+             Array<double> radius, Array<double> v_pref, Array<uint8_t> mask, Array<double> theta, Array<int32_t> steps,
+             Array<int8_t> status, Array<double> reward, Array<double> dmin, Array<uint8_t> done,
+             Array<int32_t> overlaps, Array<double> arrival, Array<int32_t> end_step, nb::object hist_position,
+             nb::object hist_velocity, nb::object hist_dmin, nb::object pool, nb::object collision_kind) {
             const size_t B = static_cast<size_t>(config.batch);
             const size_t A = static_cast<size_t>(config.agents);
             const size_t T = static_cast<size_t>(config.history_len);
@@ -254,10 +252,10 @@ NB_MODULE(_core, m) {
             socialnav::ThreadPool* shared = pool.is_none() ? nullptr : nb::cast<socialnav::ThreadPool*>(pool);
             new (self) PyWorld();
             self->world = std::make_unique<socialnav::World>(config, buf, shared);
-            for (nb::handle h : {nb::cast(position), nb::cast(velocity), nb::cast(goal), nb::cast(radius),
-                                 nb::cast(v_pref), nb::cast(mask), nb::cast(theta), nb::cast(steps),
-                                 nb::cast(status), nb::cast(reward), nb::cast(dmin), nb::cast(done),
-                                 nb::cast(overlaps), nb::cast(arrival), nb::cast(end_step)})
+            for (nb::handle h :
+                 {nb::cast(position), nb::cast(velocity), nb::cast(goal), nb::cast(radius), nb::cast(v_pref),
+                  nb::cast(mask), nb::cast(theta), nb::cast(steps), nb::cast(status), nb::cast(reward), nb::cast(dmin),
+                  nb::cast(done), nb::cast(overlaps), nb::cast(arrival), nb::cast(end_step)})
               self->keep_alive.append(h);
             self->keep_alive.append(hist_position);
             self->keep_alive.append(hist_velocity);
@@ -266,11 +264,11 @@ NB_MODULE(_core, m) {
             self->keep_alive.append(collision_kind);
           },
           // State buffers are shared with Python: a converted copy would silently decouple them.
-          "config"_a, "position"_a.noconvert(), "velocity"_a.noconvert(), "goal"_a.noconvert(),
-          "radius"_a.noconvert(), "v_pref"_a.noconvert(), "mask"_a.noconvert(), "theta"_a.noconvert(),
-          "steps"_a.noconvert(), "status"_a.noconvert(), "reward"_a.noconvert(), "dmin"_a.noconvert(),
-          "done"_a.noconvert(), "overlaps"_a.noconvert(), "arrival"_a.noconvert(), "end_step"_a.noconvert(),
-          "hist_position"_a.none(), "hist_velocity"_a.none(), "hist_dmin"_a.none(), "pool"_a.none() = nb::none(),
+          "config"_a, "position"_a.noconvert(), "velocity"_a.noconvert(), "goal"_a.noconvert(), "radius"_a.noconvert(),
+          "v_pref"_a.noconvert(), "mask"_a.noconvert(), "theta"_a.noconvert(), "steps"_a.noconvert(),
+          "status"_a.noconvert(), "reward"_a.noconvert(), "dmin"_a.noconvert(), "done"_a.noconvert(),
+          "overlaps"_a.noconvert(), "arrival"_a.noconvert(), "end_step"_a.noconvert(), "hist_position"_a.none(),
+          "hist_velocity"_a.none(), "hist_dmin"_a.none(), "pool"_a.none() = nb::none(),
           "collision_kind"_a.none() = nb::none())
       .def(
           "step",
@@ -283,8 +281,8 @@ NB_MODULE(_core, m) {
           "actions"_a, "Advance every running episode by one step (GIL released).")
       .def(
           "step",
-          [](PyWorld& self, Array<double> actions, Array<double> reward, Array<bool> terminated,
-             Array<bool> truncated, Array<int8_t> outcome, Array<double> final_dmin, Array<int64_t> final_episode,
+          [](PyWorld& self, Array<double> actions, Array<double> reward, Array<bool> terminated, Array<bool> truncated,
+             Array<int8_t> outcome, Array<double> final_dmin, Array<int64_t> final_episode,
              Array<int64_t> episode_index, nb::object collision_kind) {
             const auto& c = self.world->config();
             const size_t B = static_cast<size_t>(c.batch);
@@ -319,8 +317,8 @@ NB_MODULE(_core, m) {
       .def(
           "refill_done",
           [](PyWorld& self, const socialnav::ScenarioConfig& scenario, Array<int64_t> indices, Array<int64_t> seeds,
-             Array<int64_t> episode_index, Array<int64_t> episode_seed, Array<int32_t> failure,
-             nb::object observation, nb::object final_observation) {
+             Array<int64_t> episode_index, Array<int64_t> episode_seed, Array<int32_t> failure, nb::object observation,
+             nb::object final_observation) {
             const auto& c = self.world->config();
             check_fits(scenario, c);
             const size_t B = static_cast<size_t>(c.batch);
@@ -338,14 +336,14 @@ NB_MODULE(_core, m) {
             const bool with_final =
                 observation_buffers(final_observation, "final_observation", done, c.agents - 1, final_obs);
             nb::gil_scoped_release release;
-            return self.world->refill_done(scenario, indices.data(), seeds.data(), static_cast<int>(count), index,
-                                           seed, f, with_obs ? &obs : nullptr, with_final ? &final_obs : nullptr);
+            return self.world->refill_done(scenario, indices.data(), seeds.data(), static_cast<int>(count), index, seed,
+                                           f, with_obs ? &obs : nullptr, with_final ? &final_obs : nullptr);
           },
-          "scenario"_a, "indices"_a, "seeds"_a, "episode_index"_a.noconvert(),
-          "episode_seed"_a.noconvert(), "failure"_a.noconvert(), "observation"_a.none() = nb::none(),
-          "final_observation"_a.none() = nb::none(),
+          "scenario"_a, "indices"_a, "seeds"_a, "episode_index"_a.noconvert(), "episode_seed"_a.noconvert(),
+          "failure"_a.noconvert(), "observation"_a.none() = nb::none(), "final_observation"_a.none() = nb::none(),
           "Refills the slots whose episode ended in the last step, in slot order, with the episodes indices "
-          "(seeds: theirs) of a built-in scenario; ended slots beyond them go idle. failure (B,) holds the codes of the first refilled ones; returns how many failed. "
+          "(seeds: theirs) of a built-in scenario; ended slots beyond them go idle. failure (B,) holds the codes of "
+          "the first refilled ones; returns how many failed. "
           "observation: (robot, humans, human_mask, active, time) arrays of B rows for observe's result "
           "afterwards; final_observation: the same with one row per ended slot (slot order), their "
           "observation before the refill; both written in the same pass.")
@@ -404,15 +402,16 @@ NB_MODULE(_core, m) {
           [](PreparedBatch* self, Array<double> vertices, Array<int64_t> polygon_offsets,
              Array<int64_t> episode_polygons) {
             if (episode_polygons.size() < 1) throw std::invalid_argument("episode_polygons must have B + 1 entries");
-            new (self) PreparedBatch(
-                prepare_batch(vertices, polygon_offsets, episode_polygons, episode_polygons.size() - 1));
+            new (self)
+                PreparedBatch(prepare_batch(vertices, polygon_offsets, episode_polygons, episode_polygons.size() - 1));
           },
           "vertices"_a, "polygon_offsets"_a, "episode_polygons"_a,
           "The static maps of B episodes prepared once for the native robot policies: vertices (V, 2), "
           "polygon_offsets (P + 1,), episode_polygons (B + 1,).")
       .def_prop_ro("episodes", [](const PreparedBatch& self) { return self.first.size(); })
-      .def_prop_ro("prepared_vertices", [](const PreparedBatch& self) { return self.vertex.size(); },
-                   "Vertices stored (episodes with the previous episode's map share its copy).");
+      .def_prop_ro(
+          "prepared_vertices", [](const PreparedBatch& self) { return self.vertex.size(); },
+          "Vertices stored (episodes with the previous episode's map share its copy).");
 
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
       .def(nb::init<int>(), "threads"_a)
@@ -424,16 +423,15 @@ NB_MODULE(_core, m) {
   nb::class_<socialnav::SarlScorer>(m, "SarlScorer")
       .def(
           "__init__",
-          [](socialnav::SarlScorer* self, nb::list mlp1, nb::list mlp2, nb::list attention,
-             nb::list global_term, nb::list mlp3, int self_dim, const std::string& kernel_name) {
+          [](socialnav::SarlScorer* self, nb::list mlp1, nb::list mlp2, nb::list attention, nb::list global_term,
+             nb::list mlp3, int self_dim, const std::string& kernel_name) {
             const socialnav::ScorerKernel kernel = socialnav::resolve_kernel(kernel_name);
             // Each layer: (weight (out, in), bias (out)) float32 C-contiguous arrays, PyTorch's layout.
             auto layers = [kernel](nb::list items, const char* name) {
               std::vector<socialnav::DenseLayer> out;
               for (size_t i = 0; i < nb::len(items); ++i) {
                 nb::tuple t = nb::cast<nb::tuple>(items[i]);
-                if (nb::len(t) != 2)
-                  throw std::invalid_argument(std::string(name) + ": each layer is (weight, bias)");
+                if (nb::len(t) != 2) throw std::invalid_argument(std::string(name) + ": each layer is (weight, bias)");
                 auto w = nb::cast<Array<float>>(t[0], false);
                 auto b = nb::cast<Array<float>>(t[1], false);
                 if (w.ndim() != 2 || b.ndim() != 1 || b.shape(0) != w.shape(0))
@@ -444,9 +442,8 @@ NB_MODULE(_core, m) {
               }
               return out;
             };
-            new (self) socialnav::SarlScorer(layers(mlp1, "mlp1"), layers(mlp2, "mlp2"),
-                                             layers(attention, "attention"), layers(global_term, "global_term"),
-                                             layers(mlp3, "mlp3"), self_dim);
+            new (self) socialnav::SarlScorer(layers(mlp1, "mlp1"), layers(mlp2, "mlp2"), layers(attention, "attention"),
+                                             layers(global_term, "global_term"), layers(mlp3, "mlp3"), self_dim);
           },
           "mlp1"_a, "mlp2"_a, "attention"_a, "global_term"_a, "mlp3"_a, "self_dim"_a, "kernel"_a = "auto")
       .def_static("supported", &socialnav::SarlScorer::supported)
@@ -480,11 +477,10 @@ NB_MODULE(_core, m) {
 
   m.def(
       "robot_actions",
-      [](const std::string& policy, Array<double> robot, Array<double> humans, Array<bool> mask,
-         Array<bool> active, int kinematics, double rotation_limit, double dt,
-         const socialnav::OrcaParams& orca, double radius_margin, double safety_space,
-         const socialnav::SocialForceParams& social_force, socialnav::ThreadPool& pool, Array<double> out,
-         nb::object obstacles) {
+      [](const std::string& policy, Array<double> robot, Array<double> humans, Array<bool> mask, Array<bool> active,
+         int kinematics, double rotation_limit, double dt, const socialnav::OrcaParams& orca, double radius_margin,
+         double safety_space, const socialnav::SocialForceParams& social_force, socialnav::ThreadPool& pool,
+         Array<double> out, nb::object obstacles) {
         if (robot.ndim() != 2 || robot.shape(1) != 9) throw std::invalid_argument("robot must be (B, 9)");
         const size_t B = robot.shape(0);
         if (humans.ndim() != 3 || humans.shape(0) != B || humans.shape(2) != 5)
@@ -493,8 +489,11 @@ NB_MODULE(_core, m) {
         checked(mask, "mask", B * N);
         checked(active, "active", B);
         double* o = checked(out, "out", B * 2);
-        const socialnav::ObservationView obs{static_cast<int>(B), static_cast<int>(N), robot.data(),
-                                             humans.data(), reinterpret_cast<const uint8_t*>(mask.data()),
+        const socialnav::ObservationView obs{static_cast<int>(B),
+                                             static_cast<int>(N),
+                                             robot.data(),
+                                             humans.data(),
+                                             reinterpret_cast<const uint8_t*>(mask.data()),
                                              reinterpret_cast<const uint8_t*>(active.data())};
         const socialnav::ActionFormat format{kinematics, rotation_limit};
         socialnav::ObstacleBatchView wall_view{};
@@ -518,8 +517,8 @@ NB_MODULE(_core, m) {
                                       "'; valid: linear, orca, social_force");
         }
       },
-      "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a,
-      "orca"_a, "radius_margin"_a, "safety_space"_a, "social_force"_a, "pool"_a, "out"_a.noconvert(),
+      "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a, "orca"_a,
+      "radius_margin"_a, "safety_space"_a, "social_force"_a, "pool"_a, "out"_a.noconvert(),
       "obstacles"_a.none() = nb::none(),
       "Batched actions of a native robot policy, written into out (B, 2). obstacles: None or the B episodes' "
       "static maps as PreparedObstacleBatch.");
@@ -578,10 +577,9 @@ NB_MODULE(_core, m) {
 
   m.def(
       "orca_velocity",
-      [](Array<double> position, Array<double> velocity, double radius, double max_speed,
-         Array<double> pref_velocity, Array<double> neighbor_positions, Array<double> neighbor_velocities,
-         Array<double> neighbor_radii, double time_horizon, double time_step, double neighbor_dist,
-         int max_neighbors) {
+      [](Array<double> position, Array<double> velocity, double radius, double max_speed, Array<double> pref_velocity,
+         Array<double> neighbor_positions, Array<double> neighbor_velocities, Array<double> neighbor_radii,
+         double time_horizon, double time_step, double neighbor_dist, int max_neighbors) {
         const size_t n = neighbor_radii.size();
         if (neighbor_positions.size() != 2 * n || neighbor_velocities.size() != 2 * n)
           throw std::invalid_argument("neighbour arrays must be (K, 2), (K, 2) and (K,)");
@@ -591,16 +589,15 @@ NB_MODULE(_core, m) {
         for (size_t k = 0; k < n; ++k)
           candidates[k] = socialnav::OrcaNeighbor{
               Vec2{neighbor_positions.data()[2 * k], neighbor_positions.data()[2 * k + 1]},
-              Vec2{neighbor_velocities.data()[2 * k], neighbor_velocities.data()[2 * k + 1]},
-              neighbor_radii.data()[k]};
+              Vec2{neighbor_velocities.data()[2 * k], neighbor_velocities.data()[2 * k + 1]}, neighbor_radii.data()[k]};
         socialnav::OrcaParams params;
         params.neighbor_dist = neighbor_dist;
         params.max_neighbors = max_neighbors;
         params.time_horizon = time_horizon;
         socialnav::OrcaScratch scratch;
         const socialnav::OrcaAgent self{vec(position), vec(velocity), radius, max_speed, vec(pref_velocity)};
-        const Vec2 v = socialnav::orca_new_velocity_select(self, candidates.data(), static_cast<int>(n),
-                                                            params, time_step, scratch);
+        const Vec2 v = socialnav::orca_new_velocity_select(self, candidates.data(), static_cast<int>(n), params,
+                                                           time_step, scratch);
         return nb::make_tuple(v.x, v.y);
       },
       "position"_a, "velocity"_a, "radius"_a, "max_speed"_a, "pref_velocity"_a, "neighbor_positions"_a,
@@ -611,20 +608,20 @@ NB_MODULE(_core, m) {
   m.def(
       "social_force_velocity",
       [](Array<double> position, Array<double> velocity, Array<double> desired_velocity, double max_speed,
-         Array<double> other_positions, Array<double> other_velocities,
-         const socialnav::SocialForceParams& params, double dt) {
+         Array<double> other_positions, Array<double> other_velocities, const socialnav::SocialForceParams& params,
+         double dt) {
         const size_t n = other_positions.size() / 2;
         std::vector<socialnav::SocialForceOther> others(n);
         for (size_t k = 0; k < n; ++k)
-          others[k] = socialnav::SocialForceOther{
-              Vec2{other_positions.data()[2 * k], other_positions.data()[2 * k + 1]},
-              Vec2{other_velocities.data()[2 * k], other_velocities.data()[2 * k + 1]}};
+          others[k] =
+              socialnav::SocialForceOther{Vec2{other_positions.data()[2 * k], other_positions.data()[2 * k + 1]},
+                                          Vec2{other_velocities.data()[2 * k], other_velocities.data()[2 * k + 1]}};
         const socialnav::SocialForceAgent self{vec(position), vec(velocity), vec(desired_velocity), max_speed};
         const Vec2 v = socialnav::social_force_new_velocity(self, others.data(), static_cast<int>(n), params, dt);
         return nb::make_tuple(v.x, v.y);
       },
-      "position"_a, "velocity"_a, "desired_velocity"_a, "max_speed"_a, "other_positions"_a,
-      "other_velocities"_a, "params"_a, "dt"_a = 0.25);
+      "position"_a, "velocity"_a, "desired_velocity"_a, "max_speed"_a, "other_positions"_a, "other_velocities"_a,
+      "params"_a, "dt"_a = 0.25);
 
   m.def(
       "orca_step",
@@ -666,7 +663,8 @@ NB_MODULE(_core, m) {
             const int j = scratch.index[k];
             selected[k] = socialnav::OrcaNeighbor{Vec2{p[2 * j], p[2 * j + 1]}, Vec2{v[2 * j], v[2 * j + 1]}, r[j]};
           }
-          const socialnav::OrcaAgent self{pi, Vec2{v[2 * i], v[2 * i + 1]}, r[i], ms[i], Vec2{pv[2 * i], pv[2 * i + 1]}};
+          const socialnav::OrcaAgent self{pi, Vec2{v[2 * i], v[2 * i + 1]}, r[i], ms[i],
+                                          Vec2{pv[2 * i], pv[2 * i + 1]}};
           const Vec2 nv = socialnav::orca_new_velocity(self, view, params.time_horizon_obst, selected.data(),
                                                        scratch.count, params.time_horizon, time_step, scratch);
           o[2 * i] = nv.x;

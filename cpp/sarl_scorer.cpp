@@ -38,37 +38,52 @@ int block_rows(int out, ScorerKernel kernel) {
 // (one fused multiply-add each, in that order); optional ReLU. The accumulators are named variables
 // rather than an array: GCC keeps an array in registers but also stores it to the stack on every
 // iteration, which halves the kernel's speed.
-#define SN_ROW(R)                                                                                 \
+#define SN_ROW(R)                                                                               \
   __m256 a##R##0 = MR > R ? _mm256_broadcast_ss(bias + (MR > R ? R : 0)) : _mm256_setzero_ps(); \
   __m256 a##R##1 = a##R##0;
-#define SN_FMA(R)                                                   \
-  if constexpr (MR > R) {                                         \
-    const __m256 wr = _mm256_broadcast_ss(w + R);                 \
-    a##R##0 = _mm256_fmadd_ps(wr, x0, a##R##0);                   \
-    a##R##1 = _mm256_fmadd_ps(wr, x1, a##R##1);                   \
+#define SN_FMA(R)                                 \
+  if constexpr (MR > R) {                         \
+    const __m256 wr = _mm256_broadcast_ss(w + R); \
+    a##R##0 = _mm256_fmadd_ps(wr, x0, a##R##0);   \
+    a##R##1 = _mm256_fmadd_ps(wr, x1, a##R##1);   \
   }
-#define SN_STORE(R)                                                         \
-  if constexpr (MR > R) {                                                 \
-    if (relu) {                                                           \
-      a##R##0 = _mm256_max_ps(a##R##0, zero);                             \
-      a##R##1 = _mm256_max_ps(a##R##1, zero);                             \
-    }                                                                     \
-    _mm256_storeu_ps(y + static_cast<size_t>(R) * ldy, a##R##0);          \
-    _mm256_storeu_ps(y + static_cast<size_t>(R) * ldy + 8, a##R##1);      \
+#define SN_STORE(R)                                                  \
+  if constexpr (MR > R) {                                            \
+    if (relu) {                                                      \
+      a##R##0 = _mm256_max_ps(a##R##0, zero);                        \
+      a##R##1 = _mm256_max_ps(a##R##1, zero);                        \
+    }                                                                \
+    _mm256_storeu_ps(y + static_cast<size_t>(R) * ldy, a##R##0);     \
+    _mm256_storeu_ps(y + static_cast<size_t>(R) * ldy + 8, a##R##1); \
   }
 template <int MR>
 __attribute__((target("avx2,fma"))) void dense_kernel(const float* __restrict wp, const float* __restrict bias,
-                                                      const float* __restrict x, int ldx, float* __restrict y,
-                                                      int ldy, int K, bool relu) {
-  SN_ROW(0) SN_ROW(1) SN_ROW(2) SN_ROW(3) SN_ROW(4) SN_ROW(5)
+                                                      const float* __restrict x, int ldx, float* __restrict y, int ldy,
+                                                      int K, bool relu) {
+  SN_ROW(0)
+  SN_ROW(1)
+  SN_ROW(2)
+  SN_ROW(3)
+  SN_ROW(4)
+  SN_ROW(5)
   for (int k = 0; k < K; ++k) {
     const __m256 x0 = _mm256_loadu_ps(x + static_cast<size_t>(k) * ldx);
     const __m256 x1 = _mm256_loadu_ps(x + static_cast<size_t>(k) * ldx + 8);
     const float* w = wp + static_cast<size_t>(k) * MR;
-    SN_FMA(0) SN_FMA(1) SN_FMA(2) SN_FMA(3) SN_FMA(4) SN_FMA(5)
+    SN_FMA(0)
+    SN_FMA(1)
+    SN_FMA(2)
+    SN_FMA(3)
+    SN_FMA(4)
+    SN_FMA(5)
   }
   const __m256 zero = _mm256_setzero_ps();
-  SN_STORE(0) SN_STORE(1) SN_STORE(2) SN_STORE(3) SN_STORE(4) SN_STORE(5)
+  SN_STORE(0)
+  SN_STORE(1)
+  SN_STORE(2)
+  SN_STORE(3)
+  SN_STORE(4)
+  SN_STORE(5)
 }
 #undef SN_ROW
 #undef SN_FMA
@@ -92,40 +107,70 @@ Kernel kernel_for(int rows) {
 // multiply-add per input in index order, then the optional ReLU), over NV 16-float vectors of columns
 // and up to 12 rows, so its values are bit-identical to the AVX2 kernel's; only the number of outputs
 // computed per instruction differs.
-#define SN_ROW(R)                                                                                    \
-  __m512 a##R##0 = MR > R ? _mm512_set1_ps(bias[MR > R ? R : 0]) : _mm512_setzero_ps();            \
+#define SN_ROW(R)                                                                       \
+  __m512 a##R##0 = MR > R ? _mm512_set1_ps(bias[MR > R ? R : 0]) : _mm512_setzero_ps(); \
   __m512 a##R##1 = a##R##0;
-#define SN_FMA(R)                                                   \
-  if constexpr (MR > R) {                                         \
-    const __m512 wr = _mm512_set1_ps(w[R]);                       \
-    a##R##0 = _mm512_fmadd_ps(wr, x0, a##R##0);                   \
+#define SN_FMA(R)                                                     \
+  if constexpr (MR > R) {                                             \
+    const __m512 wr = _mm512_set1_ps(w[R]);                           \
+    a##R##0 = _mm512_fmadd_ps(wr, x0, a##R##0);                       \
     if constexpr (NV > 1) a##R##1 = _mm512_fmadd_ps(wr, x1, a##R##1); \
   }
-#define SN_STORE(R)                                                              \
-  if constexpr (MR > R) {                                                      \
-    if (relu) {                                                                \
-      a##R##0 = _mm512_max_ps(a##R##0, zero);                                  \
-      if constexpr (NV > 1) a##R##1 = _mm512_max_ps(a##R##1, zero);            \
-    }                                                                          \
-    _mm512_storeu_ps(y + static_cast<size_t>(R) * ldy, a##R##0);               \
+#define SN_STORE(R)                                                                         \
+  if constexpr (MR > R) {                                                                   \
+    if (relu) {                                                                             \
+      a##R##0 = _mm512_max_ps(a##R##0, zero);                                               \
+      if constexpr (NV > 1) a##R##1 = _mm512_max_ps(a##R##1, zero);                         \
+    }                                                                                       \
+    _mm512_storeu_ps(y + static_cast<size_t>(R) * ldy, a##R##0);                            \
     if constexpr (NV > 1) _mm512_storeu_ps(y + static_cast<size_t>(R) * ldy + 16, a##R##1); \
   }
 template <int MR, int NV>
 __attribute__((target("avx512f"))) void dense_kernel512(const float* __restrict wp, const float* __restrict bias,
                                                         const float* __restrict x, int ldx, float* __restrict y,
                                                         int ldy, int K, bool relu) {
-  SN_ROW(0) SN_ROW(1) SN_ROW(2) SN_ROW(3) SN_ROW(4) SN_ROW(5) SN_ROW(6) SN_ROW(7) SN_ROW(8) SN_ROW(9)
-  SN_ROW(10) SN_ROW(11)
+  SN_ROW(0)
+  SN_ROW(1)
+  SN_ROW(2)
+  SN_ROW(3)
+  SN_ROW(4)
+  SN_ROW(5)
+  SN_ROW(6)
+  SN_ROW(7)
+  SN_ROW(8)
+  SN_ROW(9)
+  SN_ROW(10)
+  SN_ROW(11)
   for (int k = 0; k < K; ++k) {
     const __m512 x0 = _mm512_loadu_ps(x + static_cast<size_t>(k) * ldx);
     const __m512 x1 = NV > 1 ? _mm512_loadu_ps(x + static_cast<size_t>(k) * ldx + 16) : x0;
     const float* w = wp + static_cast<size_t>(k) * MR;
-    SN_FMA(0) SN_FMA(1) SN_FMA(2) SN_FMA(3) SN_FMA(4) SN_FMA(5) SN_FMA(6) SN_FMA(7) SN_FMA(8) SN_FMA(9)
-    SN_FMA(10) SN_FMA(11)
+    SN_FMA(0)
+    SN_FMA(1)
+    SN_FMA(2)
+    SN_FMA(3)
+    SN_FMA(4)
+    SN_FMA(5)
+    SN_FMA(6)
+    SN_FMA(7)
+    SN_FMA(8)
+    SN_FMA(9)
+    SN_FMA(10)
+    SN_FMA(11)
   }
   const __m512 zero = _mm512_setzero_ps();
-  SN_STORE(0) SN_STORE(1) SN_STORE(2) SN_STORE(3) SN_STORE(4) SN_STORE(5) SN_STORE(6) SN_STORE(7)
-  SN_STORE(8) SN_STORE(9) SN_STORE(10) SN_STORE(11)
+  SN_STORE(0)
+  SN_STORE(1)
+  SN_STORE(2)
+  SN_STORE(3)
+  SN_STORE(4)
+  SN_STORE(5)
+  SN_STORE(6)
+  SN_STORE(7)
+  SN_STORE(8)
+  SN_STORE(9)
+  SN_STORE(10)
+  SN_STORE(11)
 }
 #undef SN_ROW
 #undef SN_FMA
@@ -178,8 +223,8 @@ void dense(const DenseLayer& layer, const float* x, float* y, int cols, bool rel
 // Runs layers[from ..] on x, alternating between p and q (neither may alias x unless x is one of
 // them), the last layer into `last_out` if given; ReLU between layers and after the last one if
 // `last_relu`. Returns the output buffer (x itself when there is no layer to run).
-const float* chain(const std::vector<DenseLayer>& layers, size_t from, const float* x, int cols, float* p,
-                   float* q, bool last_relu, float* last_out = nullptr) {
+const float* chain(const std::vector<DenseLayer>& layers, size_t from, const float* x, int cols, float* p, float* q,
+                   bool last_relu, float* last_out = nullptr) {
   const float* cur = x;
   for (size_t i = from; i < layers.size(); ++i) {
     const bool last = i + 1 == layers.size();
@@ -210,9 +255,8 @@ DenseLayer::DenseLayer(const float* weight, const float* b, int out_, int in_, S
     bias.assign(static_cast<size_t>(out), 0.0f);
 }
 
-SarlScorer::SarlScorer(std::vector<DenseLayer> mlp1, std::vector<DenseLayer> mlp2,
-                       std::vector<DenseLayer> attention, std::vector<DenseLayer> global_term,
-                       std::vector<DenseLayer> mlp3, int self_dim)
+SarlScorer::SarlScorer(std::vector<DenseLayer> mlp1, std::vector<DenseLayer> mlp2, std::vector<DenseLayer> attention,
+                       std::vector<DenseLayer> global_term, std::vector<DenseLayer> mlp3, int self_dim)
     : mlp1_(std::move(mlp1)),
       mlp2_(std::move(mlp2)),
       attention_(std::move(attention)),
@@ -239,7 +283,8 @@ SarlScorer::SarlScorer(std::vector<DenseLayer> mlp1, std::vector<DenseLayer> mlp
   };
   check_chain(mlp1_, input_dim_, "mlp1");
   const int h_dim = check_chain(mlp2_, e_dim_, "mlp2");
-  if (check_chain(mlp3_, self_dim_ + h_dim, "mlp3") != 1) throw std::invalid_argument("sarl scorer: mlp3 must end in 1");
+  if (check_chain(mlp3_, self_dim_ + h_dim, "mlp3") != 1)
+    throw std::invalid_argument("sarl scorer: mlp3 must end in 1");
   if (check_chain(attention_, e_dim_, "attention") != 1)
     throw std::invalid_argument("sarl scorer: the attention MLP must end in 1");
   if (with_global_state_) {
@@ -282,8 +327,7 @@ ScorerKernel resolve_kernel(const std::string& name) {
     kernel = ScorerKernel::avx512;
   else
     throw std::invalid_argument("sarl scorer: unknown kernel '" + name + "' (expected auto, avx2 or avx512)");
-  if (!kernel_supported(kernel))
-    throw std::runtime_error("sarl scorer: this CPU cannot run the " + name + " kernel");
+  if (!kernel_supported(kernel)) throw std::runtime_error("sarl scorer: this CPU cannot run the " + name + " kernel");
   return kernel;
 }
 
@@ -325,16 +369,16 @@ void SarlScorer::tile_values(const float* joint, const uint8_t* mask, int64_t fi
                       static_cast<size_t>(E) * S + 2 * static_cast<size_t>(W) * S + static_cast<size_t>(N) * S;
   if (scratch.size() < need) scratch.resize(need);
   // Every buffer is written before it is read (x0 and x3 are cleared below).
-  float* x0 = scratch.data();                    // D × C inputs
-  float* e = x0 + static_cast<size_t>(D) * C;    // E × C embeddings
-  float* a = e + static_cast<size_t>(E) * C;     // attention's first layer
-  float* p = a + wc;                             // p, q: ping-pong buffers of the MLP chains
+  float* x0 = scratch.data();                  // D × C inputs
+  float* e = x0 + static_cast<size_t>(D) * C;  // E × C embeddings
+  float* a = e + static_cast<size_t>(E) * C;   // attention's first layer
+  float* p = a + wc;                           // p, q: ping-pong buffers of the MLP chains
   float* q = p + wc;
-  float* score_buf = q + wc;                     // C attention scores
-  float* g = score_buf + C;                      // E × S mean embedding
-  float* gterm = g + static_cast<size_t>(E) * S; // W × S global term of the first attention layer
-  float* x3 = gterm + static_cast<size_t>(W) * S; // W × S mlp3 input: robot part, then the weighted h
-  float* wts = x3 + static_cast<size_t>(W) * S;  // N × S softmax weights
+  float* score_buf = q + wc;                       // C attention scores
+  float* g = score_buf + C;                        // E × S mean embedding
+  float* gterm = g + static_cast<size_t>(E) * S;   // W × S global term of the first attention layer
+  float* x3 = gterm + static_cast<size_t>(W) * S;  // W × S mlp3 input: robot part, then the weighted h
+  float* wts = x3 + static_cast<size_t>(W) * S;    // N × S softmax weights
 
   // Inputs, feature-major; padded humans and the padding states of the last tile are zeros.
   std::fill(x0, x0 + static_cast<size_t>(D) * C, 0.0f);

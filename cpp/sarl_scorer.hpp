@@ -77,8 +77,8 @@ class SarlScorer {
               int states_per_tile) const;
 
  private:
-  void tile_values(const float* joint, const uint8_t* mask, int64_t first, int count, int N, int S,
-                   float* out, std::vector<float>& scratch) const;
+  void tile_values(const float* joint, const uint8_t* mask, int64_t first, int count, int N, int S, float* out,
+                   std::vector<float>& scratch) const;
 
   std::vector<DenseLayer> mlp1_, mlp2_, attention_, mlp3_;
   DenseLayer attention_g_;  // the g-half of the first attention layer (with its bias)

@@ -60,8 +60,7 @@ struct Point {
 };
 
 // _placement.py: rejection_sample's test for one candidate against m reference discs.
-inline bool clear_of(Point cand, double radius, const Point* ref, const double* ref_radius, int m,
-                     double margin) {
+inline bool clear_of(Point cand, double radius, const Point* ref, const double* ref_radius, int m, double margin) {
   for (int k = 0; k < m; ++k) {
     const double min_dist = radius + ref_radius[k] + margin;
     const double min_d2 = min_dist * min_dist;
@@ -74,8 +73,7 @@ inline bool clear_of(Point cand, double radius, const Point* ref, const double* 
 }
 
 // base.py: Scenario.human_attributes.
-inline void human_attributes(const ScenarioConfig& c, const EpisodeStream& rng, int j, double& radius,
-                             double& v_pref) {
+inline void human_attributes(const ScenarioConfig& c, const EpisodeStream& rng, int j, double& radius, double& v_pref) {
   if (!c.randomize_attributes) {
     radius = c.human_radius;
     v_pref = c.human_v_pref;
@@ -89,8 +87,8 @@ inline void human_attributes(const ScenarioConfig& c, const EpisodeStream& rng, 
 }
 
 // circle.py: CircleCrossing.sample_humans.
-int circle_crossing(const ScenarioConfig& c, const EpisodeStream& rng, double* start, double* goal,
-                    double* radius, double* v_pref) {
+int circle_crossing(const ScenarioConfig& c, const EpisodeStream& rng, double* start, double* goal, double* radius,
+                    double* v_pref) {
   const int n = c.n_humans;
   const double r_circle = c.circle_radius;
   std::vector<Point> ref(2 + 2 * n);
@@ -130,15 +128,13 @@ int circle_crossing(const ScenarioConfig& c, const EpisodeStream& rng, double* s
 inline Point square_candidate(const ScenarioConfig& c, double u0, double u1, double sign) {
   const double w = c.square_width;
   switch (c.kind) {
-    case SCENARIO_RANDOM:
-      return {(u0 - 0.5) * w, (u1 - 0.5) * w};
+    case SCENARIO_RANDOM: return {(u0 - 0.5) * w, (u1 - 0.5) * w};
     case SCENARIO_TRAFFIC: {
       const double u[2] = {u0, u1};
       const int flow = c.flow_axis, across = 1 - c.flow_axis;
       double out[2];
       out[across] = (u[across] - 0.5) * w;
-      const double depth =
-          c.band ? c.circle_radius + (u[flow] - 0.5) * c.band_width : u[flow] * (0.5 * w);
+      const double depth = c.band ? c.circle_radius + (u[flow] - 0.5) * c.band_width : u[flow] * (0.5 * w);
       out[flow] = sign * depth;
       return {out[0], out[1]};
     }
@@ -148,8 +144,8 @@ inline Point square_candidate(const ScenarioConfig& c, double u0, double u1, dou
 }
 
 // square.py: _SquareScenario.sample_humans.
-int square_family(const ScenarioConfig& c, const EpisodeStream& rng, double* start, double* goal,
-                  double* radius, double* v_pref) {
+int square_family(const ScenarioConfig& c, const EpisodeStream& rng, double* start, double* goal, double* radius,
+                  double* v_pref) {
   const int n = c.n_humans;
   const double r = c.circle_radius;
   std::vector<Point> starts(1 + n), goals(1 + n);
@@ -187,8 +183,8 @@ int square_family(const ScenarioConfig& c, const EpisodeStream& rng, double* sta
 
 }  // namespace
 
-int generate_humans(const ScenarioConfig& config, int64_t seed, double* start, double* goal,
-                    double* radius, double* v_pref) {
+int generate_humans(const ScenarioConfig& config, int64_t seed, double* start, double* goal, double* radius,
+                    double* v_pref) {
   const EpisodeStream rng(config.salt_prefix, seed);
   if (config.kind == SCENARIO_CIRCLE) return circle_crossing(config, rng, start, goal, radius, v_pref);
   return square_family(config, rng, start, goal, radius, v_pref);

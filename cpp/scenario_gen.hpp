@@ -34,17 +34,17 @@ struct ScenarioConfig {
   double discomfort_dist = 0.2;
   double circle_radius = 4.0;
   int max_attempts = 1000;
-  double start_noise = 0.5;     // circle crossing
-  double square_width = 12.0;   // square family
-  int flow_axis = 1;            // traffic
-  bool band = false;            // traffic: 'band' area instead of 'half_square'
-  double band_width = 2.0;      // traffic
+  double start_noise = 0.5;    // circle crossing
+  double square_width = 12.0;  // square family
+  int flow_axis = 1;           // traffic
+  bool band = false;           // traffic: 'band' area instead of 'half_square'
+  double band_width = 2.0;     // traffic
 };
 
 // Humans of one episode. Outputs: start, goal (n_humans × 2), radius, v_pref (n_humans).
 // Returns 0 on success, or 1 + 2·j (start of human j) / 2 + 2·j (goal of human j) for the first
 // quantity that found no clear position within max_attempts.
-int generate_humans(const ScenarioConfig& config, int64_t seed, double* start, double* goal,
-                    double* radius, double* v_pref);
+int generate_humans(const ScenarioConfig& config, int64_t seed, double* start, double* goal, double* radius,
+                    double* v_pref);
 
 }  // namespace socialnav

@@ -67,8 +67,7 @@ Vec2 social_force_new_velocity(const SocialForceAgent& self, const SocialForceOt
   const Vec2 e = desired_speed > 1e-9 ? self.desired_velocity / desired_speed : Vec2{};
   const double cos_phi = std::cos(params.fov_half_angle);
   for (int k = 0; k < n; ++k) {
-    const Vec2 f = social_force_repulsion(self.position - others[k].position, others[k].velocity,
-                                          params);
+    const Vec2 f = social_force_repulsion(self.position - others[k].position, others[k].velocity, params);
     // The other is perceived in front when the force it exerts points against our heading.
     const double f_norm = norm(f);
     const double weight = dot(e, -f) >= f_norm * cos_phi ? 1.0 : params.outside_fov_weight;

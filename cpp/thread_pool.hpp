@@ -5,8 +5,8 @@
 #include <atomic>
 #include <condition_variable>
 #include <mutex>
-#include <type_traits>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 namespace socialnav {
@@ -41,7 +41,7 @@ class ThreadPool {
   void worker_loop(int worker);
   void drain(void* ctx, Trampoline call, int n, int chunk, int worker);
 
-  struct alignas(64) Share {  // one cache line each: threads bump their own counter
+  struct alignas(64) Share {   // one cache line each: threads bump their own counter
     std::atomic<int> next{0};  // first index of the share not handed out yet
     int end = 0;
   };

@@ -26,6 +26,8 @@ checkpoints:
 SOURCE = {
     "src/socialnav/__init__.py": "",
     "src/socialnav/cli.py": "def main(): pass\n",
+    "src/socialnav/py.typed": "",
+    "src/socialnav/_core.pyi": "def f() -> None: ...\n",
     "src/socialnav/checkpoints/index.yaml": INDEX,
     "src/socialnav/checkpoints/sarl_wang2022.pt": "weights",
     "src/socialnav/configs/wang2022.yaml": "name: wang2022\n",
@@ -106,6 +108,8 @@ def test_complete_wheel_and_sdist_pass(tmp_path):
     ("socialnav/configs/paper/wang2022.yaml", "the paper's numbers"),
     ("socialnav/configs/wang2022.yaml", "preset wang2022"),
     ("socialnav/viz/viewer.js", "the report's episode viewer"),
+    ("socialnav/_core.pyi", "the compiled core's type stub"),
+    ("socialnav/py.typed", "the PEP 561 marker"),
     ("socialnav/cli.py", "a package file of the source tree"),
     (DIST_INFO + "licenses/LICENSES/nanobind.txt", "a licence or notice it must carry"),
     (DIST_INFO + "entry_points.txt", "missing"),
@@ -203,7 +207,7 @@ def test_the_real_source_tree_is_read_right():
     index_listed = dc.shipped_checkpoints(ROOT)
     assert index_listed and all(name in expected for name in index_listed)
     # every run-time file the code reads is in the tree, so a complete wheel can exist at all
-    for name in [*dc.RUNTIME_DATA, *index_listed]:
+    for name in [*dc.RUNTIME_DATA, *dc.TYPING_DATA, *index_listed]:
         assert (ROOT / "src" / name).is_file(), name
     assert not [n for n in expected if n.endswith((".so", ".pyc")) or "__pycache__" in n]
     assert "socialnav/cli.py" in expected

@@ -37,6 +37,12 @@ RUNTIME_DATA = {
     f"{PACKAGE}/viz/viewer.js": "the report's episode viewer",
     f"{PACKAGE}/logs/data/example_eth_ucy.txt": "the example log (socialnav.logs.example_log)",
 }
+# Typing (PEP 561): the marker, and the compiled core's stub so that a user's type checker sees its
+# signatures; each is demanded by name, like the run-time data.
+TYPING_DATA = {
+    f"{PACKAGE}/py.typed": "the PEP 561 marker (socialnav ships its types)",
+    f"{PACKAGE}/_core.pyi": "the compiled core's type stub (tools/gen_core_stub.sh)",
+}
 # Paths that are never package content: build output and files that only make sense in a checkout.
 FORBIDDEN_PARTS = {"tests", "benchmarks", "build", "dist", "__pycache__", ".ci-venv", ".git"}
 FORBIDDEN_SUFFIXES = (".pyc", ".pyo", ".o", ".a")
@@ -91,6 +97,7 @@ def expected_wheel_files(root: Path) -> dict[str, str]:
     """Each file the wheel must contain, with what it is (for the message when it is missing)."""
     expected = {f: "a package file of the source tree" for f in package_files(root)}
     expected.update(RUNTIME_DATA)
+    expected.update(TYPING_DATA)
     listed = "a shipped checkpoint listed in checkpoints/index.yaml"
     expected.update({f: listed for f in shipped_checkpoints(root)})
     return expected

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 try:
     from socialnav import _core
 except ImportError:  # pragma: no cover - a source tree without the compiled core
-    _core = None
+    _core = None  # type: ignore[assignment]  # callers check for None: the Python generators run instead
 
 __all__ = ["native_config", "raise_on_failure", "sample_humans_native"]
 
@@ -54,7 +54,7 @@ def native_config(scenario: Scenario):
             setattr(c, name, getattr(scenario, name))
     if hasattr(scenario, "traffic_area"):
         c.band = scenario.traffic_area == "band"
-        c.flow_axis = type(scenario).flow_axis
+        c.flow_axis = type(scenario).flow_axis  # type: ignore[attr-defined]  # the traffic scenarios' class constant
     return c
 
 

@@ -54,7 +54,7 @@ def observation_and_action_spaces(
 ):
     """The env's observation and action spaces (a SB3 model's saved spaces are checked against them)."""
     big = np.float64(1e6)
-    entries = {
+    entries: dict[str, spaces.Space] = {
         "robot": spaces.Box(-big, big, shape=(9,), dtype=np.float64),
         "humans": spaces.Box(-big, big, shape=(n_humans, 5), dtype=np.float64),
         # Gymnasium has no MultiBinary(0): a crowd-free scenario's empty mask is an empty Box
@@ -123,20 +123,22 @@ class EpisodeOrder:
         if self.start is not None:
             out = self.start + pos
             return out if self.n is None else out % self.n
-        if self.n is None:
-            return self.seed * SEED_STRIDE + pos
+        seed, n = self.seed, self.n
+        assert seed is not None  # the constructor sets exactly one of seed and start
+        if n is None:
+            return seed * SEED_STRIDE + pos
         out = np.empty_like(pos)
-        cycles = pos // self.n
+        cycles = pos // n
         for c in np.unique(cycles):
             rows = cycles == c
-            out[rows] = self._permutation(int(c))[pos[rows] % self.n]
+            out[rows] = self._permutation(int(c), seed, n)[pos[rows] % n]
         return out
 
-    def _permutation(self, cycle: int) -> np.ndarray:
+    def _permutation(self, cycle: int, seed: int, n: int) -> np.ndarray:
         if cycle not in self._perms:
             if len(self._perms) > 8:
                 self._perms.clear()
-            self._perms[cycle] = np.random.default_rng([self.seed, cycle]).permutation(self.n)
+            self._perms[cycle] = np.random.default_rng([seed, cycle]).permutation(n)
         return self._perms[cycle]
 
 
@@ -352,8 +354,9 @@ class SocialNavEnv(gym.Env):
 
     def close(self) -> None:
         """Closes the render window, if any, and stops the world's native threads now."""
-        if getattr(self, "_recorder", None) is not None:
-            self._recorder.close()
+        recorder = getattr(self, "_recorder", None)  # absent when __init__ failed
+        if recorder is not None:
+            recorder.close()
         if getattr(self, "_world", None) is not None:
             self._world.close()
         super().close()
@@ -483,14 +486,17 @@ class SocialNavVectorEnv(VectorEnv):
         outcome[done] = result.outcome[done]
         collision_kind = np.full(self.num_envs, None, dtype=object)
         collision_kind[done] = result.collision_kind[done]
+        final, final_dmin, final_episode = result.final_observation, result.final_dmin, result.final_episode
+        if final is None or final_dmin is None or final_episode is None:
+            raise RuntimeError("the step did not report its finished episodes (step with final_observation)")
         time = np.zeros(self.num_envs)
-        time[np.flatnonzero(done)] = result.final_observation.time
+        time[np.flatnonzero(done)] = final.time
         return _masked(
             {
                 "outcome": outcome,
-                "dmin": np.where(done, result.final_dmin, 0.0),
+                "dmin": np.where(done, final_dmin, 0.0),
                 "time": time,
-                "episode_index": np.where(done, result.final_episode, 0),
+                "episode_index": np.where(done, final_episode, 0),
                 "collision_kind": collision_kind,
             },
             done,

@@ -77,7 +77,7 @@ class Recorder:
             continuation = None
             if total > end:
                 continuation = self.hist_position[b, end + 1 : total + 1][:, agents].copy()
-            roles = np.array(["robot"] + ["human"] * (len(agents) - 1))
+            roles = ("robot",) + ("human",) * (len(agents) - 1)
             settings = {
                 **self.base_settings,
                 "index": int(w.episode_index[b]),
