@@ -152,8 +152,10 @@ def attn_graph_kwargs(settings: Any, n_humans: int) -> dict[str, Any]:
 
 
 def mlp_actor_critic_kwargs(settings: Any, n_humans: int) -> dict[str, Any]:
-    """ppo_mlp's network arguments: the shared prediction steps and initial σ, ``mlp_hidden``, and
-    the training mix's number of humans (the MLP's input has a slot per human).
+    """ppo_mlp's network arguments: prediction steps and initial σ, ``mlp_hidden``, human slots.
+
+    The prediction steps and initial σ are shared with crowdnav_pp's ``network`` settings; the MLP's
+    input has a slot per human of the training mix.
 
     Args:
         settings: the run's PPO settings.
