@@ -99,9 +99,9 @@ def run_imitation(run: ValueRun) -> tuple[float, list[float]]:
         net.load_state_dict(ck.model.state_dict())
         if run.predictor is not None and ck.predictor is not None:
             run.predictor.load_state_dict(ck.predictor.state_dict())
-        losses = ck.extra.get("il_losses") or []
+        done = ck.extra.get("il_losses") or []
         say(f"imitation: reusing {il_path}")
-        return (losses[-1] if losses else math.nan), list(ck.extra.get("predictor_losses") or [])
+        return (done[-1] if done else math.nan), list(ck.extra.get("predictor_losses") or [])
     config_json = json.dumps(config, sort_keys=True)
     if demos_path.exists():
         demos, saved = load_demonstrations(demos_path)

@@ -80,7 +80,7 @@ class PPORun:
         n_humans: human slots of the rollout (the training mix's largest crowd).
         device: the torch device.
         out: the run directory.
-        net: the actor-critic.
+        net: the actor-critic (the policy's record builds it).
         optimizer: its Adam.
         action_gen: the Gaussian action draws.
         minibatch_gen: the minibatch orders.
@@ -100,7 +100,7 @@ class PPORun:
     n_humans: int
     device: torch.device
     out: Path
-    net: torch.nn.Module
+    net: Any  # AttnGraphNet or MLPActorCritic: step, sequence, log_std, observation statistics
     optimizer: torch.optim.Optimizer
     action_gen: torch.Generator
     minibatch_gen: torch.Generator

@@ -98,8 +98,8 @@ def ppo_update(run: PPORun, state: PPOState, rollout: Rollout) -> None:
                 torch.nn.utils.clip_grad_norm_(net.parameters(), s.max_grad_norm)
             optimizer.step()
             terms = (loss.total, loss.policy, loss.value, loss.entropy, loss.approx_kl, loss.clip_fraction)
-            for k, v in zip(LOSS_TERMS, terms, strict=True):
-                sums[k] += float(v.detach())
+            for k, term in zip(LOSS_TERMS, terms, strict=True):
+                sums[k] += float(term.detach())
             n_steps += 1
     if s.normalize_obs:
         net.update_obs_stats(
@@ -108,6 +108,6 @@ def ppo_update(run: PPORun, state: PPOState, rollout: Rollout) -> None:
     state.update_time += time.perf_counter() - t0
     state.update += 1
     state.updates_this_call += 1
-    for k, v in sums.items():
-        state.losses[k] = state.losses.get(k, 0.0) + v / n_steps
+    for k, total_k in sums.items():
+        state.losses[k] = state.losses.get(k, 0.0) + total_k / n_steps
     state.losses["n"] = state.losses.get("n", 0) + 1

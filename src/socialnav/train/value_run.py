@@ -85,8 +85,8 @@ class ValueRun:
     out: Path
     net: torch.nn.Module
     target: torch.nn.Module
-    predictor: torch.nn.Module | None
-    policy: Any
+    predictor: Any  # StatePredictor or None
+    policy: Any  # ValuePolicy
     optimizer: torch.optim.Optimizer
     predictor_optimizer: torch.optim.Optimizer | None
     explore_gen: torch.Generator
