@@ -22,9 +22,20 @@ from socialnav.sim.world import World
 
 
 def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True) -> int:
-    """Humans per training episode: the preset's, or 1 for a policy whose record asks for it (CADRL,
-    trained with one human, as its authors did) while ``cadrl_one_human`` is on. Scenarios that fix
-    their own crowd keep it (:func:`scenario_crowd`)."""
+    """Humans per training episode.
+
+    The preset's, or 1 for a policy whose record asks for it (CADRL, trained with one human, as its
+    authors did) while ``cadrl_one_human`` is on. Scenarios that fix their own crowd keep it
+    (:func:`scenario_crowd`).
+
+    Args:
+        preset: the preset.
+        policy: the learned policy's name.
+        cadrl_one_human: the training setting.
+
+    Returns:
+        The number of humans.
+    """
     from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
 
     if cadrl_one_human and policy in learned_policy_names() and get_learned_spec(policy).one_human_training:
@@ -33,14 +44,33 @@ def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True)
 
 
 def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
-    """The ``n_humans`` keyword for scenario ``name``: none where the scenario fixes its own crowd
-    (the francis2023 scenarios with one person or a standing group refuse any other count)."""
+    """The ``n_humans`` keyword for scenario ``name``.
+
+    None where the scenario fixes its own crowd (the francis2023 scenarios with one person or a
+    standing group refuse any other count).
+
+    Args:
+        name: a registered scenario.
+        n_humans: the crowd asked for.
+
+    Returns:
+        ``{"n_humans": n}`` or ``{}``.
+    """
     return {} if get_scenario(name).fixed_n_humans else {"n_humans": int(n_humans)}
 
 
 def mix_human_slots(preset: Preset, n_humans: int) -> int:
-    """Human slots of the training mix's observations: the largest crowd among its scenarios, a
-    fixed one (:func:`scenario_crowd`) or ``n_humans``."""
+    """Human slots of the training mix's observations.
+
+    The largest crowd among its scenarios: a fixed one (:func:`scenario_crowd`) or ``n_humans``.
+
+    Args:
+        preset: the preset (its training mix).
+        n_humans: the crowd of scenarios that take one.
+
+    Returns:
+        The number of slots.
+    """
     import dataclasses as dc
 
     def crowd(name: str) -> int:
@@ -112,6 +142,7 @@ class MultiWorld:
         count: int | None = None,
         threads: int = 0,
     ) -> None:
+        """Builds one world per scenario of the training mix (see the class's arguments)."""
         names = list(preset.training.scenarios)
         if not names:
             raise ValueError("the preset's training scenario mix is empty")
@@ -160,9 +191,18 @@ class MultiWorld:
 
     @property
     def busy(self) -> bool:
+        """Whether a world is still stepping in the background."""
         return any(w.busy for w in self.worlds)
 
     def observe(self, oracle: bool = False) -> Observation:
+        """Every world's observation, concatenated (humans padded to the mix's slots).
+
+        Args:
+            oracle: include the humans' true next states.
+
+        Returns:
+            The observation of every slot.
+        """
         obs = [w.observe(oracle=oracle) for w in self.worlds]
         if len(obs) == 1:
             return obs[0]
@@ -184,8 +224,17 @@ class MultiWorld:
         )
 
     def step(self, actions: np.ndarray) -> MultiStep:
-        """Steps every world; the ``final_*`` arrays hold each slot's state right after the step
-        (before the auto-reset of finished slots)."""
+        """Steps every world once.
+
+        The ``final_*`` arrays hold each slot's state right after the step (before the auto-reset
+        of finished slots).
+
+        Args:
+            actions: (B, 2) one action per slot.
+
+        Returns:
+            The step's rewards, outcomes and final states.
+        """
         parts, walls = [], []
         for w, lo, hi in zip(self.worlds, self.offsets[:-1], self.offsets[1:], strict=True):
             stepped = tuple(w.static_maps)  # before the refill of finished slots

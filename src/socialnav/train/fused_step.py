@@ -53,8 +53,10 @@ _MEMORY_FIELDS = (
 
 
 class _Value(nn.Module):
-    """``network.value`` as a module's forward, so that ``torch.func.functional_call`` can run it
-    with parameters passed in."""
+    """``network.value`` as a module's forward.
+
+    So that ``torch.func.functional_call`` can run it with parameters passed in.
+    """
 
     def __init__(self, network: nn.Module) -> None:
         super().__init__()
@@ -65,9 +67,10 @@ class _Value(nn.Module):
 
 
 class FusedTDStep:
-    """``step(idx)``: one TD gradient step on memory slots ``idx`` — the loss of
-    ``train/rl.py: td_loss`` and Adam's update of ``optimizer``'s parameters — in one compiled
-    graph; returns the minibatch loss (before the update; a 0-d tensor, not synchronised).
+    """``step(idx)``: one TD gradient step on memory slots ``idx`` in one compiled graph.
+
+    The loss of ``train/rl.py: td_loss`` and Adam's update of ``optimizer``'s parameters; returns
+    the minibatch loss (before the update; a 0-d tensor, not synchronised).
 
     Build it with :meth:`build`, after the optimizer's state is loaded (a resume).
     """
@@ -84,6 +87,22 @@ class FusedTDStep:
         fixed_targets: bool = False,
         cuda_graph: bool = True,
     ) -> None:
+        """Prepares the step (compiled by :meth:`build`).
+
+        Args:
+            policy: the ValuePolicy (its agent-centric transform and network).
+            target_net: the target network.
+            memory: the replay memory the indices address.
+            optimizer: the network's fused Adam (one parameter group).
+            gamma: discount factor.
+            dt: time step [s].
+            batch_size: minibatch size (the graph is compiled for it).
+            fixed_targets: use the targets stored with the transitions (rl.td_targets rgl_repo).
+            cuda_graph: on CUDA, replay the step as a CUDA graph.
+
+        Raises:
+            ValueError: not one parameter group of a fused-capable Adam.
+        """
         groups = optimizer.param_groups
         g = groups[0]
         if not isinstance(optimizer, torch.optim.Adam) or len(groups) != 1:
@@ -127,8 +146,15 @@ class FusedTDStep:
 
     @classmethod
     def build(cls, *args, **kwargs) -> tuple[FusedTDStep | None, str | None]:
-        """``(step, None)``, or ``(None, reason)`` where the network's value does not trace into
-        one graph (arguments: those of the constructor)."""
+        """Builds and compiles a step, or says why the network's value does not trace into one graph.
+
+        Args:
+            *args: the constructor's arguments.
+            **kwargs: the constructor's keyword arguments.
+
+        Returns:
+            ``(step, None)``, or ``(None, reason)``.
+        """
         step = cls(*args, **kwargs)
         try:
             step._compile()
@@ -138,10 +164,12 @@ class FusedTDStep:
         return step, None
 
     def _ensure_state(self) -> None:
-        """Creates Adam's state as ``torch.optim.Adam(fused=True)`` does on its first step (zero
-        moments, a float32 step counter per parameter), if it has none yet, and gathers the graph's
-        inputs. The step counters become 0-d views of one tensor (``shared_step_counters``, as for
-        ``AdamSteps``), so the graph updates them with one add."""
+        """Creates Adam's state if it has none yet, and gathers the graph's inputs.
+
+        The state is what ``torch.optim.Adam(fused=True)`` creates on its first step (zero moments,
+        a float32 step counter per parameter). The step counters become 0-d views of one tensor
+        (``shared_step_counters``, as for ``AdamSteps``), so the graph updates them with one add.
+        """
         state = self.optimizer.state
         for p in self._params:
             if p not in state or not state[p]:
@@ -237,8 +265,11 @@ class FusedTDStep:
         return [*self._inputs[:n_p], *self._inputs[at:]]
 
     def _record_cuda_graph(self) -> None:
-        """Records one compiled step as a CUDA graph over fixed input addresses (the step's inputs
-        are the run's own tensors, updated in place; the indices are copied into ``_graph_idx``)."""
+        """Records one compiled step as a CUDA graph over fixed input addresses.
+
+        The step's inputs are the run's own tensors, updated in place; the indices are copied into
+        ``_graph_idx``.
+        """
         idx = torch.zeros(self.batch_size, dtype=torch.long, device=self.memory.device)
         mutated = self._mutated_inputs()
         saved = [t.clone() for t in mutated]
@@ -259,6 +290,17 @@ class FusedTDStep:
     # -- the step -------------------------------------------------------------------------------------
 
     def __call__(self, idx: torch.Tensor) -> torch.Tensor:
+        """One gradient step on memory slots ``idx``.
+
+        Args:
+            idx: (batch_size,) int64 memory slots.
+
+        Returns:
+            The minibatch loss before the update (0-d tensor, not synchronised).
+
+        Raises:
+            ValueError: ``idx`` is not of the compiled batch size.
+        """
         if idx.shape != (self.batch_size,):
             raise ValueError(
                 f"the fused step was compiled for {self.batch_size} indices, got {tuple(idx.shape)}"

@@ -45,7 +45,21 @@ def td_targets(
     dt: float,
     v_pref: torch.Tensor,
 ) -> torch.Tensor:
-    """y = r + γ^(dt·v_pref) · V(s') · (1 − done)  (done: terminal only; truncations bootstrap)."""
+    """TD targets y = r + γ^(dt·v_pref) · V(s') · (1 − done).
+
+    ``done`` is 1 for terminal steps only: truncations bootstrap.
+
+    Args:
+        reward: (M,) rewards.
+        done: (M,) bool, terminal.
+        next_value: (M,) V(s').
+        gamma: discount per second of travel at v_pref.
+        dt: time step [s].
+        v_pref: (M,) preferred speed [m/s].
+
+    Returns:
+        (M,) the targets.
+    """
     disc = torch.pow(
         torch.as_tensor(gamma, dtype=reward.dtype, device=reward.device), dt * v_pref.to(reward.dtype)
     )
@@ -67,8 +81,22 @@ def td_loss(
     dt: float,
     fixed_targets: bool = False,
 ) -> torch.Tensor:
-    """MSE between V(s) and the TD target computed now with the target network, or, with
-    ``fixed_targets`` (rl.td_targets: rgl_repo), the target stored with the transition."""
+    """MSE between V(s) and the TD target.
+
+    The target is computed now with the target network, or, with ``fixed_targets``
+    (rl.td_targets: rgl_repo), the one stored with the transition.
+
+    Args:
+        policy: the ValuePolicy (agent-centric transform, network).
+        target_net: the target network.
+        batch: the transitions.
+        gamma: discount factor.
+        dt: time step [s].
+        fixed_targets: use the stored targets.
+
+    Returns:
+        The 0-d loss.
+    """
     if fixed_targets:
         y = batch.target
     else:
@@ -118,9 +146,11 @@ class EpisodeStats:
 
     @property
     def total(self) -> int:
+        """Episodes counted."""
         return self.success + self.collision + self.timeout
 
     def rates(self) -> dict[str, float]:
+        """Success, collision and timeout rates, and the mean time of successes (NaN without one)."""
         n = max(self.total, 1)
         return {
             "success": self.success / n,
@@ -137,6 +167,15 @@ class EpisodeStats:
         time: np.ndarray,
         success_reward: float,
     ) -> None:
+        """Counts the episodes that ended in a step.
+
+        Args:
+            terminated: (B,) bool, ended by success or collision.
+            truncated: (B,) bool, ended by the time limit.
+            reward: (B,) the step's rewards (success is the one equal to ``success_reward``).
+            time: (B,) episode time at the end [s].
+            success_reward: the preset's success reward.
+        """
         succ = terminated & np.isclose(reward, success_reward)
         self.success += int(succ.sum())
         self.collision += int((terminated & ~succ).sum())
@@ -145,8 +184,17 @@ class EpisodeStats:
 
 
 def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> dict[str, float]:
-    """Greedy rollouts of every episode of ``world`` (a finite val stream): success, collision and
-    timeout rates and the mean navigation time of successes."""
+    """Greedy rollouts of every episode of ``world`` (a finite val stream).
+
+    Args:
+        policy: anything with ``act(obs, next_humans=...) -> (_, actions)``.
+        world: the validation worlds.
+        oracle: show the policy the humans' true next states.
+        success_reward: the preset's success reward.
+
+    Returns:
+        Success, collision and timeout rates, the mean navigation time of successes, episodes.
+    """
     world.reset()
     stats = EpisodeStats()
     encode = getattr(policy, "encode", None)  # a value policy's obstacle points (the PPO actor has none)
@@ -165,8 +213,10 @@ def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> 
 
 
 def encoded_step(policy, res):
-    """``res`` (a MultiStep) with the policy's obstacle points appended to the states after the step
-    (``final_humans``/``final_mask``; each episode's own map, also where the slot was refilled)."""
+    """``res`` (a MultiStep) with the policy's obstacle points appended to the states after the step.
+
+    To ``final_humans``/``final_mask``: each episode's own map, also where the slot was refilled.
+    """
     if getattr(policy, "obstacle_encoding", None) is None:
         return res
     humans, mask = policy.encode_arrays(res.final_robot, res.final_humans, res.final_mask, res.final_maps)
@@ -191,8 +241,9 @@ def push_step(memory: ReplayMemory, obs, res) -> None:
 
 
 class RGLRepoEpisodes:
-    """The RGL repository's storage rule (``rl.td_targets: rgl_repo`` and ``rgl_repo_final``), for
-    lockstep collection.
+    """The RGL repository's storage rule for lockstep collection.
+
+    ``rl.td_targets: rgl_repo`` and ``rgl_repo_final``.
 
     Its explorer (``crowd_nav/utils/explorer.py``, Chen et al., "Relational Graph Learning for Crowd
     Navigation", IROS 2020) keeps an episode's transitions until it ends, stores nothing of an episode
@@ -206,6 +257,12 @@ class RGLRepoEpisodes:
     """
 
     def __init__(self, n_slots: int, fixed: bool = True) -> None:
+        """Empty episode buffers.
+
+        Args:
+            n_slots: lockstep slots.
+            fixed: store targets computed now (``rgl_repo``), else rewards (``rgl_repo_final``).
+        """
         self.rows: list[list[tuple]] = [[] for _ in range(int(n_slots))]
         self.fixed = fixed
 
