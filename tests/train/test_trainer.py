@@ -7,7 +7,7 @@ import json
 import pytest
 import torch
 
-import socialnav.train.trainer as trainer_mod
+import socialnav.train.value_rl_phase as rl_phase
 from socialnav.cli import main
 from socialnav.policies.learned import load_checkpoint
 from socialnav.train.config import load_train_settings
@@ -143,7 +143,7 @@ def test_resume_continues_counters(tmp_path, tiny, quick_preset):
 def test_nan_loss_stops_and_keeps_last_good_checkpoint(tmp_path, tiny, quick_preset, monkeypatch):
     out = tmp_path / "run"
     settings = load_train_settings(tiny)
-    real = trainer_mod.replay_td_loss
+    real = rl_phase.replay_td_loss
     calls = {"n": 0}
 
     def flaky(*args, **kwargs):
@@ -156,7 +156,7 @@ def test_nan_loss_stops_and_keeps_last_good_checkpoint(tmp_path, tiny, quick_pre
 
         return loss
 
-    monkeypatch.setattr(trainer_mod, "replay_td_loss", flaky)
+    monkeypatch.setattr(rl_phase, "replay_td_loss", flaky)
     with pytest.raises(TrainingDiverged, match="nan"):
         train("sarl", quick_preset, out, settings, progress=False)
     ck = load_checkpoint(out / "last.pt", "sarl")
@@ -168,7 +168,7 @@ def test_nan_loss_stops_and_keeps_last_good_checkpoint(tmp_path, tiny, quick_pre
         loss_at = real(*args, **kwargs)
         return lambda idx: loss_at(idx) * float("nan")
 
-    monkeypatch.setattr(trainer_mod, "replay_td_loss", always_nan)
+    monkeypatch.setattr(rl_phase, "replay_td_loss", always_nan)
     rc = main(
         [
             "train",

@@ -13,6 +13,7 @@ its factory as ``module:attribute``, imported when a network is built).
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -66,6 +67,9 @@ class LearnedPolicySpec:
             trained with (mp_rgl plans with the predictor it trains, so it needs ``learned``).
         one_human_training: trained with one human per episode when the training setting
             ``cadrl_one_human`` is on (CADRL's authors' setting).
+        network_kwargs: PPO only (required there): ``network_kwargs(settings, n_humans)``, the
+            network constructor's keyword arguments from the run's PPO settings
+            (``socialnav.train.PPOSettings``) and the training mix's human slots.
     """
 
     name: str
@@ -80,6 +84,7 @@ class LearnedPolicySpec:
     defaults: Mapping[str, Any] = field(default_factory=dict)
     required_information: str | None = None
     one_human_training: bool = False
+    network_kwargs: Callable[[Any, int], dict[str, Any]] | None = None
 
     def __post_init__(self) -> None:
         if self.trainer not in TRAINERS:
@@ -100,6 +105,11 @@ class LearnedPolicySpec:
         if self.trainer == "ppo" and (self.defaults or self.required_information):
             raise ValueError(
                 f"learned policy {self.name!r}: lookahead defaults apply to value-based policies only"
+            )
+        if (self.trainer == "ppo") != (self.network_kwargs is not None):
+            raise ValueError(
+                f"learned policy {self.name!r}: network_kwargs is required for PPO policies and "
+                f"applies to them only (trainer {self.trainer!r})"
             )
 
     @property
@@ -126,6 +136,42 @@ class LearnedPolicySpec:
             return self.network
         module, _, attr = self.network.partition(":")
         return getattr(importlib.import_module(module), attr)
+
+
+def attn_graph_kwargs(settings: Any, n_humans: int) -> dict[str, Any]:
+    """crowdnav_pp's network arguments: every size of ``settings.network`` and ``normalize_obs``.
+
+    Args:
+        settings: the run's PPO settings.
+        n_humans: the training mix's human slots (the attention takes any number).
+
+    Returns:
+        The AttnGraphNet keyword arguments.
+    """
+    return dict(normalize_obs=settings.normalize_obs, **dataclasses.asdict(settings.network))
+
+
+def mlp_actor_critic_kwargs(settings: Any, n_humans: int) -> dict[str, Any]:
+    """ppo_mlp's network arguments: prediction steps and initial σ, ``mlp_hidden``, human slots.
+
+    The prediction steps and initial σ are shared with crowdnav_pp's ``network`` settings; the MLP's
+    input has a slot per human of the training mix.
+
+    Args:
+        settings: the run's PPO settings.
+        n_humans: the training mix's human slots.
+
+    Returns:
+        The MLPActorCritic keyword arguments.
+    """
+    n = settings.network
+    return dict(
+        prediction_steps=n.prediction_steps,
+        max_humans=n_humans,
+        hidden=settings.mlp_hidden,
+        normalize_obs=settings.normalize_obs,
+        log_std_init=n.log_std_init,
+    )
 
 
 _NETS = "socialnav.policies.learned"
@@ -215,6 +261,7 @@ BUILTIN: tuple[LearnedPolicySpec, ...] = (
         observes="robot state + humans' positions and velocities with constant-velocity predictions",
         paper="Liu et al., \"Intention Aware Robot Crowd Navigation "
         "with Attention-Based Interaction Graph\", ICRA 2023",
+        network_kwargs=attn_graph_kwargs,
     ),
     LearnedPolicySpec(
         name="ppo_mlp",
@@ -225,6 +272,7 @@ BUILTIN: tuple[LearnedPolicySpec, ...] = (
         trainer="ppo",
         observes="robot state + the nearest humans' positions and velocities (constant-velocity predictions)",
         paper="none (a baseline for crowdnav_pp)",
+        network_kwargs=mlp_actor_critic_kwargs,
     ),
 )
 

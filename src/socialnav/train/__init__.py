@@ -1,7 +1,7 @@
-"""Training of the learned policies.
+"""Training of the learned policies: value-based (``train``) and PPO (``train_ppo``).
 
-Imitation from ORCA then value-based RL (``train``), and PPO (``train_ppo``). Needs the ``learn`` extra
-(PyTorch); see docs/training.md and docs/ppo.md.
+Value-based training is imitation from ORCA then RL. Needs the ``learn`` extra (PyTorch); see
+docs/training.md and docs/ppo.md.
 
 Example::
 

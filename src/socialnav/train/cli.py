@@ -8,7 +8,11 @@ from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_
 
 
 def add_train_parser(sub: argparse._SubParsersAction) -> None:
-    """Add the ``train`` subcommand to ``sub``."""
+    """Adds ``socialnav train`` and its options to the console script's subcommands.
+
+    Args:
+        sub: the console script's subparsers.
+    """
     tr = sub.add_parser(
         "train",
         help="train a learned policy (value-based: imitation from ORCA, then RL; crowdnav_pp: PPO)",

@@ -1,7 +1,7 @@
 """Pieces shared by the training phases.
 
-Optimizers and their saved state, progress bars, the validation order, and the check that a run directory
-holds this run.
+Devices, optimizers and their saved state, progress bars, the validation order, and the check that
+a run directory holds this run.
 """
 
 from __future__ import annotations
@@ -18,16 +18,37 @@ from socialnav.config import ConfigError
 from socialnav.train.config import resume_diff
 
 
-def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optimizer:
-    """Adam over ``params`` with learning rate ``lr``: the fused kernel where ``device`` has it.
+def resolve_device(name: str) -> torch.device:
+    """The torch device a training setting ``device`` names.
 
     Args:
-        params: The parameters to optimise.
-        lr: The learning rate.
-        device: Where the parameters live.
+        name: ``auto`` (CUDA when available, else CPU), ``cpu``, ``cuda`` or any torch device name.
 
     Returns:
-        ``torch.optim.Adam(fused=True)``, or the default implementation where fused is refused.
+        The device.
+
+    Raises:
+        RuntimeError: ``cuda`` was asked for and CUDA is not available.
+    """
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name == "cuda" and not torch.cuda.is_available():
+        raise RuntimeError(
+            "device 'cuda' requested but torch.cuda.is_available() is False (use --device cpu)"
+        )
+    return torch.device(name)
+
+
+def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optimizer:
+    """Adam over ``params``, fused where torch offers it (else ``foreach``).
+
+    Args:
+        params: the parameters.
+        lr: learning rate.
+        device: where they live.
+
+    Returns:
+        The optimizer.
     """
     params = list(params)
     try:  # fused Adam: one kernel for all parameters (2-3x faster steps for these small networks)
@@ -39,9 +60,16 @@ def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optim
 def compile_loss(loss: Callable[[torch.Tensor], torch.Tensor], device: torch.device):
     """``torch.compile`` of a minibatch loss of index tensors (training setting ``compile``).
 
-    Static shapes (one graph per minibatch size) and, on CPU, Inductor's C++ wrapper, which calls the graph's
-    kernels from C++ instead of Python: ≈ 30 % less time per call on the 2-core VM, at no extra compile time
-    (docs/training.md, "Compiled training").
+    Static shapes (one graph per minibatch size) and, on CPU, Inductor's C++ wrapper, which calls
+    the graph's kernels from C++ instead of Python: ≈ 30 % less time per call on the 2-core VM, at no
+    extra compile time (docs/training.md, "Compiled training").
+
+    Args:
+        loss: ``loss(indices)`` of a minibatch.
+        device: where the loss runs.
+
+    Returns:
+        The compiled loss.
     """
     options = {"cpp_wrapper": True} if device.type == "cpu" else {}
     return torch.compile(loss, dynamic=False, options=options)
@@ -63,6 +91,11 @@ class AdamSteps:
     """
 
     def __init__(self, optimizer: torch.optim.Optimizer) -> None:
+        """Wraps ``optimizer`` (its state is used, never copied).
+
+        Args:
+            optimizer: the optimizer whose steps are taken.
+        """
         self.optimizer = optimizer
         groups = optimizer.param_groups
         g = groups[0]
@@ -93,7 +126,7 @@ class AdamSteps:
         self._exp_avg_sqs: list[torch.Tensor] = []
 
     def zero_grad(self) -> None:
-        """Drop every parameter's gradient (``None``, as ``zero_grad(set_to_none=True)``)."""
+        """Drops the gradients (``zero_grad(set_to_none=True)``)."""
         for p in self.params:
             p.grad = None
 
@@ -106,11 +139,7 @@ class AdamSteps:
         self._state = state
 
     def step(self) -> None:
-        """One Adam step: the fused kernel on the cached state, else ``optimizer.step()``.
-
-        The optimizer's own step runs where the fast path does not apply: the first step (which creates the
-        state), a parameter without gradient, or settings the fused kernel does not take.
-        """
+        """One Adam step, as ``optimizer.step()``."""
         state = self.optimizer.state
         grads = [p.grad for p in self.params]
         if not self.fast or len(state) < len(self.params) or any(g is None for g in grads):
@@ -142,10 +171,17 @@ class AdamSteps:
 
 
 def shared_step_counters(per_param: list[dict[str, Any]]) -> torch.Tensor:
-    """Make every Adam ``step`` counter a 0-d view of one stacked tensor, and return that tensor.
+    """Makes every parameter's Adam ``step`` counter a view of one stacked tensor.
 
-    The views keep the counters' values: one add advances every counter, and the optimizer's state (saved,
-    loaded, stepped by ``optimizer.step()``) holds the views as before.
+    Each counter (a 0-d tensor) is replaced by a 0-d view of one tensor with the same values: one
+    add advances every counter, and the optimizer's state (saved, loaded, stepped by
+    ``optimizer.step()``) holds the views as before.
+
+    Args:
+        per_param: the optimizer's state of each parameter.
+
+    Returns:
+        The stacked counters.
     """
     steps = torch.stack([s["step"].detach() for s in per_param])
     for i, s in enumerate(per_param):
@@ -154,13 +190,25 @@ def shared_step_counters(per_param: list[dict[str, Any]]) -> torch.Tensor:
 
 
 def optimizer_state(opt: torch.optim.Optimizer) -> dict[str, Any]:
-    """The optimizer's ``state_dict`` with string keys (as saved in checkpoints)."""
+    """An optimizer's state dict with string keys (what a checkpoint's ``extra`` holds).
+
+    Args:
+        opt: the optimizer.
+
+    Returns:
+        ``{"state": {"0": ...}, "param_groups": [...]}``.
+    """
     sd = opt.state_dict()
     return {"state": {str(k): v for k, v in sd["state"].items()}, "param_groups": sd["param_groups"]}
 
 
 def load_optimizer_state(opt: torch.optim.Optimizer, data: dict[str, Any]) -> None:
-    """Load a state saved by :func:`optimizer_state` into ``opt``."""
+    """Loads what :func:`optimizer_state` saved.
+
+    Args:
+        opt: the optimizer.
+        data: the saved state.
+    """
     groups = []
     for g in data["param_groups"]:
         g = dict(g)
@@ -171,7 +219,17 @@ def load_optimizer_state(opt: torch.optim.Optimizer, data: dict[str, Any]) -> No
 
 
 def progress_bar(total: int, initial: int, desc: str, enabled: bool):
-    """A tqdm progress bar of ``total`` items from ``initial``, disabled unless ``enabled``."""
+    """A tqdm bar on stderr.
+
+    Args:
+        total: the count at completion.
+        initial: the count already done (a resumed run).
+        desc: its label.
+        enabled: False: a disabled bar (same calls, no output).
+
+    Returns:
+        The bar.
+    """
     from tqdm.auto import tqdm
 
     return tqdm(
@@ -186,7 +244,15 @@ def progress_bar(total: int, initial: int, desc: str, enabled: bool):
 
 
 def better(a: dict[str, Any], b: dict[str, Any] | None) -> bool:
-    """Validation a better than b: higher success, then fewer collisions, then faster."""
+    """Validation a better than b: higher success, then fewer collisions, then faster.
+
+    Args:
+        a: a validation.
+        b: the best so far, or None.
+
+    Returns:
+        Whether a is better.
+    """
     if b is None:
         return True
 
@@ -198,7 +264,16 @@ def better(a: dict[str, Any], b: dict[str, Any] | None) -> bool:
 
 
 def check_same_run(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:
-    """Refuses to resume a run directory written with other settings (naming keys and values)."""
+    """Refuses to resume a run directory written with other settings (naming keys and values).
+
+    Args:
+        saved: the run directory's record.
+        config: this call's record.
+        out: the run directory.
+
+    Raises:
+        ConfigError: the settings differ.
+    """
     diff = resume_diff(saved, config)
     if diff:
         changes = "; ".join(f"{k}: {_dotted(saved, k)!r} -> {_dotted(config, k)!r}" for k in diff[:6])
@@ -215,9 +290,15 @@ def _dotted(data: Any, key: str) -> Any:
 
 
 def reward_config(world: Any) -> dict[str, float]:
-    """The reward constants a checkpoint records for ``world`` (a preset's WorldSettings).
+    """The reward constants a checkpoint records for ``world``.
 
-    They are what the evaluator compares (policies/learned_entries.py).
+    The evaluator compares them (policies/learned_entries.py).
+
+    Args:
+        world: a preset's WorldSettings.
+
+    Returns:
+        Success reward, collision penalty, discomfort distance and factor, time step.
     """
     return {
         "success_reward": world.reward.success_reward,

@@ -1,6 +1,6 @@
-"""``curves.csv`` of a training run, and optional TensorBoard scalars.
+"""``curves.csv`` of a training run and optional TensorBoard scalars.
 
-The CSV is appended to, and trimmed to the resumed episode on resumption.
+The file is appended to, and trimmed to the resumed episode (or update) when a run resumes.
 """
 
 from __future__ import annotations
@@ -65,9 +65,15 @@ class Curves:
         columns: tuple[str, ...] = CURVE_COLUMNS,
         key: str = "episode",
     ) -> None:
-        """``columns``: the CSV's columns; ``key``: the counter rows are trimmed by on resumption.
+        """Opens (creates, or trims on resumption) the run's curves.csv.
 
-        ``key`` is ``episode`` for the value-based trainer, ``update`` for PPO's rows of phase ``ppo``.
+        Args:
+            path: curves.csv.
+            resume_episode: the resumed checkpoint's counter (rows after it are dropped), or None
+                for a fresh run (the file is started anew).
+            columns: the CSV's columns.
+            key: the counter rows are trimmed by on resumption (``episode`` for the value-based
+                trainer, ``update`` for PPO's rows of phase ``ppo``).
         """
         self.path = path
         self.columns = columns
@@ -94,7 +100,11 @@ class Curves:
             self.tb = None
 
     def write(self, row: dict[str, Any]) -> None:
-        """Append one row (missing or NaN values as empty cells) and its TensorBoard scalars."""
+        """Appends one row (missing columns and NaN empty) and its TensorBoard scalars.
+
+        Args:
+            row: column → value.
+        """
         def fmt(v: Any) -> str:
             if v is None or (isinstance(v, float) and math.isnan(v)):
                 return ""
@@ -114,7 +124,7 @@ class Curves:
             self.tb.flush()
 
     def close(self) -> None:
-        """Close the TensorBoard writer, if any."""
+        """Closes the TensorBoard writer, if any."""
         if self.tb is not None:
             self.tb.close()
 

@@ -24,8 +24,17 @@ from socialnav.sim.world import World
 def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True) -> int:
     """Humans per training episode.
 
-    The preset's, or 1 for a policy whose record asks for it (CADRL, trained with one human, as its authors
-    did) while ``cadrl_one_human`` is on. Scenarios that fix their own crowd keep it (:func:`scenario_crowd`).
+    The preset's, or 1 for a policy whose record asks for it (CADRL, trained with one human, as its
+    authors did) while ``cadrl_one_human`` is on. Scenarios that fix their own crowd keep it
+    (:func:`scenario_crowd`).
+
+    Args:
+        preset: the preset.
+        policy: the learned policy's name.
+        cadrl_one_human: the training setting.
+
+    Returns:
+        The number of humans.
     """
     from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
 
@@ -37,8 +46,15 @@ def training_n_humans(preset: Preset, policy: str, cadrl_one_human: bool = True)
 def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
     """The ``n_humans`` keyword for scenario ``name``.
 
-    None where the scenario fixes its own crowd (the francis2023 scenarios with one person or a standing group
-    refuse any other count).
+    None where the scenario fixes its own crowd (the francis2023 scenarios with one person or a
+    standing group refuse any other count).
+
+    Args:
+        name: a registered scenario.
+        n_humans: the crowd asked for.
+
+    Returns:
+        ``{"n_humans": n}`` or ``{}``.
     """
     return {} if get_scenario(name).fixed_n_humans else {"n_humans": int(n_humans)}
 
@@ -46,7 +62,14 @@ def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
 def mix_human_slots(preset: Preset, n_humans: int) -> int:
     """Human slots of the training mix's observations.
 
-    The largest crowd among its scenarios, a fixed one (:func:`scenario_crowd`) or ``n_humans``.
+    The largest crowd among its scenarios: a fixed one (:func:`scenario_crowd`) or ``n_humans``.
+
+    Args:
+        preset: the preset (its training mix).
+        n_humans: the crowd of scenarios that take one.
+
+    Returns:
+        The number of slots.
     """
     import dataclasses as dc
 
@@ -119,6 +142,7 @@ class MultiWorld:
         count: int | None = None,
         threads: int = 0,
     ) -> None:
+        """Builds one world per scenario of the training mix (see the class's arguments)."""
         names = list(preset.training.scenarios)
         if not names:
             raise ValueError("the preset's training scenario mix is empty")
@@ -167,17 +191,17 @@ class MultiWorld:
 
     @property
     def busy(self) -> bool:
-        """Whether any world still has an episode running."""
+        """Whether a world is still stepping in the background."""
         return any(w.busy for w in self.worlds)
 
     def observe(self, oracle: bool = False) -> Observation:
-        """The observation of every world's slots in one batch (humans padded to the mix's slots).
+        """Every world's observation, concatenated (humans padded to the mix's slots).
 
         Args:
-            oracle: Include the humans' next states (oracle information).
+            oracle: include the humans' true next states.
 
         Returns:
-            One Observation over every slot of every world, in world order.
+            The observation of every slot.
         """
         obs = [w.observe(oracle=oracle) for w in self.worlds]
         if len(obs) == 1:
@@ -200,10 +224,16 @@ class MultiWorld:
         )
 
     def step(self, actions: np.ndarray) -> MultiStep:
-        """Step every world.
+        """Steps every world once.
 
-        The ``final_*`` arrays hold each slot's state right after the step (before the auto-reset of finished
-        slots).
+        The ``final_*`` arrays hold each slot's state right after the step (before the auto-reset
+        of finished slots).
+
+        Args:
+            actions: (B, 2) one action per slot.
+
+        Returns:
+            The step's rewards, outcomes and final states.
         """
         parts, walls = [], []
         for w, lo, hi in zip(self.worlds, self.offsets[:-1], self.offsets[1:], strict=True):

@@ -67,10 +67,10 @@ class _Value(nn.Module):
 
 
 class FusedTDStep:
-    """One compiled TD gradient step: ``step(idx)`` on memory slots ``idx``.
+    """``step(idx)``: one TD gradient step on memory slots ``idx`` in one compiled graph.
 
-    The loss of ``train/rl.py: td_loss`` and Adam's update of ``optimizer``'s parameters run in one compiled
-    graph; ``step`` returns the minibatch loss (before the update; a 0-d tensor, not synchronised).
+    The loss of ``train/rl.py: td_loss`` and Adam's update of ``optimizer``'s parameters; returns
+    the minibatch loss (before the update; a 0-d tensor, not synchronised).
 
     Build it with :meth:`build`, after the optimizer's state is loaded (a resume).
     """
@@ -87,6 +87,22 @@ class FusedTDStep:
         fixed_targets: bool = False,
         cuda_graph: bool = True,
     ) -> None:
+        """Prepares the step (compiled by :meth:`build`).
+
+        Args:
+            policy: the ValuePolicy (its agent-centric transform and network).
+            target_net: the target network.
+            memory: the replay memory the indices address.
+            optimizer: the network's fused Adam (one parameter group).
+            gamma: discount factor.
+            dt: time step [s].
+            batch_size: minibatch size (the graph is compiled for it).
+            fixed_targets: use the targets stored with the transitions (rl.td_targets rgl_repo).
+            cuda_graph: on CUDA, replay the step as a CUDA graph.
+
+        Raises:
+            ValueError: not one parameter group of a fused-capable Adam.
+        """
         groups = optimizer.param_groups
         g = groups[0]
         if not isinstance(optimizer, torch.optim.Adam) or len(groups) != 1:
@@ -130,9 +146,14 @@ class FusedTDStep:
 
     @classmethod
     def build(cls, *args, **kwargs) -> tuple[FusedTDStep | None, str | None]:
-        """``(step, None)``, or ``(None, reason)`` where the network's value does not trace into one graph.
+        """Builds and compiles a step, or says why the network's value does not trace into one graph.
 
-        The arguments are those of the constructor.
+        Args:
+            *args: the constructor's arguments.
+            **kwargs: the constructor's keyword arguments.
+
+        Returns:
+            ``(step, None)``, or ``(None, reason)``.
         """
         step = cls(*args, **kwargs)
         try:
@@ -143,10 +164,10 @@ class FusedTDStep:
         return step, None
 
     def _ensure_state(self) -> None:
-        """Create Adam's state if it has none yet, and gather the graph's inputs.
+        """Creates Adam's state if it has none yet, and gathers the graph's inputs.
 
-        The state is what ``torch.optim.Adam(fused=True)`` creates on its first step (zero moments, a float32
-        step counter per parameter). The step counters become 0-d views of one tensor
+        The state is what ``torch.optim.Adam(fused=True)`` creates on its first step (zero moments,
+        a float32 step counter per parameter). The step counters become 0-d views of one tensor
         (``shared_step_counters``, as for ``AdamSteps``), so the graph updates them with one add.
         """
         state = self.optimizer.state
@@ -244,7 +265,7 @@ class FusedTDStep:
         return [*self._inputs[:n_p], *self._inputs[at:]]
 
     def _record_cuda_graph(self) -> None:
-        """Record one compiled step as a CUDA graph over fixed input addresses.
+        """Records one compiled step as a CUDA graph over fixed input addresses.
 
         The step's inputs are the run's own tensors, updated in place; the indices are copied into
         ``_graph_idx``.
@@ -269,13 +290,16 @@ class FusedTDStep:
     # -- the step -------------------------------------------------------------------------------------
 
     def __call__(self, idx: torch.Tensor) -> torch.Tensor:
-        """One fused gradient step on memory slots ``idx`` (batch_size,) int64.
+        """One gradient step on memory slots ``idx``.
+
+        Args:
+            idx: (batch_size,) int64 memory slots.
 
         Returns:
-            The minibatch loss before the update (a 0-d tensor, not synchronised).
+            The minibatch loss before the update (0-d tensor, not synchronised).
 
         Raises:
-            ValueError: ``idx`` has another shape than the step was compiled for.
+            ValueError: ``idx`` is not of the compiled batch size.
         """
         if idx.shape != (self.batch_size,):
             raise ValueError(

@@ -49,6 +49,7 @@ class Demonstrations:
     next_mask: np.ndarray | None = None  # (M, N)
 
     def __len__(self) -> int:
+        """States M."""
         return len(self.value)
 
 
@@ -134,9 +135,15 @@ def collect_demonstrations(
 
 
 def save_demonstrations(path, demos: Demonstrations, config_json: str) -> None:
-    """Write the demonstrations atomically (float32, as the regression uses them) with the run's config.
+    """Writes the demonstrations atomically with the run's config.
 
-    So that a resumed imitation reuses them instead of collecting again.
+    Float32, as the regression uses them; a resumed imitation reuses them instead of collecting
+    again.
+
+    Args:
+        path: the ``.npz`` file.
+        demos: the demonstrations.
+        config_json: the run's config as JSON (checked on reuse).
     """
     from socialnav._io import atomic_write
 
@@ -235,9 +242,20 @@ def fit_predictor(
     generator: torch.Generator,
     device: torch.device | str = "cpu",
 ) -> list[float]:
-    """Fit the state predictor on the demonstrations' human transitions (s → s').
+    """Supervised training (position MSE) of the state predictor on the demonstrations.
 
-    Supervised, position MSE, as RGL trains its state predictor during imitation learning.
+    On the demonstrations' human transitions (s → s'), as RGL trains its state predictor during
+    imitation learning.
+
+    Args:
+        predictor: the state predictor.
+        optimizer: its optimizer.
+        demos: the demonstrations (with ``next_humans``).
+        epochs: passes over them.
+        batch_size: minibatch size.
+        dt: time step [s].
+        generator: the minibatch orders.
+        device: where the predictor lives.
 
     Returns:
         Mean loss per epoch [m²].
@@ -277,10 +295,10 @@ def _epochs(
     what: str,
     on_epoch: Callable[[int, float], None] | None = None,
 ) -> list[float]:
-    """Minibatch epochs over ``m`` samples, each in a fresh permutation from ``generator``.
+    """Minibatch epochs over ``m`` samples in a fresh permutation each (from ``generator``).
 
-    One optimizer step per ``batch_loss(indices)``; returns the mean loss per epoch. A non-finite loss raises
-    FloatingPointError naming ``what`` and the epoch.
+    One optimizer step per ``batch_loss(indices)``; returns the mean loss per epoch. A non-finite
+    loss raises FloatingPointError naming ``what`` and the epoch.
     """
     losses = []
     adam = AdamSteps(optimizer)  # optimizer.step() without its per-call Python, bit-identical

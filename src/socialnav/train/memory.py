@@ -52,6 +52,7 @@ class ReplayMemory:
         device: str | torch.device = "cpu",
         dtype: torch.dtype = torch.float32,
     ) -> None:
+        """Preallocates the tensors (see the class's arguments)."""
         if capacity < 1:
             raise ValueError(f"capacity must be >= 1, got {capacity}")
         self.capacity = int(capacity)
@@ -73,15 +74,16 @@ class ReplayMemory:
         self.pushed = 0  # transitions ever pushed
 
     def __len__(self) -> int:
+        """Transitions held."""
         return self.size
 
     def push(
         self, robot, humans, mask, reward, next_robot, next_humans, next_mask, done, target=None
     ) -> None:
-        """Append k transitions (arrays with a leading dimension k; NumPy or torch).
+        """Appends k transitions (arrays with a leading dimension k; NumPy or torch).
 
-        ``target``: value targets fixed now (the RGL repository's rule), or None (computed at each gradient
-        step).
+        ``target``: value targets fixed now (the RGL repository's rule), or None (computed at each
+        gradient step). The other arguments are the fields of :class:`Transitions`.
         """
         if target is None:
             target = torch.full((int(np.shape(reward)[0]),), float("nan"))
@@ -133,7 +135,18 @@ class ReplayMemory:
     def sample_indices(self, batch_size: int, generator: torch.Generator) -> torch.Tensor:
         """The slots :meth:`sample` would take (on the memory's device).
 
-        The same draw, so that a caller may gather the transitions itself (e.g. inside a compiled loss).
+        The same draw, so that a caller may gather the transitions itself (e.g. inside a compiled
+        loss).
+
+        Args:
+            batch_size: slots drawn (uniformly, with replacement).
+            generator: the CPU generator drawn from.
+
+        Returns:
+            (batch_size,) int64 slots.
+
+        Raises:
+            ValueError: the memory is empty.
         """
         if self.size == 0:
             raise ValueError("cannot sample from an empty replay memory")
@@ -145,7 +158,7 @@ class ReplayMemory:
         return idx.to(self.device)
 
     def take(self, idx: torch.Tensor) -> Transitions:
-        """The transitions at slots ``idx`` (a gather on the memory's device)."""
+        """The transitions in slots ``idx``."""
         return Transitions(
             self.robot[idx],
             self.humans[idx],

@@ -40,6 +40,11 @@ class NetworkSettings:
     log_std_init: float = 0.0
 
     def __post_init__(self) -> None:
+        """Checks every size.
+
+        Raises:
+            ConfigError: a size out of range (the field and value are named).
+        """
         check(
             0 <= self.prediction_steps <= 50,
             "network.prediction_steps",
@@ -132,6 +137,11 @@ class PPOSettings:
     mlp_hidden: int = 256
 
     def __post_init__(self) -> None:
+        """Checks every setting.
+
+        Raises:
+            ConfigError: a setting out of range (the field and value are named).
+        """
         check(self.n_envs >= 1, "n_envs", self.n_envs, "must be >= 1")
         check(self.rollout_steps >= 1, "rollout_steps", self.rollout_steps, "must be >= 1")
         check(self.total_env_steps >= 0, "total_env_steps", self.total_env_steps, "must be >= 0")
@@ -162,10 +172,23 @@ class PPOSettings:
         return self.n_envs * self.rollout_steps
 
     def to_dict(self) -> dict[str, Any]:
+        """The settings as plain data (the run's config records them)."""
         return dataclasses.asdict(self)
 
 
 def load_ppo_settings(path: str | Path | None = None, **overrides: Any) -> PPOSettings:
-    """PPO settings from a YAML file (or a shipped config's name, e.g. ``ppo_smoke``), then the
-    top-level ``overrides`` (None values ignored). Unknown keys are an error naming the valid ones."""
+    """PPO settings from a YAML file (or a shipped config's name, e.g. ``ppo_smoke``).
+
+    Then the top-level ``overrides`` (None values ignored).
+
+    Args:
+        path: a YAML file or shipped config name; None: the defaults.
+        **overrides: top-level settings that replace the file's.
+
+    Returns:
+        The settings.
+
+    Raises:
+        ConfigError: an unknown key (the valid ones are named) or a bad value.
+    """
     return load_settings_file(PPOSettings, path, overrides)

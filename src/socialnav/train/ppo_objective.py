@@ -1,5 +1,6 @@
-"""The mathematics of PPO, kept once: generalised advantage estimation, the clipped objective and the
-Gaussian log-density.
+"""The mathematics of PPO, kept once.
+
+Generalised advantage estimation, the clipped objective and the Gaussian log-density.
 
 References: J. Schulman, P. Moritz, S. Levine, M. Jordan, P. Abbeel, "High-Dimensional Continuous Control
 Using Generalized Advantage Estimation", ICLR 2016 (GAE); J. Schulman, F. Wolski, P. Dhariwal, A. Radford,

@@ -1,6 +1,9 @@
-"""The PPO trainer's view of the worlds: one lockstep step of the whole training mix, the saved state
-of the episodes in flight (resumption mid-episode, bit-identical on CPU), the world a checkpoint records,
-the goal distance of the reward term, and the actor in the shape the validation loop calls."""
+"""The PPO trainer's view of the worlds.
+
+One lockstep step of the whole training mix, the saved state of the episodes in flight (resumption
+mid-episode, bit-identical on CPU), the world a checkpoint records, the goal distance of the reward
+term, and the actor in the shape the validation loop calls.
+"""
 
 from __future__ import annotations
 
@@ -61,10 +64,18 @@ def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
 
 
 def step_worlds(world: MultiWorld, actions: np.ndarray):
-    """Steps every world of the mix once (one native call each): reward, terminated, truncated, the
-    finished slots' final observation (every slot's state right after the step, before refills) and
-    the observation the policy sees next (refilled slots at time 0). Worlds with fewer humans than
-    the mix's largest crowd get padded slots (mask False)."""
+    """Steps every world of the mix once (one native call each).
+
+    Worlds with fewer humans than the mix's largest crowd get padded slots (mask False).
+
+    Args:
+        world: the training worlds.
+        actions: (B, 2) one action per slot.
+
+    Returns:
+        Reward, terminated, truncated, the final observation (every slot's state right after the
+        step, before refills) and the observation the policy sees next (refilled slots at time 0).
+    """
     n = world.n_human_slots
     parts = []
     for w, lo, hi in zip(world.worlds, world.offsets[:-1], world.offsets[1:], strict=True):
@@ -126,7 +137,9 @@ class GreedyActor:
     """The deterministic actor as ``rl.validate`` calls it: ``act(obs, next_humans) -> (_, actions)``."""
 
     def __init__(self, policy) -> None:
+        """Wraps ``policy`` (a RecurrentActorPolicy)."""
         self.policy = policy
 
     def act(self, obs, next_humans=None):
+        """``(None, actions)``: the deterministic actions of ``obs`` (``next_humans`` unused)."""
         return None, self.policy.act(obs)

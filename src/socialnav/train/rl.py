@@ -45,7 +45,21 @@ def td_targets(
     dt: float,
     v_pref: torch.Tensor,
 ) -> torch.Tensor:
-    """Y = r + γ^(dt·v_pref) · V(s') · (1 − done)  (done: terminal only; truncations bootstrap)."""
+    """TD targets y = r + γ^(dt·v_pref) · V(s') · (1 − done).
+
+    ``done`` is 1 for terminal steps only: truncations bootstrap.
+
+    Args:
+        reward: (M,) rewards.
+        done: (M,) bool, terminal.
+        next_value: (M,) V(s').
+        gamma: discount per second of travel at v_pref.
+        dt: time step [s].
+        v_pref: (M,) preferred speed [m/s].
+
+    Returns:
+        (M,) the targets.
+    """
     disc = torch.pow(
         torch.as_tensor(gamma, dtype=reward.dtype, device=reward.device), dt * v_pref.to(reward.dtype)
     )
@@ -69,8 +83,19 @@ def td_loss(
 ) -> torch.Tensor:
     """MSE between V(s) and the TD target.
 
-    The target is computed now with the target network, or, with ``fixed_targets`` (rl.td_targets: rgl_repo),
-    the one stored with the transition.
+    The target is computed now with the target network, or, with ``fixed_targets``
+    (rl.td_targets: rgl_repo), the one stored with the transition.
+
+    Args:
+        policy: the ValuePolicy (agent-centric transform, network).
+        target_net: the target network.
+        batch: the transitions.
+        gamma: discount factor.
+        dt: time step [s].
+        fixed_targets: use the stored targets.
+
+    Returns:
+        The 0-d loss.
     """
     if fixed_targets:
         y = batch.target
@@ -121,11 +146,11 @@ class EpisodeStats:
 
     @property
     def total(self) -> int:
-        """The number of finished episodes."""
+        """Episodes counted."""
         return self.success + self.collision + self.timeout
 
     def rates(self) -> dict[str, float]:
-        """Outcome rates (0 when none finished) and the mean navigation time of successes [s] (NaN: none)."""
+        """Success, collision and timeout rates, and the mean time of successes (NaN without one)."""
         n = max(self.total, 1)
         return {
             "success": self.success / n,
@@ -142,14 +167,14 @@ class EpisodeStats:
         time: np.ndarray,
         success_reward: float,
     ) -> None:
-        """Count the episodes that finished in one step.
+        """Counts the episodes that ended in a step.
 
         Args:
-            terminated: (B,) bool, episodes that ended by success or collision.
-            truncated: (B,) bool, episodes that ran out of time.
-            reward: (B,) float rewards of the step.
-            time: (B,) float episode times [s].
-            success_reward: The reward of reaching the goal (tells success from collision).
+            terminated: (B,) bool, ended by success or collision.
+            truncated: (B,) bool, ended by the time limit.
+            reward: (B,) the step's rewards (success is the one equal to ``success_reward``).
+            time: (B,) episode time at the end [s].
+            success_reward: the preset's success reward.
         """
         succ = terminated & np.isclose(reward, success_reward)
         self.success += int(succ.sum())
@@ -161,7 +186,14 @@ class EpisodeStats:
 def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> dict[str, float]:
     """Greedy rollouts of every episode of ``world`` (a finite val stream).
 
-    Returns success, collision and timeout rates and the mean navigation time of successes.
+    Args:
+        policy: anything with ``act(obs, next_humans=...) -> (_, actions)``.
+        world: the validation worlds.
+        oracle: show the policy the humans' true next states.
+        success_reward: the preset's success reward.
+
+    Returns:
+        Success, collision and timeout rates, the mean navigation time of successes, episodes.
     """
     world.reset()
     stats = EpisodeStats()
@@ -183,7 +215,7 @@ def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> 
 def encoded_step(policy, res):
     """``res`` (a MultiStep) with the policy's obstacle points appended to the states after the step.
 
-    Appended to ``final_humans``/``final_mask``; each episode's own map, also where the slot was refilled.
+    To ``final_humans``/``final_mask``: each episode's own map, also where the slot was refilled.
     """
     if getattr(policy, "obstacle_encoding", None) is None:
         return res
@@ -209,9 +241,9 @@ def push_step(memory: ReplayMemory, obs, res) -> None:
 
 
 class RGLRepoEpisodes:
-    """The RGL repository's storage rule, for lockstep collection.
+    """The RGL repository's storage rule for lockstep collection.
 
-    Used with ``rl.td_targets: rgl_repo`` and ``rgl_repo_final``.
+    ``rl.td_targets: rgl_repo`` and ``rgl_repo_final``.
 
     Its explorer (``crowd_nav/utils/explorer.py``, Chen et al., "Relational Graph Learning for Crowd
     Navigation", IROS 2020) keeps an episode's transitions until it ends, stores nothing of an episode
@@ -225,6 +257,12 @@ class RGLRepoEpisodes:
     """
 
     def __init__(self, n_slots: int, fixed: bool = True) -> None:
+        """Empty episode buffers.
+
+        Args:
+            n_slots: lockstep slots.
+            fixed: store targets computed now (``rgl_repo``), else rewards (``rgl_repo_final``).
+        """
         self.rows: list[list[tuple]] = [[] for _ in range(int(n_slots))]
         self.fixed = fixed
 

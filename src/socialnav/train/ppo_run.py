@@ -1,0 +1,281 @@
+"""The setup phase of a PPO training run.
+
+Settings, seeds, the network (its arguments from the policy's record in
+``policies/learned_catalog.py``), the optimizer, the generators and the worlds are built once and
+shared by the later phases as one :class:`PPORun`; nothing is written to the run directory before
+they and a resumed checkpoint have been checked.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from socialnav._io import (
+    DirectoryLock,
+    atomic_write_json,
+    atomic_write_text,
+    make_output_dir,
+    remove_orphan_temporaries,
+)
+from socialnav.config import ConfigError
+from socialnav.presets import Preset, load_preset
+from socialnav.train.common import load_optimizer_state, resolve_device
+from socialnav.train.config import derive_seeds, flat_diff
+from socialnav.train.curves import Curves
+from socialnav.train.envs import MultiWorld, mix_human_slots
+from socialnav.train.ppo_config import PPO_RESUMABLE_CHANGES, PPOSettings
+from socialnav.train.ppo_worlds import ppo_policy_config, restore_worlds
+
+PPO_STREAM_OFFSET = 5_000_000  # training episodes start here within the seed's range (as the RL stream)
+PPO_CURVE_COLUMNS = (
+    "phase",
+    "update",
+    "env_steps",
+    "episodes",
+    "train_episodes",
+    "train_success",
+    "train_collision",
+    "train_timeout",
+    "train_return",
+    "loss",
+    "policy_loss",
+    "value_loss",
+    "entropy",
+    "approx_kl",
+    "clip_fraction",
+    "explained_variance",
+    "std",
+    "lr",
+    "val_success",
+    "val_collision",
+    "val_timeout",
+    "val_nav_time",
+    "env_steps_per_s",
+    "wall_time",
+)
+
+
+@dataclass(frozen=True)
+class PPORun:
+    """What every phase of a PPO run reads: built by :func:`setup_ppo_run`, never replaced.
+
+    The network, optimizer, generators and worlds are mutable objects the phases advance in place;
+    the counters and the episodes in flight live in :class:`socialnav.train.ppo_state.PPOState`.
+
+    Attributes:
+        settings: the PPO settings.
+        preset: the preset trained under.
+        config: the run's record (config.json; every checkpoint's ``config``).
+        n_humans: human slots of the rollout (the training mix's largest crowd).
+        device: the torch device.
+        out: the run directory.
+        net: the actor-critic (the policy's record builds it).
+        optimizer: its Adam.
+        action_gen: the Gaussian action draws.
+        minibatch_gen: the minibatch orders.
+        world: the training worlds, in lockstep.
+        val_world: the validation episodes (``val`` split).
+        n_updates: updates in the whole budget.
+        resumed: the resume record of ``last.pt`` when the run continues, else None.
+        curves: curves.csv of the run.
+        say: where progress lines go.
+        progress: whether progress bars are shown.
+        started: ``time.perf_counter()`` when this call began.
+    """
+
+    settings: PPOSettings
+    preset: Preset
+    config: dict[str, Any]
+    n_humans: int
+    device: torch.device
+    out: Path
+    net: Any  # AttnGraphNet or MLPActorCritic: step, sequence, log_std, observation statistics
+    optimizer: torch.optim.Optimizer
+    action_gen: torch.Generator
+    minibatch_gen: torch.Generator
+    world: MultiWorld
+    val_world: MultiWorld
+    n_updates: int
+    resumed: dict[str, Any] | None
+    curves: Curves
+    say: Callable[[str], None]
+    progress: bool
+    started: float
+
+    @property
+    def last_path(self) -> Path:
+        """last.pt: the latest training state (resumption)."""
+        return self.out / "last.pt"
+
+    @property
+    def best_path(self) -> Path:
+        """best.pt: the best validation so far."""
+        return self.out / "best.pt"
+
+    @property
+    def n_envs(self) -> int:
+        """Environments stepped in lockstep."""
+        return self.world.batch_size
+
+    def save(self, path: Path, extra: dict[str, Any]) -> None:
+        """Writes a learned-policy checkpoint of the network atomically.
+
+        Args:
+            path: the checkpoint file.
+            extra: the checkpoint's ``extra`` record.
+        """
+        from socialnav.policies.learned import save_checkpoint
+
+        save_checkpoint(path, self.settings.policy, self.net, config=self.config, extra=extra)
+
+
+def _run_record(preset: Preset, s: PPOSettings, seeds: dict[str, int], n_humans: int) -> dict[str, Any]:
+    record = {
+        "ppo_policy": ppo_policy_config(preset),
+        "policy": s.policy,
+        "preset": preset.to_dict(),
+        "train": s.to_dict(),
+        "seeds": seeds,
+        "n_humans": n_humans,
+        "ppo_stream_offset": PPO_STREAM_OFFSET,
+        "kinematics": preset.world.kinematics,
+    }
+    return json.loads(json.dumps(record, default=lambda v: list(v) if isinstance(v, tuple) else str(v)))
+
+
+def _check_resumable(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:
+    diff = [k for k in flat_diff(saved, config) if not any(k == f"train.{r}" for r in PPO_RESUMABLE_CHANGES)]
+    if diff:
+        raise ConfigError(f"{out} holds a run with other settings ({', '.join(diff[:6])}); use another --out")
+
+
+def setup_ppo_run(
+    preset: Preset | str,
+    out_dir: str | Path,
+    s: PPOSettings,
+    stack: contextlib.ExitStack,
+    *,
+    progress: bool,
+    log: Callable[[str], None] | None,
+) -> PPORun:
+    """Builds the run and takes its directory.
+
+    The network (seeded; its arguments from the policy's record), optimizer, generators and worlds
+    first; then the run directory's lock, ``last.pt`` when present (network, optimizer, generators
+    and the worlds' episodes in flight restored), config.json/config.yaml and curves.csv.
+
+    Args:
+        preset: a Preset or a preset name/path.
+        out_dir: the run directory (created).
+        s: the PPO settings.
+        stack: closes the worlds and curves and releases the lock when the training call ends.
+        progress: show progress bars.
+        log: callable taking a line of text (default: print to stderr).
+
+    Returns:
+        The run.
+
+    Raises:
+        ConfigError: not a PPO policy, too many minibatches, or ``last.pt`` holds no PPO training
+            state or a run with other settings.
+        DirectoryLockedError: another training is writing to ``out_dir``.
+    """
+    from socialnav.policies.learned import build, load_checkpoint
+    from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
+
+    if s.policy not in (ppo := learned_policy_names("ppo")):
+        raise ConfigError(f"policy: {s.policy!r} is not trained with PPO (PPO policies: {', '.join(ppo)})")
+    started = time.perf_counter()
+    say = log or (lambda line: print(line, file=sys.stderr, flush=True))
+    preset = load_preset(preset) if not isinstance(preset, Preset) else preset
+    device = resolve_device(s.device)
+    torch.set_num_threads(s.threads or max(1, min(os.cpu_count() or 1, 8)))
+    seeds = derive_seeds(s.seed)
+    # the rollout's human slots: scenarios that fix their own crowd (francis2023) may exceed the preset's
+    crowd = int(preset.training.n_humans)
+    n_humans = mix_human_slots(preset, crowd)
+    config = _run_record(preset, s, seeds, n_humans)
+    out = Path(out_dir)
+
+    network_kwargs = get_learned_spec(s.policy).network_kwargs
+    assert network_kwargs is not None  # a PPO record always has one (LearnedPolicySpec checks)
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seeds["init"])
+        net = build(s.policy, **network_kwargs(s, n_humans))
+    net.to(device)
+    optimizer = torch.optim.Adam(net.parameters(), lr=s.lr, eps=s.adam_eps)
+    action_gen = torch.Generator().manual_seed(seeds["exploration"])
+    minibatch_gen = torch.Generator().manual_seed(seeds["sampling"])
+
+    # Refused settings stop here, before anything is written.
+    val_world = MultiWorld(preset, crowd, min(s.n_envs, s.val_episodes), "val", 0, s.val_episodes)
+    stack.callback(val_world.close)
+    world = MultiWorld(preset, crowd, s.n_envs, "train", seeds["scenario_start"] + PPO_STREAM_OFFSET)
+    stack.callback(world.close)
+    n_updates = math.ceil(s.total_env_steps / (world.batch_size * s.rollout_steps))
+    if s.minibatches > world.batch_size:
+        raise ConfigError(
+            f"minibatches {s.minibatches} must be <= the number of environments ({world.batch_size})"
+        )
+    make_output_dir(out)
+    stack.enter_context(DirectoryLock(out, "training"))
+    remove_orphan_temporaries(out)
+
+    resumed: dict[str, Any] | None = None
+    last_path = out / "last.pt"
+    if last_path.exists():
+        ck = load_checkpoint(last_path, s.policy, expected_input_dim=-1, map_location=device)
+        resumed = ck.extra.get("resume")
+        if not isinstance(resumed, dict):
+            raise ConfigError(f"{last_path} is not a PPO training state (no 'resume' record); move it away")
+        _check_resumable(ck.config, config, out)
+        net.load_state_dict(ck.model.state_dict())
+        load_optimizer_state(optimizer, resumed["optimizer"])
+        action_gen.set_state(resumed["action_rng"])
+        minibatch_gen.set_state(resumed["minibatch_rng"])
+        restore_worlds(world, resumed["worlds"])
+        say(f"resuming {out} at update {resumed['update']} ({resumed['env_steps']} env steps)")
+    else:
+        world.reset()
+    atomic_write_json(out / "config.json", config)
+    import yaml
+
+    atomic_write_text(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
+    curves = Curves(
+        out / "curves.csv",
+        None if resumed is None else int(resumed["update"]),
+        columns=PPO_CURVE_COLUMNS,
+        key="update",
+    )
+    stack.callback(curves.close)
+    return PPORun(
+        settings=s,
+        preset=preset,
+        config=config,
+        n_humans=n_humans,
+        device=device,
+        out=out,
+        net=net,
+        optimizer=optimizer,
+        action_gen=action_gen,
+        minibatch_gen=minibatch_gen,
+        world=world,
+        val_world=val_world,
+        n_updates=n_updates,
+        resumed=resumed,
+        curves=curves,
+        say=say,
+        progress=progress,
+        started=started,
+    )
