@@ -17,6 +17,13 @@ open world and against navground's ORCA with the same walls, all in the same run
     python benchmarks/bench_world.py [--batch 4096] [--seconds 5] [--threads 0]
         [--scaling-threads 1 2] [--scaling-repeats 3] [--scaling-seconds 2]
     python benchmarks/bench_world.py --obstacles [--batch 4096] [--seconds 3] [--repeats 3] [--map spokes]
+    python benchmarks/bench_world.py --obstacles --against DIR [--repeats 3] [--seconds 3]
+
+``--against DIR`` compares two builds of the native core: the walled and the open-floor workloads
+are measured with this one and with the one in the source tree DIR (``PYTHONPATH=DIR``, e.g. a copy
+of ``src/`` holding ``main``'s ``_core``), alternating, each in a fresh process; best of ``--repeats``;
+keys ``ratio_vs_open_world`` of each build and ``speedup_obstacles`` / ``speedup_open_world`` (this
+build's env-steps/s over the other's).
 """
 
 from __future__ import annotations
@@ -134,6 +141,45 @@ def state_digest(batch: int, threads: int, steps: int = 300) -> str:
 
 
 
+def _measure_in_process(pythonpath: str, workload: str, args: argparse.Namespace) -> float:
+    """Env-steps/s of one workload (``obstacles`` or ``open``) with the core found on ``pythonpath``."""
+    import subprocess
+
+    command = [sys.executable, os.path.abspath(__file__), "--measure-one", workload, "--map", args.map,
+               "--batch", str(args.batch), "--seconds", str(args.seconds), "--threads", str(args.threads)]
+    out = subprocess.run(command, env=dict(os.environ, PYTHONPATH=os.path.abspath(pythonpath)), check=True,
+                         capture_output=True, text=True).stdout
+    return float(json.loads(out.strip().splitlines()[-1])["env_steps_per_s"])
+
+
+def main_against(args: argparse.Namespace) -> None:
+    """The --obstacles --against benchmark: two builds, walled and open floor, alternating."""
+    import socialnav
+
+    ours = os.path.dirname(os.path.dirname(os.path.abspath(socialnav.__file__)))
+    builds = {"this": ours, "other": args.against}
+    best = {(b, w): 0.0 for b in builds for w in ("obstacles", "open")}
+    for _ in range(args.repeats):
+        for workload in ("obstacles", "open"):
+            for build, path in builds.items():
+                best[build, workload] = max(best[build, workload], _measure_in_process(path, workload, args))
+    result = {"batch": args.batch, "cpu_count": os.cpu_count(), "cpu_model": cpu_model(), "map": args.map,
+              "repeats": args.repeats, "other_build": os.path.abspath(args.against)}
+    for build in builds:
+        result[f"env_steps_per_s_obstacles_{build}"] = best[build, "obstacles"]
+        result[f"env_steps_per_s_open_world_{build}"] = best[build, "open"]
+        result[f"ratio_vs_open_world_{build}"] = best[build, "obstacles"] / best[build, "open"]
+        print(f"{build} build: {best[build, 'obstacles']:,.0f} env-steps/s with walls, "
+              f"{best[build, 'open']:,.0f} open -> ratio {result[f'ratio_vs_open_world_{build}']:.3f}")
+    result["speedup_obstacles"] = best["this", "obstacles"] / best["other", "obstacles"]
+    result["speedup_open_world"] = best["this", "open"] / best["other", "open"]
+    print(f"this build / other: {result['speedup_obstacles']:.3f}x with walls, "
+          f"{result['speedup_open_world']:.3f}x on the open floor")
+    result["load_average_1min"] = os.getloadavg()[0]
+    rounded = {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
+    print(json.dumps(run_record() | rounded))
+
+
 def main_obstacles(args: argparse.Namespace) -> None:
     """The --obstacles benchmark: walls vs open floor vs navground with walls, alternating."""
     walls = MAPS[args.map]()
@@ -196,7 +242,18 @@ def main() -> None:
     parser.add_argument("--map", choices=sorted(MAPS), default="spokes",
                         help="--obstacles: the 8 walls (spokes: radial, in the crowd's way; room: the room's "
                         "4 walls and 4 short ones)")
+    parser.add_argument("--against", metavar="DIR",
+                        help="--obstacles: also measure the core in source tree DIR (A/B of two builds)")
+    parser.add_argument("--measure-one", choices=["obstacles", "open"], help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.measure_one:  # one measurement for --against, in a process of its own
+        walls = MAPS[args.map]() if args.measure_one == "obstacles" else None
+        static_map = StaticMap(tuple(np.array(w) for w in walls)) if walls else None
+        print(json.dumps(measure_socialnav(args.batch, args.seconds, args.threads, static_map)))
+        return
+    if args.obstacles and args.against:
+        main_against(args)
+        return
     if args.obstacles:
         main_obstacles(args)
         return
