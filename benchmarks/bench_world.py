@@ -17,11 +17,20 @@ open world and against navground's ORCA with the same walls, all in the same run
     python benchmarks/bench_world.py [--batch 4096] [--seconds 5] [--threads 0]
         [--scaling-threads 1 2] [--scaling-repeats 3] [--scaling-seconds 2]
     python benchmarks/bench_world.py --obstacles [--batch 4096] [--seconds 3] [--repeats 3] [--map spokes]
+    python benchmarks/bench_world.py --obstacles --against DIR [--repeats 3] [--seconds 3]
+
+``--against DIR`` compares two builds of the native core: the walled and the open-floor workloads
+are measured with this one and with the one in the source tree DIR (``PYTHONPATH=DIR``, e.g. a copy
+of ``src/`` holding ``main``'s ``_core``), alternating, each in a fresh process; best of ``--repeats``;
+keys ``ratio_vs_open_world`` of each build and ``speedup_obstacles`` / ``speedup_open_world`` (this
+build's env-steps/s over the other's), and the same in CPU time per env-step (``cpu_*``, all threads),
+which other processes on the machine disturb less.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import resource
@@ -77,13 +86,13 @@ def measure_socialnav(batch: int, seconds: float, threads: int, static_map: Stat
         obs = world.step(policy.act(obs), observe=True).observation
     rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     env_steps, calls = 0, 0
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     while time.perf_counter() - start < seconds:
         env_steps += int(obs.active.sum())
         # observe=True: the refill and the next observation in one native pass (docs/simulator.md).
         obs = world.step(policy.act(obs), observe=True).observation
         calls += 1
-    elapsed = time.perf_counter() - start
+    elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu_start
     rss_after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     state_arrays = [
         world.position,
@@ -106,6 +115,8 @@ def measure_socialnav(batch: int, seconds: float, threads: int, static_map: Stat
     world.close()
     return {
         "env_steps_per_s": env_steps / elapsed,
+        # CPU time of all threads: less sensitive than env-steps/s to other processes on the machine.
+        "cpu_us_per_env_step": 1e6 * cpu / env_steps,
         "agent_steps_per_s": 6 * env_steps / elapsed,
         "batch_calls_per_s": calls / elapsed,
         "state_bytes_per_episode": state_bytes,
@@ -131,6 +142,54 @@ def state_digest(batch: int, threads: int, steps: int = 300) -> str:
     return h.hexdigest()
 
 
+
+
+def _measure_in_process(pythonpath: str, workload: str, args: argparse.Namespace) -> dict:
+    """measure_socialnav of one workload (``obstacles`` or ``open``) with the core on ``pythonpath``."""
+    import subprocess
+
+    command = [sys.executable, os.path.abspath(__file__), "--measure-one", workload, "--map", args.map,
+               "--batch", str(args.batch), "--seconds", str(args.seconds), "--threads", str(args.threads)]
+    out = subprocess.run(command, env=dict(os.environ, PYTHONPATH=os.path.abspath(pythonpath)), check=True,
+                         capture_output=True, text=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
+def main_against(args: argparse.Namespace) -> None:
+    """The --obstacles --against benchmark: two builds, walled and open floor, alternating."""
+    import socialnav
+
+    ours = os.path.dirname(os.path.dirname(os.path.abspath(socialnav.__file__)))
+    builds = {"this": ours, "other": args.against}
+    best = {(b, w): 0.0 for b in builds for w in ("obstacles", "open")}
+    best_cpu = {(b, w): math.inf for b in builds for w in ("obstacles", "open")}
+    for _ in range(args.repeats):
+        for workload in ("obstacles", "open"):
+            for build, path in builds.items():
+                run = _measure_in_process(path, workload, args)
+                best[build, workload] = max(best[build, workload], run["env_steps_per_s"])
+                best_cpu[build, workload] = min(best_cpu[build, workload], run["cpu_us_per_env_step"])
+    result = {"batch": args.batch, "cpu_count": os.cpu_count(), "cpu_model": cpu_model(), "map": args.map,
+              "repeats": args.repeats, "other_build": os.path.abspath(args.against)}
+    for build in builds:
+        result[f"env_steps_per_s_obstacles_{build}"] = best[build, "obstacles"]
+        result[f"env_steps_per_s_open_world_{build}"] = best[build, "open"]
+        result[f"ratio_vs_open_world_{build}"] = best[build, "obstacles"] / best[build, "open"]
+        result[f"cpu_us_per_env_step_obstacles_{build}"] = best_cpu[build, "obstacles"]
+        result[f"cpu_us_per_env_step_open_world_{build}"] = best_cpu[build, "open"]
+        result[f"cpu_ratio_vs_open_world_{build}"] = best_cpu[build, "open"] / best_cpu[build, "obstacles"]
+        print(f"{build} build: {best[build, 'obstacles']:,.0f} env-steps/s with walls, "
+              f"{best[build, 'open']:,.0f} open -> ratio {result[f'ratio_vs_open_world_{build}']:.3f}")
+    result["speedup_obstacles"] = best["this", "obstacles"] / best["other", "obstacles"]
+    result["speedup_open_world"] = best["this", "open"] / best["other", "open"]
+    result["cpu_speedup_obstacles"] = best_cpu["other", "obstacles"] / best_cpu["this", "obstacles"]
+    result["cpu_speedup_open_world"] = best_cpu["other", "open"] / best_cpu["this", "open"]
+    print(f"this build / other: {result['speedup_obstacles']:.3f}x with walls, "
+          f"{result['speedup_open_world']:.3f}x on the open floor (env-steps/s); in CPU time per env-step "
+          f"{result['cpu_speedup_obstacles']:.3f}x and {result['cpu_speedup_open_world']:.3f}x")
+    result["load_average_1min"] = os.getloadavg()[0]
+    rounded = {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
+    print(json.dumps(run_record() | rounded))
 
 
 def main_obstacles(args: argparse.Namespace) -> None:
@@ -195,8 +254,19 @@ def main() -> None:
     parser.add_argument("--map", choices=sorted(MAPS), default="spokes",
                         help="--obstacles: the 8 walls (spokes: radial, in the crowd's way; room: the room's "
                         "4 walls and 4 short ones)")
+    parser.add_argument("--against", metavar="DIR",
+                        help="--obstacles: also measure the core in source tree DIR (A/B of two builds)")
+    parser.add_argument("--measure-one", choices=["obstacles", "open"], help=argparse.SUPPRESS)
     add_record_arguments(parser, "bench_world")
     args = parser.parse_args()
+    if args.measure_one:  # one measurement for --against, in a process of its own
+        walls = MAPS[args.map]() if args.measure_one == "obstacles" else None
+        static_map = StaticMap(tuple(np.array(w) for w in walls)) if walls else None
+        print(json.dumps(measure_socialnav(args.batch, args.seconds, args.threads, static_map)))
+        return
+    if args.obstacles and args.against:
+        main_against(args)
+        return
     if args.obstacles:
         main_obstacles(args)
         return

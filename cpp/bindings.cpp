@@ -702,6 +702,18 @@ NB_MODULE(_core, m) {
       "Clearance of a disc moving from start to end against the obstacles (< 0: it touched one).");
 
   m.def(
+      "swept_disc_hits_obstacles",
+      [](Array<double> start, Array<double> end, double radius, Array<double> obstacle_vertices,
+         Array<int64_t> obstacle_offsets) {
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        return socialnav::swept_disc_hits_obstacles(walls.view(), vec(start), vec(end), radius);
+      },
+      "start"_a, "end"_a, "radius"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
+      "The world's collision test: swept_obstacle_clearance(...) < 0, with culling and an early exit.");
+
+  m.def(
       "orca_obstacle_lines",
       [](Array<double> position, Array<double> velocity, double radius, double max_speed,
          Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets, double time_horizon_obst) {

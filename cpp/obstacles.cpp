@@ -109,4 +109,28 @@ double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1,
   return best - radius;
 }
 
+bool swept_disc_hits_obstacles(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius) {
+  // Culling margin [m]: far above the rounding error of a distance between map-sized coordinates, so
+  // a culled edge's computed distance could never have been below the radius.
+  constexpr double kCullMargin = 1e-6;
+  const double path_min_x = std::min(p0.x, p1.x), path_max_x = std::max(p0.x, p1.x);
+  const double path_min_y = std::min(p0.y, p1.y), path_max_y = std::max(p0.y, p1.y);
+  const double reach = radius + kCullMargin;
+  bool any_solid = false;
+  for (int i = 0; i < obstacles.count; ++i) {
+    const ObstacleVertex& v = obstacles.vertex[i];
+    any_solid = any_solid || v.solid;
+    if (!v.own_edge) continue;
+    const Vec2 a = v.point, b = obstacles.vertex[v.next].point;
+    if (std::min(a.x, b.x) - path_max_x > reach || path_min_x - std::max(a.x, b.x) > reach ||
+        std::min(a.y, b.y) - path_max_y > reach || path_min_y - std::max(a.y, b.y) > reach)
+      continue;
+    // min over edges, minus the radius, is below 0 as soon as one edge's distance minus it is.
+    if (segment_segment_distance(p0, p1, a, b) - radius < 0.0) return true;
+  }
+  // Every distance d has d - radius >= 0, so d >= radius: the clearance can only be below 0 through
+  // the end point inside a solid polygon (clearance -radius), where radius > 0 (then every d > 0).
+  return any_solid && radius > 0.0 && inside_solid(obstacles, p1);
+}
+
 }  // namespace socialnav

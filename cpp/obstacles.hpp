@@ -102,4 +102,9 @@ bool inside_solid(const ObstacleView& obstacles, Vec2 c);
 // obstacle during the move (a thin wall crossed within one step included).
 double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius);
 
+// swept_obstacle_clearance(obstacles, p0, p1, radius) < 0, the same answer without the distances to
+// the edges whose bounding box is clearly farther than `radius` from the path's, and stopping at the
+// first edge the disc touches: the world's per-step collision test.
+bool swept_disc_hits_obstacles(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius);
+
 }  // namespace socialnav

@@ -211,7 +211,7 @@ void World::step_episode(int b, const double* actions, int worker) {
   bool hit_obstacle = false;
   const ObstacleView walls = obstacles(b);
   if (status == kRunning && walls.count > 0)
-    hit_obstacle = swept_obstacle_clearance(walls, p_robot, p_robot + dt * v_robot, radius[0]) < 0.0;
+    hit_obstacle = swept_disc_hits_obstacles(walls, p_robot, p_robot + dt * v_robot, radius[0]);
 
   // 4. Everyone moves.
   store(pos, p_robot + dt * v_robot);
