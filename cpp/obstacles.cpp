@@ -7,8 +7,7 @@
 
 namespace socialnav {
 
-void build_obstacle_vertices(const double* vertices, const int64_t* offsets, int n_polygons,
-                             ObstacleVertex* out) {
+void build_obstacle_vertices(const double* vertices, const int64_t* offsets, int n_polygons, ObstacleVertex* out) {
   for (int p = 0; p < n_polygons; ++p) {
     const int64_t first = offsets[p];
     const int k = static_cast<int>(offsets[p + 1] - first);

@@ -17,10 +17,10 @@ namespace socialnav {
 
 struct ObstacleVertex {
   Vec2 point;
-  Vec2 unit_dir;  // towards the next vertex
-  Vec2 edge;      // next point - point
+  Vec2 unit_dir;           // towards the next vertex
+  Vec2 edge;               // next point - point
   double inv_edge_len_sq;  // 1 / |edge|^2
-  int32_t next;   // indices into the same episode's vertex array
+  int32_t next;            // indices into the same episode's vertex array
   int32_t prev;
   bool convex;
   bool solid;     // belongs to a polygon with an interior (k >= 3)
@@ -43,9 +43,7 @@ void build_edge_arrays(const ObstacleVertex* vertex, int count, double* edges);
 struct PreparedObstacles {
   std::vector<ObstacleVertex> vertex;
   std::vector<double> edges;  // 5 doubles per vertex, episode by episode
-  ObstacleView view() const {
-    return ObstacleView{vertex.data(), static_cast<int>(vertex.size()), edges.data()};
-  }
+  ObstacleView view() const { return ObstacleView{vertex.data(), static_cast<int>(vertex.size()), edges.data()}; }
 };
 
 // Many episodes' prepared vertices: episode b owns vertex[first[b], first[b] + count[b]) and the edge
@@ -64,8 +62,7 @@ struct ObstacleBatchView {
 
 // Prepares `offsets[n_polygons]` vertices from flat polygons; throws std::invalid_argument on a
 // polygon of fewer than 2 vertices, a non-finite vertex or coincident consecutive vertices.
-void build_obstacle_vertices(const double* vertices, const int64_t* offsets, int n_polygons,
-                             ObstacleVertex* out);
+void build_obstacle_vertices(const double* vertices, const int64_t* offsets, int n_polygons, ObstacleVertex* out);
 
 // One map prepared from flat polygons (build_obstacle_vertices + build_edge_arrays).
 PreparedObstacles prepare_obstacles(const double* vertices, const int64_t* offsets, int n_polygons);

@@ -16,8 +16,10 @@ namespace socialnav {
 void OrcaScratch::offer(int candidate, double candidate_dist_sq, int max_neighbors) {
   if (!(candidate_dist_sq < range_sq)) return;
   int i = count;
-  if (count < max_neighbors) ++count;
-  else i = count - 1;  // overwrite the farthest
+  if (count < max_neighbors)
+    ++count;
+  else
+    i = count - 1;  // overwrite the farthest
   while (i != 0 && candidate_dist_sq < dist_sq[i - 1]) {
     dist_sq[i] = dist_sq[i - 1];
     index[i] = index[i - 1];
@@ -32,8 +34,8 @@ namespace {
 
 // Best point on line `line_no` that satisfies lines [0, line_no) and the speed disc.
 // Returns false when that segment is empty.
-bool linear_program1(const Line* lines, int line_no, double radius, Vec2 opt_velocity,
-                     bool direction_opt, Vec2& result) {
+bool linear_program1(const Line* lines, int line_no, double radius, Vec2 opt_velocity, bool direction_opt,
+                     Vec2& result) {
   const Line& line = lines[line_no];
   const double dot_product = dot(line.point, line.direction);
   const double discriminant = dot_product * dot_product + radius * radius - abs_sq(line.point);
@@ -52,8 +54,10 @@ bool linear_program1(const Line* lines, int line_no, double radius, Vec2 opt_vel
       continue;
     }
     const double t = numerator / denominator;
-    if (denominator >= 0.0) t_right = std::min(t_right, t);
-    else t_left = std::max(t_left, t);
+    if (denominator >= 0.0)
+      t_right = std::min(t_right, t);
+    else
+      t_left = std::max(t_left, t);
     if (t_left > t_right) return false;
   }
 
@@ -62,20 +66,25 @@ bool linear_program1(const Line* lines, int line_no, double radius, Vec2 opt_vel
                                                      : line.point + t_left * line.direction;
   } else {
     const double t = dot(line.direction, opt_velocity - line.point);
-    if (t < t_left) result = line.point + t_left * line.direction;
-    else if (t > t_right) result = line.point + t_right * line.direction;
-    else result = line.point + t * line.direction;
+    if (t < t_left)
+      result = line.point + t_left * line.direction;
+    else if (t > t_right)
+      result = line.point + t_right * line.direction;
+    else
+      result = line.point + t * line.direction;
   }
   return true;
 }
 
 // Incremental 2-D linear program (randomisation is unnecessary for ~10 constraints).
 // Returns the number of lines satisfied in order; < n means infeasible at that line.
-int linear_program2(const Line* lines, int n, double radius, Vec2 opt_velocity,
-                    bool direction_opt, Vec2& result) {
-  if (direction_opt) result = opt_velocity * radius;  // opt_velocity is a unit direction here
-  else if (abs_sq(opt_velocity) > radius * radius) result = normalize(opt_velocity) * radius;
-  else result = opt_velocity;
+int linear_program2(const Line* lines, int n, double radius, Vec2 opt_velocity, bool direction_opt, Vec2& result) {
+  if (direction_opt)
+    result = opt_velocity * radius;  // opt_velocity is a unit direction here
+  else if (abs_sq(opt_velocity) > radius * radius)
+    result = normalize(opt_velocity) * radius;
+  else
+    result = opt_velocity;
 
   for (int i = 0; i < n; ++i) {
     if (det(lines[i].direction, lines[i].point - result) > 0.0) {
@@ -104,11 +113,10 @@ void linear_program3(const Line* lines, int n, int n_hard, int begin_line, doubl
       const double determinant = det(lines[i].direction, lines[j].direction);
       if (std::fabs(determinant) <= kOrcaEpsilon) {
         if (dot(lines[i].direction, lines[j].direction) > 0.0) continue;  // same direction
-        line.point = 0.5 * (lines[i].point + lines[j].point);           // opposite
+        line.point = 0.5 * (lines[i].point + lines[j].point);             // opposite
       } else {
         line.point = lines[i].point +
-                     (det(lines[j].direction, lines[i].point - lines[j].point) / determinant) *
-                         lines[i].direction;
+                     (det(lines[j].direction, lines[i].point - lines[j].point) / determinant) * lines[i].direction;
       }
       line.direction = normalize(lines[j].direction - lines[i].direction);
       projected[m++] = line;
@@ -154,7 +162,7 @@ inline Vec2 right_leg(Vec2 p, double dist_sq, double radius) {
 // same IEEE operations in the same order (no contraction into FMA: -ffp-contract=off), so the
 // same values on either path.
 SOCIALNAV_AVX2_CLONE void select_obstacles(const OrcaAgent& self, const ObstacleView& obstacles, double range_sq,
-                      OrcaScratch& scratch) {
+                                           OrcaScratch& scratch) {
   const int n = obstacles.count;
   if (static_cast<int>(scratch.obstacle_key.size()) < n) {
     scratch.obstacle_key.resize(n);
@@ -234,9 +242,11 @@ int obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double 
     bool already_covered = false;
     for (int j = 0; j < count; ++j) {
       if (det(inv_time_horizon_obst * relative_position1 - lines[j].point, lines[j].direction) -
-                  inv_time_horizon_obst * radius >= -kOrcaEpsilon &&
+                  inv_time_horizon_obst * radius >=
+              -kOrcaEpsilon &&
           det(inv_time_horizon_obst * relative_position2 - lines[j].point, lines[j].direction) -
-                  inv_time_horizon_obst * radius >= -kOrcaEpsilon) {
+                  inv_time_horizon_obst * radius >=
+              -kOrcaEpsilon) {
         already_covered = true;
         break;
       }
@@ -295,8 +305,7 @@ int obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double 
     } else {
       left_leg_direction = obstacle1->convex ? left_leg(relative_position1, dist_sq1, radius)
                                              : -obstacle1->unit_dir;  // continues the cut-off line
-      right_leg_direction = obstacle2->convex ? right_leg(relative_position2, dist_sq2, radius)
-                                              : obstacle1->unit_dir;
+      right_leg_direction = obstacle2->convex ? right_leg(relative_position2, dist_sq2, radius) : obstacle1->unit_dir;
     }
 
     // A leg pointing into the neighbouring edge is replaced by that edge's direction.
@@ -339,9 +348,8 @@ int obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double 
 
     // Otherwise the closest of the cut-off segment, the left leg and the right leg.
     constexpr double kInf = std::numeric_limits<double>::infinity();
-    const double dist_sq_cutoff = (t < 0.0 || t > 1.0 || single_vertex)
-                                      ? kInf
-                                      : abs_sq(self.velocity - (left_cutoff + t * cutoff_vector));
+    const double dist_sq_cutoff =
+        (t < 0.0 || t > 1.0 || single_vertex) ? kInf : abs_sq(self.velocity - (left_cutoff + t * cutoff_vector));
     const double dist_sq_left =
         t_left < 0.0 ? kInf : abs_sq(self.velocity - (left_cutoff + t_left * left_leg_direction));
     const double dist_sq_right =
@@ -368,8 +376,8 @@ int obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double 
 
 }  // namespace
 
-Vec2 orca_new_velocity(const OrcaAgent& self, const OrcaNeighbor* neighbors, int n,
-                       double time_horizon, double time_step, OrcaScratch& scratch) {
+Vec2 orca_new_velocity(const OrcaAgent& self, const OrcaNeighbor* neighbors, int n, double time_horizon,
+                       double time_step, OrcaScratch& scratch) {
   return orca_new_velocity(self, ObstacleView{}, 1.0, neighbors, n, time_horizon, time_step, scratch);
 }
 
@@ -454,16 +462,14 @@ int orca_obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, do
   return obstacle_lines(self, obstacles, time_horizon_obst, scratch, scratch.lines.data());
 }
 
-Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n,
-                              const OrcaParams& params, double time_step, OrcaScratch& scratch,
-                              const ObstacleView& obstacles) {
+Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n, const OrcaParams& params,
+                              double time_step, OrcaScratch& scratch, const ObstacleView& obstacles) {
   scratch.begin(params.neighbor_dist);
-  for (int j = 0; j < n; ++j)
-    scratch.offer(j, abs_sq(candidates[j].position - self.position), params.max_neighbors);
+  for (int j = 0; j < n; ++j) scratch.offer(j, abs_sq(candidates[j].position - self.position), params.max_neighbors);
   OrcaNeighbor selected[kMaxOrcaNeighbors];
   for (int k = 0; k < scratch.count; ++k) selected[k] = candidates[scratch.index[k]];
-  return orca_new_velocity(self, obstacles, params.time_horizon_obst, selected, scratch.count,
-                           params.time_horizon, time_step, scratch);
+  return orca_new_velocity(self, obstacles, params.time_horizon_obst, selected, scratch.count, params.time_horizon,
+                           time_step, scratch);
 }
 
 }  // namespace socialnav

@@ -19,9 +19,9 @@
 namespace socialnav {
 
 struct OrcaParams {
-  double neighbor_dist = 10.0;  // [m] neighbours farther than this are ignored
-  int max_neighbors = 10;       // the closest ones are kept
-  double time_horizon = 5.0;    // tau [s]
+  double neighbor_dist = 10.0;     // [m] neighbours farther than this are ignored
+  int max_neighbors = 10;          // the closest ones are kept
+  double time_horizon = 5.0;       // tau [s]
   double time_horizon_obst = 5.0;  // tau_obst [s] for static obstacles (CrowdSim's value)
 };
 
@@ -40,12 +40,12 @@ struct OrcaScratch {
   double range_sq = 0.0;
   int index[kMaxOrcaNeighbors];
   double dist_sq[kMaxOrcaNeighbors];
-  std::vector<Line> lines;      // obstacle lines first, then agent lines
+  std::vector<Line> lines;  // obstacle lines first, then agent lines
   std::vector<Line> projected;
-  std::vector<int> obstacle_index;       // selected obstacle vertices [0, obstacle_count), by distance
+  std::vector<int> obstacle_index;  // selected obstacle vertices [0, obstacle_count), by distance
   std::vector<double> obstacle_dist_sq;
   int obstacle_count = 0;
-  std::vector<double> obstacle_key;     // per vertex: squared distance if selected, else +inf
+  std::vector<double> obstacle_key;  // per vertex: squared distance if selected, else +inf
 
   OrcaScratch() : lines(kMaxOrcaNeighbors), projected(kMaxOrcaNeighbors) {}
   void reserve_lines(int n) {
@@ -79,8 +79,8 @@ struct OrcaNeighbor {
 };
 
 // New velocity of `self` given `neighbors[0..n)` already selected and sorted by distance.
-Vec2 orca_new_velocity(const OrcaAgent& self, const OrcaNeighbor* neighbors, int n,
-                       double time_horizon, double time_step, OrcaScratch& scratch);
+Vec2 orca_new_velocity(const OrcaAgent& self, const OrcaNeighbor* neighbors, int n, double time_horizon,
+                       double time_step, OrcaScratch& scratch);
 
 // The same with static obstacles: the obstacle edges that face the agent within
 // tau_obst * max_speed + radius (RVO2's query range) are selected and sorted by distance here.
@@ -95,9 +95,8 @@ int orca_obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, do
                         OrcaScratch& scratch);
 
 // Convenience used by tests and single-agent callers: selects neighbours (range, count) first.
-Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n,
-                              const OrcaParams& params, double time_step, OrcaScratch& scratch,
-                              const ObstacleView& obstacles = ObstacleView{});
+Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n, const OrcaParams& params,
+                              double time_step, OrcaScratch& scratch, const ObstacleView& obstacles = ObstacleView{});
 
 // Preferred velocity of CrowdSim: the vector to the goal [per second], cut to length `speed`
 // beyond `speed` metres. CrowdSim uses speed = 1 for everyone (humans keep that); the robot's ORCA

@@ -48,8 +48,8 @@ void linear_robot_actions(const ObservationView& obs, const ActionFormat& format
 }
 
 void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, const OrcaParams& params,
-                        double radius_margin, double safety_space, double dt, ThreadPool& pool,
-                        double* out, const ObstacleBatchView& obstacles) {
+                        double radius_margin, double safety_space, double dt, ThreadPool& pool, double* out,
+                        const ObstacleBatchView& obstacles) {
   const int N = obs.humans;
   pool.parallel_for(obs.batch, [&](int begin, int end, int) {
     // One per thread, kept between calls: its line buffers grow once to the largest problem.
@@ -77,9 +77,8 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
   });
 }
 
-void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format,
-                                const SocialForceParams& params, double dt, ThreadPool& pool,
-                                double* out, const ObstacleBatchView& obstacles) {
+void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format, const SocialForceParams& params,
+                                double dt, ThreadPool& pool, double* out, const ObstacleBatchView& obstacles) {
   const int N = obs.humans;
   pool.parallel_for(obs.batch, [&](int begin, int end, int) {
     // Grows once per thread to the largest crowd seen; no allocation in steady state.

@@ -34,11 +34,11 @@ void linear_robot_actions(const ObservationView& obs, const ActionFormat& format
 // obstacles (one episode per observation row) are avoided with RVO2's obstacle algorithm, as the
 // ORCA humans do; the linear policy ignores them, as linear humans do.
 void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, const OrcaParams& params,
-                        double radius_margin, double safety_space, double dt, ThreadPool& pool,
-                        double* out, const ObstacleBatchView& obstacles = ObstacleBatchView{});
+                        double radius_margin, double safety_space, double dt, ThreadPool& pool, double* out,
+                        const ObstacleBatchView& obstacles = ObstacleBatchView{});
 
-void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format,
-                                const SocialForceParams& params, double dt, ThreadPool& pool,
-                                double* out, const ObstacleBatchView& obstacles = ObstacleBatchView{});
+void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format, const SocialForceParams& params,
+                                double dt, ThreadPool& pool, double* out,
+                                const ObstacleBatchView& obstacles = ObstacleBatchView{});
 
 }  // namespace socialnav

@@ -50,7 +50,8 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
   refill_slots_.reserve(static_cast<size_t>(config.batch));
   done_rank_.assign(static_cast<size_t>(config.batch), -1);
   if (config.max_obstacle_vertices < 0)
-    throw std::invalid_argument("max_obstacle_vertices must be >= 0, got " + std::to_string(config.max_obstacle_vertices));
+    throw std::invalid_argument("max_obstacle_vertices must be >= 0, got " +
+                                std::to_string(config.max_obstacle_vertices));
   slot_obstacles_.resize(static_cast<size_t>(config.batch));
   gen_scratch_.resize(threads);
   for (GenerationScratch& g : gen_scratch_) {
@@ -69,9 +70,9 @@ void World::set_obstacles(int b, const double* vertices, const int64_t* offsets,
   for (int p = 0; p < n_polygons; ++p)
     if (offsets[p + 1] < offsets[p]) throw std::invalid_argument("obstacle offsets must not decrease");
   if (count > config_.max_obstacle_vertices)
-    throw std::invalid_argument("a static map of " + std::to_string(count) +
-                                " vertices exceeds max_obstacle_vertices = " +
-                                std::to_string(config_.max_obstacle_vertices));
+    throw std::invalid_argument(
+        "a static map of " + std::to_string(count) +
+        " vertices exceeds max_obstacle_vertices = " + std::to_string(config_.max_obstacle_vertices));
   if (n_polygons == 0) {
     slot_obstacles_[b].reset();
     return;
@@ -133,8 +134,7 @@ void World::human_velocities(int b, int worker) {
         const int j = scratch.index[k];
         nb[k] = OrcaNeighbor{load(pos + 2 * j), load(vel + 2 * j), radius[j] + margin};
       }
-      const OrcaAgent self{p, load(vel + 2 * i), radius[i] + margin, v_pref[i],
-                           crowdsim_pref_velocity(p, g)};
+      const OrcaAgent self{p, load(vel + 2 * i), radius[i] + margin, v_pref[i], crowdsim_pref_velocity(p, g)};
       v_new = orca_new_velocity(self, walls, config_.orca.time_horizon_obst, nb.data(), scratch.count,
                                 config_.orca.time_horizon, config_.dt, scratch);
     } else if (config_.human_model == kHumanSocialForce) {
@@ -201,8 +201,7 @@ void World::step_episode(int b, const double* actions, int worker) {
       if (!mask[i]) continue;
       // CrowdSim sweeps with the human's previous velocity, not the one it applies now.
       const Vec2 v_h = config_.crowdsim_compat ? load(vel + 2 * i) : load(new_vel + 2 * i);
-      const double d = swept_centre_distance(load(pos + 2 * i) - p_robot, v_h - v_robot, dt) -
-                       radius[0] - radius[i];
+      const double d = swept_centre_distance(load(pos + 2 * i) - p_robot, v_h - v_robot, dt) - radius[0] - radius[i];
       dmin = std::min(dmin, d);
     }
   }
@@ -266,20 +265,29 @@ void World::step_episode(int b, const double* actions, int worker) {
   int8_t outcome = kRunning;
   if (config_.crowdsim_compat) {
     // CrowdSim tests the clock before the step and lets a timeout win over everything else.
-    if (t_before >= config_.time_limit - 1.0 - kTimeEps) outcome = kTimeout;
-    else if (collided) outcome = kCollision;
-    else if (reached) outcome = kSuccess;
+    if (t_before >= config_.time_limit - 1.0 - kTimeEps)
+      outcome = kTimeout;
+    else if (collided)
+      outcome = kCollision;
+    else if (reached)
+      outcome = kSuccess;
   } else {
-    if (collided) outcome = kCollision;
-    else if (reached) outcome = kSuccess;
-    else if (t >= config_.time_limit - kTimeEps) outcome = kTimeout;
+    if (collided)
+      outcome = kCollision;
+    else if (reached)
+      outcome = kSuccess;
+    else if (t >= config_.time_limit - kTimeEps)
+      outcome = kTimeout;
   }
   double reward = 0.0;
   // A human collision is the one reported when both happen in the same step (the human metrics'
   // collision rate must not lose it).
-  if (outcome == kCollision) reward = hit_human ? config_.collision_penalty : config_.obstacle_collision_penalty;
-  else if (outcome == kSuccess) reward = config_.success_reward;
-  else if (outcome == kRunning && hit_obstacle) reward = config_.obstacle_collision_penalty;
+  if (outcome == kCollision)
+    reward = hit_human ? config_.collision_penalty : config_.obstacle_collision_penalty;
+  else if (outcome == kSuccess)
+    reward = config_.success_reward;
+  else if (outcome == kRunning && hit_obstacle)
+    reward = config_.obstacle_collision_penalty;
   else if (outcome == kRunning && dmin < config_.discomfort_dist)
     reward = (dmin - config_.discomfort_dist) * config_.discomfort_penalty_factor * dt;
   buf_.reward[b] = reward;
@@ -447,8 +455,8 @@ int World::step(const double* actions, const StepOutputs* out) {
       out->final_dmin[b] = ended ? buf_.dmin[b] : nan;
       out->final_episode[b] = ended ? out->episode_index[b] : -1;
       if (out->collision_kind)
-        out->collision_kind[b] = ended && status == kCollision && buf_.collision_kind ? buf_.collision_kind[b]
-                                                                                       : static_cast<int8_t>(0);
+        out->collision_kind[b] =
+            ended && status == kCollision && buf_.collision_kind ? buf_.collision_kind[b] : static_cast<int8_t>(0);
     }
     done_count.fetch_add(done, std::memory_order_relaxed);
   });
@@ -456,8 +464,8 @@ int World::step(const double* actions, const StepOutputs* out) {
 }
 
 int World::refill_done(const ScenarioConfig& scenario, const int64_t* indices, const int64_t* seeds, int count,
-                       int64_t* episode_index, int64_t* episode_seed, int32_t* failure,
-                       const ObservationBuffers* obs, const ObservationBuffers* final_obs) {
+                       int64_t* episode_index, int64_t* episode_seed, int32_t* failure, const ObservationBuffers* obs,
+                       const ObservationBuffers* final_obs) {
   const int B = config_.batch;
   // The finished slots in slot order. Few slots finish per step, so the scan skips 8 unfinished
   // slots per load (it is the serial part of the refill: ~B/8 loads instead of B reads and 2B writes).
@@ -477,7 +485,7 @@ int World::refill_done(const ScenarioConfig& scenario, const int64_t* indices, c
   for (int r = 0; r < done; ++r) {
     const int64_t slot = refill_slots_[r];
     done_rank_[slot] = r;  // read only where done[slot] is set
-    if (r >= k) {  // the stream is exhausted
+    if (r >= k) {          // the stream is exhausted
       buf_.status[slot] = kIdle;
       episode_index[slot] = -1;
     }

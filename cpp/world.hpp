@@ -19,7 +19,7 @@
 namespace socialnav {
 
 enum Status : int8_t {
-  kIdle = -1,       // slot holds no episode
+  kIdle = -1,  // slot holds no episode
   kRunning = 0,
   kSuccess = 1,
   kCollision = 2,
@@ -55,30 +55,30 @@ struct WorldConfig {
   double continuation_cap = 100.0;  // [s] since the start of the episode
   int history_len = 0;              // samples recorded per episode; 0 disables recording
   int threads = 1;
-  int max_obstacle_vertices = 0;    // bound on one episode's obstacle vertices (set_obstacles checks)
+  int max_obstacle_vertices = 0;              // bound on one episode's obstacle vertices (set_obstacles checks)
   double obstacle_collision_penalty = -0.25;  // reward when the robot touches an obstacle
   bool obstacle_collision_ends = true;        // touching an obstacle ends the episode (as a human)
 };
 
 struct WorldBuffers {
-  double* position;      // (B, A, 2)
-  double* velocity;      // (B, A, 2) velocity applied in the last step
-  double* goal;          // (B, A, 2)
-  double* radius;        // (B, A)
-  double* v_pref;        // (B, A)
-  uint8_t* mask;         // (B, A) agent slot in use (robot always 1)
-  double* theta;         // (B,) robot heading
-  int32_t* steps;        // (B,) steps taken in the episode
-  int8_t* status;        // (B,) Status
-  double* reward;        // (B,) reward of the last step
-  double* dmin;          // (B,) minimum swept clearance of the last step
-  uint8_t* done;         // (B,) episode finished in the last step
-  int32_t* overlaps;     // (B,) human-human overlap count so far
-  double* arrival;       // (B, A) first arrival time at the goal, NaN before
-  int32_t* end_step;     // (B,) step at which the robot's outcome was decided, -1 before
-  double* hist_position; // (B, T, A, 2) or null
-  double* hist_velocity; // (B, T, A, 2) or null
-  double* hist_dmin;     // (B, T) or null (entry k: clearance during step k; entry 0 unused)
+  double* position;        // (B, A, 2)
+  double* velocity;        // (B, A, 2) velocity applied in the last step
+  double* goal;            // (B, A, 2)
+  double* radius;          // (B, A)
+  double* v_pref;          // (B, A)
+  uint8_t* mask;           // (B, A) agent slot in use (robot always 1)
+  double* theta;           // (B,) robot heading
+  int32_t* steps;          // (B,) steps taken in the episode
+  int8_t* status;          // (B,) Status
+  double* reward;          // (B,) reward of the last step
+  double* dmin;            // (B,) minimum swept clearance of the last step
+  uint8_t* done;           // (B,) episode finished in the last step
+  int32_t* overlaps;       // (B,) human-human overlap count so far
+  double* arrival;         // (B, A) first arrival time at the goal, NaN before
+  int32_t* end_step;       // (B,) step at which the robot's outcome was decided, -1 before
+  double* hist_position;   // (B, T, A, 2) or null
+  double* hist_velocity;   // (B, T, A, 2) or null
+  double* hist_dmin;       // (B, T) or null (entry k: clearance during step k; entry 0 unused)
   int8_t* collision_kind;  // (B,) CollisionKind of the episode's collision, or null
 };
 
@@ -162,8 +162,7 @@ class World {
   struct GenerationScratch {
     std::vector<double> start, goal, radius, v_pref;
   };
-  void load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, int32_t* failure,
-                GenerationScratch& scratch);
+  void load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, int32_t* failure, GenerationScratch& scratch);
   void observe_one(int b, const ObservationBuffers& obs, int64_t row) const;  // slot b into obs row `row`
 
   WorldConfig config_;
@@ -174,15 +173,15 @@ class World {
   std::vector<std::vector<SocialForceOther>> sf_scratch_;
   std::unique_ptr<ThreadPool> own_pool_;  // when no pool was given
   ThreadPool* pool_;
-  std::vector<int64_t> refill_slots_;                 // refill_done's finished slots, (B,) reserved
-  std::vector<int> done_rank_;                        // (B,) rank among the finished slots (where done)
-  std::vector<GenerationScratch> gen_scratch_;        // one per thread
+  std::vector<int64_t> refill_slots_;           // refill_done's finished slots, (B,) reserved
+  std::vector<int> done_rank_;                  // (B,) rank among the finished slots (where done)
+  std::vector<GenerationScratch> gen_scratch_;  // one per thread
   // Static obstacles: each slot's prepared map (null: open floor). A map equal to the one set last is
   // shared, not copied: a batch of one map holds one copy, which the step pass then reads from cache
   // for every slot.
   std::vector<std::shared_ptr<const PreparedObstacles>> slot_obstacles_;  // (B,)
   std::shared_ptr<const PreparedObstacles> last_obstacles_;
-  std::vector<double> last_vertices_;   // the flat polygons last_obstacles_ was prepared from
+  std::vector<double> last_vertices_;  // the flat polygons last_obstacles_ was prepared from
   std::vector<int64_t> last_offsets_;
 };
 

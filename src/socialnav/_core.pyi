@@ -504,6 +504,11 @@ def swept_obstacle_clearance(start: Annotated[NDArray[numpy.float64], dict(order
     Clearance of a disc moving from start to end against the obstacles (< 0: it touched one).
     """
 
+def swept_disc_hits_obstacles(start: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], end: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')]) -> bool:
+    """
+    The world's collision test: swept_obstacle_clearance(...) < 0, with culling and an early exit.
+    """
+
 def orca_obstacle_lines(position: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], velocity: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, max_speed: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], time_horizon_obst: float = 5.0) -> list:
     """
     The obstacle ORCA half-planes (px, py, dx, dy; permitted on the left) of one agent, in solver order.
