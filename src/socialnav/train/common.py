@@ -18,6 +18,30 @@ from socialnav.config import ConfigError
 from socialnav.train.config import resume_diff
 
 
+class RunFiles:
+    """The files of a training run directory, shared by the run records of both trainers.
+
+    A mixin: the record (a frozen dataclass) provides ``out``, the run directory.
+    """
+
+    out: Path
+
+    @property
+    def last_path(self) -> Path:
+        """last.pt: the latest training state (resumption)."""
+        return self.out / "last.pt"
+
+    @property
+    def best_path(self) -> Path:
+        """best.pt: the best validation so far."""
+        return self.out / "best.pt"
+
+    @property
+    def curves_path(self) -> Path:
+        """curves.csv: one row per logged episode or update."""
+        return self.out / "curves.csv"
+
+
 def resolve_device(name: str) -> torch.device:
     """The torch device a training setting ``device`` names.
 

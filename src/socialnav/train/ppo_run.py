@@ -30,7 +30,7 @@ from socialnav._io import (
 )
 from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
-from socialnav.train.common import load_optimizer_state, resolve_device
+from socialnav.train.common import RunFiles, load_optimizer_state, resolve_device
 from socialnav.train.config import derive_seeds, flat_diff
 from socialnav.train.curves import Curves
 from socialnav.train.envs import MultiWorld, mix_human_slots
@@ -67,7 +67,7 @@ PPO_CURVE_COLUMNS = (
 
 
 @dataclass(frozen=True)
-class PPORun:
+class PPORun(RunFiles):
     """What every phase of a PPO run reads: built by :func:`setup_ppo_run`, never replaced.
 
     The network, optimizer, generators and worlds are mutable objects the phases advance in place;
@@ -112,16 +112,6 @@ class PPORun:
     say: Callable[[str], None]
     progress: bool
     started: float
-
-    @property
-    def last_path(self) -> Path:
-        """last.pt: the latest training state (resumption)."""
-        return self.out / "last.pt"
-
-    @property
-    def best_path(self) -> Path:
-        """best.pt: the best validation so far."""
-        return self.out / "best.pt"
 
     @property
     def n_envs(self) -> int:

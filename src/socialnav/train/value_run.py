@@ -31,7 +31,7 @@ from socialnav._io import (
 )
 from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
-from socialnav.train.common import check_same_run, make_optimizer, resolve_device, reward_config
+from socialnav.train.common import RunFiles, check_same_run, make_optimizer, resolve_device, reward_config
 from socialnav.train.config import TrainSettings, derive_seeds
 from socialnav.train.curves import Curves
 from socialnav.train.envs import MultiWorld, training_n_humans
@@ -42,7 +42,7 @@ RL_STREAM_OFFSET = 5_000_000
 
 
 @dataclass(frozen=True)
-class ValueRun:
+class ValueRun(RunFiles):
     """What every phase of a value-based run reads: built by :func:`setup_run`, never replaced.
 
     The networks, generators and optimizers are mutable objects the phases train in place; the
@@ -97,21 +97,6 @@ class ValueRun:
     say: Callable[[str], None]
     progress: bool
     started: float
-
-    @property
-    def last_path(self) -> Path:
-        """last.pt: the latest training state (resumption)."""
-        return self.out / "last.pt"
-
-    @property
-    def best_path(self) -> Path:
-        """best.pt: the best validation so far."""
-        return self.out / "best.pt"
-
-    @property
-    def curves_path(self) -> Path:
-        """curves.csv."""
-        return self.out / "curves.csv"
 
     @property
     def oracle(self) -> bool:
