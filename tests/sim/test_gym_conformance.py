@@ -10,7 +10,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import socialnav  # noqa: F401  (registers the ids)
-from socialnav.sim.env import SEED_STRIDE, EpisodeOrder
+from socialnav.sim.episode_order import SEED_STRIDE, EpisodeOrder
 from socialnav.sim.registration import ENV_IDS
 
 STRAIGHT = np.array([0.0, 1.0])
