@@ -438,7 +438,6 @@ def cmd_list(args: argparse.Namespace) -> int:
     return 0
 
 
-
 def _parameter_text(p: dict[str, Any]) -> str:
     """One scenario parameter as ``socialnav list`` prints it: ``robot_radius=0.3 m (> 0)``."""
     unit = f" {p['unit']}" if p["unit"] else ""

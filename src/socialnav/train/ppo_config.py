@@ -107,7 +107,7 @@ class PPOSettings(Settings):
         """Refuses more minibatches than environments.
 
         A minibatch is a set of whole environment sequences (the GRU sees each in order), so with
-        more minibatches than environments some would be empty and their loss undefined.
+        more minibatches than environments some would be empty, and the mean of an empty loss is NaN.
 
         Raises:
             ConfigError: naming minibatches.
