@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 
 from socialnav.config import ConfigError as OldConfigError
 from socialnav.config import from_dict as old_from_dict
+from socialnav.presets import EvaluationSettings, Preset, RobotSettings, TrainingScenarios
 from socialnav.settings import (
     ConfigError,
     ConfigTypeError,
@@ -30,6 +31,7 @@ from socialnav.settings import (
 from socialnav.sim.settings import OrcaSettings, RewardSettings, SocialForceSettings, WorldSettings
 from socialnav.sweep.spec import EvaluateJobSettings, SweepSettings, TrainJobSettings
 from socialnav.train.config import ImitationSettings, RLSettings, TrainSettings
+from socialnav.train.ppo_config import NetworkSettings, PPOSettings
 
 
 @dataclass(frozen=True)
@@ -148,7 +150,9 @@ def test_the_old_import_path_is_the_same_system():
 
 
 SETTINGS_CLASSES = [WorldSettings, OrcaSettings, SocialForceSettings, RewardSettings, TrainSettings,
-                    ImitationSettings, RLSettings, SweepSettings, EvaluateJobSettings, TrainJobSettings, Cart]
+                    ImitationSettings, RLSettings, SweepSettings, EvaluateJobSettings, TrainJobSettings,
+                    PPOSettings, NetworkSettings, Preset, RobotSettings, EvaluationSettings,
+                    TrainingScenarios, Cart]
 
 
 @pytest.mark.parametrize("cls", SETTINGS_CLASSES, ids=lambda c: c.__name__)
@@ -210,11 +214,12 @@ def _nest(flat: dict[str, Any]) -> dict[str, Any]:
 
 
 #: The messages of the rules between fields of the classes below (each class's cross_check).
-CROSS_FIELD_RULES = ("steps per episode, more than", "<= rl.capacity", "with wheels under 0.5 m")
+CROSS_FIELD_RULES = ("steps per episode, more than", "<= rl.capacity", "with wheels under 0.5 m",
+                     "multiple of network.attn_heads", "<= n_envs")
 
 
 @pytest.mark.parametrize("cls", [WorldSettings, TrainSettings, SweepSettings, EvaluateJobSettings,
-                                 TrainJobSettings, Cart], ids=lambda c: c.__name__)
+                                 TrainJobSettings, PPOSettings, Preset, Cart], ids=lambda c: c.__name__)
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.data())
 def test_from_dict_of_to_dict_is_the_identity(cls, data):

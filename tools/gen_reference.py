@@ -4,11 +4,10 @@
     python tools/gen_reference.py --check  # exit 1, naming the stale pages, if a rewrite would change them
 
 - cli.md: every command and option of ``socialnav``, read from its argparse parser.
-- settings.md: every field of a preset file (world, robot, evaluation, training), of a training settings
-  file (value-based and PPO), of a sweep file and every scenario parameter, read from the parameter
-  tables of the one settings system (``socialnav.settings.parameter_table``: type, default, unit,
-  constraint, meaning); dataclasses not declared with ``setting()`` yet (the preset's robot, evaluation
-  and training sections, PPO) give their meaning in the ``# [unit] why`` comment on the field's line.
+- settings.md: every field of a preset file (top level, world, robot, evaluation, training), of a training
+  settings file (value-based and PPO), of a sweep file and every scenario parameter, read from the
+  parameter tables of the one settings system (``Settings.parameters()``: type, default, unit,
+  constraint, meaning), the same rows ``socialnav list`` prints for the scenarios.
 - metric_registry.md: the registered metrics with their units, directions, parameters and outputs.
 
 tests/test_docs_site.py runs ``--check``; run this script after changing a command, a setting or a metric.
@@ -17,15 +16,12 @@ tests/test_docs_site.py runs ``--check``; run this script after changing a comma
 from __future__ import annotations
 
 import argparse
-import ast
-import dataclasses
-import inspect
-import io
-import re
 import sys
-import textwrap
-import tokenize
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from socialnav.settings import Settings
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "reference"
@@ -96,27 +92,6 @@ def _parser_section(parser: argparse.ArgumentParser, prog: str, level: int) -> l
 
 
 # -- settings -------------------------------------------------------------------------------------
-def _field_comments(cls: type) -> dict[str, str]:
-    """The ``# comment`` on each field's line in the class body (the project's way to document a
-    field's unit and meaning)."""
-    try:
-        source = textwrap.dedent(inspect.getsource(cls))
-    except (OSError, TypeError):
-        return {}
-    comments = {}
-    for tok in tokenize.generate_tokens(io.StringIO(source).readline):
-        if tok.type == tokenize.COMMENT:
-            comments[tok.start[0]] = tok.string.lstrip("#").strip()
-    out = {}
-    (node,) = ast.parse(source).body
-    for stmt in node.body:  # type: ignore[attr-defined]
-        if isinstance(stmt, ast.AnnAssign) and isinstance(stmt.target, ast.Name):
-            text = " ".join(comments[n] for n in range(stmt.lineno, (stmt.end_lineno or stmt.lineno) + 1)
-                            if n in comments)
-            out[stmt.target.id] = text
-    return out
-
-
 def _default_text(value: object) -> str:
     if isinstance(value, tuple):
         value = list(value)
@@ -125,49 +100,33 @@ def _default_text(value: object) -> str:
     return f"`{value}`"
 
 
-def settings_rows(cls: type, prefix: str = "") -> list[str]:
-    """One table row per row of the parameter table of ``cls`` (``socialnav.settings``): nested
-    sections flattened with dotted names, each with its type, default, unit, constraint and meaning.
+def settings_rows(cls: type[Settings], prefix: str = "", *, sections: bool = True) -> list[str]:
+    """One table row per row of the parameter table of ``cls`` (``Settings.parameters()``).
 
-    A dataclass not (yet) declared with ``setting()`` has its meaning read from the ``# comment`` on
-    each field's line instead."""
-    from socialnav.settings import parameter_table
-
+    Nested sections are flattened with dotted names (``prefix`` before each), each row with its type,
+    default, unit, constraint and meaning; ``sections=False`` keeps only the top-level fields that are
+    no section (the sections get tables of their own).
+    """
     rows = []
-    comments: dict[str, dict[str, str]] = {}
-    for spec in parameter_table(cls, prefix):
-        if spec.is_section:
-            rows.append(f"| **`{spec.name}`** | section | | | | {cell(spec.doc)} |")
+    for spec in cls.parameters():
+        name = f"{prefix}{spec.name}"
+        if not sections and (spec.is_section or "." in spec.name):
             continue
-        doc, unit = spec.doc, spec.unit
-        if not doc:  # a plain dataclass field: its source comment, "[unit] meaning"
-            owner = _owner_class(cls, spec.name[len(prefix):])
-            doc = comments.setdefault(owner.__qualname__, _field_comments(owner)).get(
-                spec.name.rpartition(".")[2], "")
-            bracket = re.match(r"\[([^\]]+)\]\s*(.*)", doc)
-            if bracket and not unit:
-                unit, doc = bracket.groups()
-        rows.append(f"| `{spec.name}` | {cell(spec.type)} | {_default_text(spec.default)} | "
-                    f"{cell(unit)} | {cell(spec.constraint)} | {cell(doc)} |")
+        if spec.is_section:
+            rows.append(f"| **`{name}`** | section | | | | {cell(spec.doc)} |")
+            continue
+        rows.append(f"| `{name}` | {cell(spec.type)} | {_default_text(spec.default)} | "
+                    f"{cell(spec.unit)} | {cell(spec.constraint)} | {cell(spec.doc)} |")
     return rows
 
 
-def _owner_class(cls: type, dotted: str) -> type:
-    """The (nested) dataclass that declares the field ``dotted`` of ``cls``."""
-    for part in dotted.split(".")[:-1]:
-        field = {f.name: f for f in dataclasses.fields(cls)}[part]
-        cls = type(field.default_factory()) if field.default_factory is not dataclasses.MISSING else \
-            type(field.default)
-    return cls
-
-
-def _settings_table(cls: type, prefix: str = "") -> list[str]:
+def _settings_table(cls: type[Settings], prefix: str = "", *, sections: bool = True) -> list[str]:
     return ["| field | type | default | unit | constraint | meaning |", "|---|---|---|---|---|---|",
-            *settings_rows(cls, prefix), ""]
+            *settings_rows(cls, prefix, sections=sections), ""]
 
 
 def settings_page() -> str:
-    from socialnav.presets import EvaluationSettings, RobotSettings, TrainingScenarios
+    from socialnav.presets import EvaluationSettings, Preset, RobotSettings, TrainingScenarios
     from socialnav.scenarios import list_scenarios
     from socialnav.sim.settings import WorldSettings
     from socialnav.sweep.spec import EvaluateJobSettings, SweepSettings, TrainJobSettings
@@ -184,9 +143,9 @@ def settings_page() -> str:
         "## Preset files (`socialnav evaluate --preset FILE.yaml`)",
         "",
         "Start from a shipped preset: `socialnav preset show wang2022 > my_preset.yaml`. Top-level",
-        "fields: `name`, `description`, `world`, `robot`, `policies` (per-policy parameter defaults,",
-        "e.g. `orca: {safety_space: 0.2}`), `evaluation`, `training`.",
+        "fields besides the sections `world`, `robot`, `evaluation` and `training` below:",
         "",
+        *_settings_table(Preset, sections=False),
         "### `world`: the simulator's semantics",
         "",
         *_settings_table(WorldSettings, "world."),

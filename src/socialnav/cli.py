@@ -382,7 +382,11 @@ def cmd_list(args: argparse.Namespace) -> int:
 
     data = {
         "scenarios": {
-            name: [{"name": p.name, "default": p.default, "doc": p.doc} for p in params]
+            name: [
+                {"name": p.name, "default": p.default, "doc": p.doc, "type": p.type, "unit": p.unit,
+                 "constraint": p.constraint}
+                for p in params
+            ]
             for name, params in list_scenarios().items()
         },
         "policies": [
@@ -408,9 +412,9 @@ def cmd_list(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(data, default=str))
         return 0
-    print("Scenarios:")
+    print("Scenarios (parameter=default unit (constraint)):")
     for name, params in data["scenarios"].items():
-        print(f"  {name}: " + ", ".join(f"{p['name']}={p['default']}" for p in params))
+        print(f"  {name}: " + ", ".join(_parameter_text(p) for p in params))
     print("Policies:")
     for p in data["policies"]:
         extra = ", ".join(f"{k}={v}" for k, v in p["parameters"].items())
@@ -434,6 +438,11 @@ def cmd_list(args: argparse.Namespace) -> int:
     return 0
 
 
+def _parameter_text(p: dict[str, Any]) -> str:
+    """One scenario parameter as ``socialnav list`` prints it: ``robot_radius=0.3 m (> 0)``."""
+    unit = f" {p['unit']}" if p["unit"] else ""
+    constraint = f" ({p['constraint']})" if p["constraint"] else ""
+    return f"{p['name']}={p['default']}{unit}{constraint}"
 
 
 if __name__ == "__main__":

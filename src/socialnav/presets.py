@@ -7,161 +7,145 @@ a shipped one; a path to a YAML file loads a user's own.
 
 from __future__ import annotations
 
-import dataclasses
-import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import yaml
 
-from socialnav.config import ConfigError, check, from_dict
+from socialnav.settings import ConfigError, Settings, from_dict, setting
 from socialnav.sim.settings import VISIBILITIES, WorldSettings
 
 MULTI_HUMAN = ("circle_crossing", "random", "parallel_traffic", "perpendicular_traffic")
 SINGLE_HUMAN = ("passing", "overtaking", "crossing")
 VISIBILITY_CHOICES = (*VISIBILITIES, "both")
+#: The episode splits (``socialnav.scenarios.SPLIT_BASES``, not imported: it would load every scenario
+#: module with the preset; tests/test_presets_settings.py keeps the two equal).
+EVALUATION_SPLITS = ("test", "val", "train")
+
+
+def _repeated(names: tuple[str, ...]) -> list[str]:
+    """The names listed more than once, sorted."""
+    return sorted({n for n in names if names.count(n) > 1})
 
 
 @dataclass(frozen=True)
-class RobotSettings:
-    """The robot's body and speed.
+class RobotSettings(Settings):
+    """The robot's body and speed."""
 
-    Attributes:
-        v_pref: Preferred (and maximum) speed [m/s], in (0, 100].
-        radius: Disc radius [m], in (0, 100].
-    """
-    v_pref: float = 1.0  # [m/s]
-    radius: float = 0.3  # [m]
+    section: ClassVar[str] = "robot"
 
-    def __post_init__(self) -> None:
-        check(self.v_pref > 0, "robot.v_pref", self.v_pref, "must be > 0")
-        check(self.radius > 0, "robot.radius", self.radius, "must be > 0")
-        check(self.v_pref <= 100, "robot.v_pref", self.v_pref, "must be <= 100 m/s")
-        check(self.radius <= 100, "robot.radius", self.radius, "must be <= 100 m")
+    v_pref: float = setting(1.0, "preferred (and maximum) speed", unit="m/s", gt=0, le=100)
+    radius: float = setting(0.3, "disc radius", unit="m", gt=0, le=100)
 
 
 @dataclass(frozen=True)
-class EvaluationSettings:
+class EvaluationSettings(Settings):
     """How the protocol evaluates a policy.
 
-    Attributes:
-        split: The episode split evaluated (``test``, ``val`` or ``train``).
-        multi_human: The multi-human scenarios.
-        single_human: The single-human scenarios (one human; Table III's passing sides).
-        n_humans: Humans per multi-human episode.
-        episodes: Episodes per multi-human scenario.
-        repeats: Episodes per single-human offset.
-        visibility: ``visible``, ``invisible`` or ``both`` (the robot seen by the humans or not).
-        continuation_cap: Longest M_III continuation after the robot's arrival [s].
-        chunk_size: Episodes per result file (the unit of resumption).
+    The upper bounds are those beyond which a run cannot finish (docs/protocol.md, "Bounds").
     """
-    split: str = "test"
-    multi_human: tuple[str, ...] = MULTI_HUMAN
-    single_human: tuple[str, ...] = SINGLE_HUMAN
-    n_humans: int = 5
-    episodes: int = 500  # per multi-human scenario
-    repeats: int = 1  # per single-human offset
-    visibility: str = "both"
-    continuation_cap: float = 100.0  # [s] M_III continuation after the robot's arrival
-    chunk_size: int = 250  # episodes per result file (the unit of resumption)
 
-    def __post_init__(self) -> None:
-        check(self.n_humans >= 1, "evaluation.n_humans", self.n_humans, "must be >= 1")
-        check(self.episodes >= 1, "evaluation.episodes", self.episodes, "must be >= 1")
-        check(self.repeats >= 1, "evaluation.repeats", self.repeats, "must be >= 1")
-        check(self.chunk_size >= 1, "evaluation.chunk_size", self.chunk_size, "must be >= 1")
-        # Upper bounds: beyond them a run cannot finish (docs/protocol.md, "Bounds").
-        for name, most in (("n_humans", 1000), ("episodes", 10_000_000), ("repeats", 100_000),
-                           ("chunk_size", 1_000_000)):
-            value = getattr(self, name)
-            check(value <= most, f"evaluation.{name}", value, f"must be <= {most}")
+    section: ClassVar[str] = "evaluation"
+
+    split: str = setting("test", "the episode split evaluated", choices=EVALUATION_SPLITS)
+    multi_human: tuple[str, ...] = setting(MULTI_HUMAN, "the multi-human scenarios")
+    single_human: tuple[str, ...] = setting(
+        SINGLE_HUMAN, "the single-human scenarios (one human; Table III's passing sides)"
+    )
+    n_humans: int = setting(5, "humans per multi-human episode", ge=1, le=1000)
+    episodes: int = setting(500, "episodes per multi-human scenario", ge=1, le=10_000_000)
+    repeats: int = setting(1, "episodes per single-human offset", ge=1, le=100_000)
+    visibility: str = setting(
+        "both", "whether the humans see the robot; both: an invisible pass, then a visible one",
+        choices=VISIBILITY_CHOICES,
+    )
+    continuation_cap: float = setting(
+        100.0, "longest M_III continuation after the robot's arrival", unit="s", gt=0
+    )
+    chunk_size: int = setting(
+        250, "episodes per result file (the unit of resumption)", ge=1, le=1_000_000
+    )
+
+    def cross_check(self) -> None:
+        """Refuses a scenario listed twice (its episodes would run, and count, twice).
+
+        Raises:
+            ConfigError: naming evaluation.multi_human or evaluation.single_human.
+        """
         for group in ("multi_human", "single_human"):
             names = getattr(self, group)
-            repeated = sorted({n for n in names if names.count(n) > 1})
-            check(not repeated, f"evaluation.{group}", list(names), f"lists {', '.join(repeated)} twice")
-        check(
-            math.isfinite(self.continuation_cap) and self.continuation_cap > 0,
-            "evaluation.continuation_cap",
-            self.continuation_cap,
-            "must be a finite number > 0",
-        )
-        check(
-            self.visibility in VISIBILITY_CHOICES,
-            "evaluation.visibility",
-            self.visibility,
-            f"must be one of {', '.join(VISIBILITY_CHOICES)}",
-        )
+            repeated = _repeated(names)
+            if repeated:
+                self.refuse(group, f"lists {', '.join(repeated)} twice", list(names))
 
 
 @dataclass(frozen=True)
-class TrainingScenarios:
-    """The scenarios the learned policies train on.
+class TrainingScenarios(Settings):
+    """The scenarios the learned policies train on."""
 
-    Attributes:
-        scenarios: Registered scenario names, mixed in training.
-        n_humans: Humans per episode (scenarios that fix their own crowd keep it).
-        visibility: ``visible`` or ``invisible``.
-    """
-    scenarios: tuple[str, ...] = MULTI_HUMAN
-    n_humans: int = 5
-    visibility: str = "invisible"
+    section: ClassVar[str] = "training"
 
-    def __post_init__(self) -> None:
-        # Checked when the preset loads, so that `socialnav evaluate` refuses a preset whose training
-        # section could never train as surely as `socialnav train` does.
+    scenarios: tuple[str, ...] = setting(MULTI_HUMAN, "registered scenario names, mixed in training")
+    n_humans: int = setting(
+        5, "humans per episode (scenarios that fix their own crowd keep it)", ge=0, le=1000
+    )
+    visibility: str = setting("invisible", "whether the humans see the robot", choices=VISIBILITIES)
+
+    def cross_check(self) -> None:
+        """Refuses an empty, repeated or unregistered scenario list.
+
+        Checked when the preset loads, so that `socialnav evaluate` refuses a preset whose training
+        section could never train as surely as `socialnav train` does.
+
+        Raises:
+            ConfigError: naming training.scenarios.
+        """
         from socialnav.scenarios.registry import UnknownScenarioError, get_scenario
 
-        check(len(self.scenarios) >= 1, "training.scenarios", list(self.scenarios), "must name a scenario")
-        repeated = sorted({n for n in self.scenarios if self.scenarios.count(n) > 1})
-        check(not repeated, "training.scenarios", list(self.scenarios), f"lists {', '.join(repeated)} twice")
+        if not self.scenarios:
+            self.refuse("scenarios", "must name a scenario", list(self.scenarios))
+        repeated = _repeated(self.scenarios)
+        if repeated:
+            self.refuse("scenarios", f"lists {', '.join(repeated)} twice", list(self.scenarios))
         for name in self.scenarios:
             try:
                 get_scenario(name)
             except UnknownScenarioError as err:
-                raise ConfigError(f"training.scenarios: {err}") from None
-        check(0 <= self.n_humans <= 1000, "training.n_humans", self.n_humans, "must be in [0, 1000]")
-        check(
-            self.visibility in VISIBILITIES,
-            "training.visibility",
-            self.visibility,
-            f"must be one of {', '.join(VISIBILITIES)}",
-        )
+                raise ConfigError(f"{self.section}.scenarios: {err}") from None
 
 
 @dataclass(frozen=True)
-class Preset:
-    """A named protocol: world, robot, policy defaults, evaluation and training settings.
+class Preset(Settings):
+    """A named protocol: world, robot, policy defaults, evaluation and training settings."""
 
-    Attributes:
-        name: The preset's name (``wang2022``, ``francis2023``, ... or ``custom``).
-        description: One line shown by ``socialnav preset list``.
-        world: The simulator's settings.
-        robot: The robot's body and speed.
-        policies: Per-policy parameter defaults, by policy name.
-        evaluation: How the protocol evaluates.
-        training: What the learned policies train on.
-    """
-    name: str = "custom"
-    description: str = ""
-    world: WorldSettings = field(default_factory=WorldSettings)
-    robot: RobotSettings = field(default_factory=RobotSettings)
-    policies: dict[str, Any] = field(default_factory=dict)  # per-policy parameter defaults
-    evaluation: EvaluationSettings = field(default_factory=EvaluationSettings)
-    training: TrainingScenarios = field(default_factory=TrainingScenarios)
+    name: str = setting("custom", "the preset's name (wang2022, francis2023, ... or custom)")
+    description: str = setting("", "one line shown by socialnav preset list")
+    world: WorldSettings = setting(default_factory=WorldSettings, doc="the simulator's settings")
+    robot: RobotSettings = setting(default_factory=RobotSettings, doc="the robot's body and speed")
+    policies: dict[str, Any] = setting(
+        default_factory=dict, doc="per-policy parameter defaults, by policy name (orca: {safety_space: 0.2})"
+    )
+    evaluation: EvaluationSettings = setting(
+        default_factory=EvaluationSettings, doc="how the protocol evaluates"
+    )
+    training: TrainingScenarios = setting(
+        default_factory=TrainingScenarios, doc="what the learned policies train on"
+    )
 
-    def __post_init__(self) -> None:
+    def cross_check(self) -> None:
+        """Refuses policy defaults that are not a mapping of parameters.
+
+        Raises:
+            ConfigError: naming policies.<policy>.
+        """
         for policy, params in self.policies.items():
             if not isinstance(params, dict):
                 raise ConfigError(
                     f"policies.{policy} must be a mapping of parameters, "
                     f"got {type(params).__name__} {params!r}"
                 )
-
-    def to_dict(self) -> dict[str, Any]:
-        """The preset as nested plain dicts (``dataclasses.asdict``)."""
-        return dataclasses.asdict(self)
 
     def policy_params(self, policy: str) -> dict[str, Any]:
         """The preset's parameter defaults of ``policy`` (a copy; empty where it sets none)."""

@@ -147,14 +147,14 @@ CASES: list[Case] = [
         "bounds",
         "evaluate --preset {base}/humans.yaml",
         "evaluation.n_humans",
-        "<= 1000",
+        "must be in [1, 1000], got 100000",
     ),
     C(
         "preset-episodes-huge-int",
         "bounds",
         "evaluate --preset {base}/episodes_huge.yaml",
         "evaluation.episodes",
-        "<= 10000000",
+        "must be in [1, 10000000]",
     ),
     # -- evaluate: options ---------------------------------------------------------------------
     C("ev-episodes-0", "setting", EV + " --episodes 0", "episodes must be >= 1"),

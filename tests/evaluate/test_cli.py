@@ -140,3 +140,20 @@ def test_list_json(capsys):
     assert {"orca", "sarl"} <= {p["name"] for p in data["policies"]}
     assert {"m1_personal_space", "m6_side_preference"} <= {m["name"] for m in data["metrics"]}
     assert data["human_models"] == ["orca", "social_force", "linear"]
+
+
+def test_list_prints_each_scenario_parameter_with_its_unit_and_constraint(capsys):
+    # the same parameter table as the scenario's declaration and docs/reference/settings.md
+    code, out, _ = run(capsys, "list", "--json")
+    assert code == 0
+    params = {p["name"]: p for p in json.loads(out)["scenarios"]["parallel_traffic"]}
+    assert params["robot_v_pref"] == {"name": "robot_v_pref", "default": 1.0, "type": "float", "unit": "m/s",
+                                      "constraint": "> 0", "doc": "robot preferred (maximum) speed"}
+    assert (params["traffic_area"]["unit"], params["traffic_area"]["constraint"]) == (
+        "", "one of 'half_square', 'band'")
+    code, out, _ = run(capsys, "list")
+    line = next(x for x in out.splitlines() if x.startswith("  parallel_traffic: "))
+    assert line.startswith("  parallel_traffic: n_humans=5 (>= 0), robot_radius=0.3 m (> 0), ")
+    assert ", randomize_attributes=False, " in line  # no unit, no constraint: the default alone
+    assert ", random_v_pref_range=(0.5, 1.5) m/s, random_radius_range=(0.3, 0.5) m, " in line
+    assert line.endswith(", traffic_area=half_square (one of 'half_square', 'band'), band_width=2.0 m (> 0)")

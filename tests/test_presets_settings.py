@@ -1,0 +1,104 @@
+"""Preset sections (robot, evaluation, training) on the one settings system: a bad field of a preset
+file is refused naming the file, the dotted field and the value; the recorded keys and defaults are
+unchanged; every field is documented with its unit and constraint."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from socialnav.presets import (
+    EVALUATION_SPLITS,
+    EvaluationSettings,
+    Preset,
+    RobotSettings,
+    TrainingScenarios,
+    load_preset,
+    shipped_presets,
+)
+from socialnav.scenarios import SPLIT_BASES
+from socialnav.settings import ConfigError
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("robot: {v_pref: 0}", "robot.v_pref must be in (0, 100], got 0.0"),
+        ("robot: {radius: 101}", "robot.radius must be in (0, 100], got 101.0"),
+        ("robot: {vpref: 1}",
+         "unknown setting(s) robot.vpref (did you mean robot.v_pref?); valid: radius, v_pref"),
+        ("evaluation: {chunk_size: 0}", "evaluation.chunk_size must be in [1, 1000000], got 0"),
+        ("evaluation: {split: testing}",
+         "evaluation.split must be one of 'test', 'val', 'train', got 'testing'"),
+        ("evaluation: {visibility: seen}",
+         "evaluation.visibility must be one of 'invisible', 'visible', 'both', got 'seen'"),
+        ("evaluation: {continuation_cap: -1}", "evaluation.continuation_cap must be > 0, got -1.0"),
+        ("evaluation: {single_human: [passing, passing]}",
+         "evaluation.single_human lists passing twice, got ['passing', 'passing']"),
+        ("evaluation: {episode: 3}",
+         "unknown setting(s) evaluation.episode (did you mean evaluation.episodes?); valid: chunk_size, "
+         "continuation_cap, episodes, multi_human, n_humans, repeats, single_human, split, visibility"),
+        ("training: {visibility: both}",
+         "training.visibility must be one of 'invisible', 'visible', got 'both'"),
+        ("policies: {orca: 5}", "policies.orca must be a mapping of parameters, got int 5"),
+    ],
+)
+def test_a_bad_preset_field_names_the_file_the_field_and_the_value(tmp_path, text, message):
+    path = tmp_path / "mine.yaml"
+    path.write_text(text + "\n")
+    with pytest.raises(ConfigError) as err:
+        load_preset(path)
+    assert str(err.value) == f"{path}: {message}"
+
+
+def test_sections_built_in_code_name_their_section():
+    with pytest.raises(ConfigError, match=r"^robot.v_pref must be in \(0, 100\], got -1$"):
+        RobotSettings(v_pref=-1)
+    with pytest.raises(ConfigError, match=r"^evaluation.multi_human lists random twice"):
+        EvaluationSettings(multi_human=("random", "circle_crossing", "random"))
+    with pytest.raises(ConfigError, match=r"^training.scenarios: unknown scenario 'doom'"):
+        TrainingScenarios(scenarios=("doom",))
+
+
+def test_the_evaluation_splits_are_the_episode_splits():
+    assert set(EVALUATION_SPLITS) == set(SPLIT_BASES)
+
+
+def test_the_recorded_keys_and_defaults_are_unchanged():
+    # evaluation manifests and checkpoints record Preset.to_dict(): keys, order and defaults are a format
+    assert RobotSettings().to_dict() == {"v_pref": 1.0, "radius": 0.3}
+    multi = ("circle_crossing", "random", "parallel_traffic", "perpendicular_traffic")
+    evaluation = EvaluationSettings().to_dict()
+    assert evaluation == {
+        "split": "test", "multi_human": multi, "single_human": ("passing", "overtaking", "crossing"),
+        "n_humans": 5, "episodes": 500, "repeats": 1, "visibility": "both", "continuation_cap": 100.0,
+        "chunk_size": 250,
+    }
+    assert list(evaluation) == ["split", "multi_human", "single_human", "n_humans", "episodes", "repeats",
+                                "visibility", "continuation_cap", "chunk_size"]
+    assert TrainingScenarios().to_dict() == {"scenarios": multi, "n_humans": 5, "visibility": "invisible"}
+    preset = Preset().to_dict()
+    assert list(preset) == ["name", "description", "world", "robot", "policies", "evaluation", "training"]
+    assert preset == dataclasses.asdict(Preset())
+
+
+@pytest.mark.parametrize("name", shipped_presets())
+def test_shipped_presets_round_trip_through_to_dict(name):
+    preset = load_preset(name)
+    again = Preset.from_dict(preset.to_dict())
+    assert again == preset and again.to_dict() == preset.to_dict()
+
+
+@pytest.mark.parametrize("cls", [Preset, RobotSettings, EvaluationSettings, TrainingScenarios],
+                         ids=lambda c: c.__name__)
+def test_every_field_has_a_description(cls):
+    assert [r.name for r in cls.parameters() if not r.doc] == []
+
+
+def test_the_table_carries_units_and_constraints():
+    robot = {r.name: r for r in RobotSettings.parameters()}
+    assert (robot["v_pref"].unit, robot["v_pref"].constraint) == ("m/s", "in (0, 100]")
+    evaluation = {r.name: r for r in EvaluationSettings.parameters()}
+    assert (evaluation["continuation_cap"].unit, evaluation["continuation_cap"].constraint) == ("s", "> 0")
+    assert evaluation["n_humans"].constraint == "in [1, 1000]"
