@@ -51,7 +51,7 @@ def chunk_path(out: Path, cell: Cell, start: int, stop: int) -> Path:
     Returns:
         ``out/episodes/<cell key>/<start:05d>-<stop:05d>.parquet``.
     """
-    return out / "episodes" / cell.key / f"{start:05d}-{stop:05d}.parquet"
+    return out / "episodes" / _chunk_file_name(cell, start, stop)
 
 
 def trajectory_path(out: Path, cell: Cell, start: int, stop: int) -> Path:
@@ -66,7 +66,12 @@ def trajectory_path(out: Path, cell: Cell, start: int, stop: int) -> Path:
     Returns:
         ``out/trajectories/<cell key>/<start:05d>-<stop:05d>.parquet``.
     """
-    return out / "trajectories" / cell.key / f"{start:05d}-{stop:05d}.parquet"
+    return out / "trajectories" / _chunk_file_name(cell, start, stop)
+
+
+def _chunk_file_name(cell: Cell, start: int, stop: int) -> Path:
+    # One naming scheme for a chunk's episode and trajectory files, so that they always pair up.
+    return Path(cell.key) / f"{start:05d}-{stop:05d}.parquet"
 
 
 def chunk_done(out: Path, cell: Cell, start: int, stop: int, trajectories: bool) -> bool:
