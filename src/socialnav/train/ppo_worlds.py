@@ -55,13 +55,24 @@ def world_snapshot(world: MultiWorld) -> list[dict[str, Any]]:
 
 
 def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
-    """Puts the worlds back into a :func:`world_snapshot` state (their streams continue from it)."""
+    """Puts the worlds back into a :func:`world_snapshot` state (their streams continue from it).
+
+    The episodes in flight get their static maps back: a map is drawn from the episode's index and
+    seed alone, so the scenario draws it again (the snapshot holds no maps; without this, a resumed
+    run would go on with its episodes in flight on open floors).
+    """
     if len(snapshot) != len(world.worlds):
         raise ConfigError(f"the saved run has {len(snapshot)} worlds, this one {len(world.worlds)}")
     for w, saved in zip(world.worlds, snapshot, strict=True):
         w.stream = EpisodeStream(w.scenario, w.stream.split, int(saved["next_index"]))
         for k in WORLD_STATE:
             np.copyto(getattr(w, k), saved[k].numpy())
+        live = np.flatnonzero(w.episode_index >= 0)
+        if not live.size:
+            continue
+        maps = w.scenario.static_maps(w.scenario.rng(w.episode_seed[live]), w.episode_index[live])
+        for slot, static_map in zip(live, maps if maps is not None else (), strict=maps is not None):
+            w.set_static_map(int(slot), static_map)
 
 
 def step_worlds(world: MultiWorld, actions: np.ndarray):
