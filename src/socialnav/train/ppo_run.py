@@ -9,6 +9,7 @@ they and a resumed checkpoint have been checked.
 from __future__ import annotations
 
 import contextlib
+import inspect
 import json
 import math
 import os
@@ -161,15 +162,13 @@ def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints |
     assert network_kwargs is not None  # a PPO record always has one (LearnedPolicySpec checks)
     if encoding is None:
         return network_kwargs(s, n_humans)
-    try:
-        return network_kwargs(s, n_humans, obstacle_slots=encoding.count)
-    except TypeError as err:
-        if "obstacle_slots" not in str(err):
-            raise
+    params = inspect.signature(network_kwargs).parameters.values()
+    if not any(p.name == "obstacle_slots" or p.kind is p.VAR_KEYWORD for p in params):
         raise ConfigError(
             f"policy {s.policy!r}: its record's network_kwargs takes no obstacle_slots, so its network "
             "cannot read the obstacles of a training mix with walls (docs/ppo.md, 'Among walls')"
-        ) from None
+        )
+    return network_kwargs(s, n_humans, obstacle_slots=encoding.count)
 
 
 def _check_resumable(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:

@@ -30,8 +30,9 @@ constant-velocity extrapolation p_i + k·dt·v_i, k = 1..K (K = ``prediction_ste
 Obstacles (a network trained among walls): :func:`observation_tensors` appends the K nearest
 outline points of the episode's map after the human slots as standing agents with their own mask
 (:mod:`socialnav.sim.obstacle_points`, docs/walls_learned.md). The network reads them as humans that
-never move: they take part in both attentions, need no new layer, and with all K slots masked (an
-open floor) the network computes what it computes without them.
+never move: they take part in both attentions and need no new layer. With all K slots masked (an
+open floor) the network computes what it computes without them, up to float32 rounding (the sums
+run over more, zero, terms).
 
 Observation normalisation (optional, ``normalize_obs``): running mean and variance of the robot
 features and of the real humans' features, kept as buffers so that they travel with the checkpoint;
