@@ -11,6 +11,8 @@ import json
 import numpy as np
 import pytest
 import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from socialnav.policies.learned import save_checkpoint
 from socialnav.policies.learned.attn_graph import AttnGraphNet, observation_tensors
@@ -76,6 +78,44 @@ def test_the_points_follow_the_humans_nearest_first_and_stand_still():
                                   human_mask=np.concatenate([obs.human_mask, m], 1), static_slots=16)
     again = observation_tensors(encoded, 0.25, 2, obstacle_encoding=ObstaclePoints())[1]
     torch.testing.assert_close(again, humans)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    seed=st.integers(0, 2**16),
+    n_walls=st.integers(0, 4),
+    steps=st.integers(0, 5),
+    count=st.integers(1, 20),
+)
+def test_the_human_slots_are_unchanged_and_the_points_are_the_encodings(seed, n_walls, steps, count):
+    """Any walls, any robot: the human slots are those without an encoding, and the point slots are the
+    encoding's nearest points relative to the robot, the same at every predicted step."""
+    g = np.random.default_rng(seed)
+    # wall segments and squares in horizontal bands of their own (the map refuses crossing outlines)
+    walls = []
+    for i in range(n_walls):
+        x, y, size = g.uniform(-4, 3), -5 + 2.5 * i + g.uniform(0, 1), g.uniform(0.2, 1.4)
+        corners = [[x, y], [x + size, y], [x + size, y + size], [x, y + size]]
+        walls.append(np.array(corners[:2] if g.random() < 0.5 else corners))
+    static_map = StaticMap.from_polygons(walls) if walls else None
+    b = 3
+    obs = _obs([static_map] * b, b=b)
+    robot = obs.robot.copy()
+    robot[:, :2] = g.uniform(-4, 4, size=(b, 2))
+    humans = obs.humans.copy()
+    humans[:, :, :4] = g.normal(size=(b, 2, 4))
+    obs = dataclasses.replace(obs, robot=robot, humans=humans)
+    encoding = ObstaclePoints(count=count)
+    plain = observation_tensors(obs, 0.25, steps)
+    rf, hf, mk = observation_tensors(obs, 0.25, steps, obstacle_encoding=encoding)
+    torch.testing.assert_close(rf, plain[0])
+    torch.testing.assert_close(hf[:, :2], plain[1])
+    assert torch.equal(mk[:, :2], plain[2])
+    points, mask = encoding.nearest(robot[:, :2], [static_map] * b)
+    assert mk[:, 2:].numpy().tolist() == mask.tolist()
+    relative = (points - robot[:, None, :2]) * mask[..., None]
+    expected = np.tile(relative, (1, 1, steps + 1))
+    np.testing.assert_allclose(hf[:, 2:].numpy(), expected, rtol=1e-6, atol=1e-5)
 
 
 def test_without_an_encoding_or_beyond_range_the_network_sees_no_points():

@@ -88,11 +88,18 @@ def test_a_step_keeps_each_episodes_map(walls_preset):
     world = MultiWorld(load_preset(walls_preset), 4, 4, "train", 0)
     try:
         world.reset()
-        before = [m for w in world.worlds for m in w.static_maps]
-        _, _, _, final, nxt = step_worlds(world, np.zeros((4, 2)))
-        assert all(a is b for a, b in zip(final.obstacles.maps, before, strict=True))
-        after = [m for w in world.worlds for m in w.static_maps]
-        assert all(a is b for a, b in zip(nxt.obstacles.maps, after, strict=True))
+        ended = np.zeros(4, dtype=bool)
+        for _ in range(60):  # standing still: every episode times out at 10 s (40 steps), refilled
+            before = [m for w in world.worlds for m in w.static_maps]
+            _, term, trunc, final, nxt = step_worlds(world, np.zeros((4, 2)))
+            after = [m for w in world.worlds for m in w.static_maps]
+            assert all(a is b for a, b in zip(final.obstacles.maps, before, strict=True))
+            assert all(a is b for a, b in zip(nxt.obstacles.maps, after, strict=True))
+            done = term | trunc
+            ended |= done
+            # the circle crossing's pillars are drawn per episode: a refilled slot has a new map
+            assert all(after[b] is not before[b] for b in np.flatnonzero(done) if b >= 2)
+        assert ended.all()
     finally:
         world.close()
     world = MultiWorld(load_preset("crowdnav"), 4, 2, "train", 0)
