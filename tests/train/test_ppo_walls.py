@@ -143,6 +143,11 @@ def test_cli_trains_among_walls_and_evaluates_under_francis2023(tmp_path, capsys
     assert manifest["policy"]["obstacle_encoding"] == ObstaclePoints().to_dict()
     assert "preset_mismatch_allowed" not in manifest["policy"]
     assert (ev / "summary.json").is_file()
+    # and on an open floor (crowdnav: the same robot, dt and rewards): the K point slots all masked
+    rc = main(["evaluate", "--policy", policy, "--checkpoint", str(out / "best.pt"), "--preset", "crowdnav",
+               "--scenario", "circle_crossing", "--episodes", "2", "--out", str(tmp_path / "open"),
+               "--no-progress", "--json"])
+    assert rc == 0, capsys.readouterr().err
 
 
 @pytest.fixture()
