@@ -69,7 +69,9 @@ class LearnedPolicySpec:
             ``cadrl_one_human`` is on (CADRL's authors' setting).
         network_kwargs: PPO only (required there): ``network_kwargs(settings, n_humans)``, the
             network constructor's keyword arguments from the run's PPO settings
-            (``socialnav.train.PPOSettings``) and the training mix's human slots.
+            (``socialnav.train.PPOSettings``) and the training mix's human slots; to train among
+            walls it also takes ``obstacle_slots=K``, the obstacle points that follow the human
+            slots (docs/ppo.md).
     """
 
     name: str
@@ -84,7 +86,7 @@ class LearnedPolicySpec:
     defaults: Mapping[str, Any] = field(default_factory=dict)
     required_information: str | None = None
     one_human_training: bool = False
-    network_kwargs: Callable[[Any, int], dict[str, Any]] | None = None
+    network_kwargs: Callable[..., dict[str, Any]] | None = None
 
     def __post_init__(self) -> None:
         if self.trainer not in TRAINERS:
@@ -138,12 +140,13 @@ class LearnedPolicySpec:
         return getattr(importlib.import_module(module), attr)
 
 
-def attn_graph_kwargs(settings: Any, n_humans: int) -> dict[str, Any]:
+def attn_graph_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 0) -> dict[str, Any]:
     """crowdnav_pp's network arguments: every size of ``settings.network`` and ``normalize_obs``.
 
     Args:
         settings: the run's PPO settings.
         n_humans: the training mix's human slots (the attention takes any number).
+        obstacle_slots: the obstacle encoding's point slots (the attention reads them as agents).
 
     Returns:
         The AttnGraphNet keyword arguments.
@@ -151,15 +154,16 @@ def attn_graph_kwargs(settings: Any, n_humans: int) -> dict[str, Any]:
     return dict(normalize_obs=settings.normalize_obs, **dataclasses.asdict(settings.network))
 
 
-def mlp_actor_critic_kwargs(settings: Any, n_humans: int) -> dict[str, Any]:
+def mlp_actor_critic_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 0) -> dict[str, Any]:
     """ppo_mlp's network arguments: prediction steps and initial σ, ``mlp_hidden``, human slots.
 
     The prediction steps and initial σ are shared with crowdnav_pp's ``network`` settings; the MLP's
-    input has a slot per human of the training mix.
+    input has a slot per human of the training mix, and among walls one per obstacle point.
 
     Args:
         settings: the run's PPO settings.
         n_humans: the training mix's human slots.
+        obstacle_slots: the obstacle encoding's point slots (0: no walls in the mix).
 
     Returns:
         The MLPActorCritic keyword arguments.
@@ -171,6 +175,7 @@ def mlp_actor_critic_kwargs(settings: Any, n_humans: int) -> dict[str, Any]:
         hidden=settings.mlp_hidden,
         normalize_obs=settings.normalize_obs,
         log_std_init=n.log_std_init,
+        **({"obstacle_slots": obstacle_slots} if obstacle_slots else {}),
     )
 
 

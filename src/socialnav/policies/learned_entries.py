@@ -302,6 +302,31 @@ def _factory(name: str):
 
 #: What a PPO checkpoint's ``ppo_policy`` holds (the world the actor was trained for).
 PPO_POLICY_KEYS = ("kinematics", "rotation_limit", "dt", "reward")
+#: What it may hold besides: the obstacle encoding of a network trained among walls (absent before).
+PPO_POLICY_OPTIONAL_KEYS = ("obstacle_encoding",)
+
+
+def _ppo_obstacle_encoding(settings: dict[str, Any], model: Any, where: str) -> Any:
+    """The checkpoint's obstacle encoding (None when it records none), checked against its network.
+
+    An MLP reads a fixed number of point slots (``obstacle_slots``), which must be the encoding's count.
+    """
+    from socialnav.config import ConfigError
+    from socialnav.policies.learned.checkpoint import CheckpointError
+    from socialnav.sim.obstacle_points import ObstaclePoints
+
+    raw = settings.get("obstacle_encoding")
+    try:
+        encoding = None if raw is None else ObstaclePoints.from_dict(raw)
+    except ConfigError as err:
+        raise CheckpointError(f"{where}.obstacle_encoding is invalid: {err}") from None
+    slots = getattr(model, "obstacle_slots", None)
+    count = 0 if encoding is None else encoding.count
+    if slots is not None and slots != count:
+        raise CheckpointError(
+            f"{where}.obstacle_encoding has {count} point slots, its network reads {slots}"
+        )
+    return encoding
 
 
 def load_ppo_policy(
@@ -314,7 +339,9 @@ def load_ppo_policy(
 ):
     """Load a PPO checkpoint of ``name`` into a :class:`RecurrentActorPolicy`.
 
-    It takes mean actions unless ``deterministic`` is False.
+    It takes mean actions unless ``deterministic`` is False. A checkpoint trained among walls records
+    its obstacle encoding (``config.ppo_policy.obstacle_encoding``), which the policy rebuilds; one
+    without the key reads no obstacles, as before.
 
     Raises:
         CheckpointError: unreadable, another policy, or malformed ``config.ppo_policy``.
@@ -327,16 +354,22 @@ def load_ppo_policy(
     ckpt = load_checkpoint(checkpoint, name, expected_input_dim=-1, map_location=device)
     settings = ckpt.config.get("ppo_policy")
     where = f"checkpoint {checkpoint}: config.ppo_policy"
-    if not isinstance(settings, dict) or sorted(settings) != sorted(PPO_POLICY_KEYS):
+    if (
+        not isinstance(settings, dict)
+        or not set(PPO_POLICY_KEYS) <= set(settings)
+        or set(settings) - set(PPO_POLICY_KEYS) - set(PPO_POLICY_OPTIONAL_KEYS)
+    ):
         raise CheckpointError(
-            f"{where} must be a mapping of {', '.join(PPO_POLICY_KEYS)} (a checkpoint written by "
+            f"{where} must be a mapping of {', '.join(PPO_POLICY_KEYS)} (and optionally "
+            f"{', '.join(PPO_POLICY_OPTIONAL_KEYS)}; a checkpoint written by "
             f"`socialnav train --policy {name}`), got {settings!r}"
         )
+    encoding = _ppo_obstacle_encoding(settings, ckpt.model, where)
     mismatch = checked_preset_mismatches(checkpoint, ckpt.config, preset, allow_preset_mismatch)
     return RecurrentActorPolicy(
         name, ckpt.model, kinematics=settings["kinematics"], rotation_limit=settings["rotation_limit"],
         dt=settings["dt"], device=device, deterministic=deterministic, checkpoint=Path(checkpoint),
-        preset_mismatch=mismatch,
+        preset_mismatch=mismatch, obstacle_encoding=encoding,
     )
 
 

@@ -82,6 +82,22 @@ def mix_human_slots(preset: Preset, n_humans: int) -> int:
     return max(crowd(name) for name in preset.training.scenarios)
 
 
+def trains_among_walls(preset: Preset) -> bool:
+    """Whether the preset's training mix has a scenario with walls.
+
+    Both trainers decide by it whether the network gets the obstacle encoding (docs/walls_learned.md).
+
+    Args:
+        preset: the preset.
+
+    Returns:
+        True when one of its training scenarios is a walled one.
+    """
+    from socialnav.scenarios.walls import WalledScenario
+
+    return any(issubclass(get_scenario(name), WalledScenario) for name in preset.training.scenarios)
+
+
 def pad_humans(humans: np.ndarray, mask: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """(B, m, 5), (B, m) zero-padded to n >= m human slots (mask False)."""
     m = humans.shape[1]

@@ -110,7 +110,7 @@ def train_ppo(
         w = run.preset.world
         actor = RecurrentActorPolicy(
             run.settings.policy, run.net, kinematics=w.kinematics, rotation_limit=w.rotation_limit, dt=w.dt,
-            device=run.device,
+            device=run.device, obstacle_encoding=run.obstacle_encoding,
         )
         state = initial_state(run)
         bar = progress_bar(run.n_updates, state.update, f"{run.settings.policy} PPO", progress)

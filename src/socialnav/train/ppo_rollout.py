@@ -26,8 +26,8 @@ class Rollout:
         h0: the GRU state of each environment before the rollout (the update replays from it).
         starts: (T, n_envs) bool, an episode starts at this step (the GRU state is reset).
         robots: (T, n_envs, ROBOT_FEATURES) robot features.
-        humans: (T, n_envs, n_humans, input_dim) human features.
-        masks: (T, n_envs, n_humans) bool, real humans.
+        humans: (T, n_envs, n_slots, input_dim) human features, then the obstacle points' (if any).
+        masks: (T, n_envs, n_slots) bool, real humans and points.
         raws: (T, n_envs, 2) the Gaussian samples (before squashing).
         logps: (T, n_envs) their log-probabilities under the collecting policy.
         values: (T, n_envs) the critic's values.
@@ -67,7 +67,8 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     """
     from socialnav.policies.learned.attn_graph import ROBOT_FEATURES, observation_tensors, squash_actions
 
-    s, net, device, n_envs, n_humans = run.settings, run.net, run.device, run.n_envs, run.n_humans
+    s, net, device, n_envs, n_slots = run.settings, run.net, run.device, run.n_envs, run.n_slots
+    walls = run.obstacle_encoding
     dt, kinematics = run.preset.world.dt, run.preset.world.kinematics
     rotation_limit, success_reward = run.preset.world.rotation_limit, run.preset.world.reward.success_reward
     T, steps_ahead = s.rollout_steps, net.prediction_steps
@@ -75,8 +76,8 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     net.eval()
     h0, starts = state.h.clone(), torch.zeros(T, n_envs, dtype=torch.bool, device=device)
     robots = torch.zeros(T, n_envs, ROBOT_FEATURES, device=device)
-    humans = torch.zeros(T, n_envs, n_humans, net.input_dim, device=device)
-    masks = torch.zeros(T, n_envs, n_humans, dtype=torch.bool, device=device)
+    humans = torch.zeros(T, n_envs, n_slots, net.input_dim, device=device)
+    masks = torch.zeros(T, n_envs, n_slots, dtype=torch.bool, device=device)
     raws, logps, values = (
         torch.zeros(T, n_envs, 2, device=device),
         torch.zeros(T, n_envs, device=device),
@@ -89,7 +90,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     with torch.no_grad():
         for t in range(T):
             obs = state.obs
-            rf, hf, mk = observation_tensors(obs, dt, steps_ahead, device)
+            rf, hf, mk = observation_tensors(obs, dt, steps_ahead, device, walls)
             robots[t], humans[t], masks[t], starts[t] = rf, hf, mk, state.start
             mean, value, state.h = net.step(rf, hf, mk, state.h, state.start)
             raw = mean + torch.randn(mean.shape, generator=run.action_gen).to(device) * net.log_std.exp()
@@ -104,7 +105,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             r = torch.as_tensor(shaped, dtype=torch.float32, device=device)
             if s.bootstrap_timeouts and trunc.any():
                 rows = np.flatnonzero(trunc)
-                frf, fhf, fmk = observation_tensors(final.take(rows), dt, steps_ahead, device)
+                frf, fhf, fmk = observation_tensors(final.take(rows), dt, steps_ahead, device, walls)
                 _, v_final, _ = net.step(
                     frf, fhf, fmk, state.h[rows], torch.zeros(len(rows), dtype=torch.bool, device=device)
                 )
@@ -117,7 +118,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             state.returns_n += int(done.sum())
             state.episode_return[done] = 0.0
             state.episodes += int(done.sum())
-        rf, hf, mk = observation_tensors(state.obs, dt, steps_ahead, device)
+        rf, hf, mk = observation_tensors(state.obs, dt, steps_ahead, device, walls)
         _, last_value, _ = net.step(rf, hf, mk, state.h, state.start)
         advantages, returns = gae(rewards, values, dones, last_value, s.gamma, s.gae_lambda)
     state.env_steps += n_envs * T

@@ -9,6 +9,7 @@ they and a resumed checkpoint have been checked.
 from __future__ import annotations
 
 import contextlib
+import inspect
 import json
 import math
 import os
@@ -30,6 +31,7 @@ from socialnav._io import (
 )
 from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
+from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.train.common import RunFiles, load_optimizer_state, resolve_device
 from socialnav.train.config import derive_seeds, flat_diff
 from socialnav.train.curves import Curves
@@ -78,6 +80,8 @@ class PPORun(RunFiles):
         preset: the preset trained under.
         config: the run's record (config.json; every checkpoint's ``config``).
         n_humans: human slots of the rollout (the training mix's largest crowd).
+        obstacle_encoding: the obstacle points the network reads after the human slots (a training
+            mix with walls), or None.
         device: the torch device.
         out: the run directory.
         net: the actor-critic (the policy's record builds it).
@@ -98,6 +102,7 @@ class PPORun(RunFiles):
     preset: Preset
     config: dict[str, Any]
     n_humans: int
+    obstacle_encoding: ObstaclePoints | None
     device: torch.device
     out: Path
     net: Any  # AttnGraphNet or MLPActorCritic: step, sequence, log_std, observation statistics
@@ -117,6 +122,11 @@ class PPORun(RunFiles):
     def n_envs(self) -> int:
         """Environments stepped in lockstep."""
         return self.world.batch_size
+
+    @property
+    def n_slots(self) -> int:
+        """Agent slots of the network's input: the human slots, then the obstacle points (if any)."""
+        return self.n_humans + (0 if self.obstacle_encoding is None else self.obstacle_encoding.count)
 
     def save(self, path: Path, extra: dict[str, Any]) -> None:
         """Writes a learned-policy checkpoint of the network atomically.
@@ -142,6 +152,23 @@ def _run_record(preset: Preset, s: PPOSettings, seeds: dict[str, int], n_humans:
         "kinematics": preset.world.kinematics,
     }
     return json.loads(json.dumps(record, default=lambda v: list(v) if isinstance(v, tuple) else str(v)))
+
+
+def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints | None) -> dict[str, Any]:
+    """The network's arguments from the policy's record; among walls with the point slots."""
+    from socialnav.policies.learned_catalog import get_learned_spec
+
+    network_kwargs = get_learned_spec(s.policy).network_kwargs
+    assert network_kwargs is not None  # a PPO record always has one (LearnedPolicySpec checks)
+    if encoding is None:
+        return network_kwargs(s, n_humans)
+    params = inspect.signature(network_kwargs).parameters.values()
+    if not any(p.name == "obstacle_slots" or p.kind is p.VAR_KEYWORD for p in params):
+        raise ConfigError(
+            f"policy {s.policy!r}: its record's network_kwargs takes no obstacle_slots, so its network "
+            "cannot read the obstacles of a training mix with walls (docs/ppo.md, 'Among walls')"
+        )
+    return network_kwargs(s, n_humans, obstacle_slots=encoding.count)
 
 
 def _check_resumable(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:
@@ -182,7 +209,7 @@ def setup_ppo_run(
         DirectoryLockedError: another training is writing to ``out_dir``.
     """
     from socialnav.policies.learned import build, load_checkpoint
-    from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
+    from socialnav.policies.learned_catalog import learned_policy_names
 
     if s.policy not in (ppo := learned_policy_names("ppo")):
         raise ConfigError(f"policy: {s.policy!r} is not trained with PPO (PPO policies: {', '.join(ppo)})")
@@ -198,11 +225,11 @@ def setup_ppo_run(
     config = _run_record(preset, s, seeds, n_humans)
     out = Path(out_dir)
 
-    network_kwargs = get_learned_spec(s.policy).network_kwargs
-    assert network_kwargs is not None  # a PPO record always has one (LearnedPolicySpec checks)
+    encoding = config["ppo_policy"].get("obstacle_encoding")
+    encoding = None if encoding is None else ObstaclePoints.from_dict(encoding)
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seeds["init"])
-        net = build(s.policy, **network_kwargs(s, n_humans))
+        net = build(s.policy, **_network_arguments(s, n_humans, encoding))
     net.to(device)
     optimizer = torch.optim.Adam(net.parameters(), lr=s.lr, eps=s.adam_eps)
     action_gen = torch.Generator().manual_seed(seeds["exploration"])
@@ -254,6 +281,7 @@ def setup_ppo_run(
         preset=preset,
         config=config,
         n_humans=n_humans,
+        obstacle_encoding=encoding,
         device=device,
         out=out,
         net=net,

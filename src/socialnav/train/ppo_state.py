@@ -106,7 +106,9 @@ def initial_state(run: PPORun) -> PPOState:
         )
         if run.settings.normalize_obs:
             steps_ahead = run.net.prediction_steps
-            run.net.update_obs_stats(*observation_tensors(obs, run.preset.world.dt, steps_ahead, device))
+            run.net.update_obs_stats(
+                *observation_tensors(obs, run.preset.world.dt, steps_ahead, device, run.obstacle_encoding)
+            )
         return state
     window = saved["window"]
     return PPOState(

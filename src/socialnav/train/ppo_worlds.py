@@ -14,10 +14,11 @@ import torch
 
 from socialnav.config import ConfigError
 from socialnav.presets import Preset
-from socialnav.sim.observation import Observation
+from socialnav.sim.observation import Observation, ObstacleArrays
+from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.sim.world import EpisodeStream
 from socialnav.train.common import reward_config
-from socialnav.train.envs import MultiWorld, pad_humans
+from socialnav.train.envs import MultiWorld, pad_humans, trains_among_walls
 
 #: The World arrays that hold an episode's state (saved with last.pt so that a resumed run goes on
 #: with the same episodes in flight).
@@ -54,13 +55,24 @@ def world_snapshot(world: MultiWorld) -> list[dict[str, Any]]:
 
 
 def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
-    """Puts the worlds back into a :func:`world_snapshot` state (their streams continue from it)."""
+    """Puts the worlds back into a :func:`world_snapshot` state (their streams continue from it).
+
+    The episodes in flight get their static maps back: a map is drawn from the episode's index and
+    seed alone, so the scenario draws it again (the snapshot holds no maps; without this, a resumed
+    run would go on with its episodes in flight on open floors).
+    """
     if len(snapshot) != len(world.worlds):
         raise ConfigError(f"the saved run has {len(snapshot)} worlds, this one {len(world.worlds)}")
     for w, saved in zip(world.worlds, snapshot, strict=True):
         w.stream = EpisodeStream(w.scenario, w.stream.split, int(saved["next_index"]))
         for k in WORLD_STATE:
             np.copyto(getattr(w, k), saved[k].numpy())
+        live = np.flatnonzero(w.episode_index >= 0)
+        if not live.size:
+            continue
+        maps = w.scenario.static_maps(w.scenario.rng(w.episode_seed[live]), w.episode_index[live])
+        for slot, static_map in zip(live, maps if maps is not None else (), strict=maps is not None):
+            w.set_static_map(int(slot), static_map)
 
 
 def step_worlds(world: MultiWorld, actions: np.ndarray):
@@ -74,12 +86,15 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
 
     Returns:
         Reward, terminated, truncated, the final observation (every slot's state right after the
-        step, before refills) and the observation the policy sees next (refilled slots at time 0).
+        step, before refills, with the map it was in) and the observation the policy sees next
+        (refilled slots at time 0, with their new episode's map); ``obstacles`` is None on open floors.
     """
     n = world.n_human_slots
-    parts = []
+    parts, stepped_maps, next_maps = [], [], []
     for w, lo, hi in zip(world.worlds, world.offsets[:-1], world.offsets[1:], strict=True):
+        stepped_maps.extend(w.static_maps)  # the maps the step happened in, before refills
         res = w.step(actions[lo:hi], final_observation=True, observe=True)
+        next_maps.extend(w.static_maps)
         nxt = res.observation
         final = [nxt.robot.copy(), nxt.humans.copy(), nxt.human_mask.copy(), nxt.time.copy()]
         done = np.flatnonzero(res.terminated | res.truncated)
@@ -104,6 +119,7 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         cat([p[3][3] for p in parts]),
         first.dt,
         first.kinematics,
+        obstacles=ObstacleArrays.from_maps(stepped_maps),
     )
     nxt = Observation(
         cat([p[4].robot for p in parts]),
@@ -113,6 +129,7 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         cat([p[4].time for p in parts]),
         first.dt,
         first.kinematics,
+        obstacles=ObstacleArrays.from_maps(next_maps),
     )
     return reward, term, trunc, final, nxt
 
@@ -123,13 +140,28 @@ def goal_distance(robot: np.ndarray) -> np.ndarray:
 
 
 def ppo_policy_config(preset: Preset) -> dict[str, Any]:
-    """The world the actor is trained for (checked against the preset at evaluation)."""
+    """The world the actor is trained for (checked against the preset at evaluation).
+
+    A preset whose training mix has walls adds the obstacle encoding the network reads (the default
+    ``ObstaclePoints()``, decided as for the value-based trainer); without walls the key is absent,
+    as in every checkpoint written before, so that open-floor runs keep their records and resume.
+
+    Args:
+        preset: the preset trained under.
+
+    Returns:
+        Plain data: kinematics, rotation limit, dt, reward constants (and ``obstacle_encoding``).
+    """
     w = preset.world
+    walls = {}
+    if trains_among_walls(preset):
+        walls = {"obstacle_encoding": ObstaclePoints().to_dict()}
     return {
         "kinematics": w.kinematics,
         "rotation_limit": w.rotation_limit,
         "dt": w.dt,
         "reward": reward_config(w),
+        **walls,
     }
 
 

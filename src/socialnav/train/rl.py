@@ -197,7 +197,7 @@ def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> 
     """
     world.reset()
     stats = EpisodeStats()
-    encode = getattr(policy, "encode", None)  # a value policy's obstacle points (the PPO actor has none)
+    encode = getattr(policy, "encode", None)  # a value policy's obstacle points (the PPO actor adds its own)
     while world.busy:
         obs = world.observe(oracle=oracle)
         obs = obs if encode is None else encode(obs)

@@ -34,7 +34,7 @@ from socialnav.presets import Preset, load_preset
 from socialnav.train.common import RunFiles, check_same_run, make_optimizer, resolve_device, reward_config
 from socialnav.train.config import TrainSettings, derive_seeds
 from socialnav.train.curves import Curves
-from socialnav.train.envs import MultiWorld, training_n_humans
+from socialnav.train.envs import MultiWorld, training_n_humans, trains_among_walls
 
 #: Offset of the RL episode stream after the imitation episodes (same ``scenario_start``), recorded
 #: in the run's config.
@@ -120,21 +120,6 @@ class ValueRun(RunFiles):
         save_checkpoint(
             path, self.policy_name, self.net, config=self.config, extra=extra, predictor=self.predictor
         )
-
-
-def trains_among_walls(preset: Preset) -> bool:
-    """Whether the preset's training mix has a scenario with walls.
-
-    Args:
-        preset: the preset.
-
-    Returns:
-        True when one of its training scenarios is a walled one.
-    """
-    from socialnav.scenarios.registry import get_scenario
-    from socialnav.scenarios.walls import WalledScenario
-
-    return any(issubclass(get_scenario(name), WalledScenario) for name in preset.training.scenarios)
 
 
 def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, Any]:

@@ -27,6 +27,13 @@ constant-velocity extrapolation p_i + k·dt·v_i, k = 1..K (K = ``prediction_ste
 0 turns prediction off), which is the repository's own "constant velocity" variant
 (``CrowdSimPred-v0``); see docs/ppo.md for why GST is not used.
 
+Obstacles (a network trained among walls): :func:`observation_tensors` appends the K nearest
+outline points of the episode's map after the human slots as standing agents with their own mask
+(:mod:`socialnav.sim.obstacle_points`, docs/walls_learned.md). The network reads them as humans that
+never move: they take part in both attentions and need no new layer. With all K slots masked (an
+open floor) the network computes what it computes without them, up to float32 rounding (the sums
+run over more, zero, terms).
+
 Observation normalisation (optional, ``normalize_obs``): running mean and variance of the robot
 features and of the real humans' features, kept as buffers so that they travel with the checkpoint;
 the trainer updates them after each update with that rollout's observations (:meth:`update_obs_stats`).
@@ -35,10 +42,13 @@ the trainer updates them after each update with that rollout's observations (:me
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import torch
 from torch import nn
+
+from socialnav.sim.obstacle_points import append_obstacle_agents
 
 __all__ = [
     "AttnGraphNet",
@@ -79,11 +89,36 @@ def human_features(
     return out * mask[..., None].to(out.dtype)
 
 
-def observation_tensors(obs, dt: float, steps: int, device: torch.device | str = "cpu"):
-    """(robot features, human features, mask) float32 tensors of an Observation."""
+def observation_tensors(
+    obs, dt: float, steps: int, device: torch.device | str = "cpu", obstacle_encoding: Any = None
+):
+    """(robot features, human features, mask) float32 tensors of an Observation.
+
+    With an ``obstacle_encoding`` (:class:`~socialnav.sim.obstacle_points.ObstaclePoints`), its K
+    slots follow the human slots: the nearest outline points of each episode's map as standing
+    agents (zero velocity, so their predicted positions stay where they are), nearest first, masked
+    where padded (all of them on an open floor). An observation whose ``static_slots`` says it
+    already holds the points is taken as it is.
+
+    Args:
+        obs: an :class:`~socialnav.sim.observation.Observation` of B episodes.
+        dt: the step length [s] of the predicted positions.
+        steps: predicted steps per human.
+        device: where the tensors go.
+        obstacle_encoding: the encoding of the obstacles, or None (the network reads none).
+
+    Returns:
+        Robot features (B, 9), human features (B, N [+ K], 2(1 + steps)) and the mask (B, N [+ K]).
+    """
+    humans_np, mask_np = obs.humans, obs.human_mask
+    if obstacle_encoding is not None and not getattr(obs, "static_slots", 0):
+        walls = getattr(obs, "obstacles", None)
+        humans_np, mask_np = append_obstacle_agents(
+            obs.robot, humans_np, mask_np, None if walls is None else walls.maps, obstacle_encoding
+        )
     robot = torch.as_tensor(obs.robot, dtype=torch.float64)
-    humans = torch.as_tensor(obs.humans, dtype=torch.float64)
-    mask = torch.as_tensor(obs.human_mask, dtype=torch.bool)
+    humans = torch.as_tensor(humans_np, dtype=torch.float64)
+    mask = torch.as_tensor(mask_np, dtype=torch.bool)
     rf = robot_features(robot).float().to(device)
     hf = human_features(robot, humans, mask, dt, steps).float().to(device)
     return rf, hf, mask.to(device)

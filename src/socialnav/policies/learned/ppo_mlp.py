@@ -5,6 +5,11 @@ features as ``crowdnav_pp``'s, constant-velocity prediction included), nearest f
 saying whether the slot holds a human; with fewer humans the remaining slots are zero, with more the
 farthest are left out. Actor and critic are separate two-layer tanh MLPs (CleanRL's continuous-action
 PPO agent); no recurrence, so the trainer's recurrent state is a dummy that the network passes through.
+
+Among walls (``obstacle_slots`` K > 0) the last K slots of the input are the obstacle points of
+:mod:`socialnav.sim.obstacle_points` (already nearest first, each with its flag). They get K input
+slots of their own after the humans' instead of competing for the ``max_humans`` nearest slots, so
+that a wall beside the robot never pushes a person out of its input.
 """
 
 from __future__ import annotations
@@ -29,12 +34,13 @@ class MLPActorCritic(ObservationStatistics):
         hidden: int = 256,
         normalize_obs: bool = True,
         log_std_init: float = 0.0,
+        obstacle_slots: int = 0,
     ) -> None:
         super().__init__()
-        if prediction_steps < 0 or max_humans < 0 or hidden < 1:
+        if prediction_steps < 0 or max_humans < 0 or hidden < 1 or obstacle_slots < 0:
             raise ValueError(
-                f"prediction_steps and max_humans must be >= 0 and hidden >= 1, got "
-                f"{prediction_steps}, {max_humans}, {hidden}"
+                f"prediction_steps, max_humans and obstacle_slots must be >= 0 and hidden >= 1, got "
+                f"{prediction_steps}, {max_humans}, {obstacle_slots}, {hidden}"
             )
         self._kwargs = dict(
             prediction_steps=prediction_steps,
@@ -43,10 +49,13 @@ class MLPActorCritic(ObservationStatistics):
             normalize_obs=normalize_obs,
             log_std_init=log_std_init,
         )
+        if obstacle_slots:  # recorded only among walls: open-floor checkpoints keep their bytes
+            self._kwargs["obstacle_slots"] = obstacle_slots
         self.prediction_steps, self.max_humans = prediction_steps, max_humans
+        self.obstacle_slots = obstacle_slots
         self.input_dim = 2 * (1 + prediction_steps)
         self.normalize_obs = normalize_obs
-        width = ROBOT_FEATURES + max_humans * (self.input_dim + 1)
+        width = ROBOT_FEATURES + (max_humans + obstacle_slots) * (self.input_dim + 1)
 
         def mlp(out: int, gain: float) -> nn.Sequential:
             return nn.Sequential(
@@ -70,11 +79,30 @@ class MLPActorCritic(ObservationStatistics):
         return torch.zeros(batch, 1, device=device)
 
     def flat_input(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
-        """(M, width): normalised robot features, then the nearest humans' features and flags."""
+        """(M, width): normalised robot features, the nearest humans' features and flags, then the points'.
+
+        Raises:
+            ValueError: fewer slots than the network's ``obstacle_slots``.
+        """
         robot_n, humans_n = self._normalized(robot, humans)
-        m, k = robot.shape[0], self.max_humans
+        p = self.obstacle_slots
+        if not p:
+            return torch.cat([robot_n, self._nearest_slots(humans, humans_n, mask)], -1)
+        n = humans.shape[1] - p
+        if n < 0:
+            total = humans.shape[1]
+            raise ValueError(f"the network reads {p} point slots, the input has {total} slots in all")
+        points = torch.cat([humans_n[:, n:], torch.ones_like(humans_n[:, n:, :1])], -1)
+        points = points * mask[:, n:, None].to(points.dtype)
+        nearest = self._nearest_slots(humans[:, :n], humans_n[:, :n], mask[:, :n])
+        return torch.cat([robot_n, nearest, points.flatten(1)], -1)
+
+    def _nearest_slots(self, humans: torch.Tensor, humans_n: torch.Tensor, mask: torch.Tensor
+                       ) -> torch.Tensor:
+        """(M, max_humans·(input_dim + 1)): the nearest real humans' normalised features and flags."""
+        m, k = humans.shape[0], self.max_humans
         if humans.shape[1] == 0 or k == 0:
-            return torch.cat([robot_n, robot.new_zeros(m, k * (self.input_dim + 1))], -1)
+            return humans.new_zeros(m, k * (self.input_dim + 1))
         # distance of each slot now (the first two raw features: position relative to the robot)
         dist = torch.linalg.vector_norm(humans[..., 0:2], dim=-1).masked_fill(~mask, float("inf"))
         order = torch.argsort(dist, dim=1, stable=True)[:, :k]
@@ -83,7 +111,7 @@ class MLPActorCritic(ObservationStatistics):
         slots = torch.cat([picked, torch.ones_like(picked[..., :1])], -1) * flag[..., None].to(picked.dtype)
         if slots.shape[1] < k:  # fewer slots than max_humans: zero padding
             slots = torch.cat([slots, slots.new_zeros(m, k - slots.shape[1], slots.shape[2])], 1)
-        return torch.cat([robot_n, slots.flatten(1)], -1)
+        return slots.flatten(1)
 
     def step(self, robot, humans, mask, h, start):
         """Action mean (B, 2), value (B,) and the unchanged dummy state (the trainer's interface)."""

@@ -4,6 +4,10 @@ The network is recurrent over time, while ``Policy.act`` receives one batched ob
 and no episode boundaries: the GRU state is kept per batch slot and zeroed wherever a slot's episode
 time is 0 (the world refills a finished slot with a fresh episode at time 0), or when the batch size
 changes. Deterministic evaluation acts with the mean of the Gaussian, squashed as in training.
+
+A network trained among walls reads the obstacle points of its ``obstacle_encoding`` after the human
+slots (:func:`~socialnav.policies.learned.attn_graph.observation_tensors`), from each episode's map
+in the observation; on an open floor its point slots are all masked.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import torch
 
 from socialnav.policies.learned.attn_graph import observation_tensors, squash_actions
 from socialnav.sim.observation import Observation
+from socialnav.sim.obstacle_points import ObstaclePoints
 
 
 class RecurrentActorPolicy:
@@ -27,6 +32,9 @@ class RecurrentActorPolicy:
         kinematics, rotation_limit, dt: the world the network was trained for.
         deterministic: act with the mean action (evaluation); False samples from the Gaussian with
             ``generator``.
+        obstacle_encoding: the obstacle points the network reads
+            (:class:`~socialnav.sim.obstacle_points.ObstaclePoints` or its dict), or None for a
+            network trained without walls.
     """
 
     def __init__(
@@ -42,6 +50,7 @@ class RecurrentActorPolicy:
         generator: torch.Generator | None = None,
         checkpoint: Path | None = None,
         preset_mismatch: list[str] | None = None,
+        obstacle_encoding: ObstaclePoints | dict | None = None,
     ) -> None:
         self.name = name
         self.network = network
@@ -54,6 +63,9 @@ class RecurrentActorPolicy:
         self.checkpoint = checkpoint
         self.preset_mismatch = list(preset_mismatch or [])
         self.information = "constant_velocity" if network.prediction_steps else "none"
+        self.obstacle_encoding = (
+            None if obstacle_encoding is None else ObstaclePoints.from_dict(obstacle_encoding)
+        )
         self._h: torch.Tensor | None = None
 
     def reset(self) -> None:
@@ -75,7 +87,9 @@ class RecurrentActorPolicy:
         if self._h is None or self._h.shape[0] != b:
             self._h = net.initial_state(b, self.device)
         start = torch.as_tensor(observation.time == 0.0, device=self.device)
-        robot, humans, mask = observation_tensors(observation, self.dt, net.prediction_steps, self.device)
+        robot, humans, mask = observation_tensors(
+            observation, self.dt, net.prediction_steps, self.device, self.obstacle_encoding
+        )
         mean, _, self._h = net.step(robot, humans, mask, self._h, start)
         raw = mean
         if not self.deterministic:
@@ -95,4 +109,9 @@ class RecurrentActorPolicy:
             "checkpoint": None if self.checkpoint is None else str(self.checkpoint),
             "deterministic": self.deterministic,
             **({"preset_mismatch_allowed": self.preset_mismatch} if self.preset_mismatch else {}),
+            **(
+                {"obstacle_encoding": self.obstacle_encoding.to_dict()}
+                if self.obstacle_encoding is not None
+                else {}
+            ),
         }
