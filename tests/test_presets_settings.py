@@ -5,11 +5,12 @@ unchanged; every field is documented with its unit and constraint."""
 from __future__ import annotations
 
 import dataclasses
+import subprocess
+import sys
 
 import pytest
 
 from socialnav.presets import (
-    EVALUATION_SPLITS,
     EvaluationSettings,
     Preset,
     RobotSettings,
@@ -17,7 +18,7 @@ from socialnav.presets import (
     load_preset,
     shipped_presets,
 )
-from socialnav.scenarios import SPLIT_BASES
+from socialnav.scenarios import SPLIT_BASES, episode_seeds
 from socialnav.settings import ConfigError
 
 
@@ -30,7 +31,7 @@ from socialnav.settings import ConfigError
          "unknown setting(s) robot.vpref (did you mean robot.v_pref?); valid: radius, v_pref"),
         ("evaluation: {chunk_size: 0}", "evaluation.chunk_size must be in [1, 1000000], got 0"),
         ("evaluation: {split: testing}",
-         "evaluation.split must be one of 'test', 'val', 'train', got 'testing'"),
+         "evaluation.split must be one of 'val', 'test', 'train', got 'testing'"),
         ("evaluation: {visibility: seen}",
          "evaluation.visibility must be one of 'invisible', 'visible', 'both', got 'seen'"),
         ("evaluation: {continuation_cap: -1}", "evaluation.continuation_cap must be > 0, got -1.0"),
@@ -61,8 +62,27 @@ def test_sections_built_in_code_name_their_section():
         TrainingScenarios(scenarios=("doom",))
 
 
-def test_the_evaluation_splits_are_the_episode_splits():
-    assert set(EVALUATION_SPLITS) == set(SPLIT_BASES)
+def test_the_evaluation_split_choices_are_the_episode_splits():
+    (split,) = [spec for spec in EvaluationSettings.parameters() if spec.name == "split"]
+    assert split.choices == tuple(SPLIT_BASES) == ("val", "test", "train")
+    for name in SPLIT_BASES:  # each choice is accepted and names episodes
+        assert EvaluationSettings(split=name).split == name
+        assert episode_seeds(name, [0]).tolist() == [SPLIT_BASES[name]]
+
+
+def test_importing_the_presets_does_not_import_the_scenario_modules():
+    # the preset takes its split choices from socialnav.scenarios.seeds; that must not load the
+    # built-in scenarios' modules (the registry imports them on first lookup)
+    code = (
+        "import sys\n"
+        "import socialnav.presets\n"
+        "assert 'socialnav.scenarios.seeds' in sys.modules\n"
+        "heavy = ['circle', 'francis', 'single', 'square', 'walls']\n"
+        "loaded = [m for m in heavy if 'socialnav.scenarios.' + m in sys.modules]\n"
+        "assert not loaded, loaded\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
 
 
 def test_the_recorded_keys_and_defaults_are_unchanged():

@@ -14,15 +14,13 @@ from typing import Any, ClassVar
 
 import yaml
 
+from socialnav.scenarios.seeds import SPLIT_BASES
 from socialnav.settings import ConfigError, Settings, from_dict, setting
 from socialnav.sim.settings import VISIBILITIES, WorldSettings
 
 MULTI_HUMAN = ("circle_crossing", "random", "parallel_traffic", "perpendicular_traffic")
 SINGLE_HUMAN = ("passing", "overtaking", "crossing")
 VISIBILITY_CHOICES = (*VISIBILITIES, "both")
-#: The episode splits (``socialnav.scenarios.SPLIT_BASES``, not imported: it would load every scenario
-#: module with the preset; tests/test_presets_settings.py keeps the two equal).
-EVALUATION_SPLITS = ("test", "val", "train")
 
 
 def _repeated(names: tuple[str, ...]) -> list[str]:
@@ -49,7 +47,7 @@ class EvaluationSettings(Settings):
 
     section: ClassVar[str] = "evaluation"
 
-    split: str = setting("test", "the episode split evaluated", choices=EVALUATION_SPLITS)
+    split: str = setting("test", "the episode split evaluated", choices=tuple(SPLIT_BASES))
     multi_human: tuple[str, ...] = setting(MULTI_HUMAN, "the multi-human scenarios")
     single_human: tuple[str, ...] = setting(
         SINGLE_HUMAN, "the single-human scenarios (one human; Table III's passing sides)"

@@ -6,13 +6,19 @@ Example:
     >>> batch.human_start.shape
     (500, 5, 2)
 
-Importing this package registers the built-in scenarios: `circle_crossing`, `random`,
-`parallel_traffic`, `perpendicular_traffic`, `square_crossing`, `passing`, `overtaking` and
-`crossing`, and the scenarios with walls after Francis et al. (`socialnav.scenarios.francis`).
-Third-party scenarios plug in through the entry-point group ``socialnav.scenarios``.
+The built-in scenarios are `circle_crossing`, `random`, `parallel_traffic`,
+`perpendicular_traffic`, `square_crossing`, `passing`, `overtaking` and `crossing`, and the
+scenarios with walls after Francis et al. (`socialnav.scenarios.francis`). Importing this package
+imports none of their modules: the registry loads them the first time it is asked for a scenario
+(see `socialnav.scenarios.registry`), and each scenario class below loads its module on first
+access. Third-party scenarios plug in through the entry-point group ``socialnav.scenarios``.
 """
 
-from socialnav.scenarios import circle, francis, single, square  # noqa: F401  (registers the scenarios)
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from socialnav._runtime import lazy_exports
 from socialnav.scenarios._placement import ScenarioGenerationError
 from socialnav.scenarios.base import (
     SPLIT_BASES,
@@ -23,8 +29,6 @@ from socialnav.scenarios.base import (
     episode_seeds,
     param,
 )
-from socialnav.scenarios.circle import CircleCrossing
-from socialnav.scenarios.random import EpisodeRandom
 from socialnav.scenarios.registry import (
     UnknownScenarioError,
     get_scenario,
@@ -33,13 +37,19 @@ from socialnav.scenarios.registry import (
     register_scenario,
     scenario_from_settings,
 )
-from socialnav.scenarios.single import Crossing, Overtaking, Passing
-from socialnav.scenarios.square import (
-    ParallelTraffic,
-    PerpendicularTraffic,
-    RandomPlacement,
-    SquareCrossing,
-)
+
+#: Public names whose module loads on first use (see ``lazy_exports``).
+_EXPORTS = {
+    "CircleCrossing": "socialnav.scenarios.circle",
+    "EpisodeRandom": "socialnav.scenarios.random",
+    "Crossing": "socialnav.scenarios.single",
+    "Overtaking": "socialnav.scenarios.single",
+    "Passing": "socialnav.scenarios.single",
+    "ParallelTraffic": "socialnav.scenarios.square",
+    "PerpendicularTraffic": "socialnav.scenarios.square",
+    "RandomPlacement": "socialnav.scenarios.square",
+    "SquareCrossing": "socialnav.scenarios.square",
+}
 
 __all__ = [
     "SPLIT_BASES",
@@ -66,3 +76,16 @@ __all__ = [
     "register_scenario",
     "scenario_from_settings",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
+
+if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load lazily
+    from socialnav.scenarios.circle import CircleCrossing
+    from socialnav.scenarios.random import EpisodeRandom
+    from socialnav.scenarios.single import Crossing, Overtaking, Passing
+    from socialnav.scenarios.square import (
+        ParallelTraffic,
+        PerpendicularTraffic,
+        RandomPlacement,
+        SquareCrossing,
+    )

@@ -3,20 +3,31 @@
 Built-in scenarios register themselves where they are defined (``@register_scenario(name)``).
 Other packages plug in through the entry-point group ``socialnav.scenarios``; each entry point
 names either a `Scenario` subclass (registered under the entry point's name unless it already
-registered itself) or a module whose import registers its scenarios. Entry points are loaded
-lazily, the first time a name is looked up that is not built in, or the list is requested.
+registered itself) or a module whose import registers its scenarios.
+
+**What loads when.** Importing ``socialnav.scenarios`` (or this module) imports none of the
+modules defining the built-in scenarios (:data:`BUILTIN_MODULES`), so a module that needs only the
+light names (``SPLIT_BASES``, ``Scenario``, ``EpisodeBatch``, ...) does not pay for them. They are
+imported once, the first time anything needs the registry's contents: `get_scenario`,
+`make_scenario`, `scenario_from_settings`, `list_scenarios`, and `register_scenario` too, so that
+registering a name a built-in uses fails at once, as if the built-ins had always been there.
+Importing one built-in module directly (``socialnav.scenarios.circle``, or unpickling one of its
+scenarios in a worker process) registers all of them the same way, through its own
+`register_scenario` calls. The built-ins always load before the entry points, which load lazily in
+turn: the first time a name is looked up that is not built in, or the list is requested.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
-from socialnav.plugins import load_entry_points
 from socialnav.scenarios.base import ParamSpec, Scenario
 
 __all__ = [
+    "BUILTIN_MODULES",
     "ENTRY_POINT_GROUP",
     "UnknownScenarioError",
     "get_scenario",
@@ -28,7 +39,16 @@ __all__ = [
 
 ENTRY_POINT_GROUP = "socialnav.scenarios"
 
+#: The modules whose import registers the built-in scenarios (docs/scenarios.md lists them).
+BUILTIN_MODULES = (
+    "socialnav.scenarios.circle",
+    "socialnav.scenarios.francis",
+    "socialnav.scenarios.single",
+    "socialnav.scenarios.square",
+)
+
 _REGISTRY: dict[str, type[Scenario]] = {}
+_builtins_loaded = False
 _plugins_loaded = False
 
 S = TypeVar("S", bound=type[Scenario])
@@ -61,6 +81,7 @@ def register_scenario(name: str) -> Callable[[S], S]:
     """
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"scenario name must be an identifier-like string, got {name!r}")
+    _load_builtins()  # a clash with a built-in's name is found now, not on the first lookup
 
     def decorator(cls: S) -> S:
         if not (isinstance(cls, type) and issubclass(cls, Scenario)):
@@ -80,11 +101,31 @@ def register_scenario(name: str) -> Callable[[S], S]:
     return decorator
 
 
+def _load_builtins() -> None:
+    """Import the modules defining the built-in scenarios once (they register themselves)."""
+    global _builtins_loaded
+    if _builtins_loaded:
+        return
+    # Set first: each built-in module calls register_scenario, hence this function, while it is
+    # being imported (and the module that started the loading is only partly imported then).
+    _builtins_loaded = True
+    try:
+        for module in BUILTIN_MODULES:
+            importlib.import_module(module)
+    except BaseException:
+        _builtins_loaded = False  # the next lookup raises the same error, not "unknown scenario"
+        raise
+
+
 def _load_plugins() -> None:
     """Import the entry points of group ``socialnav.scenarios`` once."""
     global _plugins_loaded
     if _plugins_loaded:
         return
+    # here, not at the top: importlib.metadata would cost every `import socialnav.scenarios` ~10 ms
+    from socialnav.plugins import load_entry_points
+
+    _load_builtins()  # built-ins first: a plugin cannot take a built-in's name
     _plugins_loaded = True
     for ep, obj in load_entry_points(ENTRY_POINT_GROUP, "scenario"):
         if isinstance(obj, type) and issubclass(obj, Scenario) and not obj.name:
@@ -103,6 +144,7 @@ def get_scenario(name: str) -> type[Scenario]:
     Raises:
         UnknownScenarioError: (a KeyError and a ValueError) listing the valid names.
     """
+    _load_builtins()
     cls = _REGISTRY.get(name)
     if cls is None:
         _load_plugins()
@@ -160,5 +202,6 @@ def scenario_from_settings(settings: Mapping[str, Any]) -> Scenario:
 
 def list_scenarios() -> dict[str, tuple[ParamSpec, ...]]:
     """Every registered scenario (plugins included) with its parameter table, sorted by name."""
+    _load_builtins()
     _load_plugins()
     return {name: _REGISTRY[name].parameters() for name in sorted(_REGISTRY)}

@@ -20,13 +20,17 @@ episode goes through the network in ONE forward pass of B·81 joint states.
 Obstacles (``obstacle_encoding``, :mod:`socialnav.sim.obstacle_points`): the nearest points of the
 episode's obstacle outlines are appended after the human slots as standing agents, so the networks
 read them like humans; the last ``static_slots`` slots of a state are such points. They do not move
-under any information setting, and the lookahead's reward counts them for collisions only (the world
-has no discomfort term for walls). A policy without an encoding (every checkpoint trained on open
-floors) ignores obstacles and computes what it always did; with one, an open floor gives K padded
-slots, which no network reads.
+under any information setting, and the lookahead's reward counts them for collisions only. A policy
+without an encoding (every checkpoint trained on open floors) ignores obstacles and computes what it
+always did; with one, an open floor gives K padded slots, which no network reads.
 
 Reward rule of the lookahead: ``end`` (CrowdNav's and RGL's one-step estimate: clearances at the end
 positions only) or ``swept`` (the world's rule: swept collision and discomfort over the step).
+
+The module's neighbours: :mod:`~socialnav.policies.learned.lookahead_inputs` turns an observation
+into the tensors read here (obstacle points appended), :mod:`~socialnav.policies.learned.lookahead_reward`
+computes r̂; this module predicts the humans, builds the network's input, scores the candidate actions
+(torch or the native scorer), plans and chooses.
 
 Model-predictive planning (MP-RGL, Chen et al., "Relational Graph Learning for Crowd Navigation",
 IROS 2020) with depth d and width w: the d-step value of a state is
@@ -41,15 +45,19 @@ lookahead. Every level is batched over episodes and actions (B·w^level·K state
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Mapping
 from typing import Any, Literal
 
 import numpy as np
 import torch
 
 from socialnav.policies.learned.actions import Kinematics, discrete_actions, num_actions
+from socialnav.policies.learned.lookahead_inputs import (
+    encode_observation,
+    encode_state_arrays,
+    lookahead_inputs,
+)
+from socialnav.policies.learned.lookahead_reward import REWARD_RULES, lookahead_reward
 from socialnav.policies.learned.native_scoring import (
     SCORERS,
     NativeSarlScorer,
@@ -62,28 +70,14 @@ from socialnav.policies.learned.state import (
     occupancy_map,
     propagate_humans_constant_velocity,
     propagate_robot,
-    reward,
     rotate,
-    swept_reward,
 )
-from socialnav.sim.obstacle_points import ObstaclePoints, append_obstacle_agents
+from socialnav.sim.obstacle_points import ObstaclePoints
 
 __all__ = ["ValuePolicy", "Information"]
 
 Information = Literal["constant_velocity", "oracle", "learned"]
 INFORMATION: tuple[str, ...] = ("constant_velocity", "oracle", "learned")
-REWARD_RULES: tuple[str, ...] = ("end", "swept")
-
-
-def _field(obs: Any, name: str) -> Any:
-    if isinstance(obs, Mapping):
-        return obs[name]
-    return getattr(obs, name)
-
-
-def _static_slots(obs: Any) -> int:
-    value = obs.get("static_slots", 0) if isinstance(obs, Mapping) else getattr(obs, "static_slots", 0)
-    return int(value or 0)
 
 
 class ValuePolicy:
@@ -214,18 +208,10 @@ class ValuePolicy:
         """``obs`` with the obstacle encoding's point slots appended, when this policy has an encoding.
 
         ``static_slots`` is set (all padded on an open floor); without an encoding ``obs`` itself is returned.
-        An observation already encoded, or given as a mapping, is returned as it is.
+        An observation already encoded, or given as a mapping, is returned as it is
+        (:func:`~socialnav.policies.learned.lookahead_inputs.encode_observation`).
         """
-        if self.obstacle_encoding is None or isinstance(obs, Mapping) or _static_slots(obs):
-            return obs
-        walls = getattr(obs, "obstacles", None)
-        humans, mask = self.encode_arrays(obs.robot, obs.humans, obs.human_mask,
-                                          None if walls is None else walls.maps)
-        nxt = obs.next_humans
-        if nxt is not None:  # the oracle's next humans, with the points where they are now
-            nxt = np.concatenate([nxt, humans[:, nxt.shape[1]:]], axis=1)
-        return dataclasses.replace(obs, humans=humans, human_mask=mask, next_humans=nxt,
-                                   static_slots=self.obstacle_encoding.count)
+        return encode_observation(obs, self.obstacle_encoding)
 
     def encode_arrays(self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray,
                       maps: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -234,35 +220,7 @@ class ValuePolicy:
         Robot (B, 9), humans (B, N, 5) and mask (B, N); ``maps`` is (B,) StaticMap or None each (None: open
         floors); see :meth:`encode`. Unchanged when this policy has no encoding.
         """
-        if self.obstacle_encoding is None:
-            return humans, mask
-        return append_obstacle_agents(robot, humans, mask, maps, self.obstacle_encoding)
-
-    def _tensor(self, x: Any, dtype: torch.dtype = torch.float64) -> torch.Tensor:
-        return torch.as_tensor(np.asarray(x) if not torch.is_tensor(x) else x, device=self.device).to(dtype)
-
-    def _inputs(
-        self, obs: Any, next_humans: Any
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor | None, float, bool, int]:
-        static = _static_slots(obs)
-        robot_in = _field(obs, "robot")
-        as_numpy = not torch.is_tensor(robot_in)
-        geo = torch.float64
-        if not as_numpy and robot_in.is_floating_point():
-            geo = robot_in.dtype
-        robot = self._tensor(robot_in, geo)
-        humans = self._tensor(_field(obs, "humans"), geo)
-        mask = self._tensor(_field(obs, "human_mask"), torch.bool)
-        dt = obs.get("dt", None) if isinstance(obs, Mapping) else getattr(obs, "dt", None)
-        dt = self.dt if dt is None else float(dt)
-        nh = None if next_humans is None else self._tensor(next_humans, geo)
-        if nh is not None and static and nh.shape[1] == humans.shape[1] - static:
-            nh = torch.cat([nh, humans[:, -static:]], dim=1)  # the points do not move
-        if humans.shape[1] == 0:  # no human slot at all: one padded slot keeps shapes non-empty
-            humans = torch.zeros(humans.shape[0], 1, 5, dtype=geo, device=self.device)
-            mask = torch.zeros(humans.shape[0], 1, dtype=torch.bool, device=self.device)
-            nh = None if nh is None else humans.clone()
-        return robot, humans, mask, nh, dt, as_numpy, static
+        return encode_state_arrays(robot, humans, mask, maps, self.obstacle_encoding)
 
     def predict_humans(
         self,
@@ -305,44 +263,7 @@ class ValuePolicy:
             joint = torch.cat([joint, om.to(self.model_dtype)], dim=-1)
         return joint
 
-    # ------------------------------------------------------------------ public API
-    def _lookahead_reward(
-        self,
-        robot: torch.Tensor,
-        robot_next: torch.Tensor,
-        humans: torch.Tensor,
-        humans_next: torch.Tensor,
-        mask: torch.Tensor,
-        static: int,
-    ) -> torch.Tensor:
-        """r̂ (B, K) of every candidate action.
-
-        The last ``static`` slots are obstacle points, which count for collisions only (the world's reward has
-        no discomfort term for walls).
-        """
-        n = humans.shape[1] - static
-        h, hn, m = humans[:, :n], humans_next[:, :n], mask[:, :n]
-        if self.reward_rule == "swept":
-            r = swept_reward(robot, robot_next, h, hn, m, self.reward_params)
-        else:
-            r = reward(robot_next, hn.unsqueeze(1), m.unsqueeze(1), self.reward_params)  # (B, K)
-        if not static:
-            return r
-        points, point_mask = humans[:, n:], mask[:, n:]  # (B, P, 5), (B, P)
-        end = robot_next[..., None, :2]  # (B, K, 1, 2)
-        p = points[:, None, :, :2]  # (B, 1, P, 2)
-        if self.reward_rule == "swept":  # the points stand still: distance to the swept segment
-            start = robot[:, None, None, :2]
-            seg = end - start
-            t = ((p - start) * seg).sum(-1) / (seg * seg).sum(-1).clamp_min(1e-300)
-            closest = start + t.clamp(0.0, 1.0).unsqueeze(-1) * seg
-            d = torch.linalg.vector_norm(p - closest, dim=-1)
-        else:
-            d = torch.linalg.vector_norm(p - end, dim=-1)  # (B, K, P)
-        clearance = d - robot_next[..., 4:5] - points[:, None, :, 4]
-        hit = ((clearance < 0) & point_mask[:, None, :]).any(dim=-1)
-        return torch.where(hit, torch.full_like(r, self.reward_params.collision_penalty), r)
-
+    # ------------------------------------------------------------------ lookahead and planning
     def _step_values(
         self,
         robot: torch.Tensor,
@@ -364,7 +285,9 @@ class ValuePolicy:
         )  # (B, K, 2)
         robot_next = propagate_robot(robot, actions, self.kinematics, dt)  # (B, K, 9)
         humans_next = self.predict_humans(robot, humans, mask, dt, nh, static)  # (B, N, 5)
-        r = self._lookahead_reward(robot, robot_next, humans, humans_next, mask, static)
+        r = lookahead_reward(
+            robot, robot_next, humans, humans_next, mask, static, self.reward_rule, self.reward_params
+        )
         joint = self.transform(robot_next, humans_next, mask)  # (B, K, N, D)
         m = mask.unsqueeze(1).expand(b, k, n).reshape(b * k, n)
         v = self._network_values(joint.reshape(b * k, n, -1), m).view(b, k).to(r.dtype)
@@ -458,6 +381,7 @@ class ValuePolicy:
             return self.network.value(joint, mask)
         return torch.cat([self.network.value(joint[s : s + c], mask[s : s + c]) for s in range(0, total, c)])
 
+    # ------------------------------------------------------------------ public API
     def values(self, obs: Any, next_humans: Any = None) -> np.ndarray | torch.Tensor:
         """Lookahead values of every discrete action.
 
@@ -469,7 +393,9 @@ class ValuePolicy:
         Returns:
             (B, K) values, NumPy if the observation was NumPy.
         """
-        robot, humans, mask, nh, dt, as_numpy, static = self._inputs(self.encode(obs), next_humans)
+        robot, humans, mask, nh, dt, as_numpy, static = lookahead_inputs(
+            self.encode(obs), next_humans, self.device, self.dt
+        )
         q, _ = self._values(robot, humans, mask, nh, dt, static)
         return q.cpu().numpy() if as_numpy else q
 
@@ -492,7 +418,9 @@ class ValuePolicy:
             action_index (B,) int64 and action (B, 2) (holonomic (vx, vy) or unicycle (v, dθ)),
             NumPy if the observation was NumPy.
         """
-        robot, humans, mask, nh, dt, as_numpy, static = self._inputs(self.encode(obs), next_humans)
+        robot, humans, mask, nh, dt, as_numpy, static = lookahead_inputs(
+            self.encode(obs), next_humans, self.device, self.dt
+        )
         b = robot.shape[0]
         if epsilon >= 1.0:  # no need to score anything
             actions = discrete_actions(
