@@ -6,6 +6,8 @@ test process has loaded every scenario module long ago.
 
 from __future__ import annotations
 
+import ast
+import dataclasses
 import re
 import subprocess
 import sys
@@ -144,9 +146,42 @@ def test_a_builtin_module_that_fails_to_import_fails_every_lookup(monkeypatch: p
     # not "unknown scenario" on the second lookup: the loaded flag is reset after the failure
     from socialnav.scenarios import registry
 
-    monkeypatch.setattr(registry, "_builtins_loaded", False)
+    monkeypatch.setattr(registry, "_builtins_state", "unloaded")
     monkeypatch.setattr(registry, "BUILTIN_MODULES", (*registry.BUILTIN_MODULES, "socialnav.nowhere"))
     for _ in range(2):
         with pytest.raises(ModuleNotFoundError, match="socialnav.nowhere"):
             registry.get_scenario("circle_crossing")
-    assert registry._builtins_loaded is False
+    assert registry._builtins_state == "unloaded"
+
+
+def test_threads_looking_up_first_all_see_every_builtin(tmp_path: Path):
+    # one thread imports the built-ins; the others wait for it instead of seeing a half-filled registry
+    # (a slow module loaded first widens the window in which they would)
+    (tmp_path / "slow_builtin.py").write_text("import time\ntime.sleep(0.3)\n", encoding="utf-8")
+    out = run_fresh(
+        NOTHING_LOADED + "import threading\n"
+        f"sys.path.insert(0, {str(tmp_path)!r})\n"
+        "from socialnav.scenarios import list_scenarios, registry\n"
+        "registry.BUILTIN_MODULES = ('slow_builtin', *registry.BUILTIN_MODULES)\n"
+        "barrier = threading.Barrier(8)\n"
+        "seen = []\n"
+        "def look():\n"
+        "    barrier.wait()\n"
+        "    seen.append(len(list_scenarios()))\n"
+        "threads = [threading.Thread(target=look) for _ in range(8)]\n"
+        "[t.start() for t in threads]\n"
+        "[t.join() for t in threads]\n"
+        "print(sorted(set(seen)))\n"
+    )
+    counts = ast.literal_eval(out.strip())
+    assert len(counts) == 1 and counts[0] >= len(documented_builtins())
+
+
+def test_another_class_of_the_same_name_cannot_take_a_builtin_name():
+    # a class that only shares the built-in's qualified name (another module) is refused
+    from socialnav.scenarios import CircleCrossing, register_scenario
+
+    clash = type(CircleCrossing.__name__, (CircleCrossing,), {"__module__": "someone.elses"})
+    clash = dataclasses.dataclass(frozen=True)(clash)
+    with pytest.raises(ValueError, match="already registered to socialnav.scenarios.circle.CircleCrossing"):
+        register_scenario("circle_crossing")(clash)

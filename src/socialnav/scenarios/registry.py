@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import threading
 from collections.abc import Callable, Mapping
 from typing import Any, TypeVar
 
@@ -48,7 +49,11 @@ BUILTIN_MODULES = (
 )
 
 _REGISTRY: dict[str, type[Scenario]] = {}
-_builtins_loaded = False
+#: "unloaded", "loading" (by the thread holding _BUILTINS_LOCK) or "loaded".
+_builtins_state = "unloaded"
+#: Re-entrant: a built-in module registering itself re-enters _load_builtins in the loading thread,
+#: while another thread's first lookup waits until the built-ins are all registered.
+_BUILTINS_LOCK = threading.RLock()
 _plugins_loaded = False
 
 S = TypeVar("S", bound=type[Scenario])
@@ -89,7 +94,8 @@ def register_scenario(name: str) -> Callable[[S], S]:
         if not dataclasses.is_dataclass(cls):
             raise TypeError(f"@register_scenario({name!r}): {cls.__name__} must be a dataclass")
         other = _REGISTRY.get(name)
-        if other is not None and other.__qualname__ != cls.__qualname__:
+        # The same class defined again (a module reloaded) may take its name back; another may not.
+        if other is not None and (other.__module__, other.__qualname__) != (cls.__module__, cls.__qualname__):
             raise ValueError(
                 f"scenario name {name!r} is already registered to "
                 f"{other.__module__}.{other.__qualname__}"
@@ -103,18 +109,22 @@ def register_scenario(name: str) -> Callable[[S], S]:
 
 def _load_builtins() -> None:
     """Import the modules defining the built-in scenarios once (they register themselves)."""
-    global _builtins_loaded
-    if _builtins_loaded:
+    global _builtins_state
+    if _builtins_state == "loaded":
         return
-    # Set first: each built-in module calls register_scenario, hence this function, while it is
-    # being imported (and the module that started the loading is only partly imported then).
-    _builtins_loaded = True
-    try:
-        for module in BUILTIN_MODULES:
-            importlib.import_module(module)
-    except BaseException:
-        _builtins_loaded = False  # the next lookup raises the same error, not "unknown scenario"
-        raise
+    with _BUILTINS_LOCK:
+        # "loading" here means this thread is importing them: each built-in module calls
+        # register_scenario, hence this function, while it is being imported.
+        if _builtins_state != "unloaded":
+            return
+        _builtins_state = "loading"
+        try:
+            for module in BUILTIN_MODULES:
+                importlib.import_module(module)
+        except BaseException:
+            _builtins_state = "unloaded"  # the next lookup raises the same error, not "unknown scenario"
+            raise
+        _builtins_state = "loaded"
 
 
 def _load_plugins() -> None:
