@@ -10,20 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from socialnav.policies import base
 from socialnav.policies import learned_catalog as catalog
 from socialnav.policies.learned_catalog import LearnedPolicySpec, register_learned_policy
 
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "policies_learned.md"
-
-
-@pytest.fixture
-def isolated_registries(monkeypatch):
-    """Registrations made by a test are undone after it."""
-    monkeypatch.setattr(catalog, "_SPECS", dict(catalog._SPECS))
-    monkeypatch.setattr(catalog, "_ALIASES", dict(catalog._ALIASES))
-    base._load_builtin()
-    monkeypatch.setattr(base, "_REGISTRY", dict(base._REGISTRY))
 
 
 def tiny_sarl(**kwargs):

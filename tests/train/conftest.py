@@ -16,3 +16,4 @@ def quick_preset(tmp_path):
     p = tmp_path / "crowdnav_quick.yaml"
     p.write_text(yaml.safe_dump(data))
     return str(p)
+

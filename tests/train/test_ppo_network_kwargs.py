@@ -6,7 +6,6 @@ import dataclasses
 
 import pytest
 
-import socialnav.policies.base as base
 import socialnav.policies.learned_catalog as catalog
 from socialnav.train.ppo_config import NetworkSettings, PPOSettings
 
@@ -43,13 +42,6 @@ def test_a_ppo_record_without_network_kwargs_and_a_value_record_with_them_are_re
         dataclasses.replace(sarl, network_kwargs=catalog.mlp_actor_critic_kwargs)
 
 
-@pytest.fixture()
-def isolated_registries(monkeypatch):
-    """Registrations made by a test are undone after it."""
-    monkeypatch.setattr(catalog, "_SPECS", dict(catalog._SPECS))
-    monkeypatch.setattr(catalog, "_ALIASES", dict(catalog._ALIASES))
-    base._load_builtin()
-    monkeypatch.setattr(base, "_REGISTRY", dict(base._REGISTRY))
 
 
 def test_a_registered_ppo_record_builds_the_network_it_declares(tmp_path, isolated_registries):

@@ -13,9 +13,7 @@ from importlib import resources
 import numpy as np
 import pytest
 import torch
-import yaml
 
-import socialnav.policies.base as base
 import socialnav.policies.learned_catalog as catalog
 from socialnav.cli import main
 from socialnav.config import ConfigError
@@ -31,6 +29,7 @@ from socialnav.train.ppo_run import setup_ppo_run
 from socialnav.train.ppo_state import initial_state
 from socialnav.train.ppo_worlds import ppo_policy_config, step_worlds
 from tests.train.bit_identical_runs import run_digests
+from tests.train.walled_preset import write_walled_preset
 
 #: a fixed-layout hallway with one person and the circle crossing among pillars drawn per episode
 MIX = ["narrow_hallway", "circle_crossing_obstacles"]
@@ -45,14 +44,7 @@ def _smoke(policy="crowdnav_pp"):
 @pytest.fixture()
 def walls_preset(tmp_path):
     """francis2023 with two of its scenarios and a 10 s time limit."""
-    data = yaml.safe_load((resources.files("socialnav.configs") / "francis2023.yaml").read_text())
-    data["name"] = "francis_ppo"
-    data["world"]["time_limit"] = 10.0
-    data["training"]["scenarios"] = MIX
-    data["evaluation"]["multi_human"] = MIX
-    p = tmp_path / "francis_ppo.yaml"
-    p.write_text(yaml.safe_dump(data))
-    return str(p)
+    return write_walled_preset(tmp_path, "francis_ppo", MIX)
 
 
 def test_only_a_mix_with_walls_records_an_encoding():
@@ -150,13 +142,6 @@ def test_cli_trains_among_walls_and_evaluates_under_francis2023(tmp_path, capsys
     assert rc == 0, capsys.readouterr().err
 
 
-@pytest.fixture()
-def isolated_registries(monkeypatch):
-    """Registrations made by a test are undone after it."""
-    monkeypatch.setattr(catalog, "_SPECS", dict(catalog._SPECS))
-    monkeypatch.setattr(catalog, "_ALIASES", dict(catalog._ALIASES))
-    base._load_builtin()
-    monkeypatch.setattr(base, "_REGISTRY", dict(base._REGISTRY))
 
 
 def test_a_record_whose_network_cannot_take_point_slots_is_refused_among_walls(

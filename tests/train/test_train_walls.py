@@ -18,6 +18,7 @@ from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.train.config import load_train_settings
 from socialnav.train.envs import MultiWorld
 from socialnav.train.trainer import train
+from tests.train.walled_preset import write_walled_preset
 
 TINY = """\
 collection_batch: 6
@@ -36,14 +37,7 @@ MIX = ["narrow_hallway", "pedestrian_obstruction", "circle_crossing_obstacles"]
 @pytest.fixture()
 def walls_preset(tmp_path):
     """francis2023 with three of its scenarios and a 10 s time limit."""
-    data = yaml.safe_load((resources.files("socialnav.configs") / "francis2023.yaml").read_text())
-    data["name"] = "francis_quick"
-    data["world"]["time_limit"] = 10.0
-    data["training"]["scenarios"] = MIX
-    data["evaluation"]["multi_human"] = MIX
-    p = tmp_path / "francis_quick.yaml"
-    p.write_text(yaml.safe_dump(data))
-    return str(p)
+    return write_walled_preset(tmp_path, "francis_quick", MIX)
 
 
 def test_the_training_mix_keeps_fixed_crowds_and_pads_the_slots(walls_preset):
