@@ -16,6 +16,9 @@ one JSON object with:
     threads, load_average_1min  torch threads, and the machine's load when measured (shared machines)
 
     PYTHONPATH=src python benchmarks/bench_ppo_trainer.py [--threads 1] [--updates 4]
+
+``--preset francis2023`` measures the same under the scenarios with walls, where the network also reads
+16 obstacle points per environment (docs/ppo.md, "Among walls"); ``--policy ppo_mlp`` the MLP baseline.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ import time
 import numpy as np
 
 from socialnav.presets import load_preset
-from socialnav.train.envs import MultiWorld
+from socialnav.train.envs import MultiWorld, mix_human_slots
 from socialnav.train.ppo import train_ppo
 from socialnav.train.ppo_config import NetworkSettings, load_ppo_settings
 
@@ -39,13 +42,13 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _machine import add_record_arguments, cpu_model, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 
-def measure(settings, updates: int) -> dict:
+def measure(settings, updates: int, preset: str) -> dict:
     s = dataclasses.replace(
         settings, total_env_steps=settings.batch_steps * updates, validate_every=10**9, checkpoint_every=10**9
     )
     out = tempfile.mkdtemp(prefix="bench_ppo_")
     try:
-        r = train_ppo("wang2022", out, s, progress=False, log=lambda _: None)
+        r = train_ppo(preset, out, s, progress=False, log=lambda _: None)
     finally:
         shutil.rmtree(out, ignore_errors=True)
     total = r.collect_time + r.update_time
@@ -59,9 +62,9 @@ def measure(settings, updates: int) -> dict:
     }
 
 
-def world_only(n_envs: int, steps: int) -> float:
-    preset = load_preset("wang2022")
-    world = MultiWorld(preset, preset.training.n_humans, n_envs, "train", 5_000_000)
+def world_only(n_envs: int, steps: int, preset_name: str) -> float:
+    preset = load_preset(preset_name)
+    world = MultiWorld(preset, mix_human_slots(preset, preset.training.n_humans), n_envs, "train", 5_000_000)
     try:
         world.reset()
         actions = np.tile([0.0, 1.0], (world.batch_size, 1))
@@ -83,19 +86,25 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=1, help="torch threads (1: best on a shared 2-core VM)")
     ap.add_argument("--skip-repo-sizes", action="store_true")
     ap.add_argument("--device", default="cpu", help="where the network runs: cpu, cuda or auto (world: CPU)")
+    ap.add_argument("--preset", default="wang2022", help="the preset trained under (francis2023: walls)")
+    ap.add_argument("--policy", default=None, help="the PPO policy (default: the config's, crowdnav_pp)")
     add_record_arguments(ap, "bench_ppo_trainer")
     args = ap.parse_args()
     load = os.getloadavg()[0]
     settings = dataclasses.replace(load_ppo_settings(args.config), threads=args.threads, device=args.device)
-    default = measure(settings, args.updates)
+    if args.policy:
+        settings = dataclasses.replace(settings, policy=args.policy)
+    default = measure(settings, args.updates, args.preset)
     print(
         f"default schedule ({settings.n_envs} envs x {settings.rollout_steps} steps): {default}", flush=True
     )
     repo = None
     if not args.skip_repo_sizes:
-        repo = measure(dataclasses.replace(settings, network=NetworkSettings()), max(2, args.updates // 2))
+        repo = measure(
+            dataclasses.replace(settings, network=NetworkSettings()), max(2, args.updates // 2), args.preset
+        )
         print(f"repository sizes: {repo}", flush=True)
-    reference = world_only(settings.n_envs, 200)
+    reference = world_only(settings.n_envs, 200, args.preset)
     print(f"world only: {reference:.0f} env steps/s", flush=True)
     rate = default["env_steps_per_s"]
     emit(
@@ -103,6 +112,7 @@ def main() -> None:
         | {
             "benchmark": "ppo_trainer",
             "policy": settings.policy,
+            "preset": args.preset,
             "config": args.config,
             "n_envs": settings.n_envs,
             "rollout_steps": settings.rollout_steps,
