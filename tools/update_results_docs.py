@@ -303,6 +303,11 @@ LOG: dict[str, tuple[str, str, Callable[[dict], str]]] = {
         "python benchmarks/bench_ppo_trainer.py",
         lambda d: f"{_f(d['env_steps_per_s'])} env-steps/s ({d['threads']} thread, {d['device']})",
     ),
+    "bench_ppo_trainer_francis2023.json": (
+        "PPO trainer among walls (crowdnav_pp, francis2023)",
+        "python benchmarks/bench_ppo_trainer.py --skip-repo-sizes --updates 6 --preset francis2023",
+        lambda d: f"{_f(d['env_steps_per_s'])} env-steps/s ({d['threads']} thread, {d['device']})",
+    ),
     "bench_ppo.json": (
         "SB3 PPO on the native vector env",
         "python benchmarks/bench_ppo.py",
