@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -85,8 +86,6 @@ def mix_human_slots(preset: Preset, n_humans: int) -> int:
 def trains_among_walls(preset: Preset) -> bool:
     """Whether the preset's training mix has a scenario with walls.
 
-    Both trainers decide by it whether the network gets the obstacle encoding (docs/walls_learned.md).
-
     Args:
         preset: the preset.
 
@@ -96,6 +95,26 @@ def trains_among_walls(preset: Preset) -> bool:
     from socialnav.scenarios.walls import WalledScenario
 
     return any(issubclass(get_scenario(name), WalledScenario) for name in preset.training.scenarios)
+
+
+def obstacle_encoding_entry(preset: Preset) -> dict[str, Any]:
+    """The obstacle encoding a network trained under ``preset`` reads, as its checkpoint records it.
+
+    Both trainers decide by it (docs/walls_learned.md): a training mix with walls gives the default
+    ``ObstaclePoints()``; without walls the entry is absent, as in every checkpoint written before, so
+    that open-floor runs keep their records and resume.
+
+    Args:
+        preset: the preset trained under.
+
+    Returns:
+        ``{"obstacle_encoding": ObstaclePoints().to_dict()}`` among walls, else ``{}``.
+    """
+    if not trains_among_walls(preset):
+        return {}
+    from socialnav.sim.obstacle_points import ObstaclePoints
+
+    return {"obstacle_encoding": ObstaclePoints().to_dict()}
 
 
 def pad_humans(humans: np.ndarray, mask: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:

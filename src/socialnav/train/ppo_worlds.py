@@ -15,10 +15,9 @@ import torch
 from socialnav.config import ConfigError
 from socialnav.presets import Preset
 from socialnav.sim.observation import Observation, ObstacleArrays
-from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.sim.world import EpisodeStream
 from socialnav.train.common import reward_config
-from socialnav.train.envs import MultiWorld, pad_humans, trains_among_walls
+from socialnav.train.envs import MultiWorld, obstacle_encoding_entry, pad_humans
 
 #: The World arrays that hold an episode's state (saved with last.pt so that a resumed run goes on
 #: with the same episodes in flight).
@@ -142,9 +141,8 @@ def goal_distance(robot: np.ndarray) -> np.ndarray:
 def ppo_policy_config(preset: Preset) -> dict[str, Any]:
     """The world the actor is trained for (checked against the preset at evaluation).
 
-    A preset whose training mix has walls adds the obstacle encoding the network reads (the default
-    ``ObstaclePoints()``, decided as for the value-based trainer); without walls the key is absent,
-    as in every checkpoint written before, so that open-floor runs keep their records and resume.
+    A preset whose training mix has walls adds the obstacle encoding the network reads
+    (:func:`~socialnav.train.envs.obstacle_encoding_entry`, as for the value-based trainer).
 
     Args:
         preset: the preset trained under.
@@ -153,15 +151,12 @@ def ppo_policy_config(preset: Preset) -> dict[str, Any]:
         Plain data: kinematics, rotation limit, dt, reward constants (and ``obstacle_encoding``).
     """
     w = preset.world
-    walls = {}
-    if trains_among_walls(preset):
-        walls = {"obstacle_encoding": ObstaclePoints().to_dict()}
     return {
         "kinematics": w.kinematics,
         "rotation_limit": w.rotation_limit,
         "dt": w.dt,
         "reward": reward_config(w),
-        **walls,
+        **obstacle_encoding_entry(preset),
     }
 
 

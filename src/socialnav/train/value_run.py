@@ -34,7 +34,7 @@ from socialnav.presets import Preset, load_preset
 from socialnav.train.common import RunFiles, check_same_run, make_optimizer, resolve_device, reward_config
 from socialnav.train.config import TrainSettings, derive_seeds
 from socialnav.train.curves import Curves
-from socialnav.train.envs import MultiWorld, training_n_humans, trains_among_walls
+from socialnav.train.envs import MultiWorld, obstacle_encoding_entry, training_n_humans
 
 #: Offset of the RL episode stream after the imitation episodes (same ``scenario_start``), recorded
 #: in the run's config.
@@ -136,11 +136,6 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
         Plain data: kinematics, gamma, lookahead settings, reward constants (and obstacle encoding).
     """
     w = preset.world
-    walls = {}
-    if trains_among_walls(preset):
-        from socialnav.sim.obstacle_points import ObstaclePoints
-
-        walls = {"obstacle_encoding": ObstaclePoints().to_dict()}
     return {
         "kinematics": w.kinematics,
         "gamma": settings.rl.gamma,
@@ -151,7 +146,7 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
         "rotation_limit": w.rotation_limit,
         "dt": w.dt,
         "reward": reward_config(w),
-        **walls,
+        **obstacle_encoding_entry(preset),
     }
 
 
