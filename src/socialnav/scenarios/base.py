@@ -200,10 +200,22 @@ class Scenario(Settings, abc.ABC):
             human_radius=np.asarray(humans.radius, dtype=np.float64),
             human_v_pref=np.asarray(humans.v_pref, dtype=np.float64),
             human_mask=np.ones((b, n), dtype=bool),
-            static_maps=self._episode_maps(sd, idx),
+            static_maps=self.episode_maps(sd, idx),
         ).validate()
 
-    def _episode_maps(self, seeds: np.ndarray, indices: np.ndarray) -> tuple[StaticMap, ...] | None:
+    def episode_maps(self, seeds: np.ndarray, indices: np.ndarray) -> tuple[StaticMap, ...] | None:
+        """The static maps of the episodes of these seeds and indices, as :meth:`generate` draws them.
+
+        A map depends on its episode's seed and index alone, so this gives an episode in flight its map
+        back (a resumed training run) without generating the episode again.
+
+        Args:
+            seeds: The episodes' seeds [(B,) int].
+            indices: Their indices within the split [(B,) int].
+
+        Returns:
+            One map per episode, or None on open floors.
+        """
         if type(self).static_maps is Scenario.static_maps:
             return None  # open floor: no random source to build (generate runs on every world refill)
         return self.static_maps(self.rng(seeds), indices)

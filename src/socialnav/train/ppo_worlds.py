@@ -69,8 +69,10 @@ def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
         live = np.flatnonzero(w.episode_index >= 0)
         if not live.size:
             continue
-        maps = w.scenario.static_maps(w.scenario.rng(w.episode_seed[live]), w.episode_index[live])
-        for slot, static_map in zip(live, maps if maps is not None else (), strict=maps is not None):
+        maps = w.scenario.episode_maps(w.episode_seed[live], w.episode_index[live])
+        if maps is None:
+            continue
+        for slot, static_map in zip(live, maps, strict=True):
             w.set_static_map(int(slot), static_map)
 
 
