@@ -48,7 +48,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from socialnav.sim.obstacle_points import append_obstacle_agents
+from socialnav.policies.learned.lookahead_inputs import encode_observation
 
 __all__ = [
     "AttnGraphNet",
@@ -110,15 +110,10 @@ def observation_tensors(
     Returns:
         Robot features (B, 9), human features (B, N [+ K], 2(1 + steps)) and the mask (B, N [+ K]).
     """
-    humans_np, mask_np = obs.humans, obs.human_mask
-    if obstacle_encoding is not None and not getattr(obs, "static_slots", 0):
-        walls = getattr(obs, "obstacles", None)
-        humans_np, mask_np = append_obstacle_agents(
-            obs.robot, humans_np, mask_np, None if walls is None else walls.maps, obstacle_encoding
-        )
+    obs = encode_observation(obs, obstacle_encoding)
     robot = torch.as_tensor(obs.robot, dtype=torch.float64)
-    humans = torch.as_tensor(humans_np, dtype=torch.float64)
-    mask = torch.as_tensor(mask_np, dtype=torch.bool)
+    humans = torch.as_tensor(obs.humans, dtype=torch.float64)
+    mask = torch.as_tensor(obs.human_mask, dtype=torch.bool)
     rf = robot_features(robot).float().to(device)
     hf = human_features(robot, humans, mask, dt, steps).float().to(device)
     return rf, hf, mask.to(device)
