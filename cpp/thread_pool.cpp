@@ -11,7 +11,8 @@ ThreadPool::ThreadPool(int threads) : shares_(threads > 1 ? threads : 1) {
 ThreadPool::~ThreadPool() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
+    stop_.store(true);
+    generation_.fetch_add(1);  // ends the spins of workers waiting for a job
   }
   start_cv_.notify_all();
   for (auto& t : workers_) t.join();
@@ -89,21 +90,16 @@ void ThreadPool::run(int n, void* ctx, Trampoline call) {
 void ThreadPool::worker_loop(int worker) {
   long seen = 0;
   for (;;) {
-    void* ctx;
-    Trampoline call;
-    int n, chunk;
-    spin_for([&] { return generation_.load(std::memory_order_acquire) != seen; }, kWorkerSpin);
-    {
+    // A worker that sees the new job while spinning starts it at once, without mutex_: workers that
+    // all took it to read the job queued on it one after the other at the start of each job, and
+    // the caller waits for the last of them.
+    if (!spin_for([&] { return generation_.load(std::memory_order_acquire) != seen; }, kWorkerSpin)) {
       std::unique_lock<std::mutex> lock(mutex_);
-      start_cv_.wait(lock, [&] { return stop_ || generation_.load() != seen; });
-      if (stop_) return;
-      seen = generation_.load();
-      ctx = job_ctx_;
-      call = job_call_;
-      n = job_n_;
-      chunk = job_chunk_;
+      start_cv_.wait(lock, [&] { return generation_.load(std::memory_order_acquire) != seen; });
     }
-    drain(ctx, call, n, chunk, worker);
+    if (stop_.load(std::memory_order_acquire)) return;
+    seen = generation_.load(std::memory_order_acquire);
+    drain(job_ctx_, job_call_, job_n_, job_chunk_, worker);
     if (pending_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
       // Taking the mutex orders this notify after a caller that found pending_ > 0 started waiting.
       std::lock_guard<std::mutex> lock(mutex_);

@@ -56,11 +56,13 @@ class ThreadPool {
   int job_n_ = 0;
   int job_chunk_ = 1;
   std::vector<Share> shares_;  // one per thread
-  // Written under mutex_ (so that a thread about to block cannot miss a change); pending_ is also
-  // read without it by the caller's short spin before blocking.
+  // The job_* fields and the shares are written before generation_ is bumped (under mutex_, so that
+  // a worker about to block cannot miss the change) and read by a worker after it sees the new
+  // generation: the bump publishes them, and a worker that saw it while spinning reads them without
+  // taking mutex_. They are not written again before every worker has decremented pending_.
   std::atomic<long> generation_{0};
   std::atomic<int> pending_{0};
-  bool stop_ = false;
+  std::atomic<bool> stop_{false};
 };
 
 }  // namespace socialnav

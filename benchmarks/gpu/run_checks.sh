@@ -82,6 +82,32 @@ for stage in $STAGES; do case $stage in
       run bench_world_b4096_keep python3 benchmarks/bench_world.py --batch 4096 --seconds 1 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 2
     MALLOC_MMAP_THRESHOLD_=1073741824 MALLOC_TRIM_THRESHOLD_=2147483648 MALLOC_TOP_PAD_=67108864 \
       run bench_world_b16384_keep python3 benchmarks/bench_world.py --batch 16384 --seconds 1 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 2 ;;
+  pool_ab)  # issue #32: this tree's thread pool against the one in $BASE_POOL (its thread_pool.cpp/.hpp), same run.
+    # Prepare the folder here first, e.g. for the pool before the lock-free hand-off (a folder git ignores does not travel):
+    #   mkdir gpu_ab && for f in cpp/thread_pool.cpp cpp/thread_pool.hpp; do git show 0181660:$f > gpu_ab/${f#cpp/}; done
+    base=/tmp/pool_base; rm -rf "$base"; mkdir -p "$base"; cp -r cpp src CMakeLists.txt "$base"/
+    cp "${BASE_POOL:?BASE_POOL names a folder with the baseline thread_pool.cpp and .hpp}"/thread_pool.* "$base"/cpp/
+    { cmake -S "$base" -B "$base/build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE="$(command -v python3)" \
+        && cmake --build "$base/build" && cp "$base"/build/_core*.so "$base"/src/socialnav/; } >/dev/null || { echo "base build failed"; exit 1; }
+    for v in base new; do
+      dir=$([ $v = base ] && echo "$base/cpp" || echo cpp)
+      g++ -std=c++17 -O2 -I"$dir" benchmarks/gpu/pool_latency.cpp "$dir/thread_pool.cpp" -lpthread -o "/tmp/pool_latency_$v"
+      LIMIT=60 run "pool_latency_$v" "/tmp/pool_latency_$v" 1 2 4 8 16
+    done
+    for rep in 1 2; do
+      for v in base new; do
+        src=$([ $v = base ] && echo "$base/src" || echo src)
+        LIMIT=90 run "pool_ab_bench_world_${v}_r$rep" env PYTHONPATH="$src${PYTHONPATH#src}" python3 benchmarks/bench_world.py \
+          --batch 4096 --seconds 1 --scaling-threads 1 2 4 8 16 --scaling-repeats 2 --scaling-seconds 1
+      done
+    done
+    for v in base new; do
+      src=$([ $v = base ] && echo "$base/src" || echo src)
+      LIMIT=40 run "pool_ab_breakdown_$v" env PYTHONPATH="$src${PYTHONPATH#src}" python3 benchmarks/gpu/world_breakdown.py \
+        --batch 4096 --threads 1 16 --seconds 1
+    done
+    LIMIT=90 run pool_ab_bench_world_new_b16384 python3 benchmarks/bench_world.py --batch 16384 --seconds 1 \
+      --scaling-threads 1 2 4 8 16 --scaling-repeats 2 --scaling-seconds 1 ;;
   avx512_2core)  # issue #32's Intel figure: the native scorer on 2 cores of the Xeon, AVX-512 vs AVX2 kernel
     for kernel in avx512 avx2; do
       LIMIT=90 run bench_policy_2core_$kernel taskset -c 0,1 python3 benchmarks/bench_policy.py --threads 2 \
