@@ -7,6 +7,9 @@ all active), if navground is installed. Prints human-readable lines, then one JS
 Thread scaling (issue #13): the world is also measured at 1 and 2 threads (``--scaling-threads``),
 alternating, ``--scaling-repeats`` times each for ``--scaling-seconds``; the best of each is kept (other
 processes only ever slow a measurement down) and ``speedup_2_threads_vs_1`` is their ratio (goal 1.9).
+``--scaling-ceiling`` adds the machine's own ceiling (issue #32): as many independent 1-thread worlds as
+the largest thread count, one process per CPU, against one alone (``independent_ceiling_N_vs_1``), and
+the share of their summed rate that the N-thread world reaches (``fraction_of_independent_ceiling_N``).
 
 With ``--obstacles`` (issue #28) it measures instead the same workload among 8 wall segments
 (``spoke_walls``: radial walls from 1.5 to 2.5 m around the centre, in the crowd's way) against the
@@ -15,7 +18,7 @@ open world and against navground's ORCA with the same walls, all in the same run
 (goal >= 0.5) and ``ratio_vs_navground_obstacles`` (goal >= 3).
 
     python benchmarks/bench_world.py [--batch 4096] [--seconds 5] [--threads 0]
-        [--scaling-threads 1 2] [--scaling-repeats 3] [--scaling-seconds 2]
+        [--scaling-threads 1 2] [--scaling-repeats 3] [--scaling-seconds 2] [--scaling-ceiling]
     python benchmarks/bench_world.py --obstacles [--batch 4096] [--seconds 3] [--repeats 3] [--map spokes]
     python benchmarks/bench_world.py --obstacles --against DIR [--repeats 3] [--seconds 3]
 
@@ -155,6 +158,48 @@ def _measure_in_process(pythonpath: str, workload: str, args: argparse.Namespace
     return json.loads(out.strip().splitlines()[-1])
 
 
+def independent_worlds(cpus: list[int], batch: int, seconds: float) -> list[float]:
+    """env-steps/s of one 1-thread world of ``batch`` episodes per CPU in ``cpus``, all at the same time.
+
+    Each world runs in a process of its own pinned to its CPU: no thread pool, nothing shared. Their
+    sum against one such world alone is the machine's own ceiling for the thread scaling (its cores'
+    speed under load, shared caches and memory), which no threading of one world can pass.
+    """
+    import subprocess
+
+    command = [sys.executable, os.path.abspath(__file__), "--measure-one", "open", "--batch", str(batch),
+               "--seconds", str(seconds), "--threads", "1"]
+    pin = getattr(os, "sched_setaffinity", None)  # Linux; elsewhere the processes are not pinned
+    procs = [
+        subprocess.Popen(command, stdout=subprocess.PIPE, text=True,
+                         preexec_fn=(lambda c=c: pin(0, {c})) if pin else None)
+        for c in cpus
+    ]
+    outs = [p.communicate()[0] for p in procs]
+    if any(p.returncode for p in procs):
+        raise RuntimeError(f"an independent world failed (exit codes {[p.returncode for p in procs]})")
+    return [json.loads(out.strip().splitlines()[-1])["env_steps_per_s"] for out in outs]
+
+
+def scaling_ceiling(best: dict[int, float], batch: int, seconds: float) -> dict:
+    """The ``--scaling-ceiling`` keys: the largest thread count against as many independent worlds."""
+    n = min(max(best), os.cpu_count() or 1)
+    alone = independent_worlds([1 % n], batch, seconds)[0]  # CPU 1: CPU 0 also takes the interrupts
+    together = sum(independent_worlds(list(range(n)), batch, seconds))
+    keys = {
+        "independent_worlds": n,
+        "independent_alone_env_steps_per_s": round(alone),
+        "independent_together_env_steps_per_s": round(together),
+        f"independent_ceiling_{n}_vs_1": together / alone,
+    }
+    if n in best:
+        keys[f"fraction_of_independent_ceiling_{n}"] = best[n] / together
+    print(f"ceiling: {n} independent 1-thread worlds (B={batch} each) {together:,.0f} env-steps/s, "
+          f"{together / alone:.2f}x one alone ({alone:,.0f})"
+          + (f"; {n} threads reach {best[n] / together:.2f} of it" if n in best else ""))
+    return keys
+
+
 def main_against(args: argparse.Namespace) -> None:
     """The --obstacles --against benchmark: two builds, walled and open floor, alternating."""
     import socialnav
@@ -249,6 +294,9 @@ def main() -> None:
     parser.add_argument("--scaling-threads", type=int, nargs="*", default=[1, 2])
     parser.add_argument("--scaling-repeats", type=int, default=3)
     parser.add_argument("--scaling-seconds", type=float, default=2.0)
+    parser.add_argument("--scaling-ceiling", action="store_true",
+                        help="also run as many independent 1-thread worlds as the largest --scaling-threads, "
+                        "one process per CPU, for the machine's own ceiling (issue #32)")
     parser.add_argument("--obstacles", action="store_true", help="the walls benchmark (issue #28)")
     parser.add_argument("--repeats", type=int, default=3, help="--obstacles: alternating runs, best kept")
     parser.add_argument("--map", choices=sorted(MAPS), default="spokes",
@@ -298,6 +346,8 @@ def main() -> None:
         result["bit_identical_across_threads"] = len(set(digests.values())) == 1
         print(f"bit-identical final state for threads {sorted(digests)}: "
               f"{result['bit_identical_across_threads']}")
+        if args.scaling_ceiling:
+            result |= scaling_ceiling(best, args.batch, args.scaling_seconds)
     try:
         sys.path.insert(0, os.path.dirname(__file__))
         from _navground_workload import navground_env_steps_per_s
