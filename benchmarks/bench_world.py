@@ -181,11 +181,19 @@ def independent_worlds(cpus: list[int], batch: int, seconds: float) -> list[floa
     return [json.loads(out.strip().splitlines()[-1])["env_steps_per_s"] for out in outs]
 
 
+def usable_cpus() -> list[int]:
+    """The CPUs this process may run on (a container may allow fewer than the machine has)."""
+    affinity = getattr(os, "sched_getaffinity", None)
+    return sorted(affinity(0)) if affinity else list(range(os.cpu_count() or 1))
+
+
 def scaling_ceiling(best: dict[int, float], batch: int, seconds: float) -> dict:
     """The ``--scaling-ceiling`` keys: the largest thread count against as many independent worlds."""
-    n = min(max(best), os.cpu_count() or 1)
-    alone = independent_worlds([1 % n], batch, seconds)[0]  # CPU 1: CPU 0 also takes the interrupts
-    together = sum(independent_worlds(list(range(n)), batch, seconds))
+    cpus = usable_cpus()
+    n = min(max(best), len(cpus))
+    # The lone world on the second CPU: the first also takes the interrupts.
+    alone = independent_worlds([cpus[1 % n]], batch, seconds)[0]
+    together = sum(independent_worlds(cpus[:n], batch, seconds))
     keys = {
         "independent_worlds": n,
         "independent_alone_env_steps_per_s": round(alone),

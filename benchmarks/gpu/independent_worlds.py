@@ -1,7 +1,7 @@
 """The ceiling of the world's thread scaling on a machine: N independent 1-thread worlds at once.
 
-Runs bench_world.py's workload in N processes pinned to CPUs 0..N-1, each with one thread and its own
-batch, all at the same time (``bench_world.independent_worlds``), and compares their summed
+Runs bench_world.py's workload in N processes pinned to the first N usable CPUs, each with one thread
+and its own batch, all at the same time (``bench_world.independent_worlds``), and compares their summed
 env-steps/s with one such process alone (pinned to ``--alone-cpu``). No thread pool, no shared memory
 and no Python between threads: what the sum falls short of N is the machine's (shared caches, memory,
 the vCPUs' clock under load), and bounds what any threading of one world can reach.
@@ -19,7 +19,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from bench_world import independent_worlds  # noqa: E402  (benchmarks/ is not a package)
+from bench_world import independent_worlds, usable_cpus  # noqa: E402  (benchmarks/ is not a package)
 
 
 def main() -> None:
@@ -30,7 +30,7 @@ def main() -> None:
     ap.add_argument("--alone-cpu", type=int, default=1, help="the CPU of the lone process")
     args = ap.parse_args()
     alone = independent_worlds([args.alone_cpu], args.batch, args.seconds)[0]
-    together = independent_worlds(list(range(args.processes)), args.batch, args.seconds)
+    together = independent_worlds(usable_cpus()[: args.processes], args.batch, args.seconds)
     ratio = sum(together) / alone
     print(f"alone on cpu {args.alone_cpu}: {alone:,.0f} env-steps/s; {args.processes} at once: "
           f"{sum(together):,.0f} in all ({ratio:.2f}x), "

@@ -38,9 +38,9 @@ def test_the_ceiling_keys_compare_the_threaded_world_with_the_independent_ones(m
         return [100.0] * len(cpus)
 
     monkeypatch.setattr(bench, "independent_worlds", fake_independent)
-    monkeypatch.setattr(bench.os, "cpu_count", lambda: 4)
+    monkeypatch.setattr(bench, "usable_cpus", lambda: [0, 1, 2, 3])
     keys = bench.scaling_ceiling({1: 100.0, 4: 300.0}, batch=64, seconds=0.1)
-    assert calls == [[1], [0, 1, 2, 3]]  # one alone on CPU 1, then one per CPU
+    assert calls == [[1], [0, 1, 2, 3]]  # one alone on the second CPU, then one per CPU
     assert keys["independent_worlds"] == 4
     assert keys["independent_ceiling_4_vs_1"] == 4.0  # 4 x 100 against 100
     assert keys["fraction_of_independent_ceiling_4"] == 0.75  # 300 of 400
@@ -48,3 +48,16 @@ def test_the_ceiling_keys_compare_the_threaded_world_with_the_independent_ones(m
     calls.clear()
     keys = bench.scaling_ceiling({1: 100.0, 16: 900.0}, batch=64, seconds=0.1)
     assert calls == [[1], [0, 1, 2, 3]] and "fraction_of_independent_ceiling_4" not in keys
+    # A container that allows only some CPUs: the worlds go to those.
+    calls.clear()
+    monkeypatch.setattr(bench, "usable_cpus", lambda: [4, 5])
+    keys = bench.scaling_ceiling({1: 100.0, 2: 150.0}, batch=64, seconds=0.1)
+    assert calls == [[5], [4, 5]] and keys["fraction_of_independent_ceiling_2"] == 0.75
+
+
+def test_usable_cpus_are_the_ones_this_process_may_run_on():
+    bench = _bench_world()
+    cpus = bench.usable_cpus()
+    assert cpus and cpus == sorted(set(cpus))
+    if hasattr(os, "sched_getaffinity"):
+        assert set(cpus) == os.sched_getaffinity(0)
