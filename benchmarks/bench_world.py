@@ -147,15 +147,25 @@ def state_digest(batch: int, threads: int, steps: int = 300) -> str:
 
 
 
+def _measure_one_command(workload: str, batch: int, seconds: float, threads: int, map_name: str) -> list[str]:
+    """This script's command that prints measure_socialnav of one workload (``obstacles`` or ``open``)."""
+    return [sys.executable, os.path.abspath(__file__), "--measure-one", workload, "--map", map_name,
+            "--batch", str(batch), "--seconds", str(seconds), "--threads", str(threads)]
+
+
+def _measured(stdout: str) -> dict:
+    """The measurement that a ``--measure-one`` process printed as its last line."""
+    return json.loads(stdout.strip().splitlines()[-1])
+
+
 def _measure_in_process(pythonpath: str, workload: str, args: argparse.Namespace) -> dict:
     """measure_socialnav of one workload (``obstacles`` or ``open``) with the core on ``pythonpath``."""
     import subprocess
 
-    command = [sys.executable, os.path.abspath(__file__), "--measure-one", workload, "--map", args.map,
-               "--batch", str(args.batch), "--seconds", str(args.seconds), "--threads", str(args.threads)]
+    command = _measure_one_command(workload, args.batch, args.seconds, args.threads, args.map)
     out = subprocess.run(command, env=dict(os.environ, PYTHONPATH=os.path.abspath(pythonpath)), check=True,
                          capture_output=True, text=True).stdout
-    return json.loads(out.strip().splitlines()[-1])
+    return _measured(out)
 
 
 def independent_worlds(cpus: list[int], batch: int, seconds: float) -> list[float]:
@@ -167,8 +177,7 @@ def independent_worlds(cpus: list[int], batch: int, seconds: float) -> list[floa
     """
     import subprocess
 
-    command = [sys.executable, os.path.abspath(__file__), "--measure-one", "open", "--batch", str(batch),
-               "--seconds", str(seconds), "--threads", "1"]
+    command = _measure_one_command("open", batch, seconds, 1, "spokes")  # the map is unused on the open floor
     pin = getattr(os, "sched_setaffinity", None)  # Linux; elsewhere the processes are not pinned
     procs = [
         subprocess.Popen(command, stdout=subprocess.PIPE, text=True,
@@ -178,7 +187,7 @@ def independent_worlds(cpus: list[int], batch: int, seconds: float) -> list[floa
     outs = [p.communicate()[0] for p in procs]
     if any(p.returncode for p in procs):
         raise RuntimeError(f"an independent world failed (exit codes {[p.returncode for p in procs]})")
-    return [json.loads(out.strip().splitlines()[-1])["env_steps_per_s"] for out in outs]
+    return [_measured(out)["env_steps_per_s"] for out in outs]
 
 
 def usable_cpus() -> list[int]:

@@ -19,8 +19,12 @@ fi
 export PYTHONPATH=src${PYTHONPATH:+:$PYTHONPATH} PYTHONUNBUFFERED=1
 { nproc; lscpu | grep -E 'Model name|Flags' | cut -c1-300; nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv;
   python3 -c 'import torch; print("torch", torch.__version__, torch.cuda.get_device_name(0))'; } 2>&1 | tee "$OUT/machine.txt"
-cmake -S . -B build/gpu -G Ninja -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE="$(command -v python3)" >/dev/null \
-  && cmake --build build/gpu >/dev/null && cp build/gpu/_core*.so src/socialnav/ || { echo "build failed"; exit 1; }
+# The native core of source tree $1, built in $2 and copied into $1/src/socialnav.
+build_core() {
+  cmake -S "$1" -B "$2" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE="$(command -v python3)" >/dev/null \
+    && cmake --build "$2" >/dev/null && cp "$2"/_core*.so "$1"/src/socialnav/
+}
+build_core . build/gpu || { echo "build failed"; exit 1; }
 run() { local name=$1; shift; echo "== $name: $*"; timeout "${LIMIT:-240}" "$@" 2>&1 | tee "$OUT/$name.txt" | tail -n "${TAILN:-4}"; }
 STAGES=${STAGES:-"world policy train"}
 # Sizes of the `final` stage (the defaults are the GPU machine's; smaller ones test the stage elsewhere).
@@ -88,8 +92,7 @@ for stage in $STAGES; do case $stage in
     #   mkdir gpu_ab && for f in cpp/thread_pool.cpp cpp/thread_pool.hpp; do git show 0181660:$f > gpu_ab/${f#cpp/}; done
     base=/tmp/pool_base; rm -rf "$base"; mkdir -p "$base"; cp -r cpp src CMakeLists.txt "$base"/
     cp "${BASE_POOL:?BASE_POOL names a folder with the baseline thread_pool.cpp and .hpp}"/thread_pool.* "$base"/cpp/
-    { cmake -S "$base" -B "$base/build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPython_EXECUTABLE="$(command -v python3)" \
-        && cmake --build "$base/build" && cp "$base"/build/_core*.so "$base"/src/socialnav/; } >/dev/null || { echo "base build failed"; exit 1; }
+    build_core "$base" "$base/build" || { echo "base build failed"; exit 1; }
     for v in base new; do
       dir=$([ $v = base ] && echo "$base/cpp" || echo cpp)
       g++ -std=c++17 -O2 -I"$dir" benchmarks/gpu/pool_latency.cpp "$dir/thread_pool.cpp" -lpthread -o "/tmp/pool_latency_$v"

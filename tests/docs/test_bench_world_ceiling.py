@@ -5,6 +5,8 @@ import os
 import sys
 from pathlib import Path
 
+from tests._env import subprocess_env
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -21,12 +23,9 @@ def _bench_world():
 
 
 def test_independent_worlds_run_one_measured_world_per_cpu(monkeypatch):
-    import socialnav
-
     bench = _bench_world()
-    # The child processes import the socialnav this process imported (installed, or a source tree).
-    package_parent = str(Path(socialnav.__file__).resolve().parents[1])
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([package_parent, os.environ.get("PYTHONPATH", "")]))
+    # The child processes inherit the environment: they must import the socialnav this process imported.
+    monkeypatch.setenv("PYTHONPATH", subprocess_env()["PYTHONPATH"])
     rates = bench.independent_worlds([0, 0], batch=8, seconds=0.05)
     assert len(rates) == 2
     assert all(rate > 0 for rate in rates)
