@@ -413,6 +413,23 @@ void World::load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, in
   }
   for (int a = 0; a < 2 * A; ++a) vel[a] = 0.0;
   for (int a = 0; a < A; ++a) arrival[a] = std::numeric_limits<double>::quiet_NaN();
+  // The slot's map may be one the scenario does not know (the World's static_map): an agent that would
+  // start inside an obstacle, or head for a goal inside one, makes the episode fail instead of
+  // running (code < 0: -(1 + 2a) start of agent a, -(2 + 2a) its goal; agent 0 is the robot).
+  const ObstacleView walls = obstacles(static_cast<int>(b));
+  if (walls.count > 0) {
+    for (int a = 0; a < A; ++a) {
+      const Vec2 start{pos[2 * a], pos[2 * a + 1]}, goal{gl[2 * a], gl[2 * a + 1]};
+      const int code = swept_disc_hits_obstacles(walls, start, start, rad[a]) ? -(1 + 2 * a)
+                       : swept_disc_hits_obstacles(walls, goal, goal, rad[a]) ? -(2 + 2 * a)
+                                                                              : 0;
+      if (code != 0) {
+        *failure = code;
+        buf_.status[b] = kIdle;
+        return;
+      }
+    }
+  }
   buf_.theta[b] = M_PI / 2;
   buf_.steps[b] = 0;
   buf_.reward[b] = 0.0;

@@ -139,7 +139,8 @@ class World {
 
   // Generates episode i of `seeds` (a built-in scenario, scenario_gen.hpp) into slot slots[i] and
   // starts it, as socialnav/sim/world.py's World._load does with a generated EpisodeBatch, in the
-  // worker threads. failure[i] is generate_humans' code; a failed slot is left idle.
+  // worker threads. failure[i] is generate_humans' code (> 0), or < 0 where the slot's obstacles cover an
+  // agent's start (-(1 + 2a)) or goal (-(2 + 2a)), agent 0 being the robot; a failed slot is left idle.
   void load_generated(const ScenarioConfig& scenario, const int64_t* slots, const int64_t* seeds, int k,
                       int32_t* failure);
 

@@ -42,3 +42,15 @@ def test_distance_hand_computed():
 def test_bad_polygons_name_the_problem(poly, match):
     with pytest.raises(MapError, match=match):
         StaticMap((poly,))
+
+
+@pytest.mark.parametrize("data, found", [
+    ({"polygon": [[[0, 0], [1, 0]]]}, "found unknown key(s) 'polygon'"),
+    ({"polygons": [], "units": "cm"}, "found unknown key(s) 'units'"),
+    ({}, "found no keys"),
+])
+def test_from_dict_names_the_keys_it_does_not_know(data, found):
+    with pytest.raises(MapError) as info:
+        StaticMap.from_dict(data)
+    expected = "map: expected a mapping with one key, 'polygons' (a list of vertex lists); "
+    assert str(info.value) == expected + found

@@ -117,7 +117,8 @@ def test_hand_written_csv_map(tmp_path: Path) -> None:
     ('"{""polygons"": [[[0, 0], [1, 1], [1, 0], [0, 1]]]}"', r"column 'static_map', row 1: polygon 0: "
      r"self-intersecting"),
     ('"{""polygons"": [[[0, 0], [1, 1"', r"column 'static_map', row 1: invalid JSON"),
-    ('"{""walls"": []}"', r"column 'static_map', row 1: map: expected a mapping with a 'polygons' list"),
+    ('"{""walls"": []}"', r"column 'static_map', row 1: map: expected a mapping with one key, 'polygons' .*; "
+     r"found unknown key\(s\) 'walls'"),
     ('"{""polygons"": [[[0, 0], [""x"", 1]]]}"', r"column 'static_map', row 1: polygon 0: cannot convert"),
 ])
 def test_bad_map_cell_names_file_column_and_row(tmp_path: Path, cell: str, match: str) -> None:

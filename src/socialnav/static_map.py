@@ -209,8 +209,13 @@ class StaticMap:
     @classmethod
     def from_dict(cls, data: Any) -> StaticMap:
         """Inverse of :meth:`to_dict`; a :class:`MapError` names what is wrong."""
-        if not isinstance(data, dict) or "polygons" not in data:
+        if not isinstance(data, dict):
             raise MapError(f"map: expected a mapping with a 'polygons' list, got {type(data).__name__}")
+        unknown = sorted(str(k) for k in data if k != "polygons")
+        if unknown or "polygons" not in data:
+            found = f"unknown key(s) {', '.join(repr(k) for k in unknown)}" if unknown else "no keys"
+            raise MapError(f"map: expected a mapping with one key, 'polygons' (a list of vertex lists); "
+                           f"found {found}")
         polys = data["polygons"]
         if not isinstance(polys, list):
             raise MapError(f"map.polygons: expected a list, got {type(polys).__name__}")

@@ -21,6 +21,7 @@ import numpy as np
 from socialnav import _core
 from socialnav.scenarios import EpisodeBatch, Scenario, episode_seeds
 from socialnav.scenarios.native import native_config, raise_on_failure
+from socialnav.sim.covered_starts import covered_message, raise_first_covered
 from socialnav.sim.episode_stream import EpisodeStream
 from socialnav.sim.observation import HUMAN_DIM, ROBOT_DIM, Observation, ObstacleArrays, build_observation
 from socialnav.sim.pool import shared_pool
@@ -37,7 +38,7 @@ from socialnav.sim.world_config import (
     world_bytes,
     world_config,
 )
-from socialnav.static_map import StaticMap
+from socialnav.static_map import MapError, StaticMap
 
 __all__ = [
     "MAX_WORLD_BYTES",
@@ -192,10 +193,14 @@ class World:
             static_map: Its map, or None for an open floor.
 
         Raises:
+            IndexError: ``slot`` is not a slot of this world.
             TypeError: ``static_map`` is neither a StaticMap nor None.
             ValueError: The map has more than ``settings.max_obstacle_vertices`` vertices, or its
                 copies in every slot would exceed the memory bound.
         """
+        if not 0 <= slot < self.batch_size:
+            raise IndexError(f"slot {slot} out of range: this world has {self.batch_size} slots (0 to "
+                             f"{self.batch_size - 1})")
         self._maps.set(self._native(), slot, static_map)
 
     @property
@@ -267,11 +272,33 @@ class World:
             self._native().load_generated(
                 self._native_scenario, np.ascontiguousarray(slots[:n], dtype=np.int64), seeds, failure
             )
-            raise_on_failure(self.scenario, failure, seeds)
+            self._raise_on_load_failure(slots[:n], indices, seeds, failure)
             self.episode_index[slots[:n]] = indices
             self.episode_seed[slots[:n]] = seeds
         self.status[slots[n:]] = _core.STATUS_IDLE
         self.episode_index[slots[n:]] = -1
+
+    def _raise_on_load_failure(
+        self, slots: np.ndarray, indices: np.ndarray, seeds: np.ndarray, failure: np.ndarray
+    ) -> None:
+        """Raises for the native loads that failed (codes of ``World.load_generated`` in cpp/world.hpp).
+
+        A start or goal covered by the slot's map (code < 0) is named from the slot, which the core
+        left loaded; a human the generator could not place (code > 0), as the Python generator would.
+        """
+        covered = np.flatnonzero(failure < 0)
+        if len(covered):
+            j = int(covered[0])
+            slot, code = int(slots[j]), -int(failure[j])
+            agent, what = (code - 1) // 2, "start" if code % 2 else "goal"
+            point = (self.position if what == "start" else self.goal)[slot, agent]
+            smap = self.static_maps[slot]
+            assert smap is not None  # the core only checks slots with obstacles
+            raise MapError(covered_message(
+                self.scenario.name, smap, slot, int(indices[j]), int(seeds[j]), agent, what, point,
+                float(self.radius[slot, agent]),
+            ))
+        raise_on_failure(self.scenario, failure, seeds)
 
     def _load(self, slots: np.ndarray, ep: EpisodeBatch) -> None:
         for name in (
@@ -320,6 +347,13 @@ class World:
         self.arrival[slots] = np.nan
         self.end_step[slots] = -1
         self.collision_kind[slots] = 0
+        if maps is None:
+            # Episodes drawn without the world's map (the scenario's own maps are checked by
+            # EpisodeBatch.validate): refused before they start where it covers a start or goal.
+            raise_first_covered(
+                self.scenario.name, self._maps.fixed, slots, ep.indices, ep.seeds, self.position[slots],
+                self.goal[slots], self.radius[slots], self.mask[slots].astype(bool),
+            )
         self.episode_index[slots] = ep.indices
         self.episode_seed[slots] = ep.seeds
         self.status[slots] = _core.STATUS_RUNNING
@@ -458,18 +492,22 @@ class World:
         indices, seeds = self._next_episodes(n_done)
         final = self._observation_arrays(n_done) if final_observation and n_done else None
         nxt = self._observation_arrays() if observe else None
+        walls = self.obstacles
+        final_walls = None if walls is None or final is None or done_slots is None else walls.take(done_slots)
+        if self._maps.custom and done_slots is not None:
+            # The new episodes have the fixed map: given back before the core loads (and checks) them.
+            self._maps.restore_fixed(self._native(), done_slots)
+            walls = self.obstacles
         failed = self._native().refill_done(
             self._native_scenario, indices, seeds, self.episode_index, self.episode_seed, self._failure,
             nxt, final,
         )
         if failed:
-            raise_on_failure(self.scenario, self._failure[: len(indices)], seeds)
+            rows = np.flatnonzero(self._failure[: len(indices)])
+            # The core wrote the failed episodes' indices into their slots too.
+            slots = np.array([np.flatnonzero(self.episode_index == indices[j])[0] for j in rows])
+            self._raise_on_load_failure(slots, indices[rows], seeds[rows], self._failure[rows])
         dt, kinematics = self.settings.dt, self.settings.kinematics
-        walls = self.obstacles
-        final_walls = None if walls is None or final is None or done_slots is None else walls.take(done_slots)
-        if self._maps.custom and done_slots is not None:
-            self._maps.restore_fixed(self._native(), done_slots)  # the new episodes have the fixed map
-            walls = self.obstacles
         return (
             None if final is None else Observation(*final, dt, kinematics, obstacles=final_walls),
             None if nxt is None else Observation(*nxt, dt, kinematics, obstacles=walls),
