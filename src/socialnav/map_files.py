@@ -12,7 +12,8 @@ YAML (``.yaml``, ``.yml``, ``.json``), lengths in ``units`` (default metres)::
 
 ``StaticMap.to_dict()`` output (``{"polygons": ...}``) is a valid file. Any other top-level key (apart
 from ``name`` and ``description``, free text) is an error, so that a misspelt key never silently
-drops walls.
+drops walls. A polygon may repeat its first vertex at the end (as GIS tools write rings): the repeat
+is dropped, since polygons close implicitly.
 
 SVG (``.svg``), the subset drawn by hand or by Inkscape (robot_sf's maps are an example): elements
 ``rect``, ``polygon``, ``polyline``, ``line`` and ``path`` with the commands M/m, L/l, H/h, V/v and
@@ -21,12 +22,17 @@ Z/z (a closed path is a solid polygon, an open one a chain of wall segments; cur
 element and its groups. When any element or group is labelled (``inkscape:label``, ``id`` or
 ``class``) with a word starting with ``obstacle`` or ``wall``, only those (and every shape inside such
 a group) are obstacles: spawn zones, routes and pedestrians drawn in the same file are ignored;
-otherwise every shape is an obstacle. Lengths are SVG user units times the scale, metres per unit:
-the ``scale`` argument, else the root's ``data-scale`` attribute, else 1. The SVG y axis points down;
-the map flips it (world y = −scale·y) so that the drawing keeps its orientation.
+otherwise every shape is an obstacle. A labelled element or group without any of the shapes above is
+an error. ``circle`` and ``ellipse`` (pedestrian markers) and ``text`` are not obstacles; a circle or
+ellipse labelled as one is refused. ``use``, ``image`` and ``foreignObject`` are refused wherever they
+would be obstacles (labelled, or anywhere in a drawing without labels). Lengths are SVG user units
+times the scale, metres per unit: the ``scale`` argument, else the root's ``data-scale`` attribute,
+else 1. The SVG y axis points down; the map flips it (world y = −scale·y) so that the drawing keeps
+its orientation.
 
-Every error is a :class:`MapFileError` (a :class:`~socialnav.static_map.MapError`, hence a
-``ValueError``) naming the file, the field or element, and the value.
+A file that yields no obstacle at all is refused (an open floor needs no map file). Every error is a
+:class:`MapFileError` (a :class:`~socialnav.static_map.MapError`, hence a ``ValueError``) naming the
+file, the field or element, and the value.
 """
 
 from __future__ import annotations
@@ -64,8 +70,9 @@ def load_map(path: str | Path, *, scale: float | None = None) -> StaticMap:
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in MAP_SUFFIXES:
-        raise MapFileError(f"{path}: unsupported map file suffix {path.suffix!r}; use one of "
-                           f"{', '.join(MAP_SUFFIXES)}")
+        raise MapFileError(
+            f"{path}: unsupported map file suffix {path.suffix!r}; use one of {', '.join(MAP_SUFFIXES)}"
+        )
     if not path.is_file():
         raise MapFileError(f"{path}: no such map file")
     try:
@@ -86,6 +93,9 @@ def save_map(path: str | Path, smap: StaticMap) -> None:
     path = Path(path)
     if path.suffix.lower() not in (".yaml", ".yml"):
         raise MapFileError(f"{path}: save_map writes YAML; use a .yaml or .yml suffix")
+    if not smap:
+        # load_map refuses a file without obstacles: do not write one it cannot read back
+        raise MapFileError(f"{path}: the map has no obstacles; an open floor needs no map file")
     import yaml
 
     # PyYAML writes floats as their shortest repr: the map round-trips bit for bit
@@ -116,7 +126,7 @@ def map_from_yaml(text: str, *, source: str = "<map>") -> StaticMap:
     polys: list[np.ndarray] = []
     names: list[str] = []
     for i, item in enumerate(_list(data, "polygons", source)):
-        polys.append(_points(item, f"polygons[{i}]", source, at_least=2) * factor)
+        polys.append(_open_ring(_points(item, f"polygons[{i}]", source, at_least=2)) * factor)
         names.append(f"polygons[{i}]")
     for i, item in enumerate(_list(data, "walls", source)):
         pts = _points(item, f"walls[{i}]", source, at_least=2) * factor
@@ -126,6 +136,11 @@ def map_from_yaml(text: str, *, source: str = "<map>") -> StaticMap:
     for i, item in enumerate(_list(data, "rectangles", source)):
         polys.append(_rectangle(item, f"rectangles[{i}]", source) * factor)
         names.append(f"rectangles[{i}]")
+    if not polys:
+        raise MapFileError(
+            f"{source}: no obstacles: 'polygons', 'walls' and 'rectangles' are missing or "
+            "empty (an open floor needs no map file)"
+        )
     return _build(polys, names, source)
 
 
@@ -144,8 +159,9 @@ def _points(item: Any, field: str, source: str, at_least: int) -> np.ndarray:
     ok = isinstance(item, list) and all(
         isinstance(p, list) and len(p) == 2 and all(_is_number(c) for c in p) for p in item)
     if not ok:
-        raise MapFileError(f"{source}: field '{field}': expected a list of [x, y] number pairs, got "
-                           f"{_short(item)}")
+        raise MapFileError(
+            f"{source}: field '{field}': expected a list of [x, y] number pairs, got {_short(item)}"
+        )
     if len(item) < at_least:
         raise MapFileError(f"{source}: field '{field}': needs at least {at_least} points, got {len(item)}")
     return np.array(item, dtype=np.float64)
@@ -156,12 +172,22 @@ def _rectangle(item: Any, field: str, source: str) -> np.ndarray:
     if isinstance(item, dict):
         item = {k: _number(v) for k, v in item.items()}
     if not isinstance(item, dict) or set(item) != set(keys) or not all(_is_number(item[k]) for k in keys):
-        raise MapFileError(f"{source}: field '{field}': expected {{x, y, width, height}} numbers, got "
-                           f"{_short(item)}")
+        raise MapFileError(
+            f"{source}: field '{field}': expected {{x, y, width, height}} numbers, got {_short(item)}"
+        )
     x, y, w, h = (float(item[k]) for k in keys)
     if not (w > 0 and h > 0):
         raise MapFileError(f"{source}: field '{field}': width and height must be > 0, got {w} x {h}")
     return np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]])
+
+
+def _open_ring(pts: np.ndarray) -> np.ndarray:
+    """The polygon without a closing vertex that repeats the first (rings as GIS tools write them).
+
+    Polygons close implicitly, so the repeat would be a zero-length edge; three points are left as
+    they are (dropping one would turn the polygon into a segment).
+    """
+    return pts[:-1] if len(pts) >= 4 and np.array_equal(pts[0], pts[-1]) else pts
 
 
 def _number(v: Any) -> Any:
@@ -194,8 +220,34 @@ def _build(polys: list[np.ndarray], names: list[str], source: str) -> StaticMap:
 # -------------------------------------------------------------------------------------------- SVG
 _SVG_NS = "{http://www.w3.org/2000/svg}"
 _LABEL = "{http://www.inkscape.org/namespaces/inkscape}label"
+_XLINK_HREF = "{http://www.w3.org/1999/xlink}href"
 _SHAPES = ("rect", "polygon", "polyline", "line", "path")
+# never drawn, or drawn only through <use> or a fill; text is an annotation, never a wall
+_NOT_DRAWN = (
+    "defs",
+    "clipPath",
+    "mask",
+    "symbol",
+    "marker",
+    "pattern",
+    "metadata",
+    "title",
+    "desc",
+    "style",
+    "script",
+    "text",
+)
+# robot_sf draws pedestrians as circles: not obstacles, unless labelled as such
+_MARKERS = ("circle", "ellipse")
+# drawn, but not convertible: refused where they would be obstacles rather than silently dropped
+_UNSUPPORTED = {
+    "use": "it draws a copy of another element, which the loader does not follow: replace the clone by "
+    "the shape itself, e.g. Inkscape's Edit > Clone > Unlink Clone",
+    "image": "a raster picture cannot be turned into obstacles: draw the walls as shapes",
+    "foreignObject": "its content cannot be turned into obstacles",
+}
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_TRANSFORM = r"(\w+)\s*\(([^)]*)\)"
 
 
 def map_from_svg(text: str, *, source: str = "<svg>", scale: float | None = None) -> StaticMap:
@@ -210,20 +262,39 @@ def map_from_svg(text: str, *, source: str = "<svg>", scale: float | None = None
         raise MapFileError(f"{source}: root element is <{_tag(root)}>, not <svg>")
     if scale is None:
         raw = root.get("data-scale", "1")
-        try:
-            scale = float(raw)
-        except ValueError:
-            raise MapFileError(f"{source}: attribute 'data-scale' of <svg>: {raw!r} is not a number"
-                               ) from None
+        scale = float(raw) if re.fullmatch(_NUMBER, raw.strip()) else math.nan
+        if not scale > 0:
+            raise MapFileError(f"{source}: attribute 'data-scale' of <svg>: {raw!r} is not a number > 0")
     if not (math.isfinite(scale) and scale > 0):
         raise MapFileError(f"{source}: scale must be a finite number > 0, got {scale!r}")
-    shapes: list[tuple[Any, np.ndarray, bool]] = []  # (element, transform, labelled obstacle)
-    _collect(root, np.eye(3), False, shapes, source)
-    labelled = any(flag for _, _, flag in shapes)
+    drawing = _Drawing()
+    _collect(root, np.eye(3), False, drawing, source)
+    labelled = bool(drawing.labelled)
+    for elem, flag in drawing.others:
+        tag = _tag(elem)
+        if flag and tag in _MARKERS:
+            raise MapFileError(
+                f"{source}: {_describe(elem)}: not supported as an obstacle (draw it as a "
+                "polygon or path); it is labelled as an obstacle (or in a group so labelled)"
+            )
+        if tag in _UNSUPPORTED and (flag or not labelled):
+            where = (
+                "it is labelled as an obstacle (or in a group so labelled)"
+                if flag
+                else "in a drawing without 'obstacle' or 'wall' labels everything drawn is an obstacle"
+            )
+            raise MapFileError(f"{source}: {_describe(elem)}: not supported ({_UNSUPPORTED[tag]}); {where}")
+    for elem, has_shapes in drawing.labelled:
+        if not has_shapes:
+            # falling back to "every shape" would make the spawn zones and routes the obstacles
+            raise MapFileError(
+                f"{source}: {_describe(elem)}: labelled as obstacles, but holds no "
+                f"{', '.join(_SHAPES)} element"
+            )
     polys: list[np.ndarray] = []
     names: list[str] = []
     flip = np.diag([scale, -scale, 1.0])
-    for n, (elem, transform, flag) in enumerate(shapes):
+    for n, (elem, transform, flag) in enumerate(drawing.shapes):
         if labelled and not flag:
             continue
         name = f"<{_tag(elem)}> #{n + 1}" + (f" id={elem.get('id')!r}" if elem.get("id") else "")
@@ -236,11 +307,40 @@ def map_from_svg(text: str, *, source: str = "<svg>", scale: float | None = None
                 for j in range(len(world) - 1):
                     polys.append(world[j : j + 2])
                     names.append(f"{name} segment {j}")
+    if not polys:
+        n_markers = len(drawing.others)  # without labels, only markers are left in others
+        skipped = f" (circles and ellipses are not obstacles: {n_markers} skipped)" if n_markers else ""
+        raise MapFileError(
+            f"{source}: no obstacles: the drawing has no {', '.join(_SHAPES)} element"
+            f"{skipped}; an open floor needs no map file"
+        )
     return _build(polys, names, source)
+
+
+class _Drawing:
+    """What :func:`_collect` finds, in document order."""
+
+    def __init__(self) -> None:
+        self.shapes: list[tuple[Any, np.ndarray, bool]] = []  # (element, transform, obstacle by label)
+        self.others: list[tuple[Any, bool]] = []  # markers and unsupported elements, (element, by label)
+        self.labelled: list[tuple[Any, bool]] = []  # elements labelled themselves, (element, has shapes)
 
 
 def _tag(elem: Any) -> str:
     return elem.tag.removeprefix(_SVG_NS) if isinstance(elem.tag, str) else ""
+
+
+def _describe(elem: Any) -> str:
+    """``<tag>`` with whatever names the element: id, Inkscape label, class, the target of a ``<use>``."""
+    attrs = (
+        ("id", "id"),
+        ("inkscape:label", _LABEL),
+        ("class", "class"),
+        ("href", "href"),
+        ("href", _XLINK_HREF),
+    )
+    named = [f"{key}={elem.get(attr)!r}" for key, attr in attrs if elem.get(attr)]
+    return " ".join([f"<{_tag(elem)}>", *named])
 
 
 def _is_obstacle_label(elem: Any) -> bool:
@@ -248,21 +348,34 @@ def _is_obstacle_label(elem: Any) -> bool:
     return any(w.startswith(("obstacle", "wall")) for w in re.split(r"[\s_]+", words) if w)
 
 
-def _collect(elem: Any, transform: np.ndarray, inside: bool, out: list[Any], source: str) -> None:
+def _collect(elem: Any, transform: np.ndarray, inside: bool, drawing: _Drawing, source: str) -> None:
     tag = _tag(elem)
-    if tag in ("defs", "clipPath", "mask", "symbol", "metadata", "title", "desc"):
-        return  # not drawn (or only drawn through <use>, which is not supported)
+    if tag in _NOT_DRAWN:
+        return
     here = transform @ _parse_transform(elem.get("transform", ""), tag, source)
-    flag = inside or _is_obstacle_label(elem)
+    own = _is_obstacle_label(elem)
+    flag = inside or own
+    n_shapes = len(drawing.shapes)
     if tag in _SHAPES:
-        out.append((elem, here, flag))
+        drawing.shapes.append((elem, here, flag))
+    elif tag in _MARKERS or tag in _UNSUPPORTED:
+        drawing.others.append((elem, flag))
     for child in elem:
-        _collect(child, here, flag, out, source)
+        _collect(child, here, flag, drawing, source)
+    if own:
+        drawing.labelled.append((elem, len(drawing.shapes) > n_shapes))
 
 
 def _parse_transform(text: str, tag: str, source: str) -> np.ndarray:
+    if re.sub(_TRANSFORM, " ", text).replace(",", " ").strip():
+        raise MapFileError(f"{source}: <{tag}> attribute 'transform': cannot parse {_short(text)}")
     m = np.eye(3)
-    for name, args in re.findall(r"(\w+)\s*\(([^)]*)\)", text):
+    for name, args in re.findall(_TRANSFORM, text):
+        if re.sub(_NUMBER, " ", args).replace(",", " ").strip():
+            raise MapFileError(
+                f"{source}: <{tag}> attribute 'transform': {name}({args.strip()}): "
+                f"{args.strip()!r} is not a list of numbers"
+            )
         v = [float(x) for x in re.findall(_NUMBER, args)]
         if name == "translate" and len(v) in (1, 2):
             t = np.array([[1, 0, v[0]], [0, 1, v[1] if len(v) == 2 else 0.0], [0, 0, 1]])
@@ -298,13 +411,18 @@ def _numbers(elem: Any, attr: str, name: str, source: str) -> list[float]:
 
 def _length(elem: Any, attr: str, name: str, source: str, default: float | None = None) -> float:
     raw = elem.get(attr)
-    if raw is None and default is not None:
+    if raw is None:
+        if default is None:
+            raise MapFileError(f"{source}: {name}: attribute {attr!r} missing")
         return default
-    try:
-        return float(str(raw).removesuffix("px"))
-    except ValueError:
-        raise MapFileError(f"{source}: {name}: attribute {attr!r}: {raw!r} is not a number "
-                           "(units other than user units are not supported)") from None
+    text = raw.strip().removesuffix("px")
+    if re.fullmatch(_NUMBER, text):
+        return float(text)
+    if text.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+        why = "is not a finite number"
+    else:
+        why = "is not a number (units other than user units are not supported)"
+    raise MapFileError(f"{source}: {name}: attribute {attr!r}: {raw!r} {why}")
 
 
 def _shape_points(elem: Any, name: str, source: str) -> list[tuple[np.ndarray, bool]]:
@@ -322,9 +440,12 @@ def _shape_points(elem: Any, name: str, source: str) -> list[tuple[np.ndarray, b
     if tag in ("polygon", "polyline"):
         v = _numbers(elem, "points", name, source)
         if len(v) % 2 or len(v) < 4:
-            raise MapFileError(f"{source}: {name}: attribute 'points' needs pairs of numbers (>= 2 points), "
-                               f"got {len(v)} numbers")
-        return [(np.array(v).reshape(-1, 2), tag == "polygon")]
+            raise MapFileError(
+                f"{source}: {name}: attribute 'points' needs pairs of numbers (>= 2 points), "
+                f"got {len(v)} numbers"
+            )
+        pts = np.array(v).reshape(-1, 2)
+        return [(_open_ring(pts), True)] if tag == "polygon" else [(pts, False)]
     return _path_points(elem.get("d", ""), name, source)
 
 

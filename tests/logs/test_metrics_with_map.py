@@ -71,4 +71,49 @@ def test_bad_map_file_is_one_clear_line(tmp_path: Path) -> None:
                           capture_output=True, text=True, env=subprocess_env(), timeout=120)
     assert proc.returncode == 2
     assert proc.stderr.strip().splitlines() == [
-        f"socialnav metrics: error: {bad}: polygons[0]: self-intersecting (edge 0-1 crosses edge 2-3)"]
+        f"socialnav metrics: error: {bad}: polygons[0]: self-intersecting (edge 0-1 crosses edge 2-3)"
+    ]
+
+
+# a wall along y = 1.2 m drawn in centimetres (no data-scale): x from -5 m to 5 m at --map-scale 0.01
+CM_SVG = '<svg xmlns="http://www.w3.org/2000/svg"><line x1="-500" y1="-120" x2="500" y2="-120"/></svg>'
+
+
+def test_map_scale_reads_an_svg_in_other_units(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = _log(tmp_path)
+    (tmp_path / "map.svg").write_text(CM_SVG)
+    row = _json(capsys, [str(log), "--map", str(tmp_path / "map.svg"), "--map-scale", "0.01"])["episodes"][0]
+    assert row[MIN_KEY] == pytest.approx(0.1)  # as the YAML map of the first test
+    # one user unit per metre: the wall is 120 m away, the robot's nearest sample at y = 0.8 m
+    row = _json(capsys, [str(log), "--map", str(tmp_path / "map.svg")])["episodes"][0]
+    assert row[MIN_KEY] == pytest.approx(120 - 0.8 - 0.3)
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--map-scale", "0.01"], "--map-scale needs --map"),
+        (["--map", "MAP", "--map-scale", "0"], "--map-scale must be a finite number > 0, got 0.0"),
+        (["--map", "MAP", "--map-scale", "nan"], "--map-scale must be a finite number > 0, got nan"),
+    ],
+)
+def test_map_scale_errors(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], argv: list[str], message: str
+) -> None:
+    (tmp_path / "map.svg").write_text(CM_SVG)
+    argv = [str(tmp_path / "map.svg") if a == "MAP" else a for a in argv]
+    assert main(["metrics", str(_log(tmp_path)), *argv]) == 2
+    assert capsys.readouterr().err.strip() == f"socialnav metrics: error: {message}"
+
+
+def test_map_without_obstacles_is_an_error_not_nan(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a drawing of clones only used to load as an empty map and score NaN clearances without a word
+    (tmp_path / "use.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg"><use href="#r" x="5"/></svg>')
+    (tmp_path / "dots.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg"><circle r="1"/></svg>')
+    log = str(_log(tmp_path))
+    assert main(["metrics", log, "--map", str(tmp_path / "use.svg")]) == 2
+    assert "use.svg: <use> href='#r': not supported" in capsys.readouterr().err
+    assert main(["metrics", log, "--map", str(tmp_path / "dots.svg")]) == 2
+    assert "dots.svg: no obstacles" in capsys.readouterr().err

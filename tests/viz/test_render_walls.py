@@ -89,10 +89,23 @@ def test_render_cli_with_stored_map_and_with_map_file(tmp_path) -> None:
     assert _count(stored, WALL_FACE) > 5000
     plain = tmp_path / "plain.csv"
     write_trajectories(plain, [dataclasses.replace(_walk(CORRIDOR), static_map=None)])
-    (tmp_path / "map.yaml").write_text("walls: [[[-1, 3.5], [1, 3.5]]]\n"
-                                       "rectangles: [{x: 1, y: -3, width: 0.2, height: 6}]\n")
-    assert main(["render", str(plain), "--map", str(tmp_path / "map.yaml"), "--out", str(tmp_path / "m.png"),
-                 "--quiet"]) == 0
+    (tmp_path / "map.yaml").write_text(
+        "walls: [[[-1, 3.5], [1, 3.5]]]\nrectangles: [{x: 1, y: -3, width: 0.2, height: 6}]\n"
+    )
+    assert (
+        main(
+            [
+                "render",
+                str(plain),
+                "--map",
+                str(tmp_path / "map.yaml"),
+                "--out",
+                str(tmp_path / "m.png"),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     given = np.asarray(Image.open(tmp_path / "m.png").convert("RGB"))
     assert 2000 < _count(given, WALL_FACE) < 0.7 * _count(stored, WALL_FACE)  # one side wall of the two
 
@@ -149,3 +162,32 @@ def test_viewer_javascript_draws_the_walls(tmp_path) -> None:
         counts[name] = json.loads(out.stdout.strip().splitlines()[-1])
     assert counts["walls"] == {"fills": 2, "thick": 1}
     assert counts["open"] == {"fills": 0, "thick": 0}
+
+
+def test_render_cli_map_scale(tmp_path, capsys) -> None:
+    """--map-scale reads an SVG drawn in centimetres as `socialnav metrics` does."""
+    plain = tmp_path / "plain.csv"
+    write_trajectories(plain, [_walk(None)])
+    (tmp_path / "map.yaml").write_text("rectangles: [{x: 1, y: -3, width: 0.2, height: 6}]\n")
+    # the same side wall in cm; SVG y points down, so y = -300 .. 300 flips to 3 .. -3 m
+    (tmp_path / "map.svg").write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg"><rect x="100" y="-300" width="20" height="600"/></svg>'
+    )
+
+    def walls(*argv: str) -> int:
+        out = tmp_path / "out.png"
+        assert main(["render", str(plain), *argv, "--out", str(out), "--quiet"]) == 0
+        return _count(np.asarray(Image.open(out).convert("RGB")), WALL_FACE)
+
+    open_floor, metres = walls(), walls("--map", str(tmp_path / "map.yaml"))
+    assert metres > open_floor + 2000
+    assert walls("--map", str(tmp_path / "map.svg"), "--map-scale", "0.01") == pytest.approx(metres, rel=0.01)
+    # one unit per metre: the wall is 100 m away, beyond the view (the grey of a few anti-aliased pixels)
+    assert walls("--map", str(tmp_path / "map.svg")) < open_floor + 500
+    assert main(["render", str(plain), "--map", str(tmp_path / "map.yaml"), "--map-scale", "0.01"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"socialnav render: error: {tmp_path / 'map.yaml'}: scale applies to SVG maps only (YAML maps state "
+        "their 'units')"
+    )
+    assert main(["render", str(plain), "--map-scale", "0.01"]) == 2
+    assert capsys.readouterr().err.strip() == "socialnav render: error: --map-scale needs --map"

@@ -11,11 +11,14 @@ import argparse
 import json
 import math
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from socialnav._io import json_safe
 from socialnav.logs.readers import ETH_UCY_FPS, FIELDS, MAX_SPEED
 from socialnav.logs.scoring import FORMATS
+
+if TYPE_CHECKING:
+    from socialnav.static_map import StaticMap
 
 EXIT_WARNINGS = 1
 EXIT_ERROR = 2
@@ -57,11 +60,8 @@ def add_metrics_parser(sub: Any) -> None:
     me.add_argument("--goal-tolerance", type=float,
                     help="a 'success' ending farther than this from its goal is reported [m] (default: "
                     "the robot's radius)")
-    me.add_argument("--map", metavar="FILE",
-                    help="static map (YAML or SVG, docs/walls_maps.md) of every episode: the obstacle "
-                    "clearance metrics use it; replaces a map stored in the file (with a note)")
-    me.add_argument("--map-scale", type=float, metavar="M_PER_UNIT",
-                    help="SVG maps: metres per SVG user unit (default: the file's data-scale, else 1)")
+    add_map_arguments(me, "static map (YAML or SVG, docs/walls_maps.md) of every episode: the obstacle "
+                      "clearance metrics use it; replaces a map stored in the file (with a note)")
     me.add_argument("--all-episodes", action="store_true",
                     help="score social metrics on every episode, not only successful ones (logs)")
     me.add_argument("--per-episode", action="store_true",
@@ -69,6 +69,49 @@ def add_metrics_parser(sub: Any) -> None:
     me.add_argument("--json", action="store_true", help="print one JSON object")
     me.add_argument("--quiet", action="store_true", help="print no notes (warnings and errors still show)")
     me.set_defaults(run=cmd_metrics)
+
+
+def add_map_arguments(parser: Any, map_help: str) -> None:
+    """Add ``--map FILE`` and ``--map-scale M_PER_UNIT``, which :func:`map_from_args` reads.
+
+    ``socialnav metrics`` and ``socialnav render`` share them, so that a map file means the same to both.
+
+    Args:
+        parser: The subcommand's parser.
+        map_help: The help of ``--map``: what the command does with the map.
+    """
+    parser.add_argument("--map", metavar="FILE", help=map_help)
+    parser.add_argument(
+        "--map-scale",
+        type=float,
+        metavar="M_PER_UNIT",
+        help="SVG maps: metres per SVG user unit (default: the file's data-scale, else 1)",
+    )
+
+
+def map_from_args(args: argparse.Namespace) -> StaticMap | None:
+    """The map of ``--map`` read at ``--map-scale``, or None without ``--map``.
+
+    Args:
+        args: A command line parsed with :func:`add_map_arguments`'s arguments.
+
+    Returns:
+        The map, or None when no ``--map`` is given.
+
+    Raises:
+        ValueError: ``--map-scale`` without ``--map``, or not a finite number > 0; a
+            :class:`~socialnav.map_files.MapFileError` for the map file itself.
+    """
+    from socialnav.map_files import load_map
+
+    scale = args.map_scale
+    if scale is not None and not (math.isfinite(scale) and scale > 0):
+        raise ValueError(f"--map-scale must be a finite number > 0, got {scale}")
+    if args.map is None:
+        if scale is not None:
+            raise ValueError("--map-scale needs --map")
+        return None
+    return load_map(args.map, scale=scale)
 
 
 def cmd_metrics(args: argparse.Namespace) -> int:
@@ -90,6 +133,7 @@ def cmd_metrics(args: argparse.Namespace) -> int:
         print(f"socialnav metrics: error: --dt must be > 0 and finite, got {args.dt}", file=sys.stderr)
         return EXIT_ERROR
     try:
+        smap = map_from_args(args)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             trajs = []
@@ -103,12 +147,11 @@ def cmd_metrics(args: argparse.Namespace) -> int:
                 if not loaded:
                     raise ValueError(f"{path}: no episodes (the file has a header but no rows)")
                 trajs += loaded
-            if args.map is not None:
-                trajs = _with_map(trajs, args.map, args.map_scale)
-            elif args.map_scale is not None:
-                raise ValueError("--map-scale needs --map")
-            scores = score_trajectories(trajs, require_success=not args.all_episodes,
-                                        goal_tolerance=args.goal_tolerance)
+            if smap is not None:
+                trajs = _with_map(trajs, args.map, smap)
+            scores = score_trajectories(
+                trajs, require_success=not args.all_episodes, goal_tolerance=args.goal_tolerance
+            )
     except (ValueError, KeyError, OSError) as err:
         message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
         print(f"socialnav metrics: error: {message}", file=sys.stderr)
@@ -130,14 +173,11 @@ def cmd_metrics(args: argparse.Namespace) -> int:
     return EXIT_WARNINGS if problems else 0
 
 
-def _with_map(trajs: list[Any], path: str, scale: float | None) -> list[Any]:
-    """The trajectories with the map of ``path`` (an empty map means an open floor)."""
+def _with_map(trajs: list[Any], path: str, smap: StaticMap) -> list[Any]:
+    """The trajectories with ``smap``, read from ``path``; a note counts the stored maps it replaces."""
     import dataclasses
     import warnings
 
-    from socialnav.map_files import load_map
-
-    smap = load_map(path, scale=scale)
     replaced = sum(1 for t in trajs if t.static_map is not None and t.static_map != smap)
     if replaced:
         warnings.warn(f"--map {path} replaces the static map stored with {replaced} episode(s)",

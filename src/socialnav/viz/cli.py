@@ -7,6 +7,8 @@ import re
 import sys
 from pathlib import Path
 
+from socialnav.logs.command import add_map_arguments, map_from_args
+
 FORMATS = ("png", "svg", "gif", "mp4", "html")
 
 
@@ -41,8 +43,11 @@ def add_viz_parsers(sub: argparse._SubParsersAction) -> None:
     rd.add_argument("--eps", type=float, default=0.2, help="M_I threshold of the overlay [m] (default 0.2)")
     rd.add_argument("--tau", type=float, default=1.0, help="M_II horizon of the overlay [s] (default 1)")
     rd.add_argument("--resample", action="store_true", help="files: resample irregular timestamps")
-    rd.add_argument("--map", metavar="FILE", help="draw the walls of this map file (YAML or SVG, "
-                    "docs/walls_maps.md) instead of the map stored with the episode, if any")
+    add_map_arguments(
+        rd,
+        "draw the walls of this map file (YAML or SVG, docs/walls_maps.md) instead of "
+        "the map stored with the episode, if any",
+    )
     rd.add_argument("--quiet", action="store_true", help="no progress bar, no message")
     rd.set_defaults(run=_run_render)
 
@@ -139,13 +144,12 @@ def _run_render(args: argparse.Namespace) -> int:
         fmt = suffix if suffix in FORMATS else "png"
     if args.out and Path(args.out).suffix.lower().lstrip(".") not in ("", fmt):
         raise ValueError(f"--out {args.out} does not end in .{fmt} (the --format)")
+    smap = map_from_args(args)
     traj, default_dir = load_source(args.source, args.episode, args.resample)
-    if args.map:
+    if smap is not None:
         import dataclasses
 
-        from socialnav.map_files import load_map
-
-        traj = dataclasses.replace(traj, static_map=load_map(args.map))
+        traj = dataclasses.replace(traj, static_map=smap)
     name = _safe(str(traj.settings.get("episode", "episode")))
     out = Path(args.out) if args.out else default_dir / f"{name}.{fmt}"
     out.parent.mkdir(parents=True, exist_ok=True)
