@@ -119,6 +119,8 @@ def _restore_sigterm(previous) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``socialnav`` with every subcommand."""
+    from socialnav.presets import shipped_presets  # the help lists them: it cannot go stale
+
     parser = argparse.ArgumentParser(
         prog="socialnav", description="Crowd navigation: simulate, evaluate, train."
     )
@@ -142,7 +144,11 @@ def build_parser() -> argparse.ArgumentParser:
         "numbers, true/false, null, [lists] and strings",
     )
     ev.add_argument("--checkpoint", help="checkpoint of a learned policy (from `socialnav train`)")
-    ev.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
+    ev.add_argument(
+        "--preset",
+        default="wang2022",
+        help=f"a shipped preset ({', '.join(shipped_presets())}; see `socialnav preset list`) or a YAML file",
+    )
     ev.add_argument(
         "--allow-preset-mismatch",
         action="store_true",

@@ -107,9 +107,11 @@ def test_tables_report_wall_collisions_apart() -> None:
     assert summary[0]["collision_rate"] == 0.5 and summary[0]["wall_collision_rate"] == 0.25
     text = table2(summary)
     header = next(line for line in text.splitlines() if line.startswith("| Policy"))
-    assert "| Collision % | of which walls % | Timeout % |" in header
+    assert "| Collision % | Wall collision % | Timeout % |" in header
     assert "| orca | 50.00 | 50.00 | 25.00 | 0.00 |" in text
+    assert "Note: Wall collision %: the episodes that ended in a collision with a wall" in text
+    assert "as a share of all episodes; Collision % counts them too" in text
     # open floors: no column, as in the original protocol's tables
     open_summary = [summarize_group(("orca", "circle_crossing", "invisible"), _rows(runs[:1] * 2, None))]
     assert math.isnan(open_summary[0]["wall_collision_rate"])
-    assert "walls" not in table2(open_summary)
+    assert "Wall collision" not in table2(open_summary)  # neither the column nor its note

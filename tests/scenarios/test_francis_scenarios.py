@@ -174,13 +174,83 @@ def test_bad_settings_are_named(name: str, settings: dict, match: str) -> None:
         make_scenario(name, **settings)
 
 
+# Every width setting of the suite that an agent must pass through, and what it leaves.
+PASSAGES = [
+    ("frontal_approach", "corridor_width"), ("narrow_hallway", "corridor_width"),
+    ("intersection", "corridor_width"), ("blind_corner", "corridor_width"),
+    ("narrow_doorway", "door_width"), ("entering_room", "door_width"), ("exiting_room", "door_width"),
+]
+
+
+@pytest.mark.parametrize("name, width", PASSAGES)
+def test_a_passage_no_wider_than_an_agent_is_refused(name: str, width: str) -> None:
+    # discomfort_dist 0: the robot's start and goal need only its radius, so that the width check
+    # alone decides (with the default 0.2 m a narrow corridor also crowds the robot's start)
+    cls = type(make_scenario(name)).__name__
+    for value in (0.3, 0.6):
+        with pytest.raises(ValueError, match=rf"^{cls}.{width} must be > 0.6 m, the diameter of the largest "
+                           rf"agent that goes through it \(robot_radius = 0.3 m\): a narrower one blocks the "
+                           rf"route to the goal in {name}; widen {width} or make the agents smaller, got "
+                           rf"{value}$"):
+            make_scenario(name, discomfort_dist=0.0, **{width: value})
+    # larger humans raise the least width
+    with pytest.raises(ValueError, match=rf"{width} must be > 1 m, the diameter .* \(human_radius = 0.5 m\)"):
+        make_scenario(name, discomfort_dist=0.0, human_radius=0.5, **{width: 0.9})
+    if name not in ("narrow_hallway", "frontal_approach", "intersection", "blind_corner"):
+        with pytest.raises(ValueError, match=r"the largest of random_radius_range = 0.5 m"):
+            make_scenario(name, randomize_attributes=True, **{width: 0.9})
+    # just wider: accepted, and its episodes generate
+    make_scenario(name, discomfort_dist=0.0, **{width: 0.62}).episodes("test", range(2)).validate()
+
+
+def test_the_obstruction_must_leave_the_robot_a_way_past_the_group() -> None:
+    # the group is 1.4 m across: beside it in a 2.4 m corridor at most 0.5 m is left, less than the
+    # robot's 0.6 m, though the group itself fits between the walls
+    with pytest.raises(ValueError, match=r"^PedestrianObstruction.corridor_width must be > 2.6 m, or the "
+                       r"standing group \(1.4 m across, group_offset = 0 m\) may leave no gap beside it "
+                       r"wider than the robot's diameter \(2 · robot_radius = 0.6 m\) and block the route to "
+                       r"the goal in pedestrian_obstruction; widen the corridor or make the agents smaller, "
+                       r"got 2.4$"):
+        make_scenario("pedestrian_obstruction", corridor_width=2.4, group_offset=0.0)
+    with pytest.raises(ValueError, match=r"must be > 2.6 m.*got 2.6$"):
+        make_scenario("pedestrian_obstruction", corridor_width=2.6)
+    with pytest.raises(ValueError, match=r"must be > 3.4 m.*robot_radius = 1 m"):
+        make_scenario("pedestrian_obstruction", robot_radius=0.5)
+    # just wide enough: in every episode one side of the group leaves the robot room to pass
+    sc = make_scenario("pedestrian_obstruction", corridor_width=2.7, group_offset=0.3)
+    batch = sc.episodes("test", range(N))
+    x = batch.human_start[:, :, 0]
+    left = x.min(axis=1) - sc.human_radius + sc.corridor_width / 2
+    right = sc.corridor_width / 2 - x.max(axis=1) - sc.human_radius
+    assert np.all(np.maximum(left, right) > 2 * sc.robot_radius)
+    assert np.min(np.maximum(left, right)) < 2 * sc.robot_radius + 0.1  # and no more than needed
+
+
+def test_pillars_keep_clear_of_the_robots_start_and_goal() -> None:
+    # drawn over the whole circle, pillars would land on the robot's start or goal in some episodes
+    sc = make_scenario("circle_crossing_obstacles", obstacle_area=1.0)
+    batch = sc.episodes("test", range(N))
+    batch.validate()
+    for i in range(N):
+        for point in (batch.robot_start[i], batch.robot_goal[i]):
+            assert batch.static_map(i).distance(point) >= sc.robot_radius + sc.discomfort_dist - 1e-12
+
+
 def test_impossible_placement_says_so_after_too_many_rejections() -> None:
     crowded = make_scenario("narrow_doorway", n_humans=40, area_width=2.0, max_attempts=50)
     with pytest.raises(ScenarioGenerationError, match=r"narrow_doorway: (start|goal) of human \d+: no "
-                       r"position clear of the other agents and the walls after 50 attempts"):
+                       r"position clear of the other agents and the walls after 50 attempts.*\(reduce "
+                       r"n_humans or enlarge the area\)$"):
         crowded.episodes("test", range(4))
-    with pytest.raises(ScenarioGenerationError, match=r"circle_crossing_obstacles: pillar \d+"):
+    # pillars that do not fit: the advice is about the pillars, not the humans
+    with pytest.raises(ScenarioGenerationError, match=r"^circle_crossing_obstacles: pillar \d+: no position "
+                       r"clear of the other pillars and the robot's start and goal after 20 attempts in \d+ "
+                       r"episode\(s\) \(seeds .*\); the pillars do not fit: 30 of obstacle_size = 0.6 m, "
+                       r"kept 2 · robot_radius \+ discomfort_dist = 0.8 m apart, in the disc of radius "
+                       r"obstacle_area · circle_radius = 2 m \(reduce n_obstacles or obstacle_size, or "
+                       r"enlarge obstacle_area or circle_radius\)$") as caught:
         make_scenario("circle_crossing_obstacles", n_obstacles=30, max_attempts=20).episodes("test", range(2))
+    assert "n_humans" not in str(caught.value)
 
 
 def test_batch_validation_refuses_a_start_inside_an_obstacle() -> None:

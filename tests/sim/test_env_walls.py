@@ -65,3 +65,56 @@ def test_vector_env_carries_obstacles_in_observations_and_final_observations():
     for b in done:
         assert info["final_info"]["collision_kind"][b] == "obstacle"
         np.testing.assert_array_equal(info["final_obs"][b]["obstacles"], [[-2.0, 0.0, 2.0, 0.0]])
+
+
+@pytest.mark.parametrize("scenario, edges", [("narrow_hallway", None), ("circle_crossing_obstacles", 12)])
+def test_a_scenario_with_walls_shows_them_by_default(scenario, edges):
+    from socialnav.scenarios import make_scenario
+
+    own = make_scenario(scenario)
+    expected = len(own.layout.edges()[0]) if edges is None else edges  # the layout's, or 3 pillars x 4
+    assert own.max_obstacle_edges == expected > 0
+    env = gym.make("socialnav/CircleCrossing-v0", scenario=scenario, preset="francis2023").unwrapped
+    check_env(env, skip_render_check=True)
+    for seed in range(3):
+        obs, _ = env.reset(seed=seed)
+        assert obs["obstacles"].shape == (expected, 4)
+        assert obs["obstacle_mask"].sum() == expected  # every edge of the episode's map, no padding
+        smap = env._world.static_maps[0]
+        np.testing.assert_array_equal(obs["obstacles"], np.hstack(smap.edges()))
+    with pytest.raises(ValueError, match=rf"scenario '{scenario}'\'s maps have up to {expected} edges, more "
+                                         r"than max_obstacle_edges = 2"):
+        SocialNavEnv(scenario=scenario, max_obstacle_edges=2)
+
+
+def test_a_learner_observation_blind_to_the_walls_warns():
+    from socialnav.sim import LearnerObservation, ObservationSettings
+
+    with pytest.warns(UserWarning, match=r"scenario 'narrow_hallway' has walls, but "
+                                         r"ObservationSettings.obstacle_points is 0"):
+        LearnerObservation(gym.make("socialnav/CircleCrossing-v0", scenario="narrow_hallway"))
+    with pytest.warns(UserWarning, match="obstacle_points is 0"):
+        LearnerObservation(gym.make("socialnav/CircleCrossing-v0", static_map=ACROSS.to_dict()))
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        LearnerObservation(gym.make("socialnav/CircleCrossing-v0", scenario="narrow_hallway"),
+                           ObservationSettings(obstacle_points=16))
+        LearnerObservation(gym.make("socialnav/CircleCrossing-v0"))  # an open floor: nothing to see
+
+
+def test_every_francis2023_scenario_makes_an_env_with_the_evaluations_crowd():
+    from socialnav.evaluate.plan import cell_scenario, plan_cells
+    from socialnav.presets import load_preset
+
+    preset = load_preset("francis2023")
+    cells = [c for c in plan_cells(preset) if c.visibility == "invisible"]
+    assert len(cells) == 9
+    for cell in cells:
+        env = gym.make("socialnav/CircleCrossing-v0", scenario=cell.scenario, preset=preset,
+                       split="test").unwrapped
+        evaluated = cell_scenario(preset, cell)
+        assert env._cfg.scenario == evaluated, cell.scenario  # the same crowd, robot and geometry
+        obs, _ = env.reset(seed=0)
+        assert obs["human_mask"].sum() == evaluated.n_humans and obs["obstacle_mask"].any()

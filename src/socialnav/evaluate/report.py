@@ -29,6 +29,11 @@ TABLE2_COLUMNS = [
     ("M_V≥ (s)", "m5_walking_speed.duration_s_ge@", "invisible", 2),
 ]
 SIDE_SCENARIOS = ("passing", "overtaking", "crossing")
+#: Under a Table II with walls: its wall column is easily read as a share of the collisions.
+WALL_COLLISION_NOTE = (
+    "Wall collision %: the episodes that ended in a collision with a wall or another obstacle, as a share "
+    "of all episodes; Collision % counts them too"
+)
 
 
 def write_reports(
@@ -192,12 +197,17 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
 
 
 def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[str] = ()) -> str:
-    """Table II (pooled) and one per multi-human scenario; ``notes`` (see :func:`table_notes`) follow."""
+    """Table II (pooled) and one per multi-human scenario; ``notes`` (see :func:`table_notes`) follow.
+
+    A run with walls gets a "Wall collision %" column and :data:`WALL_COLLISION_NOTE`.
+    """
+    walls = has_walls(summary)
+    notes = [*notes, WALL_COLLISION_NOTE] if walls else notes
     header = [
         "Policy",
         "Success %",
         "Collision %",
-        *(["of which walls %"] if has_walls(summary) else []),
+        *(["Wall collision %"] if walls else []),
         "Timeout %",
         "Nav. time (s)",
         *[c[0] for c in TABLE2_COLUMNS],

@@ -19,6 +19,9 @@ __all__ = ["ScenarioGenerationError", "rejection_sample"]
 
 #: draw(rng_rows, key, rows) -> candidates [(len(rows), 2) m]; rng_rows covers exactly `rows`.
 DrawFn = Callable[[EpisodeRandom, tuple[int, ...], np.ndarray], np.ndarray]
+#: What to change when a human cannot be placed (the default advice of a failed placement).
+CROWDED = ("the scene is too crowded for the space, radii and discomfort_dist (reduce n_humans or enlarge "
+           "the area)")
 
 
 class ScenarioGenerationError(RuntimeError):
@@ -38,6 +41,8 @@ def rejection_sample(
     max_attempts: int,
     what: str,
     accept: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+    clear_of: str | None = None,
+    advice: str = CROWDED,
 ) -> np.ndarray:
     """Draw a position per episode until it clears every reference disc.
 
@@ -57,6 +62,9 @@ def rejection_sample(
         what: Name of the quantity for error messages (e.g. "circle_crossing start of human 3").
         accept: Optional further test ``accept(rows, candidates) -> (len(rows),) bool`` (e.g. clear of
             the walls); a candidate must pass it too.
+        clear_of: What a position must clear, for the error (default: the other agents, and the walls
+            with ``accept``).
+        advice: What the error tells the user to change (default: fewer humans or a larger area).
 
     Returns:
         Accepted positions [(B, 2) m].
@@ -84,16 +92,17 @@ def rejection_sample(
         rows = rows[~ok]
     if rows.size == 0:
         return out
-    raise ScenarioGenerationError(
-        failure_message(what, max_attempts, rng.seeds[rows], walls=accept is not None))
+    raise ScenarioGenerationError(failure_message(
+        what, max_attempts, rng.seeds[rows], walls=accept is not None, clear_of=clear_of, advice=advice))
 
 
-def failure_message(what: str, max_attempts: int, seeds: np.ndarray, walls: bool = False) -> str:
+def failure_message(what: str, max_attempts: int, seeds: np.ndarray, walls: bool = False, *,
+                    clear_of: str | None = None, advice: str = CROWDED) -> str:
     """The error of a placement that failed in the episodes of ``seeds`` (Python and native paths)."""
     shown = ", ".join(str(s) for s in seeds[:5]) + (", ..." if seeds.size > 5 else "")
-    clear_of = "the other agents and the walls" if walls else "the other agents"
+    if clear_of is None:
+        clear_of = "the other agents and the walls" if walls else "the other agents"
     return (
         f"{what}: no position clear of {clear_of} after {max_attempts} attempts in "
-        f"{seeds.size} episode(s) (seeds {shown}); the scene is too crowded for the space, "
-        "radii and discomfort_dist (reduce n_humans or enlarge the area)"
+        f"{seeds.size} episode(s) (seeds {shown}); {advice}"
     )

@@ -73,6 +73,7 @@ class _Hallway(WalledScenario):
     """A straight corridor along y; the human walks head-on from (o, R) to (o, −R)."""
 
     fixed_n_humans = True
+    passages = ("corridor_width",)
 
     n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
     corridor_width: float = param(1.8, "distance between the two walls", unit="m", gt=0)
@@ -148,6 +149,30 @@ class PedestrianObstruction(WalledScenario):
         if self.randomize_attributes:
             raise ValueError("PedestrianObstruction.randomize_attributes must be False (the group's "
                              "formation is designed for the fixed radius)")
+        least = self.least_corridor_width()
+        if not self.corridor_width > least:
+            span = self.group_span()
+            self.refuse("corridor_width", f"must be > {least:.3g} m, or the standing group "
+                        f"({span[1] - span[0]:.3g} m across, group_offset = {self.group_offset:g} m) may "
+                        "leave no gap beside it wider than the robot's diameter (2 · robot_radius = "
+                        f"{2 * self.robot_radius:g} m) and block the route to the goal in {self.name}; "
+                        "widen the corridor or make the agents smaller")
+
+    def group_span(self) -> tuple[float, float]:
+        """The group's extent across the corridor [m], edge to edge, relative to its centre."""
+        xs = [x for x, _ in self.FORMATION[: self.n_humans]]
+        return min(xs) - self.human_radius, max(xs) + self.human_radius
+
+    def least_corridor_width(self) -> float:
+        """The corridor width [m] whose wider gap beside the group is at worst the robot's diameter.
+
+        The wider gap, w/2 + max(lo + c, −hi − c), is least where lo + c = −hi − c, or at the end of
+        [−group_offset, group_offset] nearest to that point.
+        """
+        lo, hi = self.group_span()
+        c = float(np.clip(-(lo + hi) / 2, -self.group_offset, self.group_offset))
+        # rounded so that a width of exactly the least (2.6 m by default) is refused despite float noise
+        return round(2 * (2 * self.robot_radius - max(lo + c, -hi - c)), 9)
 
     def walls(self) -> list[np.ndarray]:
         """The corridor's walls [m]: (2, 2) segments."""
@@ -181,6 +206,8 @@ class NarrowDoorway(WalledScenario):
     y = ±(R + 1)) makes the door the only way through. Human j walks against the robot (from
     y ∈ [1, R + 0.5] to y ∈ [−R − 0.5, −1]) for even j and with it for odd j.
     """
+
+    passages = ("door_width",)
 
     n_humans: int = param(4, "humans per episode, alternately against and with the robot", ge=0)
     door_width: float = param(1.2, "width of the door", unit="m", gt=0)
@@ -217,6 +244,7 @@ class BlindCorner(WalledScenario):
     """
 
     fixed_n_humans = True
+    passages = ("corridor_width",)
 
     n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
     corridor_width: float = param(2.0, "width of both legs", unit="m", gt=0)
@@ -257,6 +285,7 @@ class Intersection(WalledScenario):
     """
 
     fixed_n_humans = True
+    passages = ("corridor_width",)
 
     n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
     corridor_width: float = param(2.0, "width of both corridors", unit="m", gt=0)
@@ -281,6 +310,7 @@ class _Room(WalledScenario):
 
     fixed_n_humans = True
     entering: ClassVar[bool] = False
+    passages = ("door_width",)
 
     n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
     room_width: float = param(4.0, "inside width of the room", unit="m", gt=0)
@@ -345,7 +375,8 @@ class CircleCrossingObstacles(WalledScenario):
 
     Pillar p: centre uniform in the disc of radius ``obstacle_area``·R, random rotation, redrawn while
     closer than 2·circumradius + 2·robot_radius + discomfort_dist to a placed pillar, so that the
-    robot fits between any two.
+    robot fits between any two, or closer than circumradius + robot_radius + discomfort_dist to the
+    robot's start or goal (the clearance a fixed layout must leave them).
     """
 
     n_humans: int = param(5, "humans per episode", ge=0)
@@ -357,6 +388,11 @@ class CircleCrossingObstacles(WalledScenario):
     def layout(self) -> StaticMap | None:
         """None: the pillars are drawn per episode (:meth:`maps_per_episode`)."""
         return None  # drawn per episode
+
+    @property
+    def max_obstacle_edges(self) -> int:
+        """Four edges per square pillar."""
+        return 4 * self.n_obstacles
 
     def maps_per_episode(self, rng: EpisodeRandom, indices: np.ndarray) -> tuple[StaticMap, ...]:
         """Square pillars drawn per episode inside radius ``obstacle_area`` · R, clear of each other.
@@ -381,12 +417,23 @@ class CircleCrossingObstacles(WalledScenario):
             rad, ang = reach * np.sqrt(u[:, 0]), 2 * np.pi * u[:, 1]
             return np.stack([rad * np.cos(ang), rad * np.sin(ang)], axis=1)
 
+        robot = np.array(self.robot_endpoints())
+        robot_clearance = circum + self.robot_radius + self.discomfort_dist
+
+        def clear_of_robot(rows: np.ndarray, points: np.ndarray) -> np.ndarray:
+            return np.all(np.linalg.norm(points[:, None] - robot[None], axis=-1) >= robot_clearance, axis=1)
+
+        margin = 2 * self.robot_radius + self.discomfort_dist
+        advice = (f"the pillars do not fit: {p} of obstacle_size = {self.obstacle_size:g} m, kept 2 · "
+                  f"robot_radius + discomfort_dist = {margin:g} m apart, in the disc of radius obstacle_area "
+                  f"· circle_radius = {reach:g} m (reduce n_obstacles or obstacle_size, or enlarge "
+                  "obstacle_area or circle_radius)")
         for q in range(p):
             centres[:, q] = rejection_sample(
                 rng, draw, stream=STREAM_OBSTACLES, j=1 + q, radius=np.full(b, circum),
-                ref_pos=centres[:, :q], ref_radius=np.full((b, q), circum),
-                margin=2 * self.robot_radius + self.discomfort_dist,
-                max_attempts=self.max_attempts, what=f"{self.name}: pillar {q}")
+                ref_pos=centres[:, :q], ref_radius=np.full((b, q), circum), margin=margin,
+                max_attempts=self.max_attempts, what=f"{self.name}: pillar {q}", accept=clear_of_robot,
+                clear_of="the other pillars and the robot's start and goal", advice=advice)
         half = self.obstacle_size / 2
         corners = np.array([[-half, -half], [half, -half], [half, half], [-half, half]])
         c, s = np.cos(angles), np.sin(angles)

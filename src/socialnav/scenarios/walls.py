@@ -16,6 +16,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -62,8 +63,37 @@ class WalledScenario(Scenario):
     """A scenario whose episodes have walls: subclasses give `layout`, `robot_endpoints` and `flows`.
 
     The layout is fixed by the settings unless `maps_per_episode` is overridden. Settings whose
-    layout covers the robot's start or goal are refused on construction (ValueError naming them).
+    layout covers the robot's start or goal, or whose `passages` are too narrow for an agent, are
+    refused on construction (ValueError naming them).
     """
+
+    #: The width settings of the passages (doors, corridors) that the robot and the humans go through.
+    passages: ClassVar[tuple[str, ...]] = ()
+
+    def cross_check(self) -> None:
+        """Also refuses a passage that the largest agent going through it does not fit in.
+
+        The least width is that agent's diameter, excluded: at exactly the diameter it would touch both
+        sides, with no room to steer.
+
+        Raises:
+            ConfigError: naming the width setting, its value and the least width.
+        """
+        super().cross_check()
+        radius, setting = self.widest_agent()
+        for name in self.passages:
+            if not getattr(self, name) > 2.0 * radius:
+                self.refuse(name, f"must be > {2.0 * radius:g} m, the diameter of the largest agent that "
+                            f"goes through it ({setting} = {radius:g} m): a narrower one blocks the route "
+                            f"to the goal in {self.name}; widen {name} or make the agents smaller")
+
+    def widest_agent(self) -> tuple[float, str]:
+        """The largest radius among the robot and the humans [m], and the setting that gives it."""
+        if self.randomize_attributes:
+            human = (self.random_radius_range[1], "the largest of random_radius_range")
+        else:
+            human = (self.human_radius, "human_radius")
+        return max((self.robot_radius, "robot_radius"), human, key=lambda pair: pair[0])
 
     def __post_init__(self) -> None:
         """Validate settings, then check that the robot's start and goal clear the fixed layout."""
@@ -93,6 +123,16 @@ class WalledScenario(Scenario):
     def layout(self) -> StaticMap | None:
         """The map of every episode (built once per scenario object), or None when drawn per episode."""
         return StaticMap.from_polygons(self.walls())
+
+    @property
+    def max_obstacle_edges(self) -> int:
+        """The most obstacle edges an episode's map can have: the fixed layout's.
+
+        Scenarios that draw their maps per episode override it (the Gymnasium envs pad the observed
+        edges to it).
+        """
+        layout = self.layout
+        return 0 if layout is None else len(layout.edges()[0])
 
     def walls(self) -> list[np.ndarray]:
         """The polygons of the fixed layout [m] (see `box` and `polyline`)."""

@@ -111,22 +111,27 @@ class _EnvConfig:
                 f"static_map must be a StaticMap, its dict form or None, got {type(static_map).__name__}"
             )
         self.static_map = static_map or None
-        edges = 0 if self.static_map is None else len(self.static_map.edges()[0])
-        if max_obstacle_edges is None:
-            max_obstacle_edges = edges
-        if not isinstance(max_obstacle_edges, int | np.integer) or max_obstacle_edges < 0:
+        if max_obstacle_edges is not None and (
+            not isinstance(max_obstacle_edges, int | np.integer) or max_obstacle_edges < 0
+        ):
             raise ValueError(f"max_obstacle_edges must be an integer >= 0, got {max_obstacle_edges!r}")
-        if edges > max_obstacle_edges:
-            raise ValueError(
-                f"static_map has {edges} edges, more than max_obstacle_edges = {max_obstacle_edges}"
-            )
-        self.max_edges = int(max_obstacle_edges)
         if preset is not None:
             scenario_params, world = _preset_defaults(preset, scenario, scenario_params, world)
         self.settings = (
             world if isinstance(world, WorldSettings) else from_dict(WorldSettings, world, "world")
         )
         self.scenario = make_scenario(scenario, **(scenario_params or {}))
+        # A scenario with walls of its own (which win over static_map, as in World) bounds its maps' edges.
+        own = int(getattr(self.scenario, "max_obstacle_edges", 0))
+        edges = max(own, 0 if self.static_map is None else len(self.static_map.edges()[0]))
+        #: The episodes have walls: the observation should show them.
+        self.has_walls = edges > 0
+        if max_obstacle_edges is None:
+            max_obstacle_edges = edges
+        if edges > max_obstacle_edges:
+            whose = f"scenario {scenario!r}'s maps have up to" if own == edges else "static_map has"
+            raise ValueError(f"{whose} {edges} edges, more than max_obstacle_edges = {max_obstacle_edges}")
+        self.max_edges = int(max_obstacle_edges)
         self.split = split
         self.action_set = action_set
         self.v_pref = float(self.scenario.robot_v_pref)
@@ -155,14 +160,13 @@ def _preset_defaults(preset: Any, scenario: str, scenario_params: dict | None, w
     from socialnav.presets import Preset, load_preset
 
     p = preset if isinstance(preset, Preset) else load_preset(preset)
-    single = scenario in p.evaluation.single_human or make_scenario(scenario).n_episodes is not None
-    params: dict[str, Any] = {
-        "n_humans": 1 if single else p.evaluation.n_humans,
-        "robot_v_pref": p.robot.v_pref,
-        "robot_radius": p.robot.radius,
-    }
+    default = make_scenario(scenario)
+    single = scenario in p.evaluation.single_human or default.n_episodes is not None
+    params: dict[str, Any] = {"robot_v_pref": p.robot.v_pref, "robot_radius": p.robot.radius}
     if single:
-        params["repeats"] = p.evaluation.repeats
+        params.update(n_humans=1, repeats=p.evaluation.repeats)
+    elif not default.fixed_n_humans:  # as the evaluation's cells: a designed crowd keeps its own count
+        params["n_humans"] = p.evaluation.n_humans
     params.update(scenario_params or {})
     if world is None:
         world = p.world

@@ -12,6 +12,7 @@ is read in the robot frame and rotated to the world frame before it is stepped. 
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import gymnasium as gym
@@ -38,9 +39,20 @@ def env_config(env: Any) -> Any:
 
 
 def make_transform(cfg: Any, settings: ObservationSettings | None) -> ObservationTransform:
-    """The observation transform of a world configuration ``cfg`` under ``settings``."""
+    """The observation transform of a world configuration ``cfg`` under ``settings``.
+
+    Warns (UserWarning) where the episodes have walls and ``settings`` shows none of them.
+    """
+    settings = settings or ObservationSettings()
+    if getattr(cfg, "has_walls", False) and not settings.obstacle_points:
+        warnings.warn(
+            f"scenario {cfg.scenario.name!r} has walls, but ObservationSettings.obstacle_points is 0: the "
+            "learner's observation has no obstacle keys, so a policy trained on it cannot see the walls "
+            "(set obstacle_points, e.g. 16; docs/walls_learned.md)",
+            stacklevel=3,
+        )
     return ObservationTransform(
-        settings or ObservationSettings(), cfg.scenario.n_humans, cfg.settings.kinematics, cfg.action_set,
+        settings, cfg.scenario.n_humans, cfg.settings.kinematics, cfg.action_set,
         static_map=getattr(cfg, "static_map", None),
     )
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
+from socialnav.presets import shipped_presets
 
 
 def add_train_parser(sub: argparse._SubParsersAction) -> None:
@@ -23,7 +24,11 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         help=f"{', '.join(learned_policy_names('value'))} (value-based, docs/training.md); "
         f"{', '.join(learned_policy_names('ppo'))} (PPO, docs/ppo.md)",
     )
-    tr.add_argument("--preset", default="wang2022", help="wang2022, crowdnav or a YAML file")
+    tr.add_argument(
+        "--preset",
+        default="wang2022",
+        help=f"a shipped preset ({', '.join(shipped_presets())}; see `socialnav preset list`) or a YAML file",
+    )
     tr.add_argument(
         "--out", help="run directory (default runs/train/<preset>-<policy>-s<seed>); resumed if it exists"
     )

@@ -29,7 +29,8 @@ def add_viz_parsers(sub: argparse._SubParsersAction) -> None:
         "(optional when the file holds one episode)",
     )
     rd.add_argument("--format", choices=FORMATS, help="default: from --out's suffix, else png")
-    rd.add_argument("--out", help="output file (default: <source dir>/renders/<episode>.<format>)")
+    rd.add_argument("--out", help="output file (default: <result dir>/renders/<scenario>_<visibility>_<index>"
+                    ".<format>; for a trajectory file ./<episode key>.<format>)")
     rd.add_argument(
         "--overlay",
         nargs="+",
