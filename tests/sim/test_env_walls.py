@@ -118,3 +118,17 @@ def test_every_francis2023_scenario_makes_an_env_with_the_evaluations_crowd():
         assert env._cfg.scenario == evaluated, cell.scenario  # the same crowd, robot and geometry
         obs, _ = env.reset(seed=0)
         assert obs["human_mask"].sum() == evaluated.n_humans and obs["obstacle_mask"].any()
+
+
+def test_static_map_may_be_a_map_file(tmp_path):
+    from socialnav.map_files import save_map
+
+    path = tmp_path / "across.yaml"
+    save_map(path, ACROSS)
+    for given in (path, str(path)):
+        env = SocialNavEnv(static_map=given)
+        assert env._cfg.static_map == ACROSS
+        obs, _ = env.reset(seed=0)
+        np.testing.assert_array_equal(obs["obstacles"], [[-2.0, 0.0, 2.0, 0.0]])
+    with pytest.raises(ValueError, match=r"missing\.yaml: no such map file"):
+        SocialNavEnv(static_map=tmp_path / "missing.yaml")

@@ -25,6 +25,7 @@ Gymnasium's own ``SyncVectorEnv`` gives (``key`` / ``_key`` masks, ``final_obs``
 from __future__ import annotations
 
 import dataclasses
+import os
 from typing import Any
 
 import gymnasium as gym
@@ -99,16 +100,21 @@ class _EnvConfig:
         split: str,
         action_set: str,
         preset: Any = None,
-        static_map: StaticMap | dict | None = None,
+        static_map: StaticMap | dict | str | os.PathLike | None = None,
         max_obstacle_edges: int | None = None,
     ):
         if action_set not in ("continuous", "discrete"):
             raise ValueError(f"action_set must be 'continuous' or 'discrete', got {action_set!r}")
         if isinstance(static_map, dict):
             static_map = StaticMap.from_dict(static_map)
+        elif isinstance(static_map, str | os.PathLike):
+            from socialnav.map_files import load_map
+
+            static_map = load_map(static_map)
         if static_map is not None and not isinstance(static_map, StaticMap):
             raise TypeError(
-                f"static_map must be a StaticMap, its dict form or None, got {type(static_map).__name__}"
+                "static_map must be a StaticMap, its dict form, a map file path or None, got "
+                f"{type(static_map).__name__}"
             )
         self.static_map = static_map or None
         if max_obstacle_edges is not None and (
@@ -196,6 +202,10 @@ class SocialNavEnv(gym.Env):
             (and, for the single-human sweeps, repeats); ``scenario_params``/``world`` override it.
         render_mode: None, "rgb_array" (``render()`` returns the frame) or "human" (a window, where
             a display exists); drawn by socialnav.viz (needs the ``viz`` extra).
+        static_map: One map for every episode: a StaticMap, its dict form or a map file (YAML or
+            SVG, :func:`socialnav.map_files.load_map`). A scenario with walls of its own keeps its maps.
+        max_obstacle_edges: Edges in the observation's ``obstacles`` (zero-padded); default: the
+            most an episode's map can have (the map's, or the walled scenario's bound).
     """
 
     metadata = {"render_modes": available_render_modes(), "render_fps": 4}
@@ -209,7 +219,7 @@ class SocialNavEnv(gym.Env):
         action_set: str = "continuous",
         preset: Any = None,
         render_mode: str | None = None,
-        static_map: StaticMap | dict | None = None,
+        static_map: StaticMap | dict | str | os.PathLike | None = None,
         max_obstacle_edges: int | None = None,
     ):
         self._recorder = None
@@ -344,7 +354,7 @@ class SocialNavVectorEnv(VectorEnv):
         split: str = "train",
         action_set: str = "continuous",
         preset: Any = None,
-        static_map: StaticMap | dict | None = None,
+        static_map: StaticMap | dict | str | os.PathLike | None = None,
         max_obstacle_edges: int | None = None,
     ):
         self._cfg = _EnvConfig(scenario, scenario_params, world, split, action_set, preset, static_map,
