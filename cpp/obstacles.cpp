@@ -95,6 +95,28 @@ bool inside_solid(const ObstacleView& obstacles, Vec2 c) {
   return false;
 }
 
+bool disc_touches_obstacles(const ObstacleView& obstacles, Vec2 c, double radius) {
+  const int n = obstacles.count;
+  const double* __restrict px = obstacles.edges;
+  const double* __restrict py = px + n;
+  const double* __restrict ex = px + 2 * n;
+  const double* __restrict ey = px + 3 * n;
+  const double* __restrict inv = px + 4 * n;
+  // Branch-free over every edge (a wall's return face gives the same distance as its own): the
+  // compiler vectorises it, where the per-edge culling of swept_disc_hits_obstacles branches.
+  double best = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < n; ++i) {
+    const double tx = c.x - px[i], ty = c.y - py[i];
+    const double r = std::min(std::max((tx * ex[i] + ty * ey[i]) * inv[i], 0.0), 1.0);
+    const double dx = tx - r * ex[i], dy = ty - r * ey[i];
+    best = std::min(best, dx * dx + dy * dy);
+  }
+  if (best < radius * radius) return true;
+  for (int i = 0; i < n; ++i)
+    if (obstacles.vertex[i].solid) return inside_solid(obstacles, c);
+  return false;
+}
+
 double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius) {
   double best = std::numeric_limits<double>::infinity();
   bool any_solid = false;

@@ -93,6 +93,11 @@ double segment_segment_distance(Vec2 p0, Vec2 p1, Vec2 a, Vec2 b);
 // True when c lies inside one of the solid polygons (even-odd rule; segments contain nothing).
 bool inside_solid(const ObstacleView& obstacles, Vec2 c);
 
+// True when a disc of `radius` centred at c overlaps an obstacle: closer than `radius` to an edge, or
+// centred inside a solid polygon (swept_disc_hits_obstacles(obstacles, c, c, radius) up to rounding at
+// the boundary). The world's test of a loaded episode's starts and goals.
+bool disc_touches_obstacles(const ObstacleView& obstacles, Vec2 c, double radius);
+
 // Smallest clearance between a disc of radius `radius` whose centre moves from p0 to p1 in a straight
 // line and the obstacles: min distance from the path to any edge minus the radius, or -radius where
 // the path ends inside a solid polygon; +inf without obstacles. < 0 means the disc touched an

@@ -377,6 +377,23 @@ void World::observe(const ObservationBuffers& o) {
   });
 }
 
+namespace {
+
+// 0 when every agent's start and goal disc clears the obstacles, else -(1 + 2a) for the start of agent a
+// or -(2 + 2a) for its goal (agent 0 is the robot). Kept out of line: World::load_one runs inside the
+// refill pass over every slot, which it should not make larger.
+[[gnu::noinline]] int covered_start_or_goal(const ObstacleView& walls, const double* pos, const double* goal,
+                                            const double* radius, int agents) {
+  for (int a = 0; a < agents; ++a) {
+    const Vec2 start{pos[2 * a], pos[2 * a + 1]}, end{goal[2 * a], goal[2 * a + 1]};
+    if (disc_touches_obstacles(walls, start, radius[a])) return -(1 + 2 * a);
+    if (disc_touches_obstacles(walls, end, radius[a])) return -(2 + 2 * a);
+  }
+  return 0;
+}
+
+}  // namespace
+
 void World::load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, int32_t* failure,
                      GenerationScratch& scratch) {
   const int A = config_.agents;
@@ -414,20 +431,14 @@ void World::load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, in
   for (int a = 0; a < 2 * A; ++a) vel[a] = 0.0;
   for (int a = 0; a < A; ++a) arrival[a] = std::numeric_limits<double>::quiet_NaN();
   // The slot's map may be one the scenario does not know (the World's static_map): an agent that would
-  // start inside an obstacle, or head for a goal inside one, makes the episode fail instead of
-  // running (code < 0: -(1 + 2a) start of agent a, -(2 + 2a) its goal; agent 0 is the robot).
+  // start inside an obstacle, or head for a goal inside one, makes the episode fail instead of running.
   const ObstacleView walls = obstacles(static_cast<int>(b));
   if (walls.count > 0) {
-    for (int a = 0; a < A; ++a) {
-      const Vec2 start{pos[2 * a], pos[2 * a + 1]}, goal{gl[2 * a], gl[2 * a + 1]};
-      const int code = swept_disc_hits_obstacles(walls, start, start, rad[a]) ? -(1 + 2 * a)
-                       : swept_disc_hits_obstacles(walls, goal, goal, rad[a]) ? -(2 + 2 * a)
-                                                                              : 0;
-      if (code != 0) {
-        *failure = code;
-        buf_.status[b] = kIdle;
-        return;
-      }
+    const int code = covered_start_or_goal(walls, pos, gl, rad, A);
+    if (code != 0) {
+      *failure = code;
+      buf_.status[b] = kIdle;
+      return;
     }
   }
   buf_.theta[b] = M_PI / 2;
