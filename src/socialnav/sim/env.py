@@ -110,7 +110,7 @@ class _EnvConfig:
         elif isinstance(static_map, str | os.PathLike):
             from socialnav.map_files import load_map
 
-            static_map = load_map(static_map)
+            static_map = load_map(os.fspath(static_map))
         if static_map is not None and not isinstance(static_map, StaticMap):
             raise TypeError(
                 "static_map must be a StaticMap, its dict form, a map file path or None, got "
