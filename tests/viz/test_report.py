@@ -175,6 +175,14 @@ def test_md_tables_to_html_hand_made():
     )
 
 
+def test_the_notes_under_the_tables_reach_the_html():
+    md = "### T\n\n| a |\n|---|\n| 1 |\n\nNote: Wall collision %: a share of <all> episodes\n"
+    assert md_tables_to_html(md) == (
+        "<h3>T</h3><table class='results'><thead><tr><th>a</th></tr></thead><tbody><tr><td>1</td></tr>"
+        "</tbody></table>\n<p class='note'>Note: Wall collision %: a share of &lt;all&gt; episodes</p>"
+    )
+
+
 def canvas_pixels(path: Path) -> np.ndarray:
     return np.asarray(Image.open(path).convert("RGB")).astype(int)
 

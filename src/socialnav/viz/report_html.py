@@ -23,7 +23,8 @@ def md_tables_to_html(md: str) -> str:
         md: Markdown with ``### title`` lines, each followed by a pipe table.
 
     Returns:
-        One ``<h3>`` and ``<table class='results'>`` per table; cells HTML-escaped.
+        One ``<h3>`` and ``<table class='results'>`` per table, and a ``<p class='note'>`` per
+        ``Note:`` line; text HTML-escaped.
     """
     parts, title, rows = [], None, []
 
@@ -45,6 +46,10 @@ def md_tables_to_html(md: str) -> str:
             title, rows = line[4:].strip(), []
         elif line.startswith("|") and not set(line) <= set("|-: "):
             rows.append([c.strip() for c in line.strip().strip("|").split("|")])
+        elif line.startswith("Note: "):  # a caveat under the tables, e.g. what the wall column counts
+            flush()
+            title, rows = None, []
+            parts.append(f"<p class='note'>{html.escape(line)}</p>")
     flush()
     return "\n".join(parts)
 
@@ -72,6 +77,7 @@ h3{font-size:1em;margin-bottom:.3em}
 table.results{border-collapse:collapse;font-size:.85em;margin-bottom:1em}
 table.results th,table.results td{border:1px solid #ddd;padding:.25em .5em;text-align:right}
 table.results th:first-child,table.results td:first-child{text-align:left}
+p.note{color:#555;font-size:.85em;margin:.3em 0}
 table.results thead th{background:#f4f4f4}
 table.mini{font-size:.8em;margin-top:.5em}table.mini td{padding:0 .6em 0 0}
 figure{display:inline-block;margin:.5em 1em .5em 0;vertical-align:top}
