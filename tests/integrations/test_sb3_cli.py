@@ -135,3 +135,21 @@ def test_discrete_and_unrecorded_models(tmp_path, capsys):
     assert policy["record"] == "inferred" and policy["observation"]["dtype"] == "float64"
     assert policy["observation"]["max_humans"] == 5  # the raw 5-human layout, padded on passing
     assert all(np.isfinite(r["success_rate"]) for r in json.loads(stdout)["rows"])
+
+
+def test_a_model_blind_to_walls_is_refused_among_walls_unless_allowed(tmp_path, capsys):
+    # trained on an open floor without obstacle points, at francis2023's robot (v_pref 1 m/s, holonomic)
+    model5 = train(tmp_path / "open.zip", preset="crowdnav", observation=FIVE)
+    walls = ["--preset", "francis2023", "--scenario", "narrow_hallway", "--episodes", "2", "--no-progress",
+             "--visibility", "invisible"]
+    code, _, err = evaluate(capsys, "--policy", f"sb3:{model5}", "--out", str(tmp_path / "refused"), *walls)
+    assert code != 0
+    assert ("walls: the model's observation has no obstacle points (obstacle_points = 0), preset "
+            "'francis2023' evaluates scenarios with walls (") in err and "narrow_hallway" in err
+    assert "--allow-preset-mismatch" in err
+    out = tmp_path / "allowed"
+    code, _, err = evaluate(capsys, "--policy", f"sb3:{model5}", "--out", str(out), "--allow-preset-mismatch",
+                            *walls)
+    assert code == 0, err
+    recorded = json.dumps(json.loads((out / "manifest.json").read_text()))
+    assert "obstacle_points = 0" in recorded  # the mismatch is recorded in the results

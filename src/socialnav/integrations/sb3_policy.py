@@ -263,7 +263,8 @@ def _infer_record(path: Path, model: Any, preset: Any) -> dict[str, Any]:
 
 
 def _check(path: Path, model: Any, record: dict[str, Any], preset: Any, asked: dict[str, Any]) -> list[str]:
-    """Refuses hard mismatches (both sides named); returns the allowable ones (dt)."""
+    """Refuses hard mismatches (both sides named); returns the allowable ones (dt, walls it cannot see)."""
+    from socialnav.policies.learned_entries import walled_scenarios
     from socialnav.sim.env import observation_and_action_spaces
 
     world = preset.world
@@ -298,6 +299,13 @@ def _check(path: Path, model: Any, record: dict[str, Any], preset: Any, asked: d
     mismatch = []
     if not math.isclose(float(record["dt"]), world.dt, rel_tol=1e-9):
         mismatch.append(f"dt {record['dt']!r} in the model file, {world.dt!r} in {where}")
+    walled = walled_scenarios((*preset.evaluation.multi_human, *preset.evaluation.single_human))
+    if walled and not settings.get("obstacle_points"):
+        # as for the project's checkpoints trained without walls: the model's input has no obstacles
+        mismatch.append(
+            f"walls: the model's observation has no obstacle points (obstacle_points = 0), {where} evaluates "
+            f"scenarios with walls ({', '.join(walled)}) that it cannot see"
+        )
     return mismatch
 
 

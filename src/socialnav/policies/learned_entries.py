@@ -113,7 +113,7 @@ class PresetMismatchError(ValueError):
     """A checkpoint trained for another world than the preset it is evaluated under."""
 
 
-def _walled_scenarios(names: Any) -> list[str]:
+def walled_scenarios(names: Any) -> list[str]:
     """The names among ``names`` whose registered scenario has walls (unknown names are left out)."""
     from socialnav.scenarios.registry import UnknownScenarioError, get_scenario
     from socialnav.scenarios.walls import WalledScenario
@@ -137,8 +137,8 @@ def _walls_mismatch(trained: Any, preset: Any) -> list[str]:
     training = trained.get("training") if isinstance(trained, dict) else None
     if not isinstance(training, dict) or "scenarios" not in training:
         return []  # the checkpoint does not record what it was trained on
-    evaluated = _walled_scenarios((*preset.evaluation.multi_human, *preset.evaluation.single_human))
-    if not evaluated or _walled_scenarios(training["scenarios"]):
+    evaluated = walled_scenarios((*preset.evaluation.multi_human, *preset.evaluation.single_human))
+    if not evaluated or walled_scenarios(training["scenarios"]):
         return []
     return [
         f"walls: the checkpoint was trained without walls (on {', '.join(map(str, training['scenarios']))}), "
