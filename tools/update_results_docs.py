@@ -103,7 +103,8 @@ def results_block() -> str:
         "2,000 test episodes, invisible robot); paper: its Table II (it has no SARL, MP-RGL or "
         "policy-gradient row; CrowdNav++ is the attention-graph policy trained here with PPO, docs/ppo.md). "
         "M_IV, the jerk, "
-        "is the spec's forward difference; with central differences the value-based baselines land in the "
+        "is Wang et al.'s forward difference (docs/metrics.md); with central differences the value-based "
+        "baselines land in the "
         "paper's band (docs/reproduction_jerk.md).",
     ]
     return "\n".join(lines)

@@ -63,10 +63,11 @@ def test_refuses_other_policy_naming_both(tmp_path):
     path = save_checkpoint(tmp_path / "x.pt", "cadrl", build("cadrl"), {}, {})
     with pytest.raises(CheckpointError) as err:
         load_checkpoint(path, "sarl")
-    assert str(err.value) == "checkpoint x.pt holds policy 'cadrl' (input 13), expected 'sarl' (input 13)"
+    assert str(err.value) == ("checkpoint x.pt holds policy 'cadrl', expected 'sarl' (load it as 'cadrl', "
+                              "e.g. --policy cadrl)")
     path = save_checkpoint(tmp_path / "om.pt", "om_sarl", build("om_sarl"), {}, {})
     with pytest.raises(
-        CheckpointError, match=r"holds policy 'om_sarl' \(input 61\), expected 'sarl' \(input 13\)"
+        CheckpointError, match=r"holds policy 'om_sarl', expected 'sarl' \(load it as 'om_sarl'"
     ):
         load_checkpoint(path, "sarl")
 
@@ -74,7 +75,7 @@ def test_refuses_other_policy_naming_both(tmp_path):
 def test_refuses_other_input_size_naming_both(tmp_path):
     path = save_checkpoint(tmp_path / "s.pt", "sarl", build("sarl", input_dim=14), {}, {})
     with pytest.raises(
-        CheckpointError, match=r"holds policy 'sarl' \(input 14\), expected 'sarl' \(input 13\)"
+        CheckpointError, match=r"holds policy 'sarl' with input size 14 per human, expected 13"
     ):
         load_checkpoint(path, "sarl")
     assert load_checkpoint(path, "sarl", expected_input_dim=14).input_dim == 14
@@ -125,3 +126,20 @@ def test_a_network_with_non_finite_weights_is_refused_naming_the_tensor(tmp_path
     assert code != 0
     assert "non-finite" in capsys.readouterr().err
     assert not (out / "summary.json").exists()
+
+
+def test_a_stable_baselines3_model_given_as_a_checkpoint_points_to_sb3(tmp_path):
+    import zipfile
+
+    path = tmp_path / "ppo.zip"
+    with zipfile.ZipFile(path, "w") as archive:  # the layout of SB3's model.save: a "data" member and more
+        archive.writestr("data", "{}")
+        archive.writestr("policy.pth", b"\0")
+    with pytest.raises(CheckpointError, match=r"a Stable-Baselines3 model: evaluate it with --policy sb3:"):
+        load_checkpoint(path, "sarl")
+    other = tmp_path / "other.zip"
+    with zipfile.ZipFile(other, "w") as archive:
+        archive.writestr("weights.bin", b"\0")
+    with pytest.raises(CheckpointError) as err:
+        load_checkpoint(other, "sarl")
+    assert "damaged or not a torch file" in str(err.value) and "sb3" not in str(err.value)

@@ -303,3 +303,38 @@ def test_ppo_trains_on_cuda(tmp_path):
     s = dataclasses.replace(load_ppo_settings("ppo_smoke"), device="cuda")
     result = train_ppo("wang2022", tmp_path / "run", s, progress=False, log=lambda _: None)
     assert result.finished and result.updates == 4
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--policy", "nosuch", "--config", "ppo_smoke"],
+     "--policy 'nosuch': not a policy that `socialnav train` trains; value-based: cadrl, "),
+    (["--policy", "orca"], "--policy 'orca': not a policy that `socialnav train` trains"),
+    (["--policy", "sarl", "--config", "ppo_smoke"],
+     "--config ppo_smoke: a PPO config, and sarl trains with the value-based trainer (its shipped configs: "
+     "smoke)"),
+    (["--policy", "crowdnav_pp", "--config", "smoke"],
+     "--config smoke: a value-based training config, and crowdnav_pp trains with the PPO trainer"),
+    (["--policy", "crowdnav_pp", "--config", "ppo_smoke", "--env-steps", "0"],
+     "--env-steps must be >= 1, got 0"),
+    (["--policy", "crowdnav_pp", "--config", "ppo_smoke", "--collection-batch", "-3"],
+     "--collection-batch must be >= 1, got -3"),
+    (["--policy", "sarl", "--config", "smoke", "--rl-episodes", "-1"], "--rl-episodes must be >= 0, got -1"),
+])
+def test_command_line_mistakes_are_named_by_their_option(argv, message, tmp_path, capsys):
+    from socialnav.cli import main
+
+    out = tmp_path / "never"
+    assert main(["train", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and ".yaml" not in err  # the option, not a config file the user never wrote
+    assert not out.exists()
+
+
+def test_a_budget_of_no_update_is_refused_in_a_config(tmp_path, capsys):
+    from socialnav.cli import main
+
+    config = tmp_path / "zero.yaml"
+    config.write_text("total_env_steps: 0\n")
+    argv = ["train", "--policy", "crowdnav_pp", "--config", str(config), "--out", str(tmp_path / "r")]
+    assert main(argv) == 2
+    assert "total_env_steps must be > 0, got 0" in capsys.readouterr().err

@@ -76,8 +76,40 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr.set_defaults(run=_run)
 
 
+#: The shipped training configs of each trainer (``--config NAME``).
+_SHIPPED_CONFIGS = {"value": ("smoke",), "ppo": ("ppo", "ppo_repo", "ppo_smoke")}
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    """Refuses what the command line itself gets wrong, naming the option (before any config is read)."""
+    from socialnav.config import ConfigError
+
+    if args.policy not in learned_policy_names():
+        raise ConfigError(
+            f"--policy {args.policy!r}: not a policy that `socialnav train` trains; value-based: "
+            f"{', '.join(learned_policy_names('value'))}; PPO: {', '.join(learned_policy_names('ppo'))}"
+        )
+    trainer = get_learned_spec(args.policy).trainer
+    for other, names in _SHIPPED_CONFIGS.items():
+        if other != trainer and args.config in names:
+            kind = "a PPO" if other == "ppo" else "a value-based training"
+            raise ConfigError(
+                f"--config {args.config}: {kind} config, and {args.policy} trains with the "
+                f"{'PPO' if trainer == 'ppo' else 'value-based'} trainer (its shipped configs: "
+                f"{', '.join(_SHIPPED_CONFIGS[trainer])})"
+            )
+    for option, value, least in (
+        ("--env-steps", getattr(args, "env_steps", None), 1),
+        ("--collection-batch", getattr(args, "collection_batch", None), 1),
+        ("--rl-episodes", getattr(args, "rl_episodes", None), 0),
+    ):
+        if value is not None and value < least:
+            raise ConfigError(f"{option} must be >= {least}, got {value}")
+
+
 def _run(args: argparse.Namespace) -> int:
-    if args.policy in learned_policy_names() and get_learned_spec(args.policy).trainer == "ppo":
+    _check_args(args)
+    if get_learned_spec(args.policy).trainer == "ppo":
         from socialnav.train.ppo import train_ppo_from_args
 
         return train_ppo_from_args(args)

@@ -70,7 +70,7 @@ class PPOSettings(Settings):
     n_envs: int = setting(128, "environments stepped in lockstep (split over the training mix)", ge=1)
     rollout_steps: int = setting(30, "steps per environment per update (CrowdNav++: 30)", ge=1)
     total_env_steps: int = setting(
-        10_000_000, "training budget [robot steps, summed over environments]", ge=0
+        10_000_000, "training budget [robot steps, summed over environments; at least one update]", gt=0
     )
     epochs: int = setting(5, "passes over each rollout", ge=1)
     minibatches: int = setting(2, "minibatches per pass, each a set of whole environment sequences", ge=1)

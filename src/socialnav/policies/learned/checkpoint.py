@@ -169,8 +169,11 @@ def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any
     except OSError as err:
         raise CheckpointError(f"checkpoint {path} cannot be read: {_one_line(err)}") from None
     except Exception as err:  # unpickling a damaged or foreign file fails in many ways
+        hint = ""
+        if _saved_by_sb3(path):
+            hint = f"; it is a Stable-Baselines3 model: evaluate it with --policy sb3:{path}"
         raise CheckpointError(
-            f"checkpoint {path} is damaged or not a torch file ({type(err).__name__}: {_one_line(err)})"
+            f"checkpoint {path} is damaged or not a torch file ({type(err).__name__}: {_one_line(err)}){hint}"
         ) from None
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
         raise CheckpointError(f"{path} is not a socialnav learned-policy checkpoint (format {FORMAT!r})")
@@ -181,6 +184,17 @@ def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any
                 f"checkpoint {path}: field {key!r} must be a {kind.__name__}, got {_describe(value)}"
             )
     return payload
+
+
+def _saved_by_sb3(path: Path) -> bool:
+    """Whether ``path`` is a zip archive as Stable-Baselines3's ``model.save`` writes (a ``data`` member)."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return "data" in archive.namelist()
+    except (OSError, zipfile.BadZipFile):
+        return False
 
 
 def _describe(value: Any) -> str:
@@ -223,8 +237,8 @@ def load_checkpoint(
     Raises:
         CheckpointError: missing, empty, damaged or not a socialnav checkpoint (a field of the wrong
             type is named), or it holds another policy or input size; the
-            message names both, e.g. "checkpoint x.pt holds policy 'cadrl' (input 13), expected
-            'sarl' (input 13)".
+            message names both, e.g. "checkpoint x.pt holds policy 'cadrl', expected 'sarl' (load it
+            as 'cadrl', e.g. --policy cadrl)".
     """
     path = Path(path)
     payload = _read_payload(path, map_location)
@@ -234,10 +248,15 @@ def load_checkpoint(
     got, got_dim = payload["policy"], payload["input_dim"]
     if expected_input_dim == -1 and got == want:
         expected_input_dim = got_dim
-    if got != want or got_dim != expected_input_dim:
+    if got != want:
         raise CheckpointError(
-            f"checkpoint {path.name} holds policy {got!r} (input {got_dim}), "
-            f"expected {expected_policy!r} (input {expected_input_dim})"
+            f"checkpoint {path.name} holds policy {got!r}, expected {expected_policy!r} (load it as {got!r}, "
+            f"e.g. --policy {got})"
+        )
+    if got_dim != expected_input_dim:
+        raise CheckpointError(
+            f"checkpoint {path.name} holds policy {got!r} with input size {got_dim} per human, expected "
+            f"{expected_input_dim}"
         )
     try:
         model = build(got, **payload["model_kwargs"])
