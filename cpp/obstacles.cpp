@@ -111,10 +111,7 @@ bool disc_touches_obstacles(const ObstacleView& obstacles, Vec2 c, double radius
     const double dx = tx - r * ex[i], dy = ty - r * ey[i];
     best = std::min(best, dx * dx + dy * dy);
   }
-  if (best < radius * radius) return true;
-  for (int i = 0; i < n; ++i)
-    if (obstacles.vertex[i].solid) return inside_solid(obstacles, c);
-  return false;
+  return best < radius * radius || inside_solid(obstacles, c);  // inside_solid skips wall segments
 }
 
 double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius) {

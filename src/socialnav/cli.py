@@ -119,7 +119,7 @@ def _restore_sigterm(previous) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``socialnav`` with every subcommand."""
-    from socialnav.presets import shipped_presets  # the help lists them: it cannot go stale
+    from socialnav.configs import shipped_presets  # the help lists them: it cannot go stale
 
     parser = argparse.ArgumentParser(
         prog="socialnav", description="Crowd navigation: simulate, evaluate, train."

@@ -14,6 +14,7 @@ from typing import Any, ClassVar
 
 import yaml
 
+from socialnav.configs import shipped_presets
 from socialnav.scenarios.seeds import SPLIT_BASES
 from socialnav.settings import ConfigError, Settings, from_dict, setting
 from socialnav.sim.settings import VISIBILITIES, WorldSettings
@@ -148,13 +149,6 @@ class Preset(Settings):
     def policy_params(self, policy: str) -> dict[str, Any]:
         """The preset's parameter defaults of ``policy`` (a copy; empty where it sets none)."""
         return dict(self.policies.get(policy, {}))
-
-
-def shipped_presets() -> list[str]:
-    """The names of the presets shipped with the package, sorted."""
-    return sorted(
-        p.name[:-5] for p in resources.files("socialnav.configs").iterdir() if p.name.endswith(".yaml")
-    )
 
 
 def shipped_preset_text(name: str) -> str:

@@ -338,3 +338,18 @@ def test_a_budget_of_no_update_is_refused_in_a_config(tmp_path, capsys):
     argv = ["train", "--policy", "crowdnav_pp", "--config", str(config), "--out", str(tmp_path / "r")]
     assert main(argv) == 2
     assert "total_env_steps must be > 0, got 0" in capsys.readouterr().err
+
+
+def test_a_users_config_of_the_other_trainer_is_named_as_such(tmp_path, capsys):
+    from socialnav.cli import main
+
+    ppo = tmp_path / "mine.yaml"
+    ppo.write_text("n_envs: 4\nrollout_steps: 8\n")  # PPO settings only
+    assert main(["train", "--policy", "sarl", "--config", str(ppo), "--out", str(tmp_path / "r")]) == 2
+    assert (f"--config {ppo}: a PPO config, and sarl trains with the value-based trainer (its shipped "
+            "configs: smoke)") in capsys.readouterr().err
+    both = tmp_path / "threads.yaml"
+    both.write_text("threads: 1\n")  # a setting of both trainers: not refused for either
+    assert main(["train", "--policy", "sarl", "--config", str(both), "--rl-episodes", "-1",
+                 "--out", str(tmp_path / "r")]) == 2
+    assert "--rl-episodes must be >= 0" in capsys.readouterr().err

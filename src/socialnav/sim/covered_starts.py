@@ -29,7 +29,7 @@ def first_covered(
 
     Returns:
         None when every real agent's start and goal clear the map (distance >= radius), as the core's
-        test (``swept_disc_hits_obstacles`` with a path of length 0) decides it.
+        test (``disc_touches_obstacles``) decides it.
     """
     if not smap:
         return None

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from socialnav.configs import shipped_presets
 from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
-from socialnav.presets import shipped_presets
 
 
 def add_train_parser(sub: argparse._SubParsersAction) -> None:
@@ -76,8 +76,30 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr.set_defaults(run=_run)
 
 
-#: The shipped training configs of each trainer (``--config NAME``).
-_SHIPPED_CONFIGS = {"value": ("smoke",), "ppo": ("ppo", "ppo_repo", "ppo_smoke")}
+def _config_trainer(config: str) -> str | None:
+    """The trainer whose settings a training config's keys are: "value", "ppo", or None.
+
+    None where the keys fit both (e.g. only ``threads``) or neither (the trainer's own loader then names
+    the unknown ones), or the file cannot be read (its loader says why).
+    """
+    import dataclasses
+
+    import yaml
+
+    from socialnav.config import ConfigError
+    from socialnav.train.config import TrainSettings, _resolve_config
+    from socialnav.train.ppo_config import PPOSettings
+
+    try:
+        data = yaml.safe_load(_resolve_config(config).read_text(encoding="utf-8"))
+    except (ConfigError, OSError, UnicodeDecodeError, yaml.YAMLError):
+        return None
+    if not isinstance(data, dict):
+        return None
+    keys = {str(k) for k in data}
+    fits = [t for t, cls in (("value", TrainSettings), ("ppo", PPOSettings))
+            if keys <= {f.name for f in dataclasses.fields(cls)}]
+    return fits[0] if len(fits) == 1 else None
 
 
 def _check_args(args: argparse.Namespace) -> None:
@@ -90,14 +112,16 @@ def _check_args(args: argparse.Namespace) -> None:
             f"{', '.join(learned_policy_names('value'))}; PPO: {', '.join(learned_policy_names('ppo'))}"
         )
     trainer = get_learned_spec(args.policy).trainer
-    for other, names in _SHIPPED_CONFIGS.items():
-        if other != trainer and args.config in names:
-            kind = "a PPO" if other == "ppo" else "a value-based training"
-            raise ConfigError(
-                f"--config {args.config}: {kind} config, and {args.policy} trains with the "
-                f"{'PPO' if trainer == 'ppo' else 'value-based'} trainer (its shipped configs: "
-                f"{', '.join(_SHIPPED_CONFIGS[trainer])})"
-            )
+    other = None if args.config is None else _config_trainer(args.config)
+    if other is not None and other != trainer:
+        from socialnav.train.config import shipped_train_configs
+
+        kind = "a PPO" if other == "ppo" else "a value-based training"
+        own = [name for name in shipped_train_configs() if _config_trainer(name) == trainer]
+        raise ConfigError(
+            f"--config {args.config}: {kind} config, and {args.policy} trains with the "
+            f"{'PPO' if trainer == 'ppo' else 'value-based'} trainer (its shipped configs: {', '.join(own)})"
+        )
     for option, value, least in (
         ("--env-steps", getattr(args, "env_steps", None), 1),
         ("--collection-batch", getattr(args, "collection_batch", None), 1),
