@@ -78,14 +78,14 @@ def covered_message(
 
 
 def raise_first_covered(
-    scenario: str, smap: StaticMap | None, slots: np.ndarray, episodes: np.ndarray, seeds: np.ndarray,
+    scenario: str, smap: StaticMap, slots: np.ndarray, episodes: np.ndarray, seeds: np.ndarray,
     start: np.ndarray, goal: np.ndarray, radius: np.ndarray, mask: np.ndarray,
 ) -> None:
     """Raises :class:`MapError` for the first of the episodes whose start or goal ``smap`` covers.
 
     Args:
         scenario: The scenario's name.
-        smap: The slots' map (None: nothing to check).
+        smap: The slots' map.
         slots: (E,) the slots the episodes were loaded into.
         episodes: (E,) their indices in the split.
         seeds: (E,) their seeds.
@@ -94,8 +94,6 @@ def raise_first_covered(
         radius: (E, A) radii [m].
         mask: (E, A) real agents.
     """
-    if smap is None:
-        return
     found = first_covered(smap, start, goal, radius, mask)
     if found is None:
         return

@@ -347,7 +347,7 @@ class World:
         self.arrival[slots] = np.nan
         self.end_step[slots] = -1
         self.collision_kind[slots] = 0
-        if maps is None:
+        if maps is None and self._maps.fixed is not None:
             # Episodes drawn without the world's map (the scenario's own maps are checked by
             # EpisodeBatch.validate): refused before they start where it covers a start or goal.
             raise_first_covered(
