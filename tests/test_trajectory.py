@@ -173,10 +173,26 @@ def test_resample_per_agent_timestamps(tmp_path: Path) -> None:
     for t in (0.05, 0.35, 0.65):
         lines.append(f"0,{t},1,{2 * t},1,0.3,2,1,1")
     (traj,) = read_trajectories(_csv(tmp_path, lines), resample=True, dt=0.1)
-    # common span [0.05, 0.6]: grid 0.05, 0.15, ..., 0.55
-    np.testing.assert_allclose(traj.positions[:, 0, 0], 0.05 + 0.1 * np.arange(6), atol=1e-12)
-    np.testing.assert_allclose(traj.positions[:, 1, 0], 2 * (0.05 + 0.1 * np.arange(6)), atol=1e-12)
-    assert traj.settings["t0"] == pytest.approx(0.05)
+    # the robot's whole run [0, 0.6]: grid 0, 0.1, ..., 0.6; the human, first stamped at 0.05, is absent at 0
+    grid = 0.1 * np.arange(7)
+    np.testing.assert_allclose(traj.positions[:, 0, 0], grid, atol=1e-12)
+    np.testing.assert_array_equal(traj.present[:, 1], [False] + [True] * 6)
+    np.testing.assert_allclose(traj.positions[1:, 1, 0], 2 * grid[1:], atol=1e-12)
+    assert "t0" not in traj.settings and traj.n_steps * traj.dt == pytest.approx(0.6)
+
+
+def test_resample_keeps_the_robots_whole_run(tmp_path: Path) -> None:
+    # a jittered clock (median step 0.51 s) over 2 s: the step is fitted to 0.5 s so that the grid ends on
+    # the robot's last sample, instead of stopping at 3 x 0.51 = 1.53 s; the human's track ends early
+    lines = [HEADER]
+    for t in (0.0, 0.52, 0.98, 1.5, 2.0):
+        lines.append(f"0,{t},0,0,{t},0.3,0,2,1")
+    for t in (0.0, 0.5, 1.0, 1.49):
+        lines.append(f"0,{t},1,3,{t},0.3,3,2,1")
+    (traj,) = read_trajectories(_csv(tmp_path, lines), resample=True)
+    assert traj.dt == pytest.approx(0.5) and traj.n_steps * traj.dt == pytest.approx(2.0)
+    np.testing.assert_allclose(traj.positions[:, 0, 1], [0.0, 0.5, 1.0, 1.5, 2.0], atol=1e-12)
+    np.testing.assert_array_equal(traj.present[:, 1], [True, True, True, False, False])
 
 
 # ------------------------------------------------------------------------------- bad input

@@ -58,8 +58,10 @@ def test_contiguous_episodes_split_by_rows(episodes_file: Path, workers: int) ->
     assert len(serial.rows) == 7
     assert [r["episode"] for r in parallel.rows] == [r["episode"] for r in serial.rows]
     _same_rows(parallel.rows, serial.rows)
-    _same_rows(parallel.summaries, serial.summaries)  # scenes summarised by the workers
-    assert [s["scope"] for s in serial.summaries] == ["scene"] * 7 + ["dataset"]
+    _same_rows(parallel.summaries, serial.summaries)  # the file's one scene, split between the workers
+    # a file without scene keys is one scene (not one per episode), as for tables
+    summaries = [(s["scope"], s["scenario"], s["episodes"]) for s in serial.summaries]
+    assert summaries == [("scene", "episodes", 7)]
 
 
 def test_scenes_across_shares_are_summarised_whole(episodes_file: Path, tmp_path: Path) -> None:
@@ -99,8 +101,9 @@ def test_interleaved_episodes_split_by_keys(episodes_file: Path, tmp_path: Path)
     _same_rows(parallel.rows, serial.rows)
     _same_rows(parallel.summaries, serial.summaries)
     # and the episodes score as they did before the rows were moved
-    before = {r["episode"]: {**r, "source": None} for r in _score(episodes_file, 0).rows}
-    _same_rows([{**r, "source": None} for r in parallel.rows], [before[r["episode"]] for r in parallel.rows])
+    before = {r["episode"]: {**r, "source": None, "scene": None} for r in _score(episodes_file, 0).rows}
+    _same_rows([{**r, "source": None, "scene": None} for r in parallel.rows],
+               [before[r["episode"]] for r in parallel.rows])
 
 
 def test_row_range_outside_the_file_is_an_error(episodes_file: Path) -> None:

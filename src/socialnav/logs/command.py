@@ -50,13 +50,16 @@ def add_metrics_parser(sub: Any) -> None:
                     help="long format: interpolate irregular timestamps (other formats always do, with a "
                     "note)")
     me.add_argument("--max-gap", type=float, help="longest gap in a track bridged by interpolation [s] "
-                    "(default: twice the median step)")
+                    "(default: twice each agent's own median step when resampling; on a regular clock, "
+                    "missing samples stay absent unless it is given)")
     me.add_argument("--fps", type=float, default=ETH_UCY_FPS,
                     help=f"eth-ucy: frame numbers per second (default {ETH_UCY_FPS:g}: 10 frames = 0.4 s)")
     me.add_argument("--max-speed", type=float, default=MAX_SPEED,
                     help=f"reject faster steps as implausible [m/s] (default {MAX_SPEED:g}; 'inf' disables)")
-    me.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m", help="csv/parquet positions")
-    me.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], default="s", help="csv/parquet times")
+    me.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m",
+                    help="csv/parquet: of positions, radii, goals, and speeds (per second)")
+    me.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], default="s",
+                    help="csv/parquet: of the time column")
     me.add_argument("--goal-tolerance", type=float,
                     help="a 'success' ending farther than this from its goal is reported [m] (default: "
                     "the robot's radius)")
@@ -191,10 +194,12 @@ def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
     rows = scores.rows
     ids = ("source", "scene", "episode", "ego", "mode", "outcome")
     keys = [k for k in rows[0] if k not in ids]
+    several_files = len({row["source"] for row in rows}) > 1
     if per_episode or len(rows) <= _PER_EPISODE_LIMIT:
         for row in rows:
             who = f", ego {row['ego']}" if row["mode"] == "human_as_robot" else ""
-            print(f"episode {row['episode']} ({row['outcome']}{who}):")
+            of = f" of {row['source']}" if several_files else ""
+            print(f"episode {row['episode']}{of} ({row['outcome']}{who}):")
             for k in keys:
                 print(f"  {k:60s} {row[k]:.4g}")
     words = {"all": "all episodes", "success": "successful episodes", "known_outcome": "known outcomes"}

@@ -178,7 +178,7 @@ def read_eth_ucy(
     _check_speeds(fail, t, agent, xy, row_arr, max_speed, "x")
     radius = _assumed_radius(path, radius, "ETH/UCY files have no radii")
     scene_ids, grid = scene_from_tracks(name=path.stem, source=str(path), t=t, agent=agent, xy=xy,
-                                        rows=row_arr, dt=dt, max_gap=max_gap, fail=fail)
+                                        rows=row_arr, dt=dt, max_gap=max_gap, time_column="frame", fail=fail)
     n = len(scene_ids)
     scene = _make_scene(path, path.stem, scene_ids, grid, np.full(n, radius), np.full(n, np.nan),
                         np.full((n, 2), np.nan), None, "unknown", {"format": "eth-ucy"})
@@ -250,8 +250,10 @@ def read_table(
         dt: Grid step [s] (see :func:`scene_from_tracks`).
         max_gap: Longest bridged gap [s] (see :func:`scene_from_tracks`).
         max_speed: Implausible-speed limit [m/s].
-        length_unit: ``m``, ``cm`` or ``mm`` (positions, velocities, radii and goals are converted).
-        time_unit: ``s``, ``ms``, ``us`` or ``ns``.
+        length_unit: ``m``, ``cm`` or ``mm``: of positions, radii and goals, and of speeds (``vx``,
+            ``vy``, ``v_pref``), which are read as this unit per second whatever ``time_unit`` is.
+        time_unit: ``s``, ``ms``, ``us`` or ``ns``: of the time column only (loggers stamp with
+            millisecond or nanosecond clocks but report speeds per second).
 
     Returns:
         One :class:`Scene` per scene key, in order of first appearance.
@@ -279,6 +281,18 @@ def read_table(
     if missing:
         raise TrajectoryFormatError(f"{path}: no column for {missing}; columns present: {names}; map them "
                                     "with --columns, e.g. --columns time=stamp,id=track,x=px,y=py")
+    for pair in (("gx", "gy"), ("vx", "vy")):
+        alone = [f for f in pair if f in mapping]
+        if len(alone) == 1:
+            other = pair[1 - pair.index(alone[0])]
+            raise TrajectoryFormatError(f"{path}: column {mapping[alone[0]]!r} ({alone[0]}) has no {other} "
+                                        f"beside it; map both {pair[0]} and {pair[1]} or neither (columns "
+                                        f"present: {names})")
+    doubled = [c for c in dict.fromkeys(mapping.values()) if list(mapping.values()).count(c) > 1]
+    if doubled:
+        fields = [f for f, c in mapping.items() if c == doubled[0]]
+        raise TrajectoryFormatError(f"{path}: column {doubled[0]!r} is mapped to {' and '.join(fields)}; "
+                                    "each field needs its own column")
     if table.num_rows == 0:
         raise TrajectoryFormatError(f"{path}: no data rows")
     lscale, tscale = _LENGTH[length_unit], _TIME[time_unit]
@@ -308,14 +322,16 @@ def read_table(
     for s in np.argsort(first, kind="stable"):
         rows = np.flatnonzero(inverse == s)
         name = str(scene_key[rows[0]])
+        robot_id = _robot_id(path, name, agent, roles, rows, robot, fail, mapping)
         ids, grid = scene_from_tracks(name=name, source=str(path), t=t[rows], agent=agent[rows], xy=xy[rows],
                                       rows=rows, velocity=None if vel is None else vel[rows], dt=dt,
-                                      max_gap=max_gap, fail=fail)
+                                      max_gap=max_gap, anchor=robot_id, time_column=mapping["time"],
+                                      fail=fail)
         a_of_row = np.searchsorted(ids, agent[rows])
         per_agent = {}
         for f in ("radius", "gx", "gy", "v_pref"):
             if f in col:
-                per_agent[f] = _per_agent(col[f] * (lscale if f != "v_pref" else lscale / tscale), rows,
+                per_agent[f] = _per_agent(col[f] * lscale, rows,
                                           a_of_row, len(ids), fail, mapping[f])
         radii = per_agent.get("radius", np.full(len(ids), radius))
         if np.any(~np.isfinite(radii)) or np.any(radii < 0):
@@ -324,7 +340,7 @@ def read_table(
         goals = np.stack([per_agent.get("gx", np.full(len(ids), np.nan)),
                           per_agent.get("gy", np.full(len(ids), np.nan))], axis=1)
         v_pref = per_agent.get("v_pref", np.full(len(ids), np.nan))
-        robot_index = _robot_index(path, name, ids, roles, rows, a_of_row, robot, fail, mapping)
+        robot_index = None if robot_id is None else int(np.flatnonzero(ids.astype(str) == str(robot_id))[0])
         outcome = "unknown"
         if outcomes is not None:
             outcome = _scene_constant(outcomes[rows], rows, fail, mapping["outcome"]) or "unknown"
@@ -431,22 +447,44 @@ def _scene_constant(values: np.ndarray, rows: np.ndarray, fail: _Fail, column: s
     return str(ref)
 
 
-def _robot_index(path: Path, name: str, ids: np.ndarray, roles: np.ndarray | None, rows: np.ndarray,
-                 a_of_row: np.ndarray, robot: Any, fail: _Fail, mapping: dict[str, str]) -> int | None:
-    if robot is not None:
-        match = np.flatnonzero(ids.astype(str) == str(robot))
-        if match.size == 0:
-            raise KeyError(f"{path}: scene {name!r} has no agent with robot id {robot!r}")
-        return int(match[0])
-    if roles is None:
-        return None
-    r = roles[rows]
-    bad = [i for i, v in enumerate(r) if v not in ("robot", "human", "")]
-    if bad:
-        raise fail(mapping["role"], int(rows[bad[0]]), f"role must be 'robot' or 'human', got {r[bad[0]]!r}")
-    robots = np.unique(a_of_row[r == "robot"])
-    if robots.size > 1:
-        i = int(np.flatnonzero((r == "robot") & (a_of_row == robots[1]))[0])
-        raise fail(mapping["role"], int(rows[i]), f"scene {name!r} has more than one robot "
-                   f"({ids[robots[0]]}, {ids[robots[1]]})")
-    return int(robots[0]) if robots.size else None
+def _robot_id(path: Path, name: str, agent: np.ndarray, roles: np.ndarray | None, rows: np.ndarray,
+              robot: Any, fail: _Fail, mapping: dict[str, str]) -> Any:
+    """The id of the scene's robot: ``robot`` when given, else the agent whose role is ``robot``, else None.
+
+    A role column must give each agent one role; ``robot`` overriding it is said in a note.
+    """
+    ids_here = agent[rows]
+    logged = None
+    if roles is not None:
+        r = roles[rows]
+        bad = [i for i, v in enumerate(r) if v not in ("robot", "human", "")]
+        if bad:
+            raise fail(mapping["role"], int(rows[bad[0]]),
+                       f"role must be 'robot' or 'human', got {r[bad[0]]!r}")
+        first_role: dict[str, tuple[str, int]] = {}
+        for i, (a, v) in enumerate(zip(ids_here, r, strict=True)):
+            if v == "":
+                continue
+            seen = first_role.setdefault(str(a), (v, i))
+            if seen[0] != v:
+                raise fail(mapping["role"], int(rows[i]), f"agent {a} is {v!r} here but {seen[0]!r} at row "
+                           f"{int(rows[seen[1]]) + 1}; the role must be constant per agent")
+        robots = list(dict.fromkeys(str(a) for a, v in zip(ids_here, r, strict=True) if v == "robot"))
+        if len(robots) > 1:
+            i = next(i for i, (a, v) in enumerate(zip(ids_here, r, strict=True))
+                     if v == "robot" and str(a) == robots[1])
+            raise fail(mapping["role"], int(rows[i]), f"scene {name!r} has more than one robot "
+                       f"({robots[0]}, {robots[1]})")
+        if robots:
+            logged = ids_here[next(i for i, v in enumerate(r) if v == "robot")]
+    if robot is None:
+        return logged
+    match = [a for a in dict.fromkeys(ids_here.tolist()) if str(a) == str(robot)]
+    if not match:
+        known = list(dict.fromkeys(str(a) for a in ids_here))
+        raise KeyError(f"{path}: scene {name!r} has no agent with robot id {robot!r}; its ids: "
+                       f"{', '.join(known[:10])}{' ...' if len(known) > 10 else ''}")
+    if logged is not None and str(logged) != str(robot):
+        warnings.warn(f"{path}: scene {name!r}: --robot {robot} overrides the role column, which names agent "
+                      f"{logged} as the robot", AssumedValueWarning, stacklevel=4)
+    return match[0]

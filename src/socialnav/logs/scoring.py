@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from socialnav.logs.readers import ETH_UCY_FPS, MAX_SPEED, read_eth_ucy, read_table
-from socialnav.logs.scene import Scene, SceneError
+from socialnav.logs.scene import Scene, SceneError, id_matches
 from socialnav.trajectory import AssumedValueWarning, Trajectory, TrajectoryFormatError
 
 __all__ = [
@@ -66,7 +66,7 @@ def detect_format(path: str | Path, columns: Any = None) -> str:
     """The format of ``path`` for ``format="auto"``: by suffix, and for tables by their header."""
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix in (".txt", ".dat", ".ndjson"):
+    if suffix in (".txt", ".dat"):
         return "eth-ucy"
     if suffix not in (".csv", ".parquet", ".tsv"):
         raise TrajectoryFormatError(f"{path}: cannot tell the format from suffix {path.suffix!r}; pass "
@@ -76,9 +76,16 @@ def detect_format(path: str | Path, columns: Any = None) -> str:
     from socialnav.trajectory_io import REQUIRED_COLUMNS
 
     names = _header(path)
-    if names is not None and all(c in names for c in REQUIRED_COLUMNS):
+    # all the long schema's required columns, or a column only it has (then the long reader names the
+    # missing ones instead of the file being re-read as a generic table that drops its goals or map)
+    if names is not None and (all(c in names for c in REQUIRED_COLUMNS)
+                              or any(c in names for c in LONG_ONLY)):
         return "long"
     return "parquet" if suffix == ".parquet" else "csv"
+
+
+#: Columns of the long format that a generic table's fields (readers.FIELDS) do not include.
+LONG_ONLY = ("continuation", "min_clearance", "human_overlaps", "settings", "arrival_t", "static_map")
 
 
 def _header(path: Path) -> list[str] | None:
@@ -132,7 +139,8 @@ def load_trajectories(
         dt: Grid step [s] (default: the data's median step).
         resample: Long format only: interpolate irregular timestamps (other formats always do, with a
             note, since their clocks are rarely regular).
-        max_gap: Longest gap in a track bridged when resampling [s] (default twice the median step).
+        max_gap: Longest gap in a track bridged by interpolation [s] (default: twice each agent's own
+            median step when resampling, none on a regular clock). Tables and ETH/UCY only.
         fps: ETH/UCY frame numbers per second.
         max_speed: Reject faster steps as implausible [m/s].
         length_unit: Length unit of tables (``m``, ``cm`` or ``mm``).
@@ -149,17 +157,30 @@ def load_trajectories(
     fmt = detect_format(path, columns) if format == "auto" else format
     if fmt != "long" and format == "auto" and path.is_dir():
         raise TrajectoryFormatError(f"{path}: is a directory, not a trajectory file")
+    if max_gap is not None and not (np.isfinite(max_gap) and max_gap > 0):
+        raise ValueError(f"--max-gap must be a finite number of seconds > 0, got {max_gap}")
+    if not max_speed > 0:  # NaN included
+        raise ValueError(f"--max-speed must be > 0 (inf disables the check), got {max_speed}")
     if fmt == "long":
-        if columns:
-            raise ValueError("--columns applies to --format csv/parquet, not to the long format")
+        _refuse_table_options(path, columns=columns, robot=robot, radius=radius, max_gap=max_gap,
+                              length_unit=length_unit, time_unit=time_unit)
         from socialnav.trajectory_io import read_trajectories
 
         trajs = read_trajectories(path, resample=resample, dt=dt)
+        check_speeds(path, trajs, max_speed)
+        for tr in trajs:
+            tr.settings.setdefault("source", str(path))
         if ego is None:
             for tr in trajs:
-                tr.settings.setdefault("source", str(path))
+                tr.settings.setdefault("scene", path.stem)  # a file is one scene, as for tables
             return trajs
-        scenes = [Scene.from_trajectory(tr, str(path)) for tr in trajs]
+        scene_of = {str(tr.settings.get("episode")): tr.settings.get("scene", path.stem) for tr in trajs}
+        out = _select(path, [Scene.from_trajectory(tr, str(path)) for tr in trajs], ego)
+        for tr in out:  # each episode is a recording to take egos from; the file is the summary's scene
+            episode = tr.settings["scene"]
+            tr.settings["episode"] = episode
+            tr.settings["scene"] = scene_of.get(str(episode), path.stem)
+        return out
     elif fmt == "eth-ucy":
         if columns or robot is not None:
             raise ValueError("ETH/UCY files have fixed columns (frame id x y) and no robot; use --ego")
@@ -177,6 +198,46 @@ def load_trajectories(
     return _select(path, scenes, ego)
 
 
+def _refuse_table_options(path: Path, **given: Any) -> None:
+    """Options of generic tables that a long-format file would silently ignore: refused, named."""
+    defaults = {"columns": None, "robot": None, "radius": None, "max_gap": None, "length_unit": "m",
+                "time_unit": "s"}
+    ignored = [f"--{k.replace('_', '-')}" for k, v in given.items() if v not in (defaults[k], "")]
+    if ignored:
+        raise ValueError(
+            f"{path}: a file in the long format (docs/trajectory_format.md) is in metres and seconds and has "
+            f"its own role and radius columns, so {', '.join(ignored)} would be ignored; to read it as a "
+            "generic table instead, pass --format csv (or parquet) with them")
+
+
+def check_speeds(path: Path, trajs: Iterable[Trajectory], max_speed: float) -> None:
+    """Refuse a trajectory whose agent moves faster than ``max_speed`` between two present samples.
+
+    Args:
+        path: The file, for the message.
+        trajs: Its trajectories.
+        max_speed: The limit [m/s] (``inf`` disables the check).
+
+    Raises:
+        TrajectoryFormatError: The first such step, with the episode, agent, time and speed.
+    """
+    if not np.isfinite(max_speed):
+        return
+    for tr in trajs:
+        step = np.linalg.norm(np.diff(tr.positions, axis=0), axis=-1) / tr.dt
+        if tr.present is not None:
+            step = np.where(tr.present[1:] & tr.present[:-1], step, 0.0)
+        if step.size and float(step.max()) > max_speed:
+            k, a = np.unravel_index(int(np.argmax(step > max_speed)), step.shape)
+            ids = tr.settings.get("agent_ids")
+            t0 = float(tr.settings.get("t0", 0.0))
+            raise TrajectoryFormatError(
+                f"{path}: episode {tr.settings.get('episode')!r}: agent {ids[a] if ids else a} moves at "
+                f"{step[k, a]:.4g} m/s between t = {t0 + k * tr.dt:g} and {t0 + (k + 1) * tr.dt:g} s (limit "
+                f"{max_speed:g} m/s): the long format is in metres and seconds (--max-speed to change the "
+                "limit; --format csv with --length-unit/--time-unit for a file in other units)")
+
+
 def _select(path: Path, scenes: list[Scene], ego: Any) -> list[Trajectory]:
     if ego is None:
         missing = [s.name for s in scenes if s.robot is None]
@@ -185,10 +246,22 @@ def _select(path: Path, scenes: list[Scene], ego: Any) -> list[Trajectory]:
                              "role=...), pass --robot ID, or score pedestrians with --ego ID|all")
         return [s.robot_trajectory() for s in scenes]
     if str(ego) != "all":
-        found = [s for s in scenes if str(ego) in s.ids.astype(str)]
+        found = [s for s in scenes if id_matches(s.ids, ego).any()]
         if not found:
-            raise KeyError(f"{path}: no agent with id {ego!r} in any scene")
-        return [s.ego_trajectory(ego) for s in found]
+            ids = list(dict.fromkeys(str(i) for s in scenes for i in s.ids))
+            raise KeyError(f"{path}: no agent with id {ego!r} in any scene; ids: {', '.join(ids[:20])}"
+                           + (" ..." if len(ids) > 20 else ""))
+        out = []
+        for s in found:
+            if s.robot is not None and s.index_of(ego) == s.robot:
+                # the logged robot keeps its logged outcome and goal: scored as the robot
+                warnings.warn(f"{path}: scene {s.name!r}: agent {ego} is the logged robot; scored as the "
+                              f"robot (logged outcome {s.outcome!r}), not as a pedestrian",
+                              AssumedValueWarning, stacklevel=3)
+                out.append(s.robot_trajectory())
+            else:
+                out.append(s.ego_trajectory(ego))
+        return out
     trajs = []
     for scene in scenes:
         skipped = []
@@ -270,6 +343,8 @@ def score_trajectories(
     from socialnav.metrics import score_episode, walking_speed_note
     from socialnav.metrics.score import UnknownOutcomeWarning
 
+    if goal_tolerance is not None and not (np.isfinite(goal_tolerance) and goal_tolerance >= 0):
+        raise ValueError(f"--goal-tolerance must be a finite distance >= 0 [m], got {goal_tolerance}")
     trajs = list(trajs)
     rows: list[dict[str, Any]] = []
     problems: list[str] = []
@@ -323,11 +398,16 @@ def summarize_scores(rows: Sequence[dict[str, Any]], label: str,
 
 
 def _metric_rows_by_scene(rows: Sequence[dict[str, Any]], label: str) -> dict[str, list[dict[str, Any]]]:
+    sources: dict[str, set[str]] = {}
+    for row in rows:
+        sources.setdefault(row["scene"], set()).add(row["source"])
     by_scene: dict[str, list[dict[str, Any]]] = {}
     for i, row in enumerate(rows):
-        metric_row = {"policy": label, "scenario": row["scene"], "visibility": "-", "index": i,
+        # two files with the same scene name (d1/run.csv, d2/run.csv) are two scenes
+        scene = row["scene"] if len(sources[row["scene"]]) == 1 else f"{row['scene']} ({row['source']})"
+        metric_row = {"policy": label, "scenario": scene, "visibility": "-", "index": i,
                       "outcome": row["outcome"], **{k: v for k, v in row.items() if k not in ID_KEYS}}
-        by_scene.setdefault(row["scene"], []).append(metric_row)
+        by_scene.setdefault(scene, []).append(metric_row)
     return by_scene
 
 
@@ -367,6 +447,10 @@ def score_file(
         if workers > 1 and load_kwargs.get("ego") is None and detect_format(
                 path, load_kwargs.get("columns")) == "long" and load_kwargs.get("format", "auto") in (
                 "auto", "long"):
+            _refuse_table_options(Path(path), columns=None, robot=load_kwargs.get("robot"),
+                                  radius=load_kwargs.get("radius"), max_gap=load_kwargs.get("max_gap"),
+                                  length_unit=load_kwargs.get("length_unit", "m"),
+                                  time_unit=load_kwargs.get("time_unit", "s"))
             scores = _score_parallel(Path(path), workers, require_success, goal_tolerance, params,
                                      load_kwargs)
         else:
@@ -429,8 +513,10 @@ def _score_chunk(path: str, keys: list[Any], rows: tuple[int, int] | None, requi
         # a block of rows when the file's episodes are contiguous (a slice), else the keys (a mask)
         trajs = read_trajectories(path, resample=load_kwargs.get("resample", False), dt=load_kwargs.get("dt"),
                                   episodes=None if rows is not None else keys, rows=rows)
+        check_speeds(Path(path), trajs, load_kwargs.get("max_speed", MAX_SPEED))
         for tr in trajs:
             tr.settings.setdefault("source", path)
+            tr.settings.setdefault("scene", Path(path).stem)
         scores = score_trajectories(trajs, require_success=require_success, goal_tolerance=goal_tolerance,
                                     params=params, summarize=False)
     notes = [str(w.message) for w in caught if not issubclass(w.category, DataWarning)]

@@ -43,12 +43,13 @@ def read_trajectories(
     Args:
         path: ``.parquet`` or ``.csv`` file.
         resample: If True, episodes with irregular or per-agent timestamps are resampled by linear
-            interpolation to a fixed step on [latest agent start, earliest agent end]; ``min_clearance``
-            (a per-step swept value) is then dropped and ``settings["resampled"]`` is set. If False,
-            such episodes raise an error.
+            interpolation to a fixed step over the robot's time span (an agent is absent outside its
+            own track); ``min_clearance`` (a per-step swept value) is then dropped and
+            ``settings["resampled"]`` is set. If False, such episodes raise an error.
         dt: Step [s] to resample to, or to assume for one-sample episodes. Default: (t_K − t_0)/K
-            on a regular grid, the median of the robot's steps when resampling (both rounded to 12
-            significant digits, which recovers a dt written as text exactly).
+            on a regular grid (rounded to 12 significant digits, which recovers a dt written as text
+            exactly); when resampling, the median of the robot's steps adjusted so that a whole number
+            of steps spans the robot's run.
         episodes: Read only these episode keys (rows keep their file numbers in messages).
         rows: Read only the file's rows [start, stop) (0-based; whole episodes, as parallel scoring
             splits a file whose episodes are contiguous); messages keep the file's row numbers.
@@ -268,7 +269,7 @@ def _read_episode(
     if not regular and masked is None and not resample:
         raise grid_error(tab, per_agent, dt, key)
     if not regular and masked is None and dt_arg is None:
-        dt = float(f"{np.median(np.diff(grid_t)):.12g}")
+        dt = float(f"{np.median(np.diff(grid_t)):.12g}")  # then fitted to the robot's run
     min_clearance = None
     present = None
     if masked is not None:
@@ -283,7 +284,7 @@ def _read_episode(
         if "min_clearance" in cols:
             min_clearance = _min_clearance(tab, robot)
     else:
-        pos, vel, cont, grid_t = resample_to_grid(per_agent, dt)
+        pos, vel, cont, grid_t, present, dt = resample_to_grid(per_agent, dt, fit_step=dt_arg is None)
         settings["resampled"] = True
     if grid_t[0] != 0.0:
         settings["t0"] = float(grid_t[0])

@@ -102,7 +102,7 @@ def grid_error(
     robot = per_agent[0]
     robot_t = robot["t"][~robot["cont"]]
     tol = DT_RTOL * dt
-    hint = " (pass resample=True to interpolate to a fixed dt)"
+    hint = " (resample it: --resample on the command line, resample=True in Python)"
     steps = np.diff(robot_t)
     ref = float(np.median(steps)) if steps.size else dt  # the typical step, to point at the odd one
     if steps.size and np.all(np.abs(steps - ref) <= tol) and abs(ref - dt) > tol:
@@ -183,31 +183,61 @@ def regular_continuation(
 
 
 def resample_to_grid(
-    per_agent: list[dict[str, Any]], dt: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
-    """Linear interpolation of every agent onto t_0 + k·dt over the common time span."""
+    per_agent: list[dict[str, Any]], dt: float, fit_step: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray, np.ndarray | None, float]:
+    """Linear interpolation of every agent onto t_0 + k·dt over the robot's time span.
+
+    The robot's whole run is kept: a human whose track starts after the robot's or ends before it is
+    absent outside its own track (nothing is extrapolated), instead of the grid being cut to the span
+    every agent shares. With ``fit_step`` (no step requested) the step is adjusted, by less than half a
+    step over the run, so that the grid ends on the robot's last sample.
+
+    Args:
+        per_agent: The episode's agents, robot first.
+        dt: The step [s]: the requested one, or the median of the robot's steps.
+        fit_step: Whether ``dt`` may be adjusted to end on the robot's last sample.
+
+    Returns:
+        ``(positions, velocities, continuation or None, grid times, present or None, dt)``; ``present``
+        is None when every agent covers the whole grid.
+
+    Raises:
+        TrajectoryFormatError: The grid would have more than ``MAX_RESAMPLED_STEPS`` samples.
+    """
     main = [(p["t"][~p["cont"]], p["pos"][~p["cont"]]) for p in per_agent]
-    t0 = max(t[0] for t, _ in main)
-    t1 = min(t[-1] for t, _ in main)
-    if t1 < t0:
-        raise TrajectoryFormatError("agents' time spans do not overlap; cannot resample")
-    k = int(np.floor((t1 - t0) / dt + 1e-9))
+    t0, t1 = float(main[0][0][0]), float(main[0][0][-1])
+    span = t1 - t0
+    if fit_step and span > 0:
+        dt = span / max(1, round(span / dt))
+    k = int(np.floor(span / dt + 1e-9))
     if k >= MAX_RESAMPLED_STEPS:
-        raise TrajectoryFormatError(f"resampling {t1 - t0:.6g} s at dt {dt:.6g} s makes {k + 1} samples per "
+        raise TrajectoryFormatError(f"resampling {span:.6g} s at dt {dt:.6g} s makes {k + 1} samples per "
                                     f"agent, more than the {MAX_RESAMPLED_STEPS} allowed: raise --dt")
     grid = t0 + dt * np.arange(k + 1)
+    tol = DT_RTOL * dt
+    present = np.stack([(grid >= t[0] - tol) & (grid <= t[-1] + tol) for t, _ in main], axis=1)
+    present[:, 0] = True
     pos = np.stack([np.stack([np.interp(grid, t, x[:, d]) for d in (0, 1)], -1) for t, x in main], 1)
     if per_agent[0]["vel"] is not None:
         vel = np.stack([np.stack([np.interp(grid, p["t"][~p["cont"]], p["vel"][~p["cont"], d])
                                   for d in (0, 1)], -1) for p in per_agent], 1)
-    else:
+    elif present.all():
         vel = grid_velocities([{"vel": None}], pos, dt)
-    cont = None
-    if all(np.any(p["cont"]) for p in per_agent):
-        c_end = min(p["t"][-1] for p in per_agent)
-        m = int(np.floor((c_end - grid[-1]) / dt + 1e-9))
-        if m > 0:
-            c_grid = grid[-1] + dt * np.arange(1, m + 1)
-            cont = np.stack([np.stack([np.interp(c_grid, p["t"], p["pos"][:, d]) for d in (0, 1)], -1)
-                             for p in per_agent], 1)
-    return pos, vel, cont, grid
+    else:
+        from socialnav.trajectory import derive_velocities
+
+        vel = derive_velocities(np.where(present[..., None], pos, np.nan), present, dt)
+    if present.all():
+        cont = None
+        if all(np.any(p["cont"]) for p in per_agent):
+            c_end = min(p["t"][-1] for p in per_agent)
+            m = int(np.floor((c_end - grid[-1]) / dt + 1e-9))
+            if m > 0:
+                c_grid = grid[-1] + dt * np.arange(1, m + 1)
+                cont = np.stack([np.stack([np.interp(c_grid, p["t"], p["pos"][:, d]) for d in (0, 1)], -1)
+                                 for p in per_agent], 1)
+        return pos, vel, cont, grid, None, dt
+    # an absent agent's values are zeros under the mask, as on a masked regular grid
+    pos = np.where(present[..., None], pos, 0.0)
+    vel = np.where(present[..., None], np.nan_to_num(vel), 0.0)
+    return pos, vel, None, grid, present, dt
