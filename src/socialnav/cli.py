@@ -267,6 +267,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if not args.label and ":" in args.policy:
         label = str(getattr(policy, "name", "") or args.policy.rpartition(":")[2])
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")
+    extra: dict[str, Any] = {"checkpoint": str(args.checkpoint) if args.checkpoint else None}
+    if args.checkpoint:  # by content: a resume never mixes two networks saved at one path
+        from socialnav._io import file_sha256
+
+        extra["checkpoint_sha256"] = file_sha256(args.checkpoint)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = run_protocol(
@@ -280,7 +285,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             progress=not (args.no_progress or args.quiet),
             batch_size=args.batch_size,
             trajectories=not args.no_trajectories,
-            extra_manifest={"checkpoint": str(args.checkpoint) if args.checkpoint else None},
+            extra_manifest=extra,
         )
     for note in sorted({str(w.message) for w in caught}):  # once per run, not once per episode
         print(f"warning: {note}", file=sys.stderr)

@@ -214,3 +214,62 @@ def test_a_checkpoint_trained_without_walls_is_refused_among_walls_naming_both(t
     assert main([*argv, "--allow-preset-mismatch"]) == 0
     manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
     assert manifest["policy"]["preset_mismatch_allowed"][0].startswith("walls: the checkpoint was trained")
+
+
+def test_other_kinematics_are_refused_even_with_allow_preset_mismatch(tmp_path, capsys):
+    pytest.importorskip("torch")
+    preset = tmp_path / "uni.yaml"
+    preset.write_text("name: uni\nworld: {kinematics: unicycle}\n")
+    from socialnav.policies.loading import shipped_checkpoint
+
+    argv = ["evaluate", "--policy", "sarl", "--checkpoint", str(shipped_checkpoint("sarl", "wang2022")),
+            "--preset", str(preset), "--scenario", "circle_crossing",
+            "--episodes", "2", "--out", str(tmp_path / "o"), "--no-progress", "--allow-preset-mismatch"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "kinematics 'holonomic' in the checkpoint, 'unicycle' in preset 'uni'" in err
+    assert "--allow-preset-mismatch does not cover kinematics" in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(("arg", "message"), [
+    ("determinstic=false", "policy 'crowdnav_pp' has no parameter(s) determinstic; valid: deterministic"),
+    ("deterministic=maybe", "policy 'crowdnav_pp': deterministic must be true or false, got 'maybe'"),
+    ("device=cuda:999", "policy 'crowdnav_pp': device 'cuda:999', but CUDA is not available"),
+])
+def test_learned_policy_arguments_are_checked_before_the_checkpoint(tmp_path, capsys, arg, message):
+    torch = pytest.importorskip("torch")
+    if "cuda" in arg and torch.cuda.is_available():
+        pytest.skip("this machine has CUDA")
+    argv = ["evaluate", "--policy", "crowdnav_pp", "--scenario", "passing", "--episodes", "2",
+            "--out", str(tmp_path / "o"), "--no-progress", "--policy-arg", arg]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "checkpoint" not in err
+    with pytest.raises(ValueError, match=r"policy 'sarl': planning_depth must be an integer >= 1, got 0"):
+        from socialnav.policies import make_policy
+
+        make_policy("sarl", checkpoint="unused.pt", planning_depth=0)
+
+
+def test_a_resume_with_another_network_at_the_checkpoint_path_is_refused(tmp_path, capsys):
+    pytest.importorskip("torch")
+    import shutil
+
+    from socialnav.policies.loading import shipped_checkpoint
+
+    ckpt = tmp_path / "model.pt"
+    shutil.copy(shipped_checkpoint("sarl", "wang2022"), ckpt)
+    argv = ["evaluate", "--policy", "sarl", "--checkpoint", str(ckpt), "--scenario", "passing",
+            "--episodes", "2", "--out", str(tmp_path / "o"), "--no-progress"]
+    assert main(argv) == 0
+    manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
+    assert len(manifest["checkpoint_sha256"]) == 64
+    torch = pytest.importorskip("torch")
+    saved = torch.load(ckpt, weights_only=False)
+    first = next(iter(saved["state_dict"]))
+    saved["state_dict"][first] = saved["state_dict"][first] + 1e-3  # another network, same path
+    torch.save(saved, ckpt)
+    capsys.readouterr()
+    assert main(argv) != 0
+    assert "checkpoint_sha256" in capsys.readouterr().err

@@ -136,6 +136,12 @@ def get_policy_entry(name: str) -> PolicyEntry:
 def make_policy(name: str, **params: Any) -> Policy:
     """Builds a registered policy; unknown parameters are refused with the valid ones listed."""
     entry = get_policy_entry(name)
+    if entry.learned and not name.startswith(SB3_PREFIX):
+        from socialnav.policies.loading import check_learned_parameters
+
+        loading = ("checkpoint", "preset", "allow_preset_mismatch")
+        given = {k: v for k, v in params.items() if k not in loading}
+        check_learned_parameters(name, entry.parameters, given)
     if not entry.learned and not _accepts_any_keyword(entry.factory):
         unknown = sorted(set(params) - set(entry.parameters))
         if unknown:

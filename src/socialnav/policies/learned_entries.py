@@ -190,9 +190,17 @@ def checked_preset_mismatches(
 ) -> list[str]:
     """The world differences of a checkpoint under ``preset``.
 
-    A :class:`PresetMismatchError` names them unless ``allow`` (then the caller records them).
+    A :class:`PresetMismatchError` names them unless ``allow`` (then the caller records them); a
+    kinematics mismatch is refused even then, as for SB3 models.
     """
     mismatch = preset_mismatches(config, preset) if preset is not None else []
+    kinematics = [m for m in mismatch if m.startswith("kinematics ")]
+    if kinematics:  # the network's actions would be read in another action space: never meaningful
+        raise PresetMismatchError(
+            f"checkpoint {checkpoint} was trained for another robot: {kinematics[0]}; its actions cannot be "
+            "played by this robot (--allow-preset-mismatch does not cover kinematics): evaluate it under a "
+            "preset with the same kinematics"
+        )
     if mismatch and not allow:
         raise PresetMismatchError(
             f"checkpoint {checkpoint} was trained for another world: {'; '.join(mismatch)}; "

@@ -98,9 +98,61 @@ def build_policy(
                 f"{preset.name!r} (shipped: {', '.join(list_shipped_checkpoints()) or 'none'}): "
                 "pass --checkpoint PATH (see `socialnav train`)"
             )
+    check_learned_parameters(name, entry.parameters, params)
     return entry.factory(
         checkpoint=Path(checkpoint), preset=preset, allow_preset_mismatch=allow_preset_mismatch, **params
     )
+
+
+def check_learned_parameters(name: str, valid: dict[str, Any], params: dict[str, Any]) -> None:
+    """Refuse evaluation parameters a learned policy does not have or cannot take.
+
+    They are checked before the checkpoint is read, so that a typo is named as the user's, not blamed on
+    a damaged checkpoint (the scorer is checked where it is chosen, with its own message).
+
+    Args:
+        name: The policy.
+        valid: Its parameters with their defaults (the registry's).
+        params: What the preset and the command line give it.
+
+    Raises:
+        ValueError: An unknown parameter (the valid ones listed), a value of the wrong type or range, or
+            a device this machine does not have.
+    """
+    unknown = sorted(set(params) - set(valid))
+    if unknown:
+        raise ValueError(f"policy {name!r} has no parameter(s) {', '.join(unknown)}; "
+                         f"valid: {', '.join(sorted(valid))}")
+    for key, value in params.items():
+        if value is None:
+            continue
+        if key == "deterministic" and not isinstance(value, bool):
+            raise ValueError(f"policy {name!r}: deterministic must be true or false, got {value!r}")
+        if key in ("planning_depth", "planning_width") and (
+                isinstance(value, bool) or not isinstance(value, int) or value < 1):
+            raise ValueError(f"policy {name!r}: {key} must be an integer >= 1, got {value!r}")
+        if key == "information":
+            from socialnav.policies.learned.value_policy import INFORMATION
+
+            if value not in INFORMATION:
+                raise ValueError(f"policy {name!r}: information must be one of {', '.join(INFORMATION)}, "
+                                 f"got {value!r}")
+        if key == "device":
+            _check_device(name, value)
+
+
+def _check_device(name: str, value: Any) -> None:
+    import torch
+
+    try:
+        device = torch.device(value)
+    except (RuntimeError, TypeError) as err:
+        raise ValueError(f"policy {name!r}: device {value!r} is not a torch device ({err})") from None
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"policy {name!r}: device {value!r}, but CUDA is not available on this machine "
+                         "(a CPU-only PyTorch build, or no GPU); use device=cpu")
+    if device.type == "mps" and not torch.backends.mps.is_available():
+        raise ValueError(f"policy {name!r}: device {value!r}, but MPS is not available on this machine")
 
 
 def checkpoint_dir() -> Path:
