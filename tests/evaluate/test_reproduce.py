@@ -152,6 +152,23 @@ def test_evaluate_all_one_directory_resumes_and_refuses_checkpoint(tmp_path, cap
     assert all(t["episodes"] == 0 for t in timings.values())
     assert main(["evaluate", "--policy", "all", "--checkpoint", "x.pt", "--out", str(tmp_path / "y")]) == 2
     assert "--policy all takes no --checkpoint" in capsys.readouterr().err
+    argv = ["evaluate", "--policy", "all", "--policy-arg", "safety_space=0.5", "--out", str(tmp_path / "y")]
+    assert main(argv) == 2
+    assert "--policy all takes no --policy-arg (each policy uses its own settings" in capsys.readouterr().err
+
+
+def test_evaluate_all_honours_quiet_no_trajectories_and_report(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    argv = ["evaluate", "--policy", "all", "--scenario", "passing", "--episodes", "2", "--out", str(tmp_path),
+            "--quiet", "--no-trajectories", "--report"]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    assert captured.out.strip() == str(tmp_path / "report.html")  # quiet: the report's path, no tables
+    assert "%|" not in captured.err  # no progress bars
+    assert (tmp_path / "report.html").is_file()
+    assert not list(tmp_path.glob("policies/*/trajectories/*"))
+    manifests = [json.loads(p.read_text()) for p in tmp_path.glob("policies/*/manifest.json")]
+    assert len(manifests) >= 4 and not any(m["trajectories"] for m in manifests)
 
 
 def test_replaced_checkpoint_is_refused_in_an_old_directory(tmp_path):

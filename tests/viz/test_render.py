@@ -254,6 +254,30 @@ def test_training_curves_figure(tmp_path):
         read_curves(tmp_path / "bad.csv")
 
 
+def test_ppo_training_curves_figure_and_report(tmp_path):
+    """A PPO run's curves (phase ppo, env_steps) are drawn against environment steps, also in the report
+    of an evaluation whose checkpoint has its curves.csv beside it."""
+    import shutil
+
+    from socialnav.cli import main
+    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.viz.figures import read_curves, training_curves
+
+    curves = ROOT / "benchmarks" / "results" / "train_wang2022_crowdnav_pp_s0_curves.csv"
+    fig = training_curves(read_curves(curves))
+    ax1, ax2 = fig.axes
+    assert ax1.get_xlabel() == "environment steps" and ax2.get_ylabel() == "value loss"
+    assert len(ax1.lines) == 4 and len(ax2.lines) == 1  # train/val success and collision; the value loss
+    run = tmp_path / "train"
+    run.mkdir()
+    shutil.copy(shipped_checkpoint("crowdnav_pp", "wang2022"), run / "best.pt")
+    shutil.copy(curves, run / "curves.csv")
+    out = tmp_path / "eval"
+    assert main(["evaluate", "--policy", "crowdnav_pp", "--checkpoint", str(run / "best.pt"), "--scenario",
+                 "passing", "--episodes", "2", "--out", str(out), "--report", "--no-progress"]) == 0
+    assert f"Training curves: {run / 'curves.csv'}" in (out / "report.html").read_text()
+
+
 def test_env_rgb_array_rendering():
     import gymnasium as gym
 

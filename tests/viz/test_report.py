@@ -211,3 +211,22 @@ def test_report_plays_in_headless_chromium(report, tmp_path):
         assert browser.eval("document.getElementById('time-label').textContent") != "t = 0.00 s"
     finally:
         browser.close()
+
+
+def test_runs_of_other_scenario_lists_keep_every_policy_in_the_pooled_table(runs, tmp_path):
+    """One run pooled over circle_crossing and random, one of circle_crossing alone: both rows are in the
+    pooled Table II (the second had been dropped), with a note that they are over different scenarios."""
+    from socialnav.evaluate.report import table2
+
+    preset = load_preset("wang2022")
+    preset = dataclasses.replace(preset, evaluation=dataclasses.replace(preset.evaluation, chunk_size=5))
+    single = tmp_path / "linear"
+    run_protocol(make_policy("linear"), preset, single, label="linear", scenarios=["circle_crossing"],
+                 episodes=5, progress=False, workers=0)
+    summary = [*json.loads((runs[0] / "summary.json").read_text())["rows"],
+               *json.loads((single / "summary.json").read_text())["rows"]]
+    pooled = table2(summary).split("Table II, ")[0]
+    assert [line.split("|")[1].strip() for line in pooled.splitlines() if line.startswith("| ")][1:] == [
+        "orca", "linear"]
+    assert ("the pooled rows are over different scenarios, so they do not compare: orca: circle_crossing, "
+            "random; linear: circle_crossing") in table2(summary)

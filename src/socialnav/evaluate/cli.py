@@ -133,36 +133,51 @@ def cmd_evaluate_all(args: argparse.Namespace) -> int:
     """`socialnav evaluate --policy all`: shipped checkpoints for the preset + native policies."""
     from socialnav._io import json_safe
     from socialnav.evaluate.multi import default_specs, run_policies
-    from socialnav.evaluate.report import table2, table3
+    from socialnav.evaluate.report import table2, table3, table_notes
     from socialnav.presets import load_preset
 
     refused = [
         flag for flag, value in (
             ("--checkpoint", args.checkpoint), ("--label", args.label), ("--information", args.information),
             ("--planning-depth", args.planning_depth), ("--planning-width", args.planning_width),
+            ("--policy-arg", args.policy_arg or None),
+            ("--allow-preset-mismatch", args.allow_preset_mismatch or None),
         ) if value is not None
     ]
     if refused:
-        raise ValueError(f"--policy all takes no {', '.join(refused)} (each policy uses its own settings)")
+        raise ValueError(f"--policy all takes no {', '.join(refused)} (each policy uses its own settings: "
+                         "a preset's `policies:` section sets a policy's parameters)")
     preset = load_preset(args.preset)
     specs = default_specs(preset.name)
     out = Path(args.out or f"runs/evaluate/{preset.name}-all")
-    log = None if args.json else (lambda line: print(line, file=sys.stderr))
+    quiet = args.json or args.quiet
+    log = None if quiet else (lambda line: print(line, file=sys.stderr))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = run_policies(
             specs, preset, out, scenarios=args.scenario, episodes=args.episodes, visibility=args.visibility,
-            progress=not args.no_progress, batch_size=args.batch_size, log=log,
+            progress=not (args.no_progress or quiet), batch_size=args.batch_size, log=log,
+            trajectories=not args.no_trajectories,
         )
     for note in sorted({str(w.message) for w in caught}):
         print(f"warning: {note}", file=sys.stderr)
+    if args.report:
+        from socialnav.viz.report import write_report
+
+        write_report([out / "policies" / s.name for s in specs], out / "report.html", progress=not quiet)
+        if args.quiet:
+            print(out / "report.html")  # quiet prints no tables, but the file asked for is named
     if args.json:
         print(json.dumps({"preset": preset.name, "out": str(out), "policies": [s.name for s in specs],
                           "rows": json_safe(result.summary)}))
         return 0
-    print(table2(result.summary, "md"))
-    print(table3(result.summary, "md"))
+    if args.quiet:
+        return 0
+    for table in (table2(result.summary, "md", table_notes(preset)), table3(result.summary, "md")):
+        if table:
+            print(table)
     computed = sum(t["episodes"] for t in result.timings.values())
     print(f"{len(specs)} policies ({', '.join(s.name for s in specs)}), {computed} episodes simulated; "
-          f"results in {out}/ (summary.json/csv, table2/3 .md and .tex; per policy under policies/)")
+          f"results in {out}/ (summary.json/csv, table2/3 .md and .tex"
+          + (", report.html" if args.report else "") + "; per policy under policies/)")
     return 0

@@ -98,8 +98,12 @@ def run_policies(
     workers: int | None = None,
     build: Callable[..., Any] | None = None,
     log: Callable[[str], None] | None = None,
+    trajectories: bool = True,
 ) -> MultiResult:
     """Runs (or resumes) the protocol for every policy of ``specs`` and writes the joint tables.
+
+    ``trajectories=False`` stores no trajectories (as ``run_protocol``'s); the other arguments are
+    ``run_protocol``'s, for every policy.
 
     Raises:
         ResumeMismatchError: A policy's directory holds a different run's results.
@@ -132,6 +136,7 @@ def run_policies(
             progress=progress,
             batch_size=batch_size,
             workers=workers,
+            trajectories=trajectories,
             extra_manifest=extra,
         )
         seconds = time.perf_counter() - t0

@@ -171,13 +171,15 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
     idx = _index(summary)
     walls = has_walls(summary)
     policies = list(dict.fromkeys(r["policy"] for r in summary))
-    if scenario == "pooled" and not any(k[1] == "pooled" for k in idx):
-        # A preset with a single multi-human scenario: its own row is the pooled one.
-        multi = [r["scenario"] for r in summary if "m6_left_pct" not in r]
-        scenario = multi[0] if multi else scenario
     out = []
     for p in policies:
-        inv, vis = idx.get((p, scenario, "invisible")), idx.get((p, scenario, "visible"))
+        # a run of a single multi-human scenario has no pooled row: its scenario's row is its pooled one
+        # (per policy: compared runs may differ, see pooled_coverage)
+        own = scenario
+        if scenario == "pooled" and not any(k[0] == p and k[1] == "pooled" for k in idx):
+            multi = [r["scenario"] for r in summary if r["policy"] == p and "m6_left_pct" not in r]
+            own = multi[0] if multi else scenario
+        inv, vis = idx.get((p, own, "invisible")), idx.get((p, own, "visible"))
         base = inv or vis
         if base is None:
             continue
@@ -196,13 +198,38 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
     return out
 
 
+def pooled_coverage(summary: Sequence[dict[str, Any]]) -> dict[str, tuple[str, ...]]:
+    """The multi-human scenarios each policy's pooled Table II row is over.
+
+    Args:
+        summary: Summary rows, possibly of several runs.
+
+    Returns:
+        ``{policy: scenarios}`` (its pooled row's ``pooled_over``, or its one multi-human scenario).
+    """
+    out: dict[str, tuple[str, ...]] = {}
+    for r in summary:
+        p = r["policy"]
+        if r["scenario"] == "pooled" and r.get("pooled_over"):
+            out[p] = tuple(str(r["pooled_over"]).split(","))
+        elif "m6_left_pct" not in r and r["scenario"] != "pooled" and p not in out:
+            out[p] = (r["scenario"],)
+    return out
+
+
 def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[str] = ()) -> str:
     """Table II (pooled) and one per multi-human scenario; ``notes`` (see :func:`table_notes`) follow.
 
-    A run with walls gets a "Wall collision %" column and :data:`WALL_COLLISION_NOTE`.
+    A run with walls gets a "Wall collision %" column and :data:`WALL_COLLISION_NOTE`. Policies whose
+    pooled rows are over different scenarios (runs of other ``--scenario`` lists compared) get a note
+    saying so.
     """
     walls = has_walls(summary)
-    notes = [*notes, WALL_COLLISION_NOTE] if walls else notes
+    notes = [*notes, WALL_COLLISION_NOTE] if walls else list(notes)
+    coverage = pooled_coverage(summary)
+    if len(set(coverage.values())) > 1:
+        notes.append("the pooled rows are over different scenarios, so they do not compare: "
+                     + "; ".join(f"{p}: {', '.join(s)}" for p, s in coverage.items()))
     header = [
         "Policy",
         "Success %",

@@ -46,7 +46,11 @@ def load_manifest(results_dir: str | Path) -> dict[str, Any]:
         raise ResultsError(f"{root}: no such result directory")
     path = root / "manifest.json"
     if not path.is_file():
-        raise ResultsError(f"{root}: not a result directory of `socialnav evaluate` (no manifest.json)")
+        hint = ""
+        if (root / "policies").is_dir() and any((root / "policies").glob("*/manifest.json")):
+            hint = (f"; it holds the runs of `socialnav evaluate --policy all`: pass them, "
+                    f"e.g. `socialnav report {root}/policies/*`")
+        raise ResultsError(f"{root}: not a result directory of `socialnav evaluate` (no manifest.json){hint}")
     try:
         return json.loads(path.read_text())
     except json.JSONDecodeError as err:

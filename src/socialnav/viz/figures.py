@@ -158,8 +158,9 @@ def read_curves(path: str | Path) -> list[dict[str, Any]]:
         raise FileNotFoundError(f"{path}: no such curves file")
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
-    if not rows or "phase" not in rows[0] or "episode" not in rows[0]:
-        raise ValueError(f"{path}: not a curves.csv of `socialnav train` (needs columns phase, episode)")
+    if not rows or "phase" not in rows[0] or ("episode" not in rows[0] and "env_steps" not in rows[0]):
+        raise ValueError(f"{path}: not a curves.csv of `socialnav train` (needs columns phase and episode, "
+                         "or phase and env_steps for PPO)")
 
     def num(v: str) -> float:
         try:
@@ -171,9 +172,17 @@ def read_curves(path: str | Path) -> list[dict[str, Any]]:
 
 
 def training_curves(rows: Sequence[dict[str, Any]], title: str = "Training"):
-    """Success / collision rates (training and validation) and loss against RL episodes."""
-    rl = [r for r in rows if r["phase"] == "rl"]
-    ep = np.array([r["episode"] for r in rl], dtype=float)
+    """Success / collision rates (training and validation) and loss against training progress.
+
+    Value-based runs (phases ``il`` and ``rl``) are drawn against RL episodes with the TD loss; PPO runs
+    (phase ``ppo``) against environment steps with the value loss (PPO's total loss changes sign).
+    """
+    ppo = any(r["phase"] == "ppo" for r in rows)
+    rl = [r for r in rows if r["phase"] == ("ppo" if ppo else "rl")]
+    x_key, x_label, loss_key, loss_label = (
+        ("env_steps", "environment steps", "value_loss", "value loss") if ppo
+        else ("episode", "RL episode", "loss", "TD loss"))
+    ep = np.array([r[x_key] for r in rl], dtype=float)
     fig = new_figure((900, 340))
     ax1, ax2 = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
     for key, colour, style in (
@@ -186,17 +195,17 @@ def training_curves(rows: Sequence[dict[str, Any]], title: str = "Training"):
         ok = np.isfinite(y)
         if ok.any():
             ax1.plot(ep[ok], y[ok], style, color=colour, label=key.replace("_", " "), ms=4, lw=1)
-    ax1.set_xlabel("RL episode")
+    ax1.set_xlabel(x_label)
     ax1.set_ylabel("rate")
     ax1.set_ylim(-0.02, 1.02)
     ax1.grid(alpha=0.3)
     ax1.legend(fontsize=7)
-    loss = np.array([r.get("loss", math.nan) for r in rl], dtype=float)
+    loss = np.array([r.get(loss_key, math.nan) for r in rl], dtype=float)
     ok = np.isfinite(loss) & (loss > 0)
     if ok.any():
         ax2.semilogy(ep[ok], loss[ok], "-", color="#1f77b4", lw=1)
-    ax2.set_xlabel("RL episode")
-    ax2.set_ylabel("TD loss")
+    ax2.set_xlabel(x_label)
+    ax2.set_ylabel(loss_label)
     ax2.grid(alpha=0.3)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
