@@ -105,3 +105,21 @@ def test_only_tables_with_rows_are_printed(tmp_path, capsys):
     assert "Table II" in out and "Table III" not in out
     assert "| orca" in out
     assert (tmp_path / "b" / "table3.tex").read_text().startswith("% no single-human scenario")
+
+
+def test_single_human_scenarios_say_what_a_small_or_visible_run_leaves_out(tmp_path):
+    from socialnav.config import ConfigError
+    from socialnav.evaluate.plan import plan_cells
+    from socialnav.presets import load_preset
+
+    preset = load_preset("wang2022")
+    with pytest.warns(UserWarning, match=r"passing: 10 of its 20 lateral offsets \(episodes 0-9: -0.60 to "
+                      r"-0.03 m\)"):
+        (cell,) = plan_cells(preset, ["passing"], episodes=10)
+    assert cell.episodes == 10
+    with pytest.warns(UserWarning, match="passing is a single-human scenario, evaluated with an invisible "
+                      "robot only"):
+        cells = plan_cells(preset, ["circle_crossing", "passing"], episodes=4, visibility="visible")
+    assert [(c.scenario, c.visibility) for c in cells] == [("circle_crossing", "visible")]
+    with pytest.raises(ConfigError, match="nothing to evaluate"), pytest.warns(UserWarning):
+        plan_cells(preset, ["passing"], visibility="visible")

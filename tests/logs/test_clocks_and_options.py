@@ -184,3 +184,14 @@ def test_bad_numeric_options_are_named(tmp_path: Path) -> None:
         score_trajectories([tr], goal_tolerance=-1.0)
     with pytest.raises(TrajectoryFormatError, match=r"cannot tell the format from suffix '.ndjson'"):
         load_trajectories(tmp_path / "trajnet.ndjson")
+
+
+def test_a_long_file_missing_required_columns_is_read_as_a_table_with_a_note(tmp_path: Path) -> None:
+    header = "episode,t,agent,role,x,y,gx,gy,v_pref,outcome,continuation"
+    rows = [f"0,{0.5 * k},{i},{'robot' if i == 0 else 'human'},{3.0 * i},{0.5 * k},0,2,1,success,false"
+            for k in range(5) for i in (0, 1)]
+    path = _csv(tmp_path / "partial.csv", header, rows)
+    with pytest.warns(AssumedValueWarning, match=r"not its required radius: read as a generic table, whose "
+                      r"fields do not include continuation \(not read\)"):
+        (tr,) = load_trajectories(path, radius=0.3)
+    assert tr.radii[0] == 0.3

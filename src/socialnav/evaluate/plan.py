@@ -61,8 +61,23 @@ def plan_cells(preset: Preset, scenarios: list[str] | None = None, episodes: int
     for name in names:
         single = name in ev.single_human or _is_single_human(name)
         if single:
-            if "invisible" in passes:
-                n = make_single(preset, name).n_episodes
+            if "invisible" not in passes:
+                warnings.warn(f"{name} is a single-human scenario, evaluated with an invisible robot only "
+                              f"(M_VI): --visibility {visibility} leaves it out", UserWarning, stacklevel=2)
+            else:
+                scenario = make_single(preset, name)
+                n = scenario.n_episodes
+                offsets = getattr(scenario, "offsets", None)
+                if episodes and episodes < n and offsets is not None and episodes < len(offsets):
+                    # episode i has offset i: the first ones lie on one side of the grid
+                    warnings.warn(
+                        f"{name}: {episodes} of its {len(offsets)} lateral offsets (episodes 0-"
+                        f"{episodes - 1}: {offsets[0]:+.2f} to {offsets[episodes - 1]:+.2f} m), so its side "
+                        f"preference (M_VI, Table III) covers only part of the grid; run {len(offsets)} or "
+                        "more for the whole grid",
+                        UserWarning,
+                        stacklevel=2,
+                    )
                 if episodes and episodes > n:
                     warnings.warn(
                         f"{name} has {n} episodes (n_offsets x evaluation.repeats = {n}): "
@@ -75,6 +90,9 @@ def plan_cells(preset: Preset, scenarios: list[str] | None = None, episodes: int
         else:
             for vis in passes:
                 cells.append(Cell(name, vis, episodes or ev.episodes, False))
+    if not cells:
+        raise ConfigError(f"nothing to evaluate: the single-human scenarios ({', '.join(names)}) run with an "
+                          f"invisible robot only, and --visibility is {visibility}")
     return cells
 
 

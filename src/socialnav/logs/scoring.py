@@ -76,15 +76,13 @@ def detect_format(path: str | Path, columns: Any = None) -> str:
     from socialnav.trajectory_io import REQUIRED_COLUMNS
 
     names = _header(path)
-    # all the long schema's required columns, or a column only it has (then the long reader names the
-    # missing ones instead of the file being re-read as a generic table that drops its goals or map)
-    if names is not None and (all(c in names for c in REQUIRED_COLUMNS)
-                              or any(c in names for c in LONG_ONLY)):
+    if names is not None and all(c in names for c in REQUIRED_COLUMNS):
         return "long"
     return "parquet" if suffix == ".parquet" else "csv"
 
 
-#: Columns of the long format that a generic table's fields (readers.FIELDS) do not include.
+#: Columns of the long format that a generic table's fields (readers.FIELDS) do not include: a file
+#: with some of them but not every required column is read as a table, with a note naming them.
 LONG_ONLY = ("continuation", "min_clearance", "human_overlaps", "settings", "arrival_t", "static_map")
 
 
@@ -189,6 +187,8 @@ def load_trajectories(
         expected = ".parquet" if fmt == "parquet" else ".csv"
         if path.suffix.lower() not in (expected, ".tsv" if fmt == "csv" else expected) and not path.is_dir():
             raise TrajectoryFormatError(f"{path}: --format {fmt} expects a {expected} file")
+        if format == "auto" and not columns:
+            _note_partial_long_format(path)
         scenes = read_table(path, columns, robot=robot, radius=radius, dt=dt, max_gap=max_gap,
                             max_speed=max_speed, length_unit=length_unit, time_unit=time_unit)
     for scene in scenes:
@@ -196,6 +196,19 @@ def load_trajectories(
             warnings.warn(f"{path}: scene {scene.name!r}: irregular timestamps, linearly interpolated onto "
                           f"a {scene.dt:g} s grid", AssumedValueWarning, stacklevel=2)
     return _select(path, scenes, ego)
+
+
+def _note_partial_long_format(path: Path) -> None:
+    """Say so when a file with long-format columns lacks some required ones and is read as a table."""
+    from socialnav.trajectory_io import REQUIRED_COLUMNS
+
+    names = _header(path) or []
+    kept = [c for c in LONG_ONLY if c in names]
+    if kept:
+        missing = [c for c in REQUIRED_COLUMNS if c not in names]
+        warnings.warn(f"{path}: has columns of the long format but not its required {', '.join(missing)}: "
+                      f"read as a generic table, whose fields do not include {', '.join(kept)} (not read)",
+                      AssumedValueWarning, stacklevel=3)
 
 
 def _refuse_table_options(path: Path, **given: Any) -> None:
