@@ -145,3 +145,14 @@ def _train_and_test_reaching() -> float:
     assert len(outcomes) == 50
     venv.close(), test.close()
     return sum(o == "success" for o in outcomes.values()) / 50
+
+
+def test_wrong_number_of_actions_and_dict_observation_settings():
+    venv = SocialNavVecEnv("circle_crossing", 4, observation={"frame": "robot", "max_humans": 5})
+    assert venv.transform.settings.max_humans == 5
+    venv.reset()
+    with pytest.raises(ValueError, match=r"actions of shape \(3, 2\): expected \(4, 2\) \(one action of the "
+                       r"action space per env, 4 envs\)"):
+        venv.step(np.zeros((3, 2)))
+    with pytest.raises(Exception, match="no_such_field"):
+        SocialNavVecEnv("circle_crossing", 2, observation={"no_such_field": 1})

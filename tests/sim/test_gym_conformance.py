@@ -230,3 +230,38 @@ def test_preset_keyword_configures_the_env_as_the_protocol():
 @pytest.mark.parametrize("kwargs", [{}, {"preset": "wang2022", "action_set": "discrete"}])
 def test_gymnasium_env_checker_passes_on_every_id(env_id, kwargs):
     check_env(gym.make(env_id, **kwargs).unwrapped, skip_render_check=True)
+
+
+@pytest.mark.parametrize(("action", "message"), [
+    (np.zeros(3), r"action of shape \(3,\): expected \(2,\)"),
+    (np.zeros((1, 2)), r"action of shape \(1, 2\): expected \(2,\)"),
+    (0.5, r"action of shape \(\): expected \(2,\)"),
+    (None, "action is None"),
+    (["a", "b"], "action \\['a', 'b'\\]: expected numbers"),
+])
+def test_single_env_names_a_malformed_action(action, message):
+    env = gym.make("socialnav/CircleCrossing-v0")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=message):
+        env.unwrapped.step(action)
+
+
+def test_discrete_actions_must_be_integer_indices_and_vector_actions_one_per_env():
+    env = gym.make("socialnav/CircleCrossing-v0", action_set="discrete")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="expected integer indices, got float64"):
+        env.unwrapped.step(3.5)
+    env.unwrapped.step(np.int64(3))
+    venv = gym.make_vec("socialnav/CircleCrossing-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    with pytest.raises(ValueError, match=r"action of shape \(2,\): expected \(3, 2\) \(the action space's "
+                       r"shape, one action per env\)"):
+        venv.step(np.zeros(2))
+
+
+def test_check_env_passes_on_the_learner_wrapper_given_a_dict():
+    from socialnav.sim.learner_wrappers import LearnerObservation
+
+    env = LearnerObservation(gym.make("socialnav/Passing-v0"), {"frame": "robot"})
+    check_env(env, skip_render_check=True)
+    assert env.spec is not None and env.transform.settings.frame == "robot"

@@ -125,3 +125,11 @@ def test_seeds_are_separate_and_derived():
     assert len({a["exploration"], a["init"], a["sampling"]}) == 3
     assert a["exploration"] != b["exploration"] and a["init"] != b["init"]
     assert a["scenario_start"] != b["scenario_start"]
+
+
+def test_a_seed_from_the_command_line_is_bounded_and_named_as_the_options():
+    from socialnav.config import ConfigError
+
+    with pytest.raises(ConfigError, match=r"^--seed: seed must be in \[0, 4294967295\], got 1000000000000$"):
+        load_train_settings("smoke", seed=10**12)
+    assert load_train_settings("smoke", seed=2**32 - 1).seed == 2**32 - 1

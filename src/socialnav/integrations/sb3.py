@@ -101,8 +101,17 @@ class SocialNavVecEnv(VecEnv):
         return self._convert(obs)
 
     def step_async(self, actions: np.ndarray) -> None:
-        """Store the actions (n_envs, 2) the next ``step_wait()`` applies."""
-        self._actions = np.asarray(actions)
+        """Store the actions (n_envs, 2) the next ``step_wait()`` applies.
+
+        Raises:
+            ValueError: Not one action of the action space per env (the shapes are named).
+        """
+        actions = np.asarray(actions)
+        expected = (self.num_envs, *self.action_space.shape)
+        if actions.shape != expected:
+            raise ValueError(f"actions of shape {actions.shape}: expected {expected} (one action of the "
+                             f"action space per env, {self.num_envs} envs)")
+        self._actions = actions
 
     def step_wait(self):
         """Step every slot with the stored actions, auto-resetting finished ones.

@@ -152,13 +152,34 @@ class _EnvConfig:
     def stream(self, order: EpisodeOrder, position: int, count: int | None = None) -> EpisodeStream:
         return EpisodeStream(self.scenario, self.split, position, count, index_map=order)
 
-    def to_actions(self, action: np.ndarray) -> np.ndarray:
+    def to_actions(self, action: Any, n_envs: int | None = None) -> np.ndarray:
+        """The world's (B, 2) actions from one env's action (``n_envs`` None) or a vector env's.
+
+        The shape must be the action space's ((2,) or an index; (n_envs, 2) or (n_envs,) for a vector
+        env); a discrete index must be an integer, not a float or bool that would be cast silently.
+        """
+        if action is None:
+            raise ValueError("action is None: step() needs an action of the env's action space")
+        raw = np.asarray(action)
         if self.action_set == "discrete":
-            index = np.asarray(action, dtype=np.int64).reshape(-1)
+            expected: tuple[int, ...] = () if n_envs is None else (n_envs,)
+            if raw.shape != expected and not (n_envs is None and raw.shape == (1,)):
+                raise ValueError(f"discrete action of shape {raw.shape}: expected {expected or 'a scalar'} "
+                                 "(action indices)")
+            if raw.dtype.kind not in "iu":
+                raise ValueError(f"discrete action {action!r}: expected integer indices, got {raw.dtype}")
+            index = raw.astype(np.int64).reshape(-1)
             if np.any((index < 0) | (index >= len(self.table))):
                 raise ValueError(f"discrete action out of range [0, {len(self.table)}): {index}")
             return self.table[index]
-        return np.asarray(action, dtype=np.float64).reshape(-1, 2)
+        expected = (2,) if n_envs is None else (n_envs, 2)
+        if raw.shape != expected:
+            raise ValueError(f"action of shape {raw.shape}: expected {expected} (the action space's shape"
+                             + ("" if n_envs is None else ", one action per env") + ")")
+        try:
+            return raw.astype(np.float64).reshape(-1, 2)
+        except (TypeError, ValueError):
+            raise ValueError(f"action {action!r}: expected numbers, got {raw.dtype}") from None
 
 
 def _preset_defaults(preset: Any, scenario: str, scenario_params: dict | None, world: Any):
@@ -413,7 +434,8 @@ class SocialNavVectorEnv(VectorEnv):
             (tuple): ``(observations, rewards, terminations, truncations, infos)``; finished slots' last
                 observations are in ``infos["final_obs"]``.
         """
-        result = self._world.step(self._cfg.to_actions(actions), final_observation=True, observe=True)
+        result = self._world.step(self._cfg.to_actions(actions, self.num_envs), final_observation=True,
+                                  observe=True)
         obs = _obs_rows(result.observation, self._cfg.max_edges)
         done = result.terminated | result.truncated
         info = self._current_info()

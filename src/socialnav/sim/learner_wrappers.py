@@ -38,11 +38,21 @@ def env_config(env: Any) -> Any:
     return cfg
 
 
-def make_transform(cfg: Any, settings: ObservationSettings | None) -> ObservationTransform:
+def make_transform(cfg: Any, settings: ObservationSettings | dict[str, Any] | None) -> ObservationTransform:
     """The observation transform of a world configuration ``cfg`` under ``settings``.
 
-    Warns (UserWarning) where the episodes have walls and ``settings`` shows none of them.
+    ``settings`` may be a dict of :class:`ObservationSettings` fields (as ``world=`` takes a dict). Warns
+    (UserWarning) where the episodes have walls and ``settings`` shows none of them.
+
+    Raises:
+        ConfigError: A dict with an unknown field or a bad value (named).
+        TypeError: ``settings`` is neither.
     """
+    if isinstance(settings, dict):
+        settings = ObservationSettings.from_dict(settings)
+    elif settings is not None and not isinstance(settings, ObservationSettings):
+        raise TypeError(f"observation settings must be an ObservationSettings or a dict of its fields, got "
+                        f"{type(settings).__name__}")
     settings = settings or ObservationSettings()
     if getattr(cfg, "has_walls", False) and not settings.obstacle_points:
         warnings.warn(
@@ -78,11 +88,16 @@ def training_record(cfg: Any, transform: ObservationTransform) -> dict[str, Any]
     }
 
 
-class LearnerObservation(gym.Wrapper):
-    """The single env with the learner's observation (and robot-frame actions where that applies)."""
+class LearnerObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
+    """The single env with the learner's observation (and robot-frame actions where that applies).
 
-    def __init__(self, env: gym.Env, settings: ObservationSettings | None = None):
-        super().__init__(env)
+    It records its settings in the env's spec (Gymnasium's ``RecordConstructorArgs``), so that
+    ``env.spec`` and ``check_env`` work on the wrapped env.
+    """
+
+    def __init__(self, env: gym.Env, settings: ObservationSettings | dict[str, Any] | None = None):
+        gym.utils.RecordConstructorArgs.__init__(self, settings=settings)
+        gym.Wrapper.__init__(self, env)
         self._cfg = env_config(env)
         self.transform = make_transform(self._cfg, settings)
         self.observation_space = self.transform.single_space()

@@ -156,7 +156,7 @@ class TrainSettings(Settings):
         choices=("", *INFORMATION),
     )
     collection_batch: int = setting(128, "episodes stepped in lockstep while collecting", ge=1)
-    seed: int = setting(0, "master seed (the run's other seeds derive from it)", ge=0)
+    seed: int = setting(0, "master seed (the run's other seeds derive from it)", ge=0, le=2**32 - 1)
     device: str = setting("cpu", "torch device; auto: cuda when available", choices=DEVICES)
     threads: int = setting(0, "torch intra-op threads (0: all cores, at most 8)", ge=0)
     compile: bool = setting(False, "compile the training steps (docs/training.md, \"Compiled training\")")
@@ -248,6 +248,10 @@ def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[st
     try:
         return from_dict(cls, data)
     except ConfigError as err:
+        # a value from the command line is the command line's error, not the file's
+        given = [k for k, v in overrides.items() if v is not None and str(err).startswith(f"{k} ")]
+        if given:
+            raise ConfigError(f"--{given[0].replace('_', '-')}: {err}") from None
         raise ConfigError(f"{path}: {err}" if path is not None else str(err)) from None
 
 

@@ -95,7 +95,7 @@ class PPOSettings(Settings):
     val_episodes: int = setting(100, "validation episodes (val split, split over the training mix)", ge=1)
     checkpoint_every: int = setting(10, "write last.pt every this many updates (and at the end)", ge=1)
     log_every: int = setting(1, "one curves.csv row every this many updates", ge=1)
-    seed: int = setting(0, "master seed (the run's other seeds derive from it)", ge=0)
+    seed: int = setting(0, "master seed (the run's other seeds derive from it)", ge=0, le=2**32 - 1)
     device: str = setting("cpu", "torch device; auto: cuda when available", choices=DEVICES)
     threads: int = setting(
         1, "torch threads (0: all cores, at most 8; 1 is fastest for these small matrices)", ge=0
