@@ -123,3 +123,13 @@ def test_single_human_scenarios_say_what_a_small_or_visible_run_leaves_out(tmp_p
     assert [(c.scenario, c.visibility) for c in cells] == [("circle_crossing", "visible")]
     with pytest.raises(ConfigError, match="nothing to evaluate"), pytest.warns(UserWarning):
         plan_cells(preset, ["passing"], visibility="visible")
+
+
+def test_the_same_scenarios_in_another_order_name_the_order(tmp_path, capsys):
+    argv = ["evaluate", "--policy", "linear", "--episodes", "2", "--out", str(tmp_path), "--quiet"]
+    assert main([*argv, "--scenario", "crossing", "passing"]) == 0
+    capsys.readouterr()
+    assert main([*argv, "--scenario", "passing", "crossing"]) == 2
+    assert ("differs in: the order of the cells: crossing/invisible, passing/invisible before, "
+            "passing/invisible, crossing/invisible now; give --scenario in the previous order to resume"
+            ) in capsys.readouterr().err

@@ -230,3 +230,41 @@ def test_runs_of_other_scenario_lists_keep_every_policy_in_the_pooled_table(runs
         "orca", "linear"]
     assert ("the pooled rows are over different scenarios, so they do not compare: orca: circle_crossing, "
             "random; linear: circle_crossing") in table2(summary)
+
+
+@pytest.mark.parametrize(("damage", "message"), [
+    (lambda s: '{"rows": [', r"summary.json: not valid JSON"),
+    (lambda s: '{"rows": "x"}', r"summary.json: not a summary of `socialnav evaluate`"),
+    (lambda s: s.replace('"success_rate": 1.0', '"success_rate": "NaN"', 1),
+     r"summary.json: rows\[\d+\] \(\w+/invisible\).success_rate must be a number or null, got 'NaN'"),
+])
+def test_a_damaged_summary_is_named(runs, tmp_path, damage, message):
+    import shutil
+
+    run = tmp_path / "run"
+    shutil.copytree(runs[0], run)
+    text = (run / "summary.json").read_text()
+    (run / "summary.json").write_text(damage(text))
+    if "NaN" in message:
+        assert '"success_rate": 1.0' in text
+    with pytest.raises(ValueError, match=message):
+        write_report(run, tmp_path / "r.html")
+
+
+def test_a_stale_summary_and_a_damaged_manifest_are_named(runs, tmp_path):
+    import shutil
+
+    from socialnav.evaluate.results import ResultsError
+
+    run = tmp_path / "run"
+    shutil.copytree(runs[0], run)
+    chunk = sorted((run / "episodes").rglob("*.parquet"))[0]
+    chunk.unlink()  # as docs/protocol.md says to do with a damaged chunk, then the report is run too early
+    with pytest.raises(ValueError, match=r"summary.json: stale: \w+/\w+ has 5 episodes in the summary but 0 in "
+                       r"episodes/ .* run the same `socialnav evaluate` command again"):
+        write_report(run, tmp_path / "r.html")
+    (run / "manifest.json").write_text("[]")
+    with pytest.raises(ResultsError, match="manifest.json: not a manifest of `socialnav evaluate`"):
+        write_report(run, tmp_path / "r.html")
+    with pytest.raises(ResultsError, match="a file, not a result directory"):
+        write_report(run / "manifest.json", tmp_path / "r.html")

@@ -167,12 +167,19 @@ def check_or_write_manifest(out: Path, manifest: dict) -> None:
             previous = json.loads(path.read_text())
         except (ValueError, UnicodeDecodeError) as err:
             raise ResumeMismatchError(f"{path} is damaged ({err}); use another --out or delete it") from None
+        if not isinstance(previous, dict):
+            raise ResumeMismatchError(f"{path} is damaged (not a JSON object but a "
+                                      f"{type(previous).__name__}); use another --out or delete it")
         if run_identity(previous) == run_identity(manifest):
             return
         if has_results(out):
+            differences = describe_differences(run_identity(previous), run_identity(manifest))
+            if not differences:  # the same cells, listed in another order (the files are fingerprinted so)
+                differences = (f"the order of the cells: {_cell_names(previous)} before, "
+                               f"{_cell_names(manifest)} now; give --scenario in the previous order to "
+                               "resume")
             raise ResumeMismatchError(
-                f"{out} holds results of a different run "
-                f"(differs in: {describe_differences(run_identity(previous), run_identity(manifest))}); "
+                f"{out} holds results of a different run (differs in: {differences}); "
                 "use another --out directory or delete it"
             )
     atomic_write_json(path, manifest)
@@ -221,6 +228,13 @@ def resume_directory(
     for cell, a, b in expected.values():
         (done if chunk_done(out, cell, a, b, trajectories) else todo).append((cell, a, b))
     return ResumePlan(done, todo)
+
+
+def _cell_names(manifest: dict) -> str:
+    cells = manifest.get("cells") if isinstance(manifest, dict) else None
+    if not isinstance(cells, list):
+        return "?"
+    return ", ".join(f"{c.get('scenario')}/{c.get('visibility')}" for c in cells if isinstance(c, dict))
 
 
 def describe_differences(old: Any, new: Any, limit: int = 6) -> str:

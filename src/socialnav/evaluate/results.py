@@ -42,6 +42,8 @@ def load_manifest(results_dir: str | Path) -> dict[str, Any]:
         ResultsError: The directory does not exist or holds no manifest (not a result directory).
     """
     root = Path(results_dir)
+    if root.is_file():
+        raise ResultsError(f"{root}: a file, not a result directory of `socialnav evaluate`")
     if not root.is_dir():
         raise ResultsError(f"{root}: no such result directory")
     path = root / "manifest.json"
@@ -52,9 +54,14 @@ def load_manifest(results_dir: str | Path) -> dict[str, Any]:
                     f"e.g. `socialnav report {root}/policies/*`")
         raise ResultsError(f"{root}: not a result directory of `socialnav evaluate` (no manifest.json){hint}")
     try:
-        return json.loads(path.read_text())
-    except json.JSONDecodeError as err:
+        manifest = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ResultsError(f"{path}: not valid JSON ({err})") from None
+    if not isinstance(manifest, dict) or not isinstance(manifest.get("policy"), dict) or not isinstance(
+            manifest.get("cells"), list):
+        raise ResultsError(f"{path}: not a manifest of `socialnav evaluate` (expected an object with "
+                           "'policy' and 'cells')")
+    return manifest
 
 
 def parse_episode_id(episode_id: str) -> tuple[str, str, int]:

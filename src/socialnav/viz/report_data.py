@@ -71,7 +71,7 @@ class ResultRun:
             raise ValueError(
                 f"{path}: no summary.json (the run has not finished; run `socialnav evaluate` again)"
             )
-        self.summary = json.loads(summary_path.read_text())
+        self.summary = read_summary(summary_path, self.rows)
         self.label = str(self.manifest.get("policy", {}).get("label") or self.rows[0]["policy"])
 
     def relabel(self, label: str) -> None:
@@ -81,6 +81,56 @@ class ResultRun:
             r["policy"] = label
         for r in self.summary["rows"]:
             r["policy"] = label
+
+
+#: The summary rows' text fields; every other field is a number or null.
+_TEXT_FIELDS = ("policy", "scenario", "visibility", "information", "pooled_over")
+
+
+def read_summary(path: Path, rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """A run's ``summary.json``, checked against its episode rows.
+
+    Args:
+        path: The file.
+        rows: The run's episode result rows (``episodes/``).
+
+    Returns:
+        The summary (``rows`` and the run's other records).
+
+    Raises:
+        ValueError: The file is not valid JSON, not a summary (a field of the wrong type is named), or
+            stale: a cell's episode count differs from ``episodes/`` (a chunk deleted or added since).
+    """
+    again = "run the same `socialnav evaluate` command again to rewrite it"
+    try:
+        data = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as err:
+        raise ValueError(f"{path}: not valid JSON ({err}); {again}") from None
+    summary_rows = data.get("rows") if isinstance(data, dict) else None
+    if not isinstance(summary_rows, list) or not all(isinstance(r, dict) for r in summary_rows):
+        raise ValueError(f"{path}: not a summary of `socialnav evaluate` (expected an object whose 'rows' "
+                         f"is a list of objects); {again}")
+    counts: dict[tuple[str, str], int] = {}
+    for r in rows:
+        key = (str(r.get("scenario")), str(r.get("visibility")))
+        counts[key] = counts.get(key, 0) + 1
+    for i, r in enumerate(summary_rows):
+        for field in ("policy", "scenario", "visibility"):
+            if not isinstance(r.get(field), str):
+                raise ValueError(f"{path}: rows[{i}].{field} must be text, got {r.get(field)!r}; {again}")
+        for key, value in r.items():
+            if key not in _TEXT_FIELDS and value is not None and (
+                    isinstance(value, bool) or not isinstance(value, int | float)):
+                raise ValueError(f"{path}: rows[{i}] ({r['scenario']}/{r['visibility']}).{key} must be a "
+                                 f"number or null, got {value!r}; {again}")
+        if r["scenario"] == "pooled":
+            continue
+        have = counts.get((r["scenario"], r["visibility"]), 0)
+        if r.get("episodes") != have:
+            raise ValueError(f"{path}: stale: {r['scenario']}/{r['visibility']} has {r.get('episodes')} "
+                             f"episodes in the summary but {have} in episodes/ (a chunk deleted or added "
+                             f"since); {again}")
+    return data
 
 
 def ranked_picks(cell_rows: list[dict[str, Any]], key: str, direction: str, n: int) -> dict[str, str]:
