@@ -266,6 +266,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     label = args.label or args.policy
     if not args.label and ":" in args.policy:
         label = str(getattr(policy, "name", "") or args.policy.rpartition(":")[2])
+    if not args.out and (Path(label).name != label or label in (".", "..")):
+        raise ValueError(f"--label {label!r} would name the result directory runs/evaluate/{preset.name}-"
+                         f"{label}, outside runs/evaluate: pass --out, or a label without path separators")
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")
     extra: dict[str, Any] = {"checkpoint": str(args.checkpoint) if args.checkpoint else None}
     if args.checkpoint:  # by content: a resume never mixes two networks saved at one path

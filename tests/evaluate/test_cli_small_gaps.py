@@ -133,3 +133,18 @@ def test_the_same_scenarios_in_another_order_name_the_order(tmp_path, capsys):
     assert ("differs in: the order of the cells: crossing/invisible, passing/invisible before, "
             "passing/invisible, crossing/invisible now; give --scenario in the previous order to resume"
             ) in capsys.readouterr().err
+
+
+def test_labels_are_text_in_every_table_and_never_a_path(tmp_path, capsys, monkeypatch):
+    from socialnav.evaluate.report import table2
+
+    row = {"policy": "a&b_#{x}~$|", "scenario": "circle_crossing", "visibility": "invisible", "episodes": 1,
+           "success_rate": 1.0}
+    tex = table2([row], "tex")
+    assert "a\\&b\\_\\#\\{x\\}\\textasciitilde{}\\$|" in tex
+    assert "| a&b_#{x}~$\\| |" in table2([row], "md")
+    monkeypatch.chdir(tmp_path)
+    argv = ["evaluate", "--policy", "linear", "--scenario", "passing", "--episodes", "2", "--quiet"]
+    assert main([*argv, "--label", "../../x"]) == 2
+    assert "outside runs/evaluate: pass --out" in capsys.readouterr().err
+    assert not (tmp_path.parent / "x").exists() and not (tmp_path / "runs").exists()

@@ -260,8 +260,8 @@ def test_a_stale_summary_and_a_damaged_manifest_are_named(runs, tmp_path):
     shutil.copytree(runs[0], run)
     chunk = sorted((run / "episodes").rglob("*.parquet"))[0]
     chunk.unlink()  # as docs/protocol.md says to do with a damaged chunk, then the report is run too early
-    with pytest.raises(ValueError, match=r"summary.json: stale: \w+/\w+ has 5 episodes in the summary but 0 in "
-                       r"episodes/ .* run the same `socialnav evaluate` command again"):
+    with pytest.raises(ValueError, match=r"summary.json: stale: \w+/\w+ has 5 episodes in the summary but 0 "
+                       r"in episodes/ .* run the same `socialnav evaluate` command again"):
         write_report(run, tmp_path / "r.html")
     (run / "manifest.json").write_text("[]")
     with pytest.raises(ResultsError, match="manifest.json: not a manifest of `socialnav evaluate`"):

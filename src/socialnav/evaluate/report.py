@@ -348,18 +348,23 @@ TABLE3_DASH_NOTE = (
 TABLE3_PERCENT_COLUMNS = (1, 2, 5, 6, 9, 10)
 
 
+_TEX_SPECIAL = {
+    "\\": "\\textbackslash{}", "&": "\\&", "%": "\\%", "$": "\\$", "#": "\\#", "_": "\\_", "{": "\\{",
+    "}": "\\}", "~": "\\textasciitilde{}", "^": "\\textasciicircum{}",
+}
+
+
 def _render(title: str, header: list[str], rows: list[list[str]], fmt: str) -> str:
     if fmt == "md":
         lines = [f"### {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-        lines += ["| " + " | ".join(r) + " |" for r in rows]
+        lines += ["| " + " | ".join(c.replace("|", "\\|") for c in r) + " |" for r in rows]  # a label's |
         return "\n".join(lines) + "\n"
     if fmt == "tex":
 
         def esc(s: str) -> str:
+            # LaTeX's special characters in one pass (a label may hold any), then the table's symbols
             return (
-                s.replace("\\", "\\textbackslash{}")
-                .replace("%", "\\%")
-                .replace("_", "\\_")
+                "".join(_TEX_SPECIAL.get(ch, ch) for ch in s)
                 .replace("±", "$\\pm$")
                 .replace("³", "$^3$")
                 .replace("²", "$^2$")

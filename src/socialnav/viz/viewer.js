@@ -17,6 +17,9 @@
     o.textContent = text;
     select.appendChild(o);
   }
+  function esc(text) {
+    return String(text).replace(/[&<>"']/g, (c) => ({"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;"})[c]);
+  }
   function fill(select, items) {
     const keep = select.value;
     select.innerHTML = "";
@@ -83,8 +86,9 @@
     state.k = 0;
     $("scrub").max = String(ep.S - 1);
     $("scrub").value = "0";
-    const rows = Object.keys(ep.values).map((k) => "<tr><td>" + (DATA.metric_labels[k] || k) + "</td><td>" + fmt(ep.values[k]) + "</td></tr>");
-    $("episode-info").innerHTML = "<b>" + ep.id + "</b> · " + ep.policy + " · <b>" + ep.outcome + "</b> · " +
+    // labels and ids come from the user (--label, scenario names): text, never markup
+    const rows = Object.keys(ep.values).map((k) => "<tr><td>" + esc(DATA.metric_labels[k] || k) + "</td><td>" + fmt(ep.values[k]) + "</td></tr>");
+    $("episode-info").innerHTML = "<b>" + esc(ep.id) + "</b> · " + esc(ep.policy) + " · <b>" + esc(ep.outcome) + "</b> · " +
       ((ep.n_main - 1) * ep.dt).toFixed(2) + " s" + (ep.S > ep.n_main ? " (+ " + ((ep.S - ep.n_main) * ep.dt).toFixed(2) + " s after arrival)" : "") +
       "<table class='mini'>" + rows.join("") + "</table>";
     fitView();
