@@ -271,6 +271,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                          f"{label}, outside runs/evaluate: pass --out, or a label without path separators")
     out = Path(args.out or f"runs/evaluate/{preset.name}-{label}")
     extra: dict[str, Any] = {"checkpoint": str(args.checkpoint) if args.checkpoint else None}
+    if ":" in args.policy and not args.policy.startswith("sb3:"):
+        # a policy of the user's module: how to build it again (replay), and its arguments, which its own
+        # describe() may not record (a changed --policy-arg must not resume into the old results)
+        extra["policy_entry"] = args.policy
+        extra["policy_args"] = overrides
     if args.checkpoint:  # by content: a resume never mixes two networks saved at one path
         from socialnav._io import file_sha256
 

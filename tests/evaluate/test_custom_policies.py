@@ -270,3 +270,25 @@ def test_a_changed_policy_module_or_model_file_is_never_silently_reused(tmp_path
     (tmp_path / "file_seeker_mod.py").write_text(POLICY_MODULE + "\n# tuned\n")
     with pytest.raises(ResumeMismatchError, match="policy_sources.module: "):
         run()
+
+
+class Forgetful(GoalSeeker):
+    """Its describe() does not record its arguments (many users' policies don't)."""
+
+    def describe(self):
+        return {"policy": "forgetful"}
+
+
+def test_a_module_policy_is_replayed_and_its_arguments_guard_a_resume(tmp_path, capsys):
+    argv = ["evaluate", "--policy", f"{MODULE}:Forgetful", "--scenario", "passing", "--episodes", "2",
+            "--out", str(tmp_path), "--quiet"]
+    assert main([*argv, "--policy-arg", "speed_factor=0.5"]) == 0
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    assert manifest["policy_entry"] == f"{MODULE}:Forgetful"
+    assert manifest["policy_args"] == {"speed_factor": 0.5}
+    capsys.readouterr()
+    assert main(["replay", str(tmp_path), "--episode", "passing/invisible/1"]) == 0
+    assert "identical" in capsys.readouterr().out
+    # the same policy with another argument is another run, although its describe() is the same
+    assert main([*argv, "--policy-arg", "speed_factor=0.9"]) == 2
+    assert "policy_args.speed_factor: 0.5 -> 0.9" in capsys.readouterr().err

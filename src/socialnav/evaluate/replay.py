@@ -51,6 +51,8 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     name = desc.get("policy")
     if not name:
         raise ResultsError("manifest.json: the policy's name (policy.policy) is not recorded")
+    if manifest.get("policy_entry"):
+        return _rebuild_from_module(manifest, desc, preset)
     try:
         entry = get_policy_entry(name)
     except KeyError as err:
@@ -75,6 +77,29 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     for key in RECORDED_ONLY:  # e.g. the native kernel: bit-identical values on any CPU
         rebuilt.pop(key, None)
         desc = {k: v for k, v in desc.items() if k != key}
+    if json_norm(rebuilt) != json_norm(desc):
+        raise ResultsError(
+            f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"
+        )
+    return policy
+
+
+def _rebuild_from_module(manifest: dict[str, Any], desc: dict[str, Any], preset: Any) -> Any:
+    """A policy of the user's module (``module.path:ClassName``), refused when its source changed."""
+    from socialnav.evaluate.manifest import policy_sources
+    from socialnav.policies.loading import build_policy
+
+    entry = manifest["policy_entry"]
+    try:
+        policy = build_policy(entry, preset, None, **dict(manifest.get("policy_args") or {}))
+    except (KeyError, ImportError, ValueError) as err:
+        raise ResultsError(f"manifest.json: cannot build the run's policy {entry} ({err}); replay imports it "
+                           "as `socialnav evaluate` did (run it from the same directory)") from None
+    recorded = manifest.get("policy_sources") or {}
+    if recorded and policy_sources(policy) != recorded:
+        raise ResultsError(f"manifest.json: the source of policy {entry} changed since the run (SHA-256 "
+                           f"recorded: {recorded}); replay needs the code the run used")
+    rebuilt = {"label": desc.get("label"), **policy.describe()}
     if json_norm(rebuilt) != json_norm(desc):
         raise ResultsError(
             f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"
