@@ -329,7 +329,7 @@ CASES: list[Case] = [
         "--rl-episodes",
         ">= 0",
     ),
-    C("train-seed-negative", "setting", TR + " --seed -1", "seed", ">= 0"),
+    C("train-seed-negative", "setting", TR + " --seed -1", "--seed: seed", "must be in [0, 4294967295]"),
     C("train-preset-world-5", "type", TR + " --preset {base}/world5.yaml", "section world"),
     C(
         "train-preset-threads",

@@ -63,7 +63,7 @@ def test_refuses_other_policy_naming_both(tmp_path):
     path = save_checkpoint(tmp_path / "x.pt", "cadrl", build("cadrl"), {}, {})
     with pytest.raises(CheckpointError) as err:
         load_checkpoint(path, "sarl")
-    assert str(err.value) == ("checkpoint x.pt holds policy 'cadrl', expected 'sarl' (load it as 'cadrl', "
+    assert str(err.value) == (f"checkpoint {path} holds policy 'cadrl', expected 'sarl' (load it as 'cadrl', "
                               "e.g. --policy cadrl)")
     path = save_checkpoint(tmp_path / "om.pt", "om_sarl", build("om_sarl"), {}, {})
     with pytest.raises(
@@ -143,3 +143,13 @@ def test_a_stable_baselines3_model_given_as_a_checkpoint_points_to_sb3(tmp_path)
     with pytest.raises(CheckpointError) as err:
         load_checkpoint(other, "sarl")
     assert "damaged or not a torch file" in str(err.value) and "sb3" not in str(err.value)
+
+
+def test_a_truncated_checkpoint_is_called_damaged(tmp_path):
+    from socialnav.policies.loading import shipped_checkpoint
+
+    whole = shipped_checkpoint("sarl", "wang2022").read_bytes()
+    path = tmp_path / "cut.pt"
+    path.write_bytes(whole[: len(whole) // 2])
+    with pytest.raises(CheckpointError, match=r"cut.pt is damaged"):
+        load_checkpoint(path, "sarl")

@@ -133,3 +133,15 @@ def test_a_seed_from_the_command_line_is_bounded_and_named_as_the_options():
     with pytest.raises(ConfigError, match=r"^--seed: seed must be in \[0, 4294967295\], got 1000000000000$"):
         load_train_settings("smoke", seed=10**12)
     assert load_train_settings("smoke", seed=2**32 - 1).seed == 2**32 - 1
+
+
+def test_a_run_directory_of_another_policy_is_named_as_such(tmp_path):
+    from socialnav.config import ConfigError
+    from socialnav.policies.learned import build, save_checkpoint
+    from socialnav.train.common import load_resume_checkpoint
+
+    save_checkpoint(tmp_path / "last.pt", "sarl", build("sarl"), {}, {})
+    with pytest.raises(ConfigError, match=rf"{tmp_path} holds a training run of another policy \(checkpoint "
+                       rf"{tmp_path}/last.pt holds policy 'sarl', expected 'cadrl'.*train 'cadrl' into another "
+                       r"--out"):
+        load_resume_checkpoint(tmp_path / "last.pt", "cadrl", tmp_path)

@@ -300,14 +300,43 @@ def check_same_run(saved: dict[str, Any], config: dict[str, Any], out: Path) -> 
     """
     diff = resume_diff(saved, config)
     if diff:
-        changes = "; ".join(f"{k}: {_dotted(saved, k)!r} -> {_dotted(config, k)!r}" for k in diff[:6])
+        changes = "; ".join(f"{k}: {dotted(saved, k)!r} -> {dotted(config, k)!r}" for k in diff[:6])
         raise ConfigError(
             f"{out} holds a run with other settings ({changes}{'; ...' if len(diff) > 6 else ''}); "
             f"use another --out or the run's own settings (config.yaml)"
         )
 
 
-def _dotted(data: Any, key: str) -> Any:
+def load_resume_checkpoint(last_path: Path, policy: str, out: Path, **kwargs: Any) -> Any:
+    """A run directory's ``last.pt``, refused naming the directory when it holds another policy's run.
+
+    Args:
+        last_path: The run's ``last.pt``.
+        policy: The policy being trained.
+        out: The run directory.
+        **kwargs: Passed to :func:`~socialnav.policies.learned.load_checkpoint`.
+
+    Returns:
+        The checkpoint.
+
+    Raises:
+        ConfigError: The directory holds a run of another policy.
+        CheckpointError: The file is damaged.
+    """
+    from socialnav.policies.learned import load_checkpoint
+    from socialnav.policies.learned.checkpoint import CheckpointError
+
+    try:
+        return load_checkpoint(last_path, policy, **kwargs)
+    except CheckpointError as err:
+        if " holds policy " not in str(err):
+            raise
+        raise ConfigError(f"{out} holds a training run of another policy ({err}); train {policy!r} into "
+                          "another --out, or move that run away") from None
+
+
+def dotted(data: Any, key: str) -> Any:
+    """The value at a dotted key (``train.seed``) of nested dicts, or None."""
     for part in key.split("."):
         data = data.get(part) if isinstance(data, dict) else None
     return data

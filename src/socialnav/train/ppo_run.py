@@ -32,7 +32,13 @@ from socialnav._io import (
 from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
 from socialnav.sim.obstacle_points import ObstaclePoints
-from socialnav.train.common import RunFiles, load_optimizer_state, resolve_device
+from socialnav.train.common import (
+    RunFiles,
+    dotted,
+    load_optimizer_state,
+    load_resume_checkpoint,
+    resolve_device,
+)
 from socialnav.train.config import derive_seeds, flat_diff
 from socialnav.train.curves import Curves
 from socialnav.train.envs import MultiWorld, mix_human_slots
@@ -174,7 +180,10 @@ def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints |
 def _check_resumable(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:
     diff = [k for k in flat_diff(saved, config) if not any(k == f"train.{r}" for r in PPO_RESUMABLE_CHANGES)]
     if diff:
-        raise ConfigError(f"{out} holds a run with other settings ({', '.join(diff[:6])}); use another --out")
+        changes = "; ".join(f"{k}: {dotted(saved, k)!r} -> {dotted(config, k)!r}" for k in diff[:6])
+        more = "; ..." if len(diff) > 6 else ""
+        raise ConfigError(f"{out} holds a run with other settings ({changes}{more}); use another --out or "
+                          "the run's own settings (config.yaml)")
 
 
 def setup_ppo_run(
@@ -208,7 +217,7 @@ def setup_ppo_run(
             state or a run with other settings.
         DirectoryLockedError: another training is writing to ``out_dir``.
     """
-    from socialnav.policies.learned import build, load_checkpoint
+    from socialnav.policies.learned import build
     from socialnav.policies.learned_catalog import learned_policy_names
 
     if s.policy not in (ppo := learned_policy_names("ppo")):
@@ -252,7 +261,7 @@ def setup_ppo_run(
     resumed: dict[str, Any] | None = None
     last_path = out / "last.pt"
     if last_path.exists():
-        ck = load_checkpoint(last_path, s.policy, expected_input_dim=-1, map_location=device)
+        ck = load_resume_checkpoint(last_path, s.policy, out, expected_input_dim=-1, map_location=device)
         resumed = ck.extra.get("resume")
         if not isinstance(resumed, dict):
             raise ConfigError(f"{last_path} is not a PPO training state (no 'resume' record); move it away")

@@ -31,7 +31,14 @@ from socialnav._io import (
 )
 from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
-from socialnav.train.common import RunFiles, check_same_run, make_optimizer, resolve_device, reward_config
+from socialnav.train.common import (
+    RunFiles,
+    check_same_run,
+    load_resume_checkpoint,
+    make_optimizer,
+    resolve_device,
+    reward_config,
+)
 from socialnav.train.config import TrainSettings, derive_seeds
 from socialnav.train.curves import Curves
 from socialnav.train.envs import MultiWorld, obstacle_encoding_entry, training_n_humans
@@ -212,7 +219,7 @@ def setup_run(
         ConfigError: ``last.pt`` holds no training state, or a run with other settings.
         DirectoryLockedError: another training is writing to ``out_dir``.
     """
-    from socialnav.policies.learned import ValuePolicy, build, load_checkpoint
+    from socialnav.policies.learned import ValuePolicy, build
     from socialnav.policies.learned.state import RewardParams
     from socialnav.policies.learned_catalog import canonical_name
 
@@ -286,7 +293,7 @@ def setup_run(
     resumed: dict[str, Any] | None = None
     last_path = out / "last.pt"
     if last_path.exists():
-        ck = load_checkpoint(last_path, name, map_location=device)
+        ck = load_resume_checkpoint(last_path, name, out, map_location=device)
         resumed = ck.extra.get("resume")
         if not isinstance(resumed, dict):
             raise ConfigError(

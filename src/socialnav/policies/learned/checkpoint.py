@@ -167,6 +167,9 @@ def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any
     try:
         payload = torch.load(path, map_location=map_location, weights_only=True)
     except OSError as err:
+        if Path(path).is_file():  # torch reads a truncated zip archive as an I/O error (Errno 22)
+            raise CheckpointError(f"checkpoint {path} is damaged or truncated (reading it failed: "
+                                  f"{_one_line(err)})") from None
         raise CheckpointError(f"checkpoint {path} cannot be read: {_one_line(err)}") from None
     except Exception as err:  # unpickling a damaged or foreign file fails in many ways
         hint = ""
@@ -250,12 +253,12 @@ def load_checkpoint(
         expected_input_dim = got_dim
     if got != want:
         raise CheckpointError(
-            f"checkpoint {path.name} holds policy {got!r}, expected {expected_policy!r} (load it as {got!r}, "
+            f"checkpoint {path} holds policy {got!r}, expected {expected_policy!r} (load it as {got!r}, "
             f"e.g. --policy {got})"
         )
     if got_dim != expected_input_dim:
         raise CheckpointError(
-            f"checkpoint {path.name} holds policy {got!r} with input size {got_dim} per human, expected "
+            f"checkpoint {path} holds policy {got!r} with input size {got_dim} per human, expected "
             f"{expected_input_dim}"
         )
     try:
