@@ -141,7 +141,7 @@ def test_a_run_directory_of_another_policy_is_named_as_such(tmp_path):
     from socialnav.train.common import load_resume_checkpoint
 
     save_checkpoint(tmp_path / "last.pt", "sarl", build("sarl"), {}, {})
-    with pytest.raises(ConfigError, match=rf"{tmp_path} holds a training run of another policy \(checkpoint "
-                       rf"{tmp_path}/last.pt holds policy 'sarl', expected 'cadrl'.*train 'cadrl' into another "
-                       r"--out"):
+    with pytest.raises(ConfigError, match=rf"{tmp_path} holds a training run of another policy \("
+                       rf"checkpoint {tmp_path}/last.pt holds policy 'sarl', expected 'cadrl'.*train 'cadrl' "
+                       r"into another --out"):
         load_resume_checkpoint(tmp_path / "last.pt", "cadrl", tmp_path)

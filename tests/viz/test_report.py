@@ -268,3 +268,19 @@ def test_a_stale_summary_and_a_damaged_manifest_are_named(runs, tmp_path):
         write_report(run, tmp_path / "r.html")
     with pytest.raises(ResultsError, match="a file, not a result directory"):
         write_report(run / "manifest.json", tmp_path / "r.html")
+
+
+def test_report_arguments_that_make_no_sense_are_named(runs, tmp_path):
+    with pytest.raises(ValueError, match="the same result directory is given twice"):
+        write_report([runs[0], runs[0]], tmp_path / "r.html")
+    with pytest.raises(ValueError, match=r"--out .* is a directory; give the report's file name"):
+        write_report(runs[0], tmp_path)
+    with pytest.raises(ValueError, match="--viewer-episodes must be >= 0"):
+        write_report(runs[0], tmp_path / "r.html", viewer_episodes=-1)
+    write_report(runs[0], tmp_path / "r.html", viewer_episodes=0)
+    text = (tmp_path / "r.html").read_text()
+    assert "No episode viewer (--viewer-episodes 0)." in text and "--no-trajectories" not in text
+    info = write_report(runs[0], tmp_path / "r5.html", viewer_episodes=5)
+    picks = embedded_data((tmp_path / "r5.html").read_text())["cells"][0]["picks"]
+    assert list(next(iter(picks.values()))) == ["best", "q0.25", "median", "q0.75", "worst"]
+    assert info["viewer_episodes"] > 0

@@ -47,6 +47,10 @@ def write_report(
 
     Returns:
         ``{"bytes": size of the file, "viewer_episodes": episodes embedded, "figures": count}``.
+
+    Raises:
+        ValueError: No result directory, one given twice, ``out`` a directory, or a negative
+            ``viewer_episodes``; a result directory's own errors name its files.
     """
     from tqdm.auto import tqdm
 
@@ -58,6 +62,14 @@ def write_report(
     if not paths:
         raise ValueError("report: give at least one result directory")
     out = Path(out)
+    if viewer_episodes < 0:
+        raise ValueError(f"--viewer-episodes must be >= 0 (0: no viewer), got {viewer_episodes}")
+    if out.is_dir():
+        raise ValueError(f"--out {out} is a directory; give the report's file name, e.g. "
+                         f"{out / 'report.html'}")
+    twice = [str(p) for p in paths if sum(q.resolve() == p.resolve() for q in paths) > 1]
+    if twice:
+        raise ValueError(f"the same result directory is given twice: {', '.join(twice)}")
     bar = tqdm(total=4, desc="report", unit="part", disable=not progress, leave=False)
     runs = [ResultRun(p) for p in paths]
     labels = [r.label for r in runs]
@@ -75,7 +87,10 @@ def write_report(
     bar.set_description("report: episodes")
     data = viewer_data(runs, viewer_episodes, eps, tau) if viewer_episodes > 0 else None
     bar.update(1)
-    page = report_page(runs, tables, figures, data)
+    if viewer_episodes == 0:
+        page = report_page(runs, tables, figures, data, "No episode viewer (--viewer-episodes 0).")
+    else:
+        page = report_page(runs, tables, figures, data)
     atomic_write_text(out, page)
     bar.update(1)
     bar.close()

@@ -189,7 +189,8 @@ def settings_html(runs: list[ResultRun]) -> str:
 
 
 def report_page(
-    runs: list[ResultRun], tables: str, figures: list[tuple[str, str, bytes]], data: dict | None
+    runs: list[ResultRun], tables: str, figures: list[tuple[str, str, bytes]], data: dict | None,
+    no_viewer: str = "No stored trajectories (runs made with --no-trajectories): no episode viewer.",
 ) -> str:
     """The whole report page.
 
@@ -198,6 +199,7 @@ def report_page(
         tables: The tables' HTML (:func:`tables_html`).
         figures: (name, caption, PNG bytes) of each figure, embedded as base64.
         data: The viewer's data, or None for a report without the viewer.
+        no_viewer: What the page says in the viewer's place when ``data`` is None.
 
     Returns:
         The self-contained HTML document.
@@ -216,7 +218,7 @@ def report_page(
     viewer = (
         viewer_html(data)
         if data
-        else "<p>No stored trajectories (runs made with --no-trajectories): no episode viewer.</p>"
+        else f"<p>{html.escape(no_viewer)}</p>"
     )
     body = (
         f"<h1>socialnav report: {names} on {html.escape(str(preset))}</h1>"

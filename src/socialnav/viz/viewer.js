@@ -50,7 +50,7 @@
     const metric = $("sel-metric").value;
     const items = [];
     const picks = (cell.picks || {})[metric] || {};
-    ["best", "median", "worst"].forEach((which) => {
+    Object.keys(picks).forEach((which) => { // best first, then by rank (q0.25, median, ...) to worst
       if (picks[which] !== undefined) {
         const ep = DATA.episodes[picks[which]];
         items.push([String(picks[which]), which + " by metric: " + ep.id + " (" + fmt(ep.values[metric]) + ")"]);
