@@ -252,6 +252,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         from socialnav.evaluate.cli import cmd_evaluate_all
 
         return cmd_evaluate_all(args)
+    if args.report:  # checked before a long evaluation, not after it
+        from socialnav.viz import require_viz
+
+        require_viz()
     preset = load_preset(args.preset)
     overrides = parse_policy_args(args.policy_arg)
     for key in ("information", "planning_depth", "planning_width"):

@@ -228,6 +228,21 @@ def test_bad_overlay_and_format_mismatch_are_clear(run_dir, capsys):
     assert parse_overlays(["m1,m2", "all"]) == ("personal_space", "velocity_rectangles", "side_preference")
 
 
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--eps", "-1"], "--eps must be a finite number > 0, got -1.0"),
+    (["--tau", "nan"], "--tau must be a finite number > 0, got nan"),
+    (["--every", "-2"], "--every must be an integer >= 1, got -2"),
+    (["--max-frames", "0"], "--max-frames must be an integer >= 1, got 0"),
+    (["--out", "ep.jpg"], "--out ep.jpg: cannot write .jpg; formats: "),
+    (["--out", "{tmp}/afile/r.png"], "afile is a file, not a directory"),
+])
+def test_render_options_that_make_no_sense_are_named(run_dir, tmp_path, capsys, extra, message):
+    (tmp_path / "afile").write_text("")
+    extra = [e.replace("{tmp}", str(tmp_path)) for e in extra]
+    assert main(["render", str(run_dir), "--episode", "passing/invisible/1", *extra]) == 2
+    assert message in capsys.readouterr().err
+
+
 def test_frame_indices_hand_computed():
     assert frame_indices(5) == [0, 1, 2, 3, 4]
     assert frame_indices(10, stride=4) == [0, 4, 8, 9]

@@ -147,6 +147,10 @@ def cmd_evaluate_all(args: argparse.Namespace) -> int:
     if refused:
         raise ValueError(f"--policy all takes no {', '.join(refused)} (each policy uses its own settings: "
                          "a preset's `policies:` section sets a policy's parameters)")
+    if args.report:  # checked before a long evaluation, not after it
+        from socialnav.viz import require_viz
+
+        require_viz()
     preset = load_preset(args.preset)
     specs = default_specs(preset.name)
     out = Path(args.out or f"runs/evaluate/{preset.name}-all")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from pathlib import Path
@@ -139,11 +140,19 @@ def _run_render(args: argparse.Namespace) -> int:
 
     require_viz()
     overlays = parse_overlays(args.overlay)
+    for flag, value in (("--eps", args.eps), ("--tau", args.tau)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{flag} must be a finite number > 0, got {value}")
+    for flag, value in (("--every", args.every), ("--max-frames", args.max_frames)):
+        if value is not None and value < 1:
+            raise ValueError(f"{flag} must be an integer >= 1, got {value}")
     fmt = args.format
+    suffix = Path(args.out).suffix.lower().lstrip(".") if args.out else ""
     if fmt is None:
-        suffix = Path(args.out).suffix.lower().lstrip(".") if args.out else ""
-        fmt = suffix if suffix in FORMATS else "png"
-    if args.out and Path(args.out).suffix.lower().lstrip(".") not in ("", fmt):
+        if suffix and suffix not in FORMATS:
+            raise ValueError(f"--out {args.out}: cannot write .{suffix}; formats: {', '.join(FORMATS)}")
+        fmt = suffix or "png"
+    if args.out and suffix not in ("", fmt):
         raise ValueError(f"--out {args.out} does not end in .{fmt} (the --format)")
     smap = map_from_args(args)
     traj, default_dir = load_source(args.source, args.episode, args.resample)
@@ -153,6 +162,9 @@ def _run_render(args: argparse.Namespace) -> int:
         traj = dataclasses.replace(traj, static_map=smap)
     name = _safe(str(traj.settings.get("episode", "episode")))
     out = Path(args.out) if args.out else default_dir / f"{name}.{fmt}"
+    blocking = next((p for p in [out.parent, *out.parent.parents] if p.is_file()), None)
+    if blocking is not None:
+        raise ValueError(f"--out {out}: {blocking} is a file, not a directory")
     out.parent.mkdir(parents=True, exist_ok=True)
     progress = not args.quiet
     detail = ""
