@@ -132,3 +132,11 @@ def test_static_map_may_be_a_map_file(tmp_path):
         np.testing.assert_array_equal(obs["obstacles"], [[-2.0, 0.0, 2.0, 0.0]])
     with pytest.raises(ValueError, match=r"missing\.yaml: no such map file"):
         SocialNavEnv(static_map=tmp_path / "missing.yaml")
+
+
+def test_a_static_map_beside_a_walled_scenario_is_said_to_be_unused():
+    with pytest.warns(UserWarning, match="scenario 'narrow_hallway' has walls of its own, which win over "
+                      "static_map: the given map is not used"):
+        env = SocialNavEnv(scenario="narrow_hallway", static_map=pillars_and_walls())
+    own = SocialNavEnv(scenario="narrow_hallway")
+    assert env.observation_space["obstacles"].shape == own.observation_space["obstacles"].shape

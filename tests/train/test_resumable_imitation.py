@@ -107,6 +107,7 @@ def test_interrupted_imitation_resumes_at_the_next_epoch_with_the_same_result(
     for key, value in ref_il.model.state_dict().items():
         torch.testing.assert_close(run_il.model.state_dict()[key], value, rtol=0, atol=0)
     assert resumed.episodes == 10
+    assert resumed.resumed and not reference.resumed  # continued from the interrupted imitation's files
 
 
 def test_imitation_resume_refuses_other_settings(tmp_path, quick_preset, settings, monkeypatch):

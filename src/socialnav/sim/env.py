@@ -129,7 +129,12 @@ class _EnvConfig:
         self.scenario = make_scenario(scenario, **(scenario_params or {}))
         # A scenario with walls of its own (which win over static_map, as in World) bounds its maps' edges.
         own = int(getattr(self.scenario, "max_obstacle_edges", 0))
-        edges = max(own, 0 if self.static_map is None else len(self.static_map.edges()[0]))
+        if own and self.static_map is not None:
+            import warnings
+
+            warnings.warn(f"scenario {scenario!r} has walls of its own, which win over static_map: the given "
+                          "map is not used (docs/walls.md)", UserWarning, stacklevel=3)
+        edges = own if own else (0 if self.static_map is None else len(self.static_map.edges()[0]))
         #: The episodes have walls: the observation should show them.
         self.has_walls = edges > 0
         if max_obstacle_edges is None:

@@ -191,6 +191,12 @@ class MultiWorld:
         self.start = int(start)
         counts = split_counts(count, len(names)) if count is not None else [None] * len(names)
         sizes = [max(1, b) for b in split_counts(batch_size, len(names))]
+        if count is None and batch_size < len(names):
+            import warnings
+
+            warnings.warn(f"{batch_size} environment slot(s) for {len(names)} training scenarios: stepping "
+                          f"{len(names)}, one per scenario (raise n_envs / the batch to at least "
+                          f"{len(names)} to choose)", UserWarning, stacklevel=2)
         self.worlds: list[World] = []
         for name, size, cnt in zip(names, sizes, counts, strict=True):
             if cnt == 0:

@@ -113,6 +113,9 @@ def train_ppo(
             device=run.device, obstacle_encoding=run.obstacle_encoding,
         )
         state = initial_state(run)
+        if run.resumed is not None and state.update > run.n_updates:
+            run.say(f"note: {run.out} already holds {state.update} updates ({state.env_steps} env steps), "
+                    f"more than this budget's {run.n_updates}: nothing to train (the run is not shortened)")
         bar = progress_bar(run.n_updates, state.update, f"{run.settings.policy} PPO", progress)
         stack.callback(bar.close)
         finished = True

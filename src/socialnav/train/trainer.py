@@ -111,6 +111,9 @@ def train(
     """
     with contextlib.ExitStack() as stack:  # closes the worlds and releases the run directory's lock
         run = setup_run(policy_name, preset, out_dir, settings, stack, progress=progress, log=log)
+        # a run interrupted during imitation has no last.pt yet, but continues from its files
+        continued = run.resumed is not None or any(
+            (run.out / name).exists() for name in ("il.pt", "il_state.pt", "il_demos.npz"))
         if run.resumed is not None:
             state = restore_from_record(run, run.resumed)
             stopped = False
@@ -136,7 +139,7 @@ def train(
             dict(state.best_val),
             state.last_val,
             state.wall(run),
-            run.resumed is not None,
+            continued,
             not stopped,
         )
 
