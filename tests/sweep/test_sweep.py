@@ -137,6 +137,14 @@ def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
             r"unknown setting.*wokers \(did you mean workers\?\)",
         ),
         ({"grid": {"kind": "evaluate", "policy": []}}, r"policy is an empty list"),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "orca", "policy_args": {"safety_spaec": 0.1}}]},
+            r"jobs\[0\]: policy_args: policy 'orca' has no parameter\(s\) safety_spaec; valid: safety_space",
+        ),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "sarl", "policy_args": {"planning_depth": 0}}]},
+            r"jobs\[0\]: policy_args: policy 'sarl': planning_depth must be an integer >= 1",
+        ),
         ({}, r"no jobs"),
     ],
 )

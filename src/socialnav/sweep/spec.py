@@ -335,6 +335,7 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
             except ConfigError as err:
                 raise ConfigError(f"{where}: config: {err}") from None
         return
+    _check_policy_args(where, str(params["policy"]), entry, params)
     checkpoint = params.get("checkpoint")
     if checkpoint is not None:
         if not entry.learned:
@@ -352,6 +353,31 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
                 f"{where}: policy {params['policy']!r} is learned and no checkpoint of it ships "
                 f"for preset {preset.name!r}: give checkpoint: (a file or train:<job name>)"
             )
+
+
+def _check_policy_args(where: str, name: str, entry: Any, params: dict[str, Any]) -> None:
+    """Refuse a job's ``policy_args`` that its policy does not have, naming the sweep file, not at run time.
+
+    A device is checked where the job runs (a Ray worker may have the GPU the driver lacks).
+    """
+    from socialnav.policies.base import SB3_PREFIX, _accepts_any_keyword
+    from socialnav.policies.loading import check_learned_parameters
+
+    args = dict(params.get("policy_args") or {})
+    if not args or name.startswith(SB3_PREFIX) or ":" in name:
+        return  # an SB3 model or a user's class checks its own arguments when built
+    try:
+        if entry.learned:
+            check_learned_parameters(name, entry.parameters, {k: v for k, v in args.items() if k != "device"})
+        elif _accepts_any_keyword(entry.factory):
+            return
+        else:
+            unknown = sorted(set(args) - set(entry.parameters))
+            if unknown:
+                raise ValueError(f"policy {name!r} has no parameter(s) {', '.join(unknown)}; valid: "
+                                 f"{', '.join(sorted(entry.parameters)) or 'none'}")
+    except ValueError as err:
+        raise ConfigError(f"{where}: policy_args: {err}") from None
 
 
 def _check_references(spec: SweepSpec) -> None:
