@@ -148,3 +148,13 @@ def test_labels_are_text_in_every_table_and_never_a_path(tmp_path, capsys, monke
     assert main([*argv, "--label", "../../x"]) == 2
     assert "outside runs/evaluate: pass --out" in capsys.readouterr().err
     assert not (tmp_path.parent / "x").exists() and not (tmp_path / "runs").exists()
+
+
+def test_table2_titles_say_which_pass_a_run_lacks():
+    from socialnav.evaluate.report import table2
+
+    row = {"scenario": "circle_crossing", "episodes": 1, "success_rate": 1.0}
+    assert "M_III needs the visible pass" in table2([{**row, "policy": "p", "visibility": "invisible"}])
+    assert "visible robot only" in table2([{**row, "policy": "p", "visibility": "visible"}])
+    both = table2([{**row, "policy": "p", "visibility": v} for v in ("invisible", "visible")])
+    assert "(invisible robot; M_III visible)" in both

@@ -241,7 +241,15 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
     ]
     # Tables without rows are left out (a run of single-human scenarios only has no Table II).
     pooled = table2_rows(summary)
-    title = "Table II: pooled over the multi-human scenarios (invisible robot; M_III visible)"
+    passes = {r.get("visibility") for r in summary if "m6_left_pct" not in r}
+    if "visible" not in passes:
+        title = ("Table II: pooled over the multi-human scenarios (invisible robot; M_III needs the visible "
+                 "pass, --visibility both)")
+    elif "invisible" not in passes:
+        title = ("Table II: pooled over the multi-human scenarios (visible robot only; M_I, M_II, M_IV, M_V "
+                 "need the invisible pass)")
+    else:
+        title = "Table II: pooled over the multi-human scenarios (invisible robot; M_III visible)"
     parts = [_render(title, header, pooled, fmt)] if pooled else []
     scenarios = [
         s
