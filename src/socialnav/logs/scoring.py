@@ -193,7 +193,8 @@ def load_trajectories(
                             max_speed=max_speed, length_unit=length_unit, time_unit=time_unit)
     for scene in scenes:
         if scene.resampled:
-            warnings.warn(f"{path}: scene {scene.name!r}: irregular timestamps, linearly interpolated onto "
+            warnings.warn(f"{path}: scene {scene.name!r}: timestamps not on one clock shared by all agents "
+                          "(jitter, or agents logged at other rates or times), linearly interpolated onto "
                           f"a {scene.dt:g} s grid", AssumedValueWarning, stacklevel=2)
     return _select(path, scenes, ego)
 
