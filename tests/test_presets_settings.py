@@ -122,3 +122,20 @@ def test_the_table_carries_units_and_constraints():
     evaluation = {r.name: r for r in EvaluationSettings.parameters()}
     assert (evaluation["continuation_cap"].unit, evaluation["continuation_cap"].constraint) == ("s", "> 0")
     assert evaluation["n_humans"].constraint == "in [1, 1000]"
+
+
+def test_a_presets_scenario_and_policy_typos_are_named_with_the_file(tmp_path):
+    from socialnav.config import ConfigError
+    from socialnav.presets import load_preset
+
+    bad = tmp_path / "p1.yaml"
+    bad.write_text("name: t\npolicies:\n  orca: {safty_space: 0.2}\n")
+    with pytest.raises(ConfigError, match=r"p1.yaml: policies.orca: policy 'orca' has no parameter\(s\) "
+                       r"safty_space; valid: safety_space, threads"):
+        load_preset(bad)
+    bad.write_text("name: t\nevaluation:\n  multi_human: [circle_crosing]\n")
+    with pytest.raises(ConfigError, match=r"p1.yaml: evaluation.multi_human: unknown scenario 'circle_crosing'"):
+        load_preset(bad)
+    bad.write_text("name: t\npolicies:\n  orka: {}\n")
+    with pytest.raises(ConfigError, match=r"p1.yaml: policies.orka: unknown policy 'orka'"):
+        load_preset(bad)
