@@ -134,7 +134,8 @@ def test_a_presets_scenario_and_policy_typos_are_named_with_the_file(tmp_path):
                        r"safty_space; valid: safety_space, threads"):
         load_preset(bad)
     bad.write_text("name: t\nevaluation:\n  multi_human: [circle_crosing]\n")
-    with pytest.raises(ConfigError, match=r"p1.yaml: evaluation.multi_human: unknown scenario 'circle_crosing'"):
+    with pytest.raises(ConfigError, match=r"p1.yaml: evaluation.multi_human: unknown scenario "
+                       r"'circle_crosing'"):
         load_preset(bad)
     bad.write_text("name: t\npolicies:\n  orka: {}\n")
     with pytest.raises(ConfigError, match=r"p1.yaml: policies.orka: unknown policy 'orka'"):
