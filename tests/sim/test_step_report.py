@@ -125,20 +125,28 @@ def test_step_observe_on_the_python_refill_path_equals_observe():
     assert w.step(np.zeros((16, 2))).observation is None  # only when asked
 
 
-def test_refill_past_the_end_of_a_split_raises_the_split_error():
+def test_a_stream_without_count_ends_with_its_split():
+    # no count on the test split: its last indices, then the world is done (it ran into index 1000
+    # and raised after hundreds of episodes)
     w = World(WorldSettings(), make_scenario("circle_crossing", n_humans=2), 4, split="test", start=996,
               record=False)
-    w.reset()  # indices 996..999, the last four of the test split; the first refill needs 1000
-    with pytest.raises(ValueError, match=r"split 'test' holds indices 0..999 .*; got index 100[0-3]"):
-        for _ in range(200):
-            w.step(np.zeros((4, 2)))
+    w.reset()
+    done = []
+    for _ in range(400):
+        if not w.busy:
+            break
+        ended = w.step(np.zeros((4, 2))).final_episode
+        done += [int(i) for i in ended if i >= 0]
+    assert not w.busy and sorted(done) == [996, 997, 998, 999]
 
 
-def test_reset_past_the_end_of_a_split_raises_the_split_error():
-    w = World(WorldSettings(), make_scenario("circle_crossing", n_humans=2), 4, split="test", start=998,
-              record=False)
-    with pytest.raises(ValueError, match=r"split 'test' holds indices 0..999 .*; got index 1001"):
-        w.reset()
+def test_a_count_past_the_end_of_a_split_is_refused_at_once():
+    scenario = make_scenario("circle_crossing", n_humans=2)
+    with pytest.raises(ValueError, match=r"split 'test' holds episode indices 0..999: start 998 \+ count 4 "
+                       r"runs past them"):
+        World(WorldSettings(), scenario, 4, split="test", start=998, count=4, record=False)
+    with pytest.raises(ValueError, match=r"start 25 is past the scenario's last episode \(it has 20"):
+        World(WorldSettings(), make_scenario("passing"), 4, start=25, record=False)
 
 
 def test_a_refill_that_cannot_place_its_humans_raises_the_generators_error():

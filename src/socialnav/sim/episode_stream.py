@@ -11,6 +11,7 @@ from collections.abc import Callable
 import numpy as np
 
 from socialnav.scenarios import EpisodeBatch, Scenario, episode_seeds
+from socialnav.scenarios.seeds import SPLIT_SIZE
 
 
 class EpisodeStream:
@@ -20,7 +21,9 @@ class EpisodeStream:
         scenario: The scenario generator.
         split: "train", "val" or "test" (decides the seeds).
         start: First episode index (first position when ``index_map`` is given).
-        count: Number of episodes, or None for an endless stream (training).
+        count: Number of episodes, or None for all of them: an endless stream on the ``train`` split,
+            the rest of the split's 1000 indices on ``val`` and ``test``, the rest of a finite
+            scenario's episodes.
         index_map: Maps stream positions (int64 array) to episode indices, for streams that are
             not ``start, start+1, …`` (the Gymnasium envs' seeded and cycling orders). The map
             decides where such a stream ends: a finite scenario does not cap it.
@@ -42,10 +45,14 @@ class EpisodeStream:
         """Opens the stream at ``start`` (arguments: see the class).
 
         Raises:
-            ValueError: ``count`` is negative or ``split`` is not a split's name.
+            ValueError: ``count`` or ``start`` is negative, ``split`` is not a split's name, the
+                episodes would run past the split's 1000 indices (``val``, ``test``), or ``start`` lies
+                past a finite scenario's last episode.
         """
         if count is not None and count < 0:
             raise ValueError(f"count must be >= 0, got {count}")
+        if start < 0:
+            raise ValueError(f"start must be >= 0, got {start}")
         episode_seeds(split, np.zeros(1, dtype=np.int64))  # validates the split name early
         self.scenario = scenario
         self.split = split
@@ -53,8 +60,17 @@ class EpisodeStream:
         self._generated = start  # next index to generate
         self.stop = None if count is None else start + count
         self.index_map = index_map
+        if index_map is None and split != "train" and scenario.n_episodes is None:
+            # the split's seeds end at its last index: said now, not after hundreds of episodes
+            if self.stop is not None and self.stop > SPLIT_SIZE:
+                raise ValueError(f"split {split!r} holds episode indices 0..{SPLIT_SIZE - 1}: start {start} "
+                                 f"+ count {count} runs past them (use split='train' for more episodes)")
+            self.stop = SPLIT_SIZE if self.stop is None else self.stop
         if scenario.n_episodes is not None and index_map is None:
             # A finite scenario (the single-human sweeps) ends the stream at its last episode.
+            if start >= scenario.n_episodes and count != 0:
+                raise ValueError(f"start {start} is past the scenario's last episode (it has "
+                                 f"{scenario.n_episodes}: indices 0..{scenario.n_episodes - 1})")
             self.stop = scenario.n_episodes if self.stop is None else min(self.stop, scenario.n_episodes)
         self._buffer: EpisodeBatch | None = None
         self._buffer_pos = 0

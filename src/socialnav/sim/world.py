@@ -65,7 +65,9 @@ class World:
         batch_size: Number of slots B.
         split: "train", "val" or "test": the episode stream's split (see :class:`EpisodeStream`).
         start: First episode index of the stream.
-        count: Number of episodes, or None for an endless stream (training).
+        count: Number of episodes, or None for all of them: an endless stream on the ``train`` split,
+            the rest of the 1000 indices of ``val`` or ``test``, the rest of a finite scenario's episodes
+            (a count past the split's end, or a start past the scenario's, is refused at once).
         record: Keep per-episode histories and emit trajectories when episodes finish.
         tags: Extra settings stored in every trajectory (policy name, information setting, …).
         static_map: One static map for every episode of this world (e.g. a built-in scenario among
