@@ -91,3 +91,25 @@ def test_import_is_numpy_only() -> None:
     flags = ["-S"] if sys.flags.no_site else []
     assert subprocess.run([sys.executable, *flags, "-c", code]).returncode == 0
     assert sm.score_episode is not None
+
+
+@pytest.mark.parametrize(("params", "error", "message"), [
+    ({"m3_aggregated_time": {"cap_s": -5}}, ValueError, "parameter cap_s must be a finite number >= 0"),
+    ({"m1_personal_space": {"eps": True}}, ValueError, "parameter eps must be a finite number >= 0, got Tr"),
+    ({"m2_projected_path": {"tau": float("nan")}}, ValueError, "parameter tau must be a finite number >= 0"),
+    ({"m1_personal_space": {"eps": "big"}}, ValueError, "parameter eps must be a finite number >= 0"),
+    ({"m1_personal_space": []}, TypeError, r"params\['m1_personal_space'\] must be a dict of parameters or a "
+                                           "non-empty list"),
+    ([{}, {}], TypeError, "params must map metric names to parameter dicts"),
+])
+def test_metric_parameters_are_checked(params, error, message):
+    import numpy as np
+
+    from socialnav.metrics import score_episode
+    from socialnav.trajectory import Trajectory
+
+    k = np.arange(11)
+    pos = np.stack([np.stack([0 * k, 0.25 * k], 1), np.stack([1 + 0 * k, 5 - 0.25 * k], 1)], 1)
+    traj = Trajectory.from_positions(pos, 0.25, radii=0.3, goals=pos[-1], outcome="success")
+    with pytest.raises(error, match=message):
+        score_episode(traj, params)

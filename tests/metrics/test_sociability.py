@@ -132,3 +132,13 @@ def test_summary_from_score_rows_separates_failures_and_multi_human() -> None:
     assert (out["n_left"], out["n_right"], out["n_failed"]) == (1.0, 1.0, 1.0)
     assert (out["n_not_applicable"], out["n_never_level"], out["n_undetermined"]) == (1.0, 1.0, 0.0)
     assert out["left_pct"] == 50.0
+
+
+def test_a_human_absent_throughout_leaves_m6_unchanged() -> None:
+    one = _passing(-0.8)
+    pos = np.concatenate([one.positions, np.full((one.positions.shape[0], 1, 2), 9.0)], axis=1)
+    present = np.ones(pos.shape[:2], dtype=bool)
+    present[:, 2] = False  # a second human slot, never present (e.g. a padded log)
+    two = Trajectory.from_positions(pos, 0.25, radii=0.3, goals=pos[-1], outcome="success", present=present)
+    assert side_preference_sign(two) == side_preference_sign(one) == {"sign": -1.0, "level": 1.0}
+    assert score_episode(two)["n_humans"] == 1

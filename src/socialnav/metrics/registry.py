@@ -18,6 +18,7 @@ default. ``m4_jerk.mean_sq`` is M_IV as it always was; ``m4_jerk.mean_sq@dt_powe
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -90,6 +91,15 @@ class Metric:
         if unknown:
             raise KeyError(f"metric {self.name!r}: unknown parameter(s) {sorted(unknown)}; "
                            f"valid: {list(self.parameters)}")
+        for key, value in overrides.items():
+            default = self.parameters[key]
+            # the numeric parameters are magnitudes (distances, durations, speeds, thresholds)
+            number = isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+                value, bool | np.bool_)
+            if isinstance(default, int | float) and not isinstance(default, bool) and (
+                    not number or not math.isfinite(value) or value < 0):
+                raise ValueError(f"metric {self.name!r}: parameter {key} must be a finite number >= 0, got "
+                                 f"{value!r}")
         return {**self.parameters, **overrides}
 
     def __call__(self, traj: Any, **params: Any) -> dict[str, float]:

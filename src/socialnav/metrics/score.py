@@ -38,10 +38,20 @@ def _variants(metric: Metric, params: ParamsSpec | None) -> list[dict[str, Any]]
 
 
 def _check_names(params: ParamsSpec | None) -> None:
+    if params is not None and not isinstance(params, Mapping):
+        raise TypeError(f"params must map metric names to parameter dicts, e.g. {{'m1_personal_space': "
+                        f"{{'eps': 0.5}}}}, got a {type(params).__name__}")
     known = {m.name for m in list_metrics()}
     unknown = set(params or {}) - known
     if unknown:
         raise KeyError(f"unknown metric(s) {sorted(unknown)} in params; valid names: {sorted(known)}")
+    for name, spec in (params or {}).items():
+        if spec is None or isinstance(spec, Mapping):
+            continue
+        if isinstance(spec, str) or not isinstance(spec, Sequence) or not spec or not all(
+                isinstance(v, Mapping) for v in spec):
+            raise TypeError(f"params[{name!r}] must be a dict of parameters or a non-empty list of them (one "
+                            f"result per dict), got {spec!r}")
 
 
 def score_keys(params: ParamsSpec | None = None) -> list[str]:

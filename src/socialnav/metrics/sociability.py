@@ -124,9 +124,11 @@ def side_preference_sign(traj: Trajectory, frame: str = "world") -> dict[str, fl
     Wang et al., ARSO 2022 (arXiv 2202.01045), definition of M_VI; see :func:`side_case`.
     Summarise score rows with :func:`summarize_side_preference`.
     """
-    if traj.n_humans != 1:
+    # the one human present at some sample (an agent absent throughout changes no metric)
+    seen = np.flatnonzero(traj.presence[:, 1:].any(axis=0)) + 1
+    if seen.size != 1:
         return {"sign": float("nan"), "level": float("nan")}
-    case = side_case(traj, 1, frame)
+    case = side_case(traj, int(seen[0]), frame)
     sign = {"left": 1.0, "right": -1.0, "undetermined": 0.0}.get(case, float("nan"))
     return {"sign": sign, "level": _LEVEL_CODE[case]}
 
