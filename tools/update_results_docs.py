@@ -103,9 +103,9 @@ def results_block() -> str:
         "2,000 test episodes, invisible robot); paper: its Table II (it has no SARL, MP-RGL or "
         "policy-gradient row; CrowdNav++ is the attention-graph policy trained here with PPO, docs/ppo.md). "
         "M_IV, the jerk, "
-        "is Wang et al.'s forward difference (docs/metrics.md); with central differences the value-based "
-        "baselines land in the "
-        "paper's band (docs/reproduction_jerk.md).",
+        "is Wang et al.'s forward difference (docs/metrics.md); with central differences five of the six "
+        "value-based baselines land in the paper's band and OM-SARL just above it "
+        "(docs/reproduction_jerk.md).",
     ]
     return "\n".join(lines)
 
@@ -157,7 +157,8 @@ def speed_block() -> str:
     lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]
     lines += [
         "",
-        "2-core x86-64 VMs (AMD EPYC), figures from `benchmarks/results/*.json`; every benchmark, "
+        "2-core x86-64 VMs (AMD EPYC where a run recorded its CPU model; most did not), figures from "
+        "`benchmarks/results/*.json`; every benchmark, "
         "its command, date and machine: [benchmarks/results/README.md](benchmarks/results/README.md).",
     ]
     return "\n".join(lines)
@@ -254,7 +255,11 @@ LOG: dict[str, tuple[str, str, Callable[[dict], str]]] = {
     "bench_reproduce.json": (
         "evaluation half of socialnav reproduce",
         "python benchmarks/bench_reproduce.py",
-        lambda d: f"{d['seconds']} s for all shipped checkpoints and natives (goal {d['goal_seconds']} s)",
+        lambda d: (
+            f"{d['seconds']} s for {len(d['learned_policies'])} learned checkpoints and "
+            f"{len(d['per_policy_seconds']) - len(d['learned_policies'])} natives, those shipped "
+            f"when it ran (goal {d['goal_seconds']} s)"
+        ),
     ),
     "bench_sweep.json": (
         "socialnav sweep, local workers and Ray",
