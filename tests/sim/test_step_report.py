@@ -196,3 +196,39 @@ def test_a_forked_child_starts_pools_of_its_own():
     if child.exitcode is None:
         child.kill()
     assert child.exitcode == 0
+
+
+def test_a_forgotten_reset_and_a_reset_mid_run_are_said():
+    w = World(WorldSettings(), make_scenario("circle_crossing", n_humans=2), 4, count=8, record=False)
+    with pytest.raises(RuntimeError, match=r"step\(\) before reset\(\): every slot is idle"):
+        w.step(np.zeros((4, 2)))
+    w.reset()
+    w.step(np.zeros((4, 2)))
+    with pytest.warns(UserWarning, match=r"reset\(\) drops 4 episode\(s\) in flight \(indices 0, 1, 2, 3\)"):
+        w.reset()
+
+
+def test_world_takes_a_settings_dict_and_a_scenario_name_and_names_wrong_types():
+    w = World({"dt": 0.25}, "circle_crossing", 2, record=False)
+    assert w.settings.dt == 0.25 and w.scenario.name == "circle_crossing"
+    with pytest.raises(TypeError, match="settings must be a WorldSettings or a dict of its fields"):
+        World(3, "circle_crossing", 2)
+    with pytest.raises(TypeError, match="scenario must be a Scenario"):
+        World({}, 3, 2)
+    with pytest.raises(ValueError, match="batch_size must be an integer >= 1, got True"):
+        World({}, "circle_crossing", True)
+
+
+def test_run_protocol_names_wrong_arguments_and_takes_a_preset_name(tmp_path):
+    from socialnav.evaluate import run_protocol
+    from socialnav.policies import make_policy
+
+    with pytest.raises(TypeError, match="policy must have name, act"):
+        run_protocol(None, "wang2022", tmp_path / "a")
+    with pytest.raises(TypeError, match="preset must be a Preset or a preset's name or file, got a int"):
+        run_protocol(make_policy("linear"), 3, tmp_path / "b")
+    with pytest.raises(TypeError, match="episodes must be an integer, got 2.5"):
+        run_protocol(make_policy("linear"), "wang2022", tmp_path / "c", episodes=2.5)
+    result = run_protocol(make_policy("linear"), "wang2022", tmp_path / "d", scenarios="crossing", episodes=2,
+                          progress=False, workers=0)
+    assert [r["scenario"] for r in result.rows] == ["crossing", "crossing"]

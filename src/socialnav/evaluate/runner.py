@@ -64,7 +64,7 @@ class ProtocolResult:
 
 def run_protocol(
     policy: Policy,
-    preset: Preset,
+    preset: Preset | str,
     out_dir: str | Path,
     *,
     label: str | None = None,
@@ -81,12 +81,13 @@ def run_protocol(
     """Runs (or resumes) the protocol of ``preset`` for ``policy`` and writes every result file.
 
     Args:
-        policy: The robot policy.
-        preset: The protocol (world, robot, scenarios, episode counts).
+        policy: The robot policy (an object with ``name``, ``act`` and ``describe``).
+        preset: The protocol (world, robot, scenarios, episode counts), or a shipped preset's name or a
+            YAML file's path (as ``load_preset`` takes).
         out_dir: Result directory; an existing one with the same manifest is resumed.
         label: Policy name in the results (default ``policy.name``).
-        scenarios: Only these scenarios (default: the preset's).
-        episodes: Episodes per multi-human scenario (default: the preset's).
+        scenarios: Only these scenarios (default: the preset's); one name may be given as a string.
+        episodes: Episodes per multi-human scenario (an integer; default: the preset's).
         visibility: ``invisible``, ``visible`` or ``both`` (default: the preset's).
         progress: Show a progress bar on stderr.
         extra_manifest: Extra fields recorded in the manifest (e.g. the checkpoint path).
@@ -108,7 +109,23 @@ def run_protocol(
 
     Raises:
         ResumeMismatchError: ``out_dir`` holds a different run's results.
+        TypeError: ``policy`` is not a policy, ``preset`` not a preset, or ``episodes`` not an integer.
     """
+    from socialnav.presets import load_preset
+
+    missing = [a for a in ("name", "act", "describe") if not hasattr(policy, a)]
+    if missing:
+        raise TypeError(f"policy must have name, act(observation) and describe() "
+                        f"(docs/custom_policies.md); a {type(policy).__name__} has no {', '.join(missing)}")
+    if isinstance(preset, str | Path):
+        preset = load_preset(preset)
+    elif not isinstance(preset, Preset):
+        raise TypeError(f"preset must be a Preset or a preset's name or file, got a "
+                        f"{type(preset).__name__}")
+    if isinstance(scenarios, str):
+        scenarios = [scenarios]
+    if episodes is not None and (isinstance(episodes, bool) or not hasattr(episodes, "__index__")):
+        raise TypeError(f"episodes must be an integer, got {episodes!r}")
     out = Path(out_dir)
     label = label or policy.name
     cells = plan_cells(preset, list(scenarios) if scenarios else None, episodes, visibility)
