@@ -140,3 +140,27 @@ def test_a_presets_scenario_and_policy_typos_are_named_with_the_file(tmp_path):
     bad.write_text("name: t\npolicies:\n  orka: {}\n")
     with pytest.raises(ConfigError, match=r"p1.yaml: policies.orka: unknown policy 'orka'"):
         load_preset(bad)
+
+
+def test_an_empty_preset_file_is_refused(tmp_path):
+    from socialnav.config import ConfigError
+    from socialnav.presets import load_preset
+
+    empty = tmp_path / "my.yaml"
+    empty.write_text("# only a comment\n")
+    with pytest.raises(ConfigError, match=r"my.yaml: the preset file is empty \(no settings\)"):
+        load_preset(empty)
+
+
+def test_a_missing_optional_dependency_names_its_extra(tmp_path, capsys, monkeypatch):
+    import sys
+
+    from socialnav.cli import main
+
+    monkeypatch.setitem(sys.modules, "torch", None)  # as on an install without the learn extra
+    argv = ["evaluate", "--policy", "sarl", "--scenario", "passing", "--episodes", "2", "--out",
+            str(tmp_path / "o"), "--quiet"]
+    assert main(argv) == 2
+    assert ("this needs torch, which is not installed: pip install 'socialnav[learn]'"
+            in capsys.readouterr().err)
+    assert not (tmp_path / "o").exists()

@@ -20,6 +20,7 @@ from typing import Any
 from socialnav._io import json_safe
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
+    ImportError,  # an optional dependency not installed (the extra is named), or no compiled core
     ValueError,  # ConfigError, CheckpointError, TrajectoryFormatError, ResumeMismatchError's base too
     KeyError,
     LookupError,
@@ -59,6 +60,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"socialnav {args.command}: interrupted; {_resume_hint(args)}", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # `socialnav list | head`: the reader has gone; nothing to report
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
     except Terminated:
         print(f"socialnav {args.command}: terminated (SIGTERM); {_resume_hint(args)}", file=sys.stderr)
         return 143
@@ -72,8 +77,21 @@ def main(argv: list[str] | None = None) -> int:
         _restore_sigterm(previous)
 
 
+#: The extra that installs an optional dependency (pyproject.toml, docs/installation.md).
+_EXTRAS = {"torch": "learn", "matplotlib": "viz", "PIL": "viz", "ray": "ray", "stable_baselines3": "sb3",
+           "navground": "reference"}
+
+
 def error_line(err: BaseException) -> str:
     """One line naming the problem: the message (a KeyError's unquoted), else the error's type."""
+    if isinstance(err, ImportError):
+        root = (err.name or "").split(".")[0]
+        if root in _EXTRAS:
+            return (f"this needs {root}, which is not installed: pip install 'socialnav[{_EXTRAS[root]}]' "
+                    "(docs/installation.md)")
+        if "_core" in str(err):
+            return ("socialnav's compiled core (_core) is missing: install the package (python -m pip "
+                    "install .), or build it in a source checkout (bash tools/dev_build.sh)")
     message = err.args[0] if isinstance(err, KeyError) and err.args else str(err)
     if isinstance(err, OSError) and err.strerror:
         message = f"{err.filename}: {err.strerror}" if err.filename is not None else err.strerror

@@ -184,9 +184,12 @@ def load_preset(name_or_path: str | Path) -> Preset:
         text = shipped_preset_text(str(name_or_path))
         source = f"{name_or_path}.yaml"
     try:
-        data = yaml.safe_load(text) or {}
+        data = yaml.safe_load(text)
     except yaml.YAMLError as err:
         raise ConfigError(f"{source}: not valid YAML: {' '.join(str(err).split())}") from None
+    if data is None:  # e.g. `socialnav preset show <typo> > my.yaml` left an empty file
+        raise ConfigError(f"{source}: the preset file is empty (no settings); `socialnav preset show "
+                          f"wang2022 > {Path(source).name}` writes a whole preset to edit")
     try:
         preset = from_dict(Preset, data)
     except ConfigError as err:

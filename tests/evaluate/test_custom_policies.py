@@ -292,3 +292,15 @@ def test_a_module_policy_is_replayed_and_its_arguments_guard_a_resume(tmp_path, 
     # the same policy with another argument is another run, although its describe() is the same
     assert main([*argv, "--policy-arg", "speed_factor=0.9"]) == 2
     assert "policy_args.speed_factor: 0.5 -> 0.9" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("arg", "message"), [
+    ("safety_space=abc", "policy 'orca': safety_space must be a finite number, got 'abc'"),
+    ("safety_space=.nan", "policy 'orca': safety_space must be a finite number, got nan"),
+    ("threads=1.5", "policy 'orca': threads must be an integer >= 0, got 1.5"),
+])
+def test_a_native_policys_parameter_of_the_wrong_type_is_named(tmp_path, capsys, arg, message):
+    argv = ["evaluate", "--policy", "orca", "--scenario", "passing", "--episodes", "2", "--out", str(tmp_path),
+            "--quiet", "--policy-arg", arg]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err

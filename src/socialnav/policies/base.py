@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import inspect
+import math
 import os
 import sys
 from collections.abc import Callable
@@ -147,6 +148,14 @@ def make_policy(name: str, **params: Any) -> Policy:
         if unknown:
             raise ValueError(f"policy {name!r} has no parameter(s) {', '.join(unknown)}; "
                              f"valid: {', '.join(sorted(entry.parameters)) or 'none'}")
+        for key, value in params.items():  # a numeric parameter gets a finite number (threads an integer)
+            default = entry.parameters[key]
+            number = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+            if isinstance(default, int | float) and not isinstance(default, bool) and not number:
+                raise ValueError(f"policy {name!r}: {key} must be a finite number, got {value!r}")
+            whole = isinstance(value, int) and not isinstance(value, bool)
+            if key == "threads" and not (whole and value >= 0):
+                raise ValueError(f"policy {name!r}: threads must be an integer >= 0, got {value!r}")
     try:
         policy = entry.factory(**params)
     except TypeError as err:  # e.g. a required argument missing: the user's to fix, so no traceback
