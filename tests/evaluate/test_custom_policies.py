@@ -300,7 +300,7 @@ def test_a_module_policy_is_replayed_and_its_arguments_guard_a_resume(tmp_path, 
     ("threads=1.5", "policy 'orca': threads must be an integer >= 0, got 1.5"),
 ])
 def test_a_native_policys_parameter_of_the_wrong_type_is_named(tmp_path, capsys, arg, message):
-    argv = ["evaluate", "--policy", "orca", "--scenario", "passing", "--episodes", "2", "--out", str(tmp_path),
-            "--quiet", "--policy-arg", arg]
+    argv = ["evaluate", "--policy", "orca", "--scenario", "passing", "--episodes", "2", "--out",
+            str(tmp_path), "--quiet", "--policy-arg", arg]
     assert main(argv) == 2
     assert message in capsys.readouterr().err
