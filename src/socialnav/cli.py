@@ -165,7 +165,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument(
         "--preset",
         default="wang2022",
-        help=f"a shipped preset ({', '.join(shipped_presets())}; see `socialnav preset list`) or a YAML file",
+        help=f"a shipped preset ({', '.join(shipped_presets())}; see `socialnav preset list`) or a YAML file "
+        "(default wang2022)",
     )
     ev.add_argument(
         "--allow-preset-mismatch",
@@ -198,7 +199,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", help="result directory (default runs/evaluate/<preset>-<policy>); resumed if it exists"
     )
     ev.add_argument("--label", help="policy name in the results (default: the policy's name)")
-    ev.add_argument("--batch-size", type=int, default=256, help="episodes simulated in lockstep")
+    ev.add_argument("--batch-size", type=int, default=256,
+                    help="episodes simulated in lockstep (default 256)")
     ev.add_argument("--json", action="store_true", help="print one JSON summary object instead of tables")
     ev.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     ev.add_argument(
@@ -219,11 +221,11 @@ def build_parser() -> argparse.ArgumentParser:
     add_metrics_parser(sub)
 
     ls = sub.add_parser("list", help="registered scenarios, policies, human models, metrics and presets")
-    ls.add_argument("--json", action="store_true")
+    ls.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     ls.set_defaults(run=cmd_list)
 
     pr = sub.add_parser("preset", help="the shipped protocol presets: list them, print one to start from")
-    pr_sub = pr.add_subparsers(dest="preset_command", required=True)
+    pr_sub = pr.add_subparsers(dest="preset_command", metavar="{list,show}", required=True)
     pr_show = pr_sub.add_parser(
         "show",
         help="print a shipped preset's YAML (comments included); save it, edit it, pass it with "
@@ -278,6 +280,12 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     overrides = parse_policy_args(args.policy_arg)
     for key in ("information", "planning_depth", "planning_width"):
         if getattr(args, key) is not None:
+            if args.policy != "all" and ":" not in args.policy and not args.policy.startswith("sb3:"):
+                from socialnav.policies.base import get_policy_entry
+
+                if not get_policy_entry(args.policy).learned:
+                    raise ValueError(f"--{key.replace('_', '-')} applies to learned policies; "
+                                     f"{args.policy!r} is not one")
             overrides[key] = getattr(args, key)
     policy = build_policy(
         args.policy, preset, args.checkpoint, allow_preset_mismatch=args.allow_preset_mismatch, **overrides

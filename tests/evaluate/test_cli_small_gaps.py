@@ -158,3 +158,21 @@ def test_table2_titles_say_which_pass_a_run_lacks():
     assert "visible robot only" in table2([{**row, "policy": "p", "visibility": "visible"}])
     both = table2([{**row, "policy": "p", "visibility": v} for v in ("invisible", "visible")])
     assert "(invisible robot; M_III visible)" in both
+
+
+def test_small_command_line_conveniences(tmp_path, capsys):
+    import subprocess
+    import sys
+
+    from tests._env import subprocess_env
+
+    done = subprocess.run([sys.executable, "-m", "socialnav", "--version"], capture_output=True, text=True,
+                          env=subprocess_env(), check=False)
+    assert done.returncode == 0 and done.stdout.startswith("socialnav ")
+    with pytest.raises(SystemExit):
+        main(["preset"])
+    assert "required: {list,show}" in capsys.readouterr().err
+    argv = ["evaluate", "--policy", "linear", "--information", "oracle", "--scenario", "passing", "--episodes",
+            "2", "--out", str(tmp_path)]
+    assert main(argv) == 2
+    assert "--information applies to learned policies; 'linear' is not one" in capsys.readouterr().err

@@ -80,7 +80,8 @@ def add_reproduce_parser(sub: argparse._SubParsersAction) -> None:
         "--episodes", type=int, help="episodes per scenario (default: the protocol's 500; 3 with --quick)"
     )
     rp.add_argument("--workers", type=int, help="worker processes (default: one per core, at most 4)")
-    rp.add_argument("--batch-size", type=int, default=256, help="episodes simulated in lockstep")
+    rp.add_argument("--batch-size", type=int, default=256,
+                    help="episodes simulated in lockstep (default 256)")
     rp.add_argument("--json", action="store_true", help="print one JSON object last (rows of every summary)")
     rp.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     rp.set_defaults(run=cmd_reproduce)

@@ -57,9 +57,9 @@ def add_metrics_parser(sub: Any) -> None:
     me.add_argument("--max-speed", type=float, default=MAX_SPEED,
                     help=f"reject faster steps as implausible [m/s] (default {MAX_SPEED:g}; 'inf' disables)")
     me.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m",
-                    help="csv/parquet: of positions, radii, goals, and speeds (per second)")
+                    help="csv/parquet: of positions, radii, goals, and speeds (per second; default m)")
     me.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], default="s",
-                    help="csv/parquet: of the time column")
+                    help="csv/parquet: of the time column (default s)")
     me.add_argument("--goal-tolerance", type=float,
                     help="a 'success' ending farther than this from its goal is reported [m] (default: "
                     "the robot's radius)")

@@ -27,7 +27,8 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr.add_argument(
         "--preset",
         default="wang2022",
-        help=f"a shipped preset ({', '.join(shipped_presets())}; see `socialnav preset list`) or a YAML file",
+        help=f"a shipped preset ({', '.join(shipped_presets())}; see `socialnav preset list`) or a YAML file "
+        "(default wang2022)",
     )
     tr.add_argument(
         "--out", help="run directory (default runs/train/<preset>-<policy>-s<seed>); resumed if it exists"
@@ -71,7 +72,7 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         "faster; needs a C++ compiler; a compiled run's floating-point results differ from an eager "
         "one's, see docs/training.md)",
     )
-    tr.add_argument("--no-progress", action="store_true")
+    tr.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     tr.add_argument("--quiet", action="store_true", dest="no_progress", help="same as --no-progress")
     tr.set_defaults(run=_run)
 

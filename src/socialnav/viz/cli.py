@@ -39,9 +39,11 @@ def add_viz_parsers(sub: argparse._SubParsersAction) -> None:
         help="metric geometry: personal_space (M_I), velocity_rectangles (M_II), side_preference (M_VI), all",
     )
     rd.add_argument("--every", type=int, help="plots: steps between time-stamped discs (default ~8 stamps)")
-    rd.add_argument("--stride", type=int, default=1, help="animations: show every n-th sample")
-    rd.add_argument("--max-frames", type=int, default=400, help="animations: at most this many frames")
-    rd.add_argument("--speed", type=float, default=1.0, help="animations: playback speed x real time")
+    rd.add_argument("--stride", type=int, default=1, help="animations: show every n-th sample (default 1)")
+    rd.add_argument("--max-frames", type=int, default=400,
+                    help="animations: at most this many frames (default 400)")
+    rd.add_argument("--speed", type=float, default=1.0,
+                    help="animations: playback speed x real time (default 1)")
     rd.add_argument("--eps", type=float, default=0.2, help="M_I threshold of the overlay [m] (default 0.2)")
     rd.add_argument("--tau", type=float, default=1.0, help="M_II horizon of the overlay [s] (default 1)")
     rd.add_argument("--resample", action="store_true", help="files: resample irregular timestamps")
