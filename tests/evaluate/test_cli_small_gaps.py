@@ -172,7 +172,7 @@ def test_small_command_line_conveniences(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["preset"])
     assert "required: {list,show}" in capsys.readouterr().err
-    argv = ["evaluate", "--policy", "linear", "--information", "oracle", "--scenario", "passing", "--episodes",
-            "2", "--out", str(tmp_path)]
+    argv = ["evaluate", "--policy", "linear", "--information", "oracle", "--scenario", "passing",
+            "--episodes", "2", "--out", str(tmp_path)]
     assert main(argv) == 2
     assert "--information applies to learned policies; 'linear' is not one" in capsys.readouterr().err
