@@ -151,3 +151,18 @@ def test_impossible_scene_raises() -> None:
     sc = make_scenario("random", n_humans=30, square_width=2.0, max_attempts=50)
     with pytest.raises(ScenarioGenerationError, match=r"random: start of human \d+.*50 attempts"):
         sc.episodes("test", range(4))
+
+
+def test_validate_names_the_episode() -> None:
+    bt = _batch(3)
+    goal = bt.human_goal.copy()
+    goal[2, 1, 0] = np.nan
+    bad = dataclasses.replace(bt, human_goal=goal)
+    row = rf"episode {int(bt.indices[2])} \(seed {int(bt.seeds[2])}, row 2 of the batch\) has"
+    with pytest.raises(ValueError, match=rf"human_goal contains non-finite values: {row}"):
+        bad.validate()
+    radius = bt.human_radius.copy()
+    radius[1, 0] = 0.0
+    with pytest.raises(ValueError, match=r"human_radius must be > 0 for real humans: episode .*row 1 of the "
+                       r"batch\), human 0 has 0.0"):
+        dataclasses.replace(bt, human_radius=radius).validate()

@@ -91,6 +91,10 @@ class EpisodeBatch:
         smap = self.static_maps[i]
         return smap if smap else None
 
+    def _which(self, row: int) -> str:
+        """An episode of the batch as messages name it: its index, seed and row."""
+        return f"episode {int(self.indices[row])} (seed {int(self.seeds[row])}, row {row} of the batch)"
+
     def validate(self) -> EpisodeBatch:
         """Check shapes, dtypes, finiteness, positivity and zero padding.
 
@@ -124,15 +128,22 @@ class EpisodeBatch:
             if arr.dtype != np.float64:
                 raise ValueError(f"EpisodeBatch.{name} must be float64, got {arr.dtype}")
             if not np.all(np.isfinite(arr)):
-                raise ValueError(f"EpisodeBatch.{name} contains non-finite values")
+                row = int(np.flatnonzero(~np.all(np.isfinite(arr.reshape(b, -1)), axis=1))[0])
+                raise ValueError(f"EpisodeBatch.{name} contains non-finite values: {self._which(row)} has "
+                                 f"{arr[row].tolist()}")
         for name in ("robot_radius", "robot_v_pref"):
-            if np.any(getattr(self, name) <= 0):
-                raise ValueError(f"EpisodeBatch.{name} must be > 0")
+            bad = np.flatnonzero(getattr(self, name) <= 0)
+            if bad.size:
+                raise ValueError(f"EpisodeBatch.{name} must be > 0: {self._which(int(bad[0]))} has "
+                                 f"{getattr(self, name)[bad[0]]}")
         mask = self.human_mask
         for name in _BN_FIELDS:
             arr = getattr(self, name)
-            if np.any(arr[mask] <= 0):
-                raise ValueError(f"EpisodeBatch.{name} must be > 0 for real humans")
+            bad = np.argwhere((arr <= 0) & mask)
+            if bad.size:
+                raise ValueError(f"EpisodeBatch.{name} must be > 0 for real humans: "
+                                 f"{self._which(int(bad[0][0]))}, human {int(bad[0][1])} has "
+                                 f"{arr[bad[0][0], bad[0][1]]}")
         for name in _BN2_FIELDS + _BN_FIELDS:
             if np.any(getattr(self, name)[~mask] != 0):
                 raise ValueError(f"EpisodeBatch.{name} must be 0 in padded slots")
