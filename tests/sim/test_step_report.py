@@ -232,3 +232,12 @@ def test_run_protocol_names_wrong_arguments_and_takes_a_preset_name(tmp_path):
     result = run_protocol(make_policy("linear"), "wang2022", tmp_path / "d", scenarios="crossing", episodes=2,
                           progress=False, workers=0)
     assert [r["scenario"] for r in result.rows] == ["crossing", "crossing"]
+
+
+def test_tags_cannot_overwrite_the_recorded_provenance_and_must_be_json():
+    scenario = make_scenario("circle_crossing", n_humans=2)
+    with pytest.raises(ValueError, match=r"tags \['scenario'\] would overwrite what the world records"):
+        World(WorldSettings(), scenario, 2, tags={"scenario": "mine"})
+    with pytest.raises(ValueError, match="tags must be JSON data"):
+        World(WorldSettings(), scenario, 2, tags={"weights": np.zeros(3)})
+    World(WorldSettings(), scenario, 2, tags={"policy": "mine", "run": 3})

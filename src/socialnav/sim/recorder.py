@@ -6,6 +6,7 @@ recorder only slices the finished slots' histories: nothing is copied for runnin
 
 from __future__ import annotations
 
+import json
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -51,6 +52,17 @@ class Recorder:
         self.hist_velocity = hist_velocity
         self.hist_dmin = hist_dmin
         s = world.settings
+        recorded = ("scenario", "split", "visibility", "human_model", "orca_mode", "kinematics",
+                    "crowdsim_compat", "time_limit", "index", "seed", "collision_kind")
+        clash = sorted(set(tags) & set(recorded))
+        if clash:
+            raise ValueError(f"tags {clash} would overwrite what the world records of each episode "
+                             f"({', '.join(recorded)}); give them other names")
+        try:
+            json.dumps(tags)
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"tags must be JSON data (they are written with each trajectory): {err}") \
+                from None
         self.base_settings = {
             "scenario": getattr(world.scenario, "name", type(world.scenario).__name__),
             "split": world.stream.split,
