@@ -464,7 +464,11 @@ def cmd_list(args: argparse.Namespace) -> int:
     print("Scenarios (parameter=default unit (constraint)):")
     for name, params in data["scenarios"].items():
         print(f"  {name}: " + ", ".join(_parameter_text(p) for p in params))
-    print("Policies:")
+    import importlib.util
+
+    without_torch = importlib.util.find_spec("torch") is None
+    print("Policies:" + (" (learned ones need PyTorch, not installed here: pip install 'socialnav[learn]')"
+                         if without_torch else ""))
     for p in data["policies"]:
         extra = ", ".join(f"{k}={v}" for k, v in p["parameters"].items())
         print(
