@@ -65,3 +65,26 @@ def test_orca_step_names_bad_arguments(kwargs, message):
         orca_step(**args)
     with pytest.raises(TypeError, match="static_map must be a StaticMap"):
         orca_step([[0.0, 0.0]], [[0.0, 0.0]], [[1.0, 0.0]], [0.3], [1.0], static_map=[[0, 0], [1, 1]])
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"max_neighbors": "a"}, "max_neighbors must be an integer in \\[0, 64\\], got 'a'"),
+    ({"max_neighbors": None}, "max_neighbors must be an integer in \\[0, 64\\], got None"),
+    ({"time_step": "x"}, "time_step must be a finite number > 0, got 'x'"),
+    ({"time_horizon": None}, "time_horizon must be a finite number > 0, got None"),
+])
+def test_orca_step_names_an_argument_of_the_wrong_type(kwargs, message):
+    from socialnav.sim import orca_step
+
+    z = np.zeros((1, 2))
+    with pytest.raises(ValueError, match=message):
+        orca_step(z, z, z, np.full(1, 0.3), np.ones(1), **kwargs)
+
+
+def test_discrete_actions_refuse_nonsense_speeds_and_limits():
+    from socialnav.sim.actions import discrete_actions
+
+    with pytest.raises(ValueError, match="v_pref must be a finite speed > 0"):
+        discrete_actions("holonomic", -1.0)
+    with pytest.raises(ValueError, match="rotation_limit must be a finite angle > 0"):
+        discrete_actions("unicycle", 1.0, rotation_limit=0.0)

@@ -28,6 +28,13 @@ def discrete_actions(kinematics: str, v_pref: float, rotation_limit: float = mat
     """
     if kinematics not in ("holonomic", "unicycle"):
         raise ValueError(f"kinematics must be 'holonomic' or 'unicycle', got {kinematics!r}")
+    if not (math.isfinite(v_pref) and v_pref > 0):
+        raise ValueError(f"v_pref must be a finite speed > 0 [m/s], got {v_pref!r}")
+    if kinematics == "unicycle" and not (math.isfinite(rotation_limit) and rotation_limit > 0):
+        raise ValueError(f"rotation_limit must be a finite angle > 0 [rad], got {rotation_limit!r}")
+    if speed_samples < 1 or rotation_samples < 1:
+        raise ValueError(f"speed_samples and rotation_samples must be >= 1, got {speed_samples}, "
+                         f"{rotation_samples}")
     speeds = action_speeds(v_pref, speed_samples)
     # CrowdNav's order: heading-major, index = 1 + speed_samples * heading + speed.
     if kinematics == "holonomic":

@@ -83,9 +83,11 @@ def orca_step(
         ("time_horizon_obst", time_horizon_obst),
         ("neighbor_dist", neighbor_dist),
     ):
-        if not (np.isfinite(value) and value > 0):
+        number = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
+        if not (number and np.isfinite(value) and value > 0):
             raise ValueError(f"orca_step: {name} must be a finite number > 0, got {value!r}")
-    if not 0 <= int(max_neighbors) <= 64 or int(max_neighbors) != max_neighbors:
+    if (isinstance(max_neighbors, bool) or not isinstance(max_neighbors, int | np.integer)
+            or not 0 <= max_neighbors <= 64):
         raise ValueError(f"orca_step: max_neighbors must be an integer in [0, 64], got {max_neighbors!r}")
     if static_map is not None and not isinstance(static_map, StaticMap):
         raise TypeError(f"orca_step: static_map must be a StaticMap or None, got {type(static_map).__name__}")
