@@ -54,3 +54,9 @@ def test_from_dict_names_the_keys_it_does_not_know(data, found):
         StaticMap.from_dict(data)
     expected = "map: expected a mapping with one key, 'polygons' (a list of vertex lists); "
     assert str(info.value) == expected + found
+
+
+def test_a_file_name_given_as_polygons_points_to_load_map():
+    with pytest.raises(MapError, match=r"StaticMap takes polygons, not a file \('walls.yaml'\): read a map "
+                       r"file with socialnav.map_files.load_map"):
+        StaticMap("walls.yaml")

@@ -271,3 +271,10 @@ def test_dt_argument_must_match_regular_samples(tmp_path: Path) -> None:
     path = _csv(tmp_path, _two_agent_lines([0.0, 0.25, 0.5]))
     _expect(path, "t", 3, "sampled every 0.25 s but dt=0.1", dt=0.1)
     assert read_trajectories(path, dt=0.1, resample=True)[0].n_steps == 5
+
+
+def test_from_positions_names_radii_of_the_wrong_length() -> None:
+    pos = np.zeros((3, 2, 2))
+    with pytest.raises(ValueError, match=r"radii must be a scalar or one value per agent \(2\), got shape "
+                       r"\(3,\)"):
+        Trajectory.from_positions(pos, 0.25, radii=[0.3, 0.3, 0.3], goals=pos[-1])

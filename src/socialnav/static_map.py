@@ -100,6 +100,9 @@ class StaticMap:
     polygons: tuple[np.ndarray, ...] = ()
 
     def __post_init__(self) -> None:
+        if isinstance(self.polygons, str | bytes) or hasattr(self.polygons, "__fspath__"):
+            raise MapError(f"StaticMap takes polygons, not a file ({self.polygons!r}): read a map file with "
+                           "socialnav.map_files.load_map")
         checked = []
         for i, poly in enumerate(self.polygons):
             try:

@@ -341,12 +341,19 @@ class Trajectory:
             warnings.warn("Trajectory.from_positions: goals not given; assumed each agent's last position",
                           AssumedValueWarning, stacklevel=2)
         v_pref = np.nan if v_pref is None else v_pref
+        per_agent = {}
+        for name, value in (("radii", radii), ("v_pref", v_pref)):
+            arr = np.asarray(value, dtype=np.float64)
+            if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != n_agents):
+                raise ValueError(f"Trajectory.from_positions: {name} must be a scalar or one value per agent "
+                                 f"({n_agents}), got shape {arr.shape}")
+            per_agent[name] = np.broadcast_to(arr, (n_agents,))
         return cls(
             dt=dt,
             positions=pos,
             velocities=vel,
-            radii=np.broadcast_to(np.asarray(radii, dtype=np.float64), (n_agents,)),
-            v_pref=np.broadcast_to(np.asarray(v_pref, dtype=np.float64), (n_agents,)),
+            radii=per_agent["radii"],
+            v_pref=per_agent["v_pref"],
             goals=goals,
             roles=("robot",) + ("human",) * (n_agents - 1),
             outcome=outcome,
