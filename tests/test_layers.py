@@ -29,7 +29,7 @@ LAYERS: list[dict[str, tuple[str, ...]]] = [
     {"evaluate": ("socialnav.evaluate",)},
     {"train": ("socialnav.train",), "logs": ("socialnav.logs",)},
     {"sweep": ("socialnav.sweep",), "viz": ("socialnav.viz",)},
-    {"cli": ("socialnav.cli",)},
+    {"cli": ("socialnav.cli", "socialnav.__main__")},
 ]
 #: The package root wires the layers together (env ids, the env's viewer); importing it (for
 #: ``__version__``) is allowed from anywhere, and its own imports are not checked.

@@ -124,22 +124,25 @@ def test_the_table_carries_units_and_constraints():
     assert evaluation["n_humans"].constraint == "in [1, 1000]"
 
 
-def test_a_presets_scenario_and_policy_typos_are_named_with_the_file(tmp_path):
+def test_a_presets_scenario_and_policy_typos_are_named_with_the_file(tmp_path, capsys):
+    from socialnav.cli import main
     from socialnav.config import ConfigError
+    from socialnav.policies.loading import check_preset_policies
     from socialnav.presets import load_preset
 
     bad = tmp_path / "p1.yaml"
-    bad.write_text("name: t\npolicies:\n  orca: {safty_space: 0.2}\n")
-    with pytest.raises(ConfigError, match=r"p1.yaml: policies.orca: policy 'orca' has no parameter\(s\) "
-                       r"safty_space; valid: safety_space, threads"):
-        load_preset(bad)
     bad.write_text("name: t\nevaluation:\n  multi_human: [circle_crosing]\n")
     with pytest.raises(ConfigError, match=r"p1.yaml: evaluation.multi_human: unknown scenario "
                        r"'circle_crosing'"):
         load_preset(bad)
     bad.write_text("name: t\npolicies:\n  orka: {}\n")
     with pytest.raises(ConfigError, match=r"p1.yaml: policies.orka: unknown policy 'orka'"):
-        load_preset(bad)
+        check_preset_policies(load_preset(bad), str(bad))
+    bad.write_text("name: t\npolicies:\n  orca: {safty_space: 0.2}\n")
+    argv = ["evaluate", "--policy", "linear", "--preset", str(bad), "--out", str(tmp_path / "o")]
+    assert main(argv) == 2  # the section is checked whatever the policy evaluated
+    assert ("p1.yaml: policies.orca: policy 'orca' has no parameter(s) safty_space; valid: safety_space, "
+            "threads") in capsys.readouterr().err
 
 
 def test_an_empty_preset_file_is_refused(tmp_path):
@@ -152,15 +155,18 @@ def test_an_empty_preset_file_is_refused(tmp_path):
         load_preset(empty)
 
 
-def test_a_missing_optional_dependency_names_its_extra(tmp_path, capsys, monkeypatch):
+def test_a_missing_optional_dependency_names_its_extra(tmp_path):
+    import subprocess
     import sys
 
-    from socialnav.cli import main
+    from tests._env import subprocess_env
 
-    monkeypatch.setitem(sys.modules, "torch", None)  # as on an install without the learn extra
-    argv = ["evaluate", "--policy", "sarl", "--scenario", "passing", "--episodes", "2", "--out",
-            str(tmp_path / "o"), "--quiet"]
-    assert main(argv) == 2
-    assert ("this needs torch, which is not installed: pip install 'socialnav[learn]'"
-            in capsys.readouterr().err)
+    # a fresh interpreter in which torch cannot be imported, as on an install without the learn extra
+    code = ("import sys; sys.modules['torch'] = None; from socialnav.cli import main; "
+            f"sys.exit(main(['evaluate', '--policy', 'sarl', '--scenario', 'passing', '--episodes', '2', "
+            f"'--out', {str(tmp_path / 'o')!r}, '--quiet']))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=subprocess_env(),
+                          check=False)
+    assert done.returncode == 2, done.stderr
+    assert "this needs torch, which is not installed: pip install 'socialnav[learn]'" in done.stderr
     assert not (tmp_path / "o").exists()

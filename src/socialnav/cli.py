@@ -268,15 +268,19 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     if args.batch_size < 1:
         raise ValueError(f"--batch-size must be >= 1, got {args.batch_size}")
-    if args.policy == "all":
-        from socialnav.evaluate.cli import cmd_evaluate_all
-
-        return cmd_evaluate_all(args)
     if args.report:  # checked before a long evaluation, not after it
         from socialnav.viz import require_viz
 
         require_viz()
+    if args.policy == "all":
+        from socialnav.evaluate.cli import cmd_evaluate_all
+        from socialnav.viz.report import write_report
+
+        return cmd_evaluate_all(args, write_report if args.report else None)
     preset = load_preset(args.preset)
+    from socialnav.policies.loading import check_preset_policies
+
+    check_preset_policies(preset, args.preset)
     overrides = parse_policy_args(args.policy_arg)
     for key in ("information", "planning_depth", "planning_width"):
         if getattr(args, key) is not None:

@@ -199,12 +199,12 @@ def load_preset(name_or_path: str | Path) -> Preset:
 
 
 def _check_names(preset: Preset, source: str) -> None:
-    """The preset's scenario and policy names and policy parameters, named with the file and field.
+    """The preset's scenario names, named with the file and field.
 
     Checked when the preset is loaded, so that a typo is the preset's error, not one raised later
-    without the file (or after part of a run).
+    without the file (or after part of a run). Its ``policies`` section is checked by the policies
+    layer (:func:`socialnav.policies.loading.check_preset_policies`), which this one may not import.
     """
-    from socialnav.policies.base import _accepts_any_keyword, get_policy_entry
     from socialnav.scenarios.registry import get_scenario
 
     lists = (("evaluation.multi_human", preset.evaluation.multi_human),
@@ -216,14 +216,4 @@ def _check_names(preset: Preset, source: str) -> None:
                 get_scenario(name)
             except KeyError as err:
                 raise ConfigError(f"{source}: {field}: {err.args[0] if err.args else err}") from None
-    for name, params in preset.policies.items():
-        try:
-            entry = get_policy_entry(name)
-        except KeyError as err:
-            raise ConfigError(f"{source}: policies.{name}: {err.args[0] if err.args else err}") from None
-        if entry.learned or _accepts_any_keyword(entry.factory):
-            continue  # a learned policy's parameters are checked when its checkpoint is loaded
-        unknown = sorted(set(params) - set(entry.parameters))
-        if unknown:
-            raise ConfigError(f"{source}: policies.{name}: policy {name!r} has no parameter(s) "
-                              f"{', '.join(unknown)}; valid: {', '.join(sorted(entry.parameters)) or 'none'}")
+

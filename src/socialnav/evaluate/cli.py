@@ -11,6 +11,7 @@ import json
 import sys
 import warnings
 from pathlib import Path
+from typing import Any
 
 
 def add_replay_parser(sub: argparse._SubParsersAction) -> None:
@@ -130,8 +131,17 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_evaluate_all(args: argparse.Namespace) -> int:
-    """`socialnav evaluate --policy all`: shipped checkpoints for the preset + native policies."""
+def cmd_evaluate_all(args: argparse.Namespace, write_report: Any = None) -> int:
+    """`socialnav evaluate --policy all`: shipped checkpoints for the preset + native policies.
+
+    Args:
+        args: The parsed command line.
+        write_report: ``socialnav.viz.report.write_report`` for ``--report`` (the viz layer lies above
+            this one, so the command line passes it in), else None.
+
+    Returns:
+        The exit status.
+    """
     from socialnav._io import json_safe
     from socialnav.evaluate.multi import default_specs, run_policies
     from socialnav.evaluate.report import table2, table3, table_notes
@@ -148,11 +158,10 @@ def cmd_evaluate_all(args: argparse.Namespace) -> int:
     if refused:
         raise ValueError(f"--policy all takes no {', '.join(refused)} (each policy uses its own settings: "
                          "a preset's `policies:` section sets a policy's parameters)")
-    if args.report:  # checked before a long evaluation, not after it
-        from socialnav.viz import require_viz
-
-        require_viz()
     preset = load_preset(args.preset)
+    from socialnav.policies.loading import check_preset_policies
+
+    check_preset_policies(preset, args.preset)
     specs = default_specs(preset.name)
     out = Path(args.out or f"runs/evaluate/{preset.name}-all")
     quiet = args.json or args.quiet
@@ -166,9 +175,7 @@ def cmd_evaluate_all(args: argparse.Namespace) -> int:
         )
     for note in sorted({str(w.message) for w in caught}):
         print(f"warning: {note}", file=sys.stderr)
-    if args.report:
-        from socialnav.viz.report import write_report
-
+    if write_report is not None:
         write_report([out / "policies" / s.name for s in specs], out / "report.html", progress=not quiet)
         if args.quiet:
             print(out / "report.html")  # quiet prints no tables, but the file asked for is named

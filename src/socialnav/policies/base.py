@@ -143,7 +143,7 @@ def make_policy(name: str, **params: Any) -> Policy:
         loading = ("checkpoint", "preset", "allow_preset_mismatch")
         given = {k: v for k, v in params.items() if k not in loading}
         check_learned_parameters(name, entry.parameters, given)
-    if not entry.learned and not _accepts_any_keyword(entry.factory):
+    if not entry.learned and not accepts_any_keyword(entry.factory):
         unknown = sorted(set(params) - set(entry.parameters))
         if unknown:
             raise ValueError(f"policy {name!r} has no parameter(s) {', '.join(unknown)}; "
@@ -220,7 +220,15 @@ def _signature_parameters(factory: Callable) -> dict[str, Any]:
     }
 
 
-def _accepts_any_keyword(factory: Callable) -> bool:
+def accepts_any_keyword(factory: Callable) -> bool:
+    """Whether ``factory`` takes ``**kwargs`` (then its parameters are its own to check).
+
+    Args:
+        factory: A registered policy's factory.
+
+    Returns:
+        True when it has a ``**kwargs`` parameter (False when its signature cannot be read).
+    """
     try:
         return any(p.kind is p.VAR_KEYWORD for p in inspect.signature(factory).parameters.values())
     except (TypeError, ValueError):

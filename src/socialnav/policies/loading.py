@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from socialnav.config import ConfigError
-from socialnav.policies.base import SB3_PREFIX, Policy, get_policy_entry, make_policy
+from socialnav.policies.base import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
 from socialnav.policies.learned_catalog import get_learned_spec
 from socialnav.presets import Preset
 
@@ -102,6 +102,29 @@ def build_policy(
     return entry.factory(
         checkpoint=Path(checkpoint), preset=preset, allow_preset_mismatch=allow_preset_mismatch, **params
     )
+
+
+def check_preset_policies(preset: Preset, source: str) -> None:
+    """A preset's ``policies`` section: policy names and their parameters, named with the file and field.
+
+    Args:
+        preset: The preset.
+        source: Where it was read from (its file, or a shipped preset's name), for the message.
+
+    Raises:
+        ConfigError: An unknown policy, or a parameter its policy does not have.
+    """
+    for name, params in preset.policies.items():
+        try:
+            entry = get_policy_entry(name)
+        except KeyError as err:
+            raise ConfigError(f"{source}: policies.{name}: {err.args[0] if err.args else err}") from None
+        if entry.learned or accepts_any_keyword(entry.factory):
+            continue  # a learned policy's parameters are checked when its checkpoint is loaded
+        unknown = sorted(set(params) - set(entry.parameters))
+        if unknown:
+            raise ConfigError(f"{source}: policies.{name}: policy {name!r} has no parameter(s) "
+                              f"{', '.join(unknown)}; valid: {', '.join(sorted(entry.parameters)) or 'none'}")
 
 
 def check_learned_parameters(name: str, valid: dict[str, Any], params: dict[str, Any]) -> None:

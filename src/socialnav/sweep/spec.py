@@ -360,7 +360,7 @@ def _check_policy_args(where: str, name: str, entry: Any, params: dict[str, Any]
 
     A device is checked where the job runs (a Ray worker may have the GPU the driver lacks).
     """
-    from socialnav.policies.base import SB3_PREFIX, _accepts_any_keyword
+    from socialnav.policies.base import SB3_PREFIX, accepts_any_keyword
     from socialnav.policies.loading import check_learned_parameters
 
     args = dict(params.get("policy_args") or {})
@@ -369,7 +369,7 @@ def _check_policy_args(where: str, name: str, entry: Any, params: dict[str, Any]
     try:
         if entry.learned:
             check_learned_parameters(name, entry.parameters, {k: v for k, v in args.items() if k != "device"})
-        elif _accepts_any_keyword(entry.factory):
+        elif accepts_any_keyword(entry.factory):
             return
         else:
             unknown = sorted(set(args) - set(entry.parameters))
