@@ -146,10 +146,10 @@ def test_evaluate_all_one_directory_resumes_and_refuses_checkpoint(tmp_path, cap
         assert (tmp_path / "policies" / name / "manifest.json").exists()
     timings = json.loads((tmp_path / "timings.json").read_text())["policies"]
     assert all(t["episodes"] == 4 for t in timings.values())
-    assert main(argv) == 0  # resumed: nothing simulated again
+    assert main(argv) == 0  # resumed: nothing simulated again, and the first call's timings are kept
     capsys.readouterr()
-    timings = json.loads((tmp_path / "timings.json").read_text())["policies"]
-    assert all(t["episodes"] == 0 for t in timings.values())
+    again = json.loads((tmp_path / "timings.json").read_text())["policies"]
+    assert again == timings
     assert main(["evaluate", "--policy", "all", "--checkpoint", "x.pt", "--out", str(tmp_path / "y")]) == 2
     assert "--policy all takes no --checkpoint" in capsys.readouterr().err
     argv = ["evaluate", "--policy", "all", "--policy-arg", "safety_space=0.5", "--out", str(tmp_path / "y")]

@@ -147,8 +147,28 @@ def run_policies(
     write_reports(out, summary, [], preset)
     atomic_write_json(
         out / "timings.json",
-        {"preset": preset.name, "human_model": preset.world.human_model, "policies": timings},
+        {"preset": preset.name, "human_model": preset.world.human_model,
+         "policies": _kept_timings(out / "timings.json", timings)},
     )
     return MultiResult(out, summary, timings, list(specs))
+
+
+def _kept_timings(path: Path, timings: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+    """This call's timings, but a policy with nothing left to simulate keeps its earlier timing.
+
+    A resume would otherwise record 0 episodes in 0 s for the policies an earlier call evaluated.
+    """
+    import json
+
+    try:
+        previous = json.loads(path.read_text()).get("policies", {})
+    except (OSError, ValueError, AttributeError):
+        previous = {}
+    kept = {}
+    for name, now in timings.items():
+        before = previous.get(name) if isinstance(previous, dict) else None
+        useful = isinstance(before, dict) and before.get("episodes", 0) > 0
+        kept[name] = before if now["episodes"] == 0 and useful else now
+    return kept
 
 
