@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import inspect
-import math
 import os
 import sys
 from collections.abc import Callable
@@ -137,25 +136,11 @@ def get_policy_entry(name: str) -> PolicyEntry:
 def make_policy(name: str, **params: Any) -> Policy:
     """Builds a registered policy; unknown parameters are refused with the valid ones listed."""
     entry = get_policy_entry(name)
-    if entry.learned and not name.startswith(SB3_PREFIX):
-        from socialnav.policies.loading import check_learned_parameters
+    if not name.startswith(SB3_PREFIX):
+        from socialnav.policies.loading import check_policy_parameters
 
-        loading = ("checkpoint", "preset", "allow_preset_mismatch")
-        given = {k: v for k, v in params.items() if k not in loading}
-        check_learned_parameters(name, entry.parameters, given)
-    if not entry.learned and not accepts_any_keyword(entry.factory):
-        unknown = sorted(set(params) - set(entry.parameters))
-        if unknown:
-            raise ValueError(f"policy {name!r} has no parameter(s) {', '.join(unknown)}; "
-                             f"valid: {', '.join(sorted(entry.parameters)) or 'none'}")
-        for key, value in params.items():  # a numeric parameter gets a finite number (threads an integer)
-            default = entry.parameters[key]
-            number = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-            if isinstance(default, int | float) and not isinstance(default, bool) and not number:
-                raise ValueError(f"policy {name!r}: {key} must be a finite number, got {value!r}")
-            whole = isinstance(value, int) and not isinstance(value, bool)
-            if key == "threads" and not (whole and value >= 0):
-                raise ValueError(f"policy {name!r}: threads must be an integer >= 0, got {value!r}")
+        loading = ("checkpoint", "preset", "allow_preset_mismatch") if entry.learned else ()
+        check_policy_parameters(name, entry, {k: v for k, v in params.items() if k not in loading})
     try:
         policy = entry.factory(**params)
     except TypeError as err:  # e.g. a required argument missing: the user's to fix, so no traceback

@@ -8,6 +8,7 @@ index entry is still recognised when it is named ``<policy>_<preset>.pt``.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -98,7 +99,7 @@ def build_policy(
                 f"{preset.name!r} (shipped: {', '.join(list_shipped_checkpoints()) or 'none'}): "
                 "pass --checkpoint PATH (see `socialnav train`)"
             )
-    check_learned_parameters(name, entry.parameters, params)
+    check_policy_parameters(name, entry, params)
     return entry.factory(
         checkpoint=Path(checkpoint), preset=preset, allow_preset_mismatch=allow_preset_mismatch, **params
     )
@@ -119,12 +120,50 @@ def check_preset_policies(preset: Preset, source: str) -> None:
             entry = get_policy_entry(name)
         except KeyError as err:
             raise ConfigError(f"{source}: policies.{name}: {err.args[0] if err.args else err}") from None
-        if entry.learned or accepts_any_keyword(entry.factory):
-            continue  # a learned policy's parameters are checked when its checkpoint is loaded
-        unknown = sorted(set(params) - set(entry.parameters))
-        if unknown:
-            raise ConfigError(f"{source}: policies.{name}: policy {name!r} has no parameter(s) "
-                              f"{', '.join(unknown)}; valid: {', '.join(sorted(entry.parameters)) or 'none'}")
+        if entry.learned:
+            continue  # checked when the policy is built (it needs PyTorch, which this run may lack)
+        try:
+            check_policy_parameters(name, entry, params)
+        except ValueError as err:
+            raise ConfigError(f"{source}: policies.{name}: {err}") from None
+
+
+def check_policy_parameters(
+    name: str, entry: Any, params: dict[str, Any], *, check_device: bool = True
+) -> None:
+    """Refuse parameters a registered policy does not have, or values it cannot take.
+
+    The one check behind ``make_policy``, ``build_policy``, a preset's ``policies:`` section and a
+    sweep's ``policy_args``. A factory taking ``**kwargs`` checks its own arguments.
+
+    Args:
+        name: The policy.
+        entry: Its registry entry.
+        params: Its parameters (for a learned policy, the evaluation ones, not the checkpoint).
+        check_device: Check that a learned policy's device exists on this machine (a sweep leaves it
+            to the machine the job runs on).
+
+    Raises:
+        ValueError: An unknown parameter (the valid ones listed), or a value of the wrong type or range.
+    """
+    if entry.learned:
+        given = params if check_device else {k: v for k, v in params.items() if k != "device"}
+        check_learned_parameters(name, entry.parameters, given)
+        return
+    if accepts_any_keyword(entry.factory):
+        return
+    unknown = sorted(set(params) - set(entry.parameters))
+    if unknown:
+        raise ValueError(f"policy {name!r} has no parameter(s) {', '.join(unknown)}; "
+                         f"valid: {', '.join(sorted(entry.parameters)) or 'none'}")
+    for key, value in params.items():  # a numeric parameter gets a finite number (threads an integer)
+        default = entry.parameters[key]
+        number = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+        if isinstance(default, int | float) and not isinstance(default, bool) and not number:
+            raise ValueError(f"policy {name!r}: {key} must be a finite number, got {value!r}")
+        whole = isinstance(value, int) and not isinstance(value, bool)
+        if key == "threads" and not (whole and value >= 0):
+            raise ValueError(f"policy {name!r}: threads must be an integer >= 0, got {value!r}")
 
 
 def check_learned_parameters(name: str, valid: dict[str, Any], params: dict[str, Any]) -> None:

@@ -360,22 +360,14 @@ def _check_policy_args(where: str, name: str, entry: Any, params: dict[str, Any]
 
     A device is checked where the job runs (a Ray worker may have the GPU the driver lacks).
     """
-    from socialnav.policies.base import SB3_PREFIX, accepts_any_keyword
-    from socialnav.policies.loading import check_learned_parameters
+    from socialnav.policies.base import SB3_PREFIX
+    from socialnav.policies.loading import check_policy_parameters
 
     args = dict(params.get("policy_args") or {})
     if not args or name.startswith(SB3_PREFIX) or ":" in name:
         return  # an SB3 model or a user's class checks its own arguments when built
     try:
-        if entry.learned:
-            check_learned_parameters(name, entry.parameters, {k: v for k, v in args.items() if k != "device"})
-        elif accepts_any_keyword(entry.factory):
-            return
-        else:
-            unknown = sorted(set(args) - set(entry.parameters))
-            if unknown:
-                raise ValueError(f"policy {name!r} has no parameter(s) {', '.join(unknown)}; valid: "
-                                 f"{', '.join(sorted(entry.parameters)) or 'none'}")
+        check_policy_parameters(name, entry, args, check_device=False)
     except ValueError as err:
         raise ConfigError(f"{where}: policy_args: {err}") from None
 
