@@ -35,6 +35,7 @@ from socialnav.trajectory import (
     derive_velocities,
     last_present_positions,
 )
+from socialnav.trajectory_io.resample import step_fitted_to
 from socialnav.trajectory_io.schema import MAX_RESAMPLED_STEPS
 
 __all__ = ["DT_RTOL", "Scene", "SceneError", "id_matches", "scene_from_tracks"]
@@ -360,8 +361,8 @@ def _resampling_grid(name: str, source: str, t: np.ndarray, agent: np.ndarray, i
     mine = t[agent == ids[match[0]]]
     a0, a1 = float(mine.min()), float(mine.max())
     span = a1 - a0
-    if requested is None and span > 0:
-        dt = span / max(1, round(span / dt))
+    if requested is None:
+        dt = step_fitted_to(span, dt)
     elif span > 0:
         lost = span - np.floor(span / dt + 1e-9) * dt
         if lost > DT_RTOL * dt:

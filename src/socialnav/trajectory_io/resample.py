@@ -182,6 +182,23 @@ def regular_continuation(
     return np.stack([p["pos"][p["cont"]] for p in per_agent], axis=1)
 
 
+def step_fitted_to(span: float, step: float) -> float:
+    """The step nearest ``step`` of which a whole number spans ``span`` (``step`` itself when ``span`` is 0).
+
+    A resampled run then ends on its last sample: with a jittered clock (median step 0.49 s over 2 s)
+    a grid of the median step would stop 0.04 s short, shortening the navigation time.
+
+    Args:
+        span: The run's duration [s].
+        step: The step wanted [s], e.g. the median of the logged steps.
+
+    Returns:
+        ``span / round(span / step)`` (at least one step), differing from ``step`` by less than half a
+        step over the run.
+    """
+    return span / max(1, round(span / step)) if span > 0 else step
+
+
 def resample_to_grid(
     per_agent: list[dict[str, Any]], dt: float, fit_step: bool
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray, np.ndarray | None, float]:
@@ -207,8 +224,8 @@ def resample_to_grid(
     main = [(p["t"][~p["cont"]], p["pos"][~p["cont"]]) for p in per_agent]
     t0, t1 = float(main[0][0][0]), float(main[0][0][-1])
     span = t1 - t0
-    if fit_step and span > 0:
-        dt = span / max(1, round(span / dt))
+    if fit_step:
+        dt = step_fitted_to(span, dt)
     k = int(np.floor(span / dt + 1e-9))
     if k >= MAX_RESAMPLED_STEPS:
         raise TrajectoryFormatError(f"resampling {span:.6g} s at dt {dt:.6g} s makes {k + 1} samples per "
