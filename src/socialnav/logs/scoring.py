@@ -16,9 +16,10 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.logs.readers import ETH_UCY_FPS, MAX_SPEED, read_eth_ucy, read_table
+from socialnav.logs.readers import _ALIASES, ETH_UCY_FPS, FIELDS, MAX_SPEED, read_eth_ucy, read_table
 from socialnav.logs.scene import Scene, SceneError, id_matches
 from socialnav.trajectory import AssumedValueWarning, Trajectory, TrajectoryFormatError
+from socialnav.trajectory_io.schema import OPTIONAL_COLUMNS, REQUIRED_COLUMNS
 
 __all__ = [
     "FORMATS",
@@ -73,8 +74,6 @@ def detect_format(path: str | Path, columns: Any = None) -> str:
                                     f"--format ({', '.join(FORMATS[1:])})")
     if columns:
         return "parquet" if suffix == ".parquet" else "csv"
-    from socialnav.trajectory_io import REQUIRED_COLUMNS
-
     names = _header(path)
     if names is not None and all(c in names for c in REQUIRED_COLUMNS):
         return "long"
@@ -83,7 +82,7 @@ def detect_format(path: str | Path, columns: Any = None) -> str:
 
 #: Columns of the long format that a generic table's fields (readers.FIELDS) do not include: a file
 #: with some of them but not every required column is read as a table, with a note naming them.
-LONG_ONLY = ("continuation", "min_clearance", "human_overlaps", "settings", "arrival_t", "static_map")
+LONG_ONLY = tuple(c for c in (*REQUIRED_COLUMNS, *OPTIONAL_COLUMNS) if c not in FIELDS and c not in _ALIASES)
 
 
 def _header(path: Path) -> list[str] | None:
@@ -201,8 +200,6 @@ def load_trajectories(
 
 def _note_partial_long_format(path: Path) -> None:
     """Say so when a file with long-format columns lacks some required ones and is read as a table."""
-    from socialnav.trajectory_io import REQUIRED_COLUMNS
-
     names = _header(path) or []
     kept = [c for c in LONG_ONLY if c in names]
     if kept:
