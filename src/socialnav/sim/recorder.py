@@ -52,18 +52,7 @@ class Recorder:
         self.hist_velocity = hist_velocity
         self.hist_dmin = hist_dmin
         s = world.settings
-        recorded = ("scenario", "split", "visibility", "human_model", "orca_mode", "kinematics",
-                    "crowdsim_compat", "time_limit", "index", "seed", "collision_kind")
-        clash = sorted(set(tags) & set(recorded))
-        if clash:
-            raise ValueError(f"tags {clash} would overwrite what the world records of each episode "
-                             f"({', '.join(recorded)}); give them other names")
-        try:
-            json.dumps(tags)
-        except (TypeError, ValueError) as err:
-            raise ValueError(f"tags must be JSON data (they are written with each trajectory): {err}") \
-                from None
-        self.base_settings = {
+        recorded = {
             "scenario": getattr(world.scenario, "name", type(world.scenario).__name__),
             "split": world.stream.split,
             "visibility": s.visibility,
@@ -72,8 +61,18 @@ class Recorder:
             "kinematics": s.kinematics,
             "crowdsim_compat": s.crowdsim_compat,
             "time_limit": s.time_limit,
-            **tags,
         }
+        per_episode = ("index", "seed", "collision_kind")  # set by collect()
+        clash = sorted(set(tags) & {*recorded, *per_episode})
+        if clash:
+            raise ValueError(f"tags {clash} would overwrite what the world records of each episode "
+                             f"({', '.join([*recorded, *per_episode])}); give them other names")
+        try:
+            json.dumps(tags)
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"tags must be JSON data (they are written with each trajectory): {err}") \
+                from None
+        self.base_settings = {**recorded, **tags}
 
     def collect(self, slots: np.ndarray) -> list[Trajectory]:
         """Trajectories of the given finished slots (call before the slots are refilled)."""
