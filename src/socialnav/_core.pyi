@@ -317,7 +317,10 @@ class PreparedObstacleBatch:
         """
 
 class ThreadPool:
-    def __init__(self, threads: int) -> None: ...
+    def __init__(self, threads: int, pin: str = 'none') -> None:
+        """
+        threads threads (the caller included); pin 'workers' keeps worker w on the w-th allowed CPU, 'all' also the creating thread on the first.
+        """
 
     @property
     def size(self) -> int: ...
