@@ -34,13 +34,16 @@ def pin_mode() -> str:
     """
     mode = os.environ.get(PIN_ENV, "").strip().lower() or "none"
     if mode not in PIN_MODES:
-        raise ValueError(f"${PIN_ENV}: unknown mode {os.environ[PIN_ENV]!r}; use one of {', '.join(PIN_MODES)}")
+        choices = ", ".join(PIN_MODES)
+        raise ValueError(f"${PIN_ENV}: unknown mode {os.environ[PIN_ENV]!r}; use one of {choices}")
     return mode
 
 
 def shared_pool(threads: int) -> Any:
-    """The process's native worker pool of ``threads`` threads (created on first use, pinned as
-    ``$SOCIALNAV_PIN_THREADS`` says then)."""
+    """The process's native worker pool of ``threads`` threads.
+
+    Created on first use, pinned as ``$SOCIALNAV_PIN_THREADS`` says then.
+    """
     if threads < 1:
         raise ValueError(f"threads must be >= 1, got {threads}")
     if threads not in _POOLS:
