@@ -39,7 +39,10 @@ void pin_calling_thread(int cpu) {
 }  // namespace
 
 ThreadPool::ThreadPool(int threads, PinMode pin) : pin_(pin), shares_(threads > 1 ? threads : 1) {
-  const std::vector<int> cpus = pin == PinMode::kNone ? std::vector<int>{} : allowed_cpus();
+  // Read once per process: a pool pinned with kAll has pinned the creating thread, whose set a later
+  // pool would otherwise read as one CPU.
+  static const std::vector<int> process_cpus = allowed_cpus();
+  const std::vector<int> cpus = pin == PinMode::kNone ? std::vector<int>{} : process_cpus;
   for (int w = 1; w < threads; ++w) {
     const int cpu = cpus.empty() ? -1 : cpus[w % cpus.size()];
     workers_.emplace_back([this, w, cpu] {

@@ -114,21 +114,23 @@ for stage in $STAGES; do case $stage in
       --scaling-threads 1 2 4 8 16 --scaling-repeats 2 --scaling-seconds 1 ;;
   pin_ab)  # issue #32: $SOCIALNAV_PIN_THREADS (none, workers, all) alternating, then the full scaling of none and all
     for rep in 1 2 3; do
-      for mode in none workers all; do
+      for mode in ${PIN_MODES:-none workers all}; do
         SOCIALNAV_PIN_THREADS=$mode LIMIT=60 run "pin_ab_${mode}_r$rep" python3 benchmarks/bench_world.py --batch 4096 \
           --seconds 0.3 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 1
       done
     done
-    for mode in none all; do
+    for mode in ${PIN_FULL:-none all}; do
       SOCIALNAV_PIN_THREADS=$mode LIMIT=90 run "pin_full_${mode}_b4096" python3 benchmarks/bench_world.py --batch 4096 \
         --seconds 0.3 --scaling-threads 1 2 4 8 16 --scaling-repeats 2 --scaling-seconds 1 --scaling-ceiling
     done
-    for mode in none all; do
+    for mode in ${PIN_FULL:-none all}; do
       SOCIALNAV_PIN_THREADS=$mode LIMIT=60 run "pin_full_${mode}_b16384" python3 benchmarks/bench_world.py --batch 16384 \
         --seconds 0.3 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 1
       SOCIALNAV_PIN_THREADS=$mode LIMIT=40 run "pin_breakdown_${mode}_b4096" python3 benchmarks/gpu/world_breakdown.py \
         --batch 4096 --threads 1 16 --seconds 1
     done
+    [ -n "${PIN_BIG:-}" ] && LIMIT=60 run "pin_big_none_b$PIN_BIG" python3 benchmarks/bench_world.py --batch "$PIN_BIG" \
+      --seconds 0.3 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 1
     # One line per run: env-steps/s by thread count, the 16-vs-1 ratio and the share of the ceiling.
     python3 - "$OUT" <<'PY'
 import glob, json, os, sys
