@@ -190,18 +190,10 @@ def independent_worlds(cpus: list[int], batch: int, seconds: float) -> list[floa
     return [_measured(out)["env_steps_per_s"] for out in outs]
 
 
-def _allowed_cpus() -> list[int]:
-    affinity = getattr(os, "sched_getaffinity", None)
-    return sorted(affinity(0)) if affinity else list(range(os.cpu_count() or 1))
-
-
-# Read before any pool exists: $SOCIALNAV_PIN_THREADS=all pins this (the main) thread to one CPU.
-_USABLE_CPUS = _allowed_cpus()
-
-
 def usable_cpus() -> list[int]:
     """The CPUs this process may run on (a container may allow fewer than the machine has)."""
-    return list(_USABLE_CPUS)
+    affinity = getattr(os, "sched_getaffinity", None)
+    return sorted(affinity(0)) if affinity else list(range(os.cpu_count() or 1))
 
 
 def scaling_ceiling(best: dict[int, float], batch: int, seconds: float) -> dict:

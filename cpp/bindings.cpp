@@ -414,23 +414,7 @@ NB_MODULE(_core, m) {
           "Vertices stored (episodes with the previous episode's map share its copy).");
 
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
-      .def(
-          "__init__",
-          [](socialnav::ThreadPool* self, int threads, const std::string& pin) {
-            socialnav::PinMode mode;
-            if (pin == "none")
-              mode = socialnav::PinMode::kNone;
-            else if (pin == "workers")
-              mode = socialnav::PinMode::kWorkers;
-            else if (pin == "all")
-              mode = socialnav::PinMode::kAll;
-            else
-              throw std::invalid_argument("pin must be 'none', 'workers' or 'all', got '" + pin + "'");
-            new (self) socialnav::ThreadPool(threads, mode);
-          },
-          "threads"_a, "pin"_a = "none",
-          "threads threads (the caller included); pin 'workers' keeps worker w on the w-th allowed CPU, "
-          "'all' also the creating thread on the first.")
+      .def(nb::init<int>(), "threads"_a)
       .def_prop_ro("size", &socialnav::ThreadPool::size);
   // A forked child leaks the pools it inherited on purpose (sim/pool.py: their threads do not exist
   // there); without this, nanobind reports them as reference leaks when the child exits.

@@ -2,55 +2,10 @@
 
 #include <chrono>
 
-#ifdef __linux__
-#include <pthread.h>
-#include <sched.h>
-#endif
-
 namespace socialnav {
 
-namespace {
-
-// The CPUs the calling thread may run on, in order (empty where the OS does not say).
-std::vector<int> allowed_cpus() {
-  std::vector<int> cpus;
-#ifdef __linux__
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (sched_getaffinity(0, sizeof(set), &set) == 0)
-    for (int c = 0; c < CPU_SETSIZE; ++c)
-      if (CPU_ISSET(c, &set)) cpus.push_back(c);
-#endif
-  return cpus;
-}
-
-// Keeps the calling thread on one CPU. Best effort: a refusal leaves the thread where it was.
-void pin_calling_thread(int cpu) {
-#ifdef __linux__
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(cpu, &set);
-  pthread_setaffinity_np(pthread_self(), sizeof(set), &set);
-#else
-  (void)cpu;
-#endif
-}
-
-}  // namespace
-
-ThreadPool::ThreadPool(int threads, PinMode pin) : pin_(pin), shares_(threads > 1 ? threads : 1) {
-  // Read once per process: a pool pinned with kAll has pinned the creating thread, whose set a later
-  // pool would otherwise read as one CPU.
-  static const std::vector<int> process_cpus = allowed_cpus();
-  const std::vector<int> cpus = pin == PinMode::kNone ? std::vector<int>{} : process_cpus;
-  for (int w = 1; w < threads; ++w) {
-    const int cpu = cpus.empty() ? -1 : cpus[w % cpus.size()];
-    workers_.emplace_back([this, w, cpu] {
-      if (cpu >= 0) pin_calling_thread(cpu);
-      worker_loop(w);
-    });
-  }
-  if (pin == PinMode::kAll && !cpus.empty()) pin_calling_thread(cpus[0]);
+ThreadPool::ThreadPool(int threads) : shares_(threads > 1 ? threads : 1) {
+  for (int w = 1; w < threads; ++w) workers_.emplace_back([this, w] { worker_loop(w); });
 }
 
 ThreadPool::~ThreadPool() {

@@ -11,20 +11,14 @@
 
 namespace socialnav {
 
-// Where the pool's threads run. kNone: wherever the OS puts them. kWorkers: worker w stays on the w-th
-// CPU (cyclically) of the set the creating thread may run on. kAll: the same, and the creating thread,
-// which takes part in every job, stays on the first CPU of that set (the calls must then come from it).
-enum class PinMode { kNone, kWorkers, kAll };
-
 class ThreadPool {
  public:
-  explicit ThreadPool(int threads, PinMode pin = PinMode::kNone);
+  explicit ThreadPool(int threads);
   ~ThreadPool();
   ThreadPool(const ThreadPool&) = delete;
   ThreadPool& operator=(const ThreadPool&) = delete;
 
   int size() const { return static_cast<int>(workers_.size()) + 1; }
-  PinMode pin() const { return pin_; }
 
   // Calls fn(begin, end, worker) over contiguous chunks covering [0, n) exactly once; the calling
   // thread takes part. Each thread owns a contiguous share of [0, n) (the same share every call, so
@@ -52,7 +46,6 @@ class ThreadPool {
     int end = 0;
   };
 
-  PinMode pin_;
   std::vector<std::thread> workers_;
   std::mutex run_mutex_;  // one job at a time: Python threads may share a pool (the GIL is released)
   std::mutex mutex_;

@@ -112,39 +112,6 @@ for stage in $STAGES; do case $stage in
     done
     LIMIT=90 run pool_ab_bench_world_new_b16384 python3 benchmarks/bench_world.py --batch 16384 --seconds 1 \
       --scaling-threads 1 2 4 8 16 --scaling-repeats 2 --scaling-seconds 1 ;;
-  pin_ab)  # issue #32: $SOCIALNAV_PIN_THREADS (none, workers, all) alternating, then the full scaling of none and all
-    for rep in 1 2 3; do
-      for mode in ${PIN_MODES:-none workers all}; do
-        SOCIALNAV_PIN_THREADS=$mode LIMIT=60 run "pin_ab_${mode}_r$rep" python3 benchmarks/bench_world.py --batch 4096 \
-          --seconds 0.3 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 1
-      done
-    done
-    for mode in ${PIN_FULL:-none all}; do
-      SOCIALNAV_PIN_THREADS=$mode LIMIT=90 run "pin_full_${mode}_b4096" python3 benchmarks/bench_world.py --batch 4096 \
-        --seconds 0.3 --scaling-threads 1 2 4 8 16 --scaling-repeats 2 --scaling-seconds 1 --scaling-ceiling
-    done
-    for mode in ${PIN_FULL:-none all}; do
-      SOCIALNAV_PIN_THREADS=$mode LIMIT=60 run "pin_full_${mode}_b16384" python3 benchmarks/bench_world.py --batch 16384 \
-        --seconds 0.3 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 1
-      SOCIALNAV_PIN_THREADS=$mode LIMIT=40 run "pin_breakdown_${mode}_b4096" python3 benchmarks/gpu/world_breakdown.py \
-        --batch 4096 --threads 1 16 --seconds 1
-    done
-    [ -n "${PIN_BIG:-}" ] && LIMIT=60 run "pin_big_none_b$PIN_BIG" python3 benchmarks/bench_world.py --batch "$PIN_BIG" \
-      --seconds 0.3 --scaling-threads 1 16 --scaling-repeats 2 --scaling-seconds 1
-    # One line per run: env-steps/s by thread count, the 16-vs-1 ratio and the share of the ceiling.
-    python3 - "$OUT" <<'PY'
-import glob, json, os, sys
-for path in sorted(glob.glob(os.path.join(sys.argv[1], "pin_*.txt"))):
-    lines = [line for line in open(path) if line.startswith("{")]
-    if not lines:
-        print(os.path.basename(path), "no JSON line")
-        continue
-    d = json.loads(lines[-1])
-    keys = [k for k in d if k.startswith(("speedup_16", "fraction_of_independent", "independent_ceiling"))]
-    print(os.path.basename(path)[:-4], d.get("env_steps_per_s_by_threads") or d.get("speedup_vs_1", {}).get("16"),
-          {k: round(d[k], 3) for k in keys})
-PY
-    ;;
   avx512_2core)  # issue #32's Intel figure: the native scorer on 2 cores of the Xeon, AVX-512 vs AVX2 kernel
     for kernel in avx512 avx2; do
       LIMIT=90 run bench_policy_2core_$kernel taskset -c 0,1 python3 benchmarks/bench_policy.py --threads 2 \

@@ -317,10 +317,7 @@ class PreparedObstacleBatch:
         """
 
 class ThreadPool:
-    def __init__(self, threads: int, pin: str = 'none') -> None:
-        """
-        threads threads (the caller included); pin 'workers' keeps worker w on the w-th allowed CPU, 'all' also the creating thread on the first.
-        """
+    def __init__(self, threads: int) -> None: ...
 
     @property
     def size(self) -> int: ...

@@ -5,12 +5,6 @@ On one pool, a worker that has just finished a job spins briefly for the next on
 to sleep (cpp/thread_pool.cpp), so consecutive jobs find it awake; on a virtual machine that halts
 idle CPUs, waking a sleeping worker costs tens to hundreds of microseconds per job. Two pools would
 have their idle workers spin against each other's busy ones.
-
-``$SOCIALNAV_PIN_THREADS`` (read when a pool is created) keeps its threads on fixed CPUs, as
-``OMP_PROC_BIND`` does for OpenMP: ``workers`` pins worker w to the w-th CPU the process may use,
-``all`` also the thread that creates the pool (it takes part in every job); unset or ``none``: the OS
-places them. Pin only where one process has the CPUs to itself: two pinned processes share the
-same CPUs.
 """
 
 from __future__ import annotations
@@ -22,32 +16,14 @@ from typing import Any
 from socialnav import _core
 
 _POOLS: dict[int, Any] = {}
-PIN_ENV = "SOCIALNAV_PIN_THREADS"
-PIN_MODES = ("none", "workers", "all")
-
-
-def pin_mode() -> str:
-    """Where new pools keep their threads: ``$SOCIALNAV_PIN_THREADS``, default ``none``.
-
-    Raises:
-        ValueError: The variable names no mode.
-    """
-    mode = os.environ.get(PIN_ENV, "").strip().lower() or "none"
-    if mode not in PIN_MODES:
-        choices = ", ".join(PIN_MODES)
-        raise ValueError(f"${PIN_ENV}: unknown mode {os.environ[PIN_ENV]!r}; use one of {choices}")
-    return mode
 
 
 def shared_pool(threads: int) -> Any:
-    """The process's native worker pool of ``threads`` threads.
-
-    Created on first use, pinned as ``$SOCIALNAV_PIN_THREADS`` says then.
-    """
+    """The process's native worker pool of ``threads`` threads (created on first use)."""
     if threads < 1:
         raise ValueError(f"threads must be >= 1, got {threads}")
     if threads not in _POOLS:
-        _POOLS[threads] = _core.ThreadPool(threads, pin_mode())
+        _POOLS[threads] = _core.ThreadPool(threads)
     return _POOLS[threads]
 
 
