@@ -73,6 +73,9 @@ for stage in $STAGES; do case $stage in
     echo "== final stage: $((SECONDS - start)) s" | tee "$OUT/final_stage_seconds.txt" ;;
   graphtest)
     run test_fused_step_cuda python3 -m pytest -q -p no:cacheprovider tests/train/test_fused_step.py -k cuda_graph ;;
+  cudatests)  # every test that runs only where CUDA is available (they skip elsewhere)
+    LIMIT=300 TAILN=12 run test_cuda python3 -m pytest -q -p no:cacheprovider -rs -k cuda tests/train tests/learned \
+      tests/evaluate/test_hardening.py tests/sweep/test_sweep.py ;;
   trainstep_compiled)
     run bench_train_step_cuda_compiled python3 benchmarks/bench_train.py --host-overhead-only --device cuda --compile ;;
   train_compiled)
