@@ -106,6 +106,18 @@ def test_roles_must_be_constant_and_robot_overrides_are_said(tmp_path: Path) -> 
     assert tr.settings["agent_ids"][0] == 1
 
 
+def test_robot_id_matches_a_numeric_id_as_ego_does(tmp_path: Path) -> None:
+    # ids read as numbers (104, 7): --robot 104.0 names agent 104, as --ego 104.0 does.
+    rows = ["0,104,0,0", "0,7,1,0", "1,104,0,1", "1,7,1,1"]
+    path = _csv(tmp_path / "numbers.csv", "t,id,x,y", rows)
+    for robot in ("104.0", 104.0, 104):
+        (tr,) = _load(path, radius=0.3, robot=robot)
+        assert tr.settings["agent_ids"][0] == 104
+        assert tr.positions[:, 0, 1].tolist() == [0.0, 1.0]
+    with pytest.raises(KeyError, match=r"no agent with robot id '105.0'; its ids: 104, 7"):
+        _load(path, radius=0.3, robot="105.0")
+
+
 def test_half_a_pair_of_columns_or_one_column_for_two_fields_is_refused(tmp_path: Path) -> None:
     path = _csv(tmp_path / "half.csv", "t,id,x,y,role,gy", ["0,0,0,0,robot,4", "1,0,0,1,robot,4"])
     with pytest.raises(TrajectoryFormatError, match=r"half.csv: column 'gy' \(gy\) has no gx beside it"):

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.logs.scene import Scene, scene_from_tracks
+from socialnav.logs.scene import Scene, id_matches, scene_from_tracks
 from socialnav.trajectory import OUTCOMES, AssumedValueWarning, TrajectoryFormatError
 
 __all__ = [
@@ -479,12 +479,14 @@ def _robot_id(path: Path, name: str, agent: np.ndarray, roles: np.ndarray | None
             logged = ids_here[next(i for i, v in enumerate(r) if v == "robot")]
     if robot is None:
         return logged
-    match = [a for a in dict.fromkeys(ids_here.tolist()) if str(a) == str(robot)]
+    # The same matching as --ego: as text, else as numbers (--robot 104 names an id logged as 104.0).
+    unique = np.array(list(dict.fromkeys(ids_here.tolist())), dtype=object)
+    match = unique[id_matches(unique, robot)].tolist()
     if not match:
         known = list(dict.fromkeys(str(a) for a in ids_here))
         raise KeyError(f"{path}: scene {name!r} has no agent with robot id {robot!r}; its ids: "
                        f"{', '.join(known[:10])}{' ...' if len(known) > 10 else ''}")
-    if logged is not None and str(logged) != str(robot):
+    if logged is not None and str(logged) != str(match[0]):
         warnings.warn(f"{path}: scene {name!r}: --robot {robot} overrides the role column, which names agent "
                       f"{logged} as the robot", AssumedValueWarning, stacklevel=4)
     return match[0]
