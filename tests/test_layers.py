@@ -15,7 +15,7 @@ PACKAGE = SRC / "socialnav"
 #: only units of a lower layer (units of one layer are independent of each other). Imports inside
 #: a unit are free, and so is a package's ``__init__`` re-exporting its own submodules (its API).
 LAYERS: list[dict[str, tuple[str, ...]]] = [
-    {"io": ("socialnav._io", "socialnav._runtime", "socialnav._core", "socialnav.plugins",
+    {"io": ("socialnav._io", "socialnav._runtime", "socialnav._progress", "socialnav._core", "socialnav.plugins",
             "socialnav.config", "socialnav.settings"),
      "data": ("socialnav.checkpoints", "socialnav.configs")},
     {"static_map": ("socialnav.static_map", "socialnav.map_files")},
@@ -35,7 +35,7 @@ LAYERS: list[dict[str, tuple[str, ...]]] = [
 #: ``__version__``) is allowed from anywhere, and its own imports are not checked.
 ROOT = "socialnav"
 #: Private by name, shared by every package on purpose: the I/O and runtime layer, the C++ core.
-SHARED_PRIVATE = ("socialnav._io", "socialnav._runtime", "socialnav._core")
+SHARED_PRIVATE = ("socialnav._io", "socialnav._runtime", "socialnav._progress", "socialnav._core")
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,6 @@ from __future__ import annotations
 import dataclasses
 import os
 import pickle
-import sys
 import warnings
 from collections import deque
 from concurrent.futures.process import BrokenProcessPool
@@ -25,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from socialnav._progress import progress_bar
 from socialnav._runtime import forkserver_pool, main_module_reruns_call, worker_init
 from socialnav.evaluate.chunks import Chunk, trajectory_path, write_chunk
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings
@@ -367,7 +367,7 @@ def compute_chunks(
 
 
 def episode_progress(total: int, initial: int, enabled: bool) -> Any:
-    """The progress bar of a run counting episodes, on stderr.
+    """The progress bar of a run counting episodes, on stderr (:mod:`socialnav._progress`).
 
     Args:
         total: Episodes of the whole run.
@@ -377,17 +377,7 @@ def episode_progress(total: int, initial: int, enabled: bool) -> Any:
     Returns:
         A ``tqdm`` bar.
     """
-    from tqdm.auto import tqdm
-
-    return tqdm(
-        total=total,
-        initial=initial,
-        unit="ep",
-        disable=not enabled,
-        file=sys.stderr,
-        leave=False,
-        dynamic_ncols=True,
-    )
+    return progress_bar(total, initial, unit="ep", enabled=enabled, leave=False)
 
 
 def _policy_payload(policy: Policy, required: bool) -> bytes | None:

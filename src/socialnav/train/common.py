@@ -7,13 +7,13 @@ a run directory holds this run.
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import torch
 
+from socialnav._progress import progress_bar as shared_progress_bar
 from socialnav.config import ConfigError
 from socialnav.train.config import resume_diff
 
@@ -243,7 +243,7 @@ def load_optimizer_state(opt: torch.optim.Optimizer, data: dict[str, Any]) -> No
 
 
 def progress_bar(total: int, initial: int, desc: str, enabled: bool):
-    """A tqdm bar on stderr.
+    """A tqdm bar on stderr (:mod:`socialnav._progress`).
 
     Args:
         total: the count at completion.
@@ -254,17 +254,7 @@ def progress_bar(total: int, initial: int, desc: str, enabled: bool):
     Returns:
         The bar.
     """
-    from tqdm.auto import tqdm
-
-    return tqdm(
-        total=total,
-        initial=initial,
-        desc=desc,
-        file=sys.stderr,
-        disable=not enabled,
-        dynamic_ncols=True,
-        leave=True,
-    )
+    return shared_progress_bar(total, initial, desc=desc, enabled=enabled)
 
 
 def better(a: dict[str, Any], b: dict[str, Any] | None) -> bool:

@@ -1,0 +1,56 @@
+"""Progress bars on stderr for long work (evaluations, sweeps, training), the same everywhere.
+
+On a terminal a bar redraws up to ten times a second. Where stderr is a file or a pipe (``nohup``,
+a batch job, CI), every redraw would be appended to the log, a line of it per tenth of a second over a
+run of hours: there a bar redraws at most once a minute (and at its end). A notebook keeps tqdm's
+own widget.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+#: Seconds between redraws where stderr is not a terminal.
+LOG_INTERVAL = 60.0
+
+
+def _writes_to_log() -> bool:
+    if "ipykernel" in sys.modules:  # tqdm.auto draws a widget there, not text
+        return False
+    isatty = getattr(sys.stderr, "isatty", None)
+    return not (isatty and isatty())
+
+
+def progress_bar(total: int, initial: int = 0, *, desc: str | None = None, unit: str = "it",
+                 enabled: bool = True, leave: bool = True) -> Any:
+    """A ``tqdm`` bar on stderr.
+
+    Args:
+        total: The count at completion.
+        initial: The count already done (a resumed run).
+        desc: Its label.
+        unit: What it counts.
+        enabled: False: a disabled bar (same calls, no output).
+        leave: Keep the finished bar on screen.
+
+    Returns:
+        The bar.
+    """
+    from tqdm.auto import tqdm
+
+    log = _writes_to_log()
+    return tqdm(
+        total=total,
+        initial=initial,
+        desc=desc,
+        unit=unit,
+        file=sys.stderr,
+        disable=not enabled,
+        dynamic_ncols=not log,
+        leave=leave,
+        mininterval=LOG_INTERVAL if log else 0.1,
+        # tqdm lowers the interval again where updates come slowly; in a log that would undo the above
+        maxinterval=max(LOG_INTERVAL, 10.0) if log else 10.0,
+        smoothing=0.0 if log else 0.3,
+    )

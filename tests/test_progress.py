@@ -1,0 +1,58 @@
+"""Progress bars: redrawn often on a terminal, rarely in a log file (socialnav._progress)."""
+
+from __future__ import annotations
+
+import io
+import sys
+
+import pytest
+
+from socialnav import _progress
+from socialnav._progress import LOG_INTERVAL, progress_bar
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def _run_bar(monkeypatch: pytest.MonkeyPatch, stream: io.StringIO, updates: int) -> str:
+    monkeypatch.setattr(sys, "stderr", stream)
+    monkeypatch.delitem(sys.modules, "ipykernel", raising=False)
+    clock = iter(range(10_000))  # tqdm's clock: one second per call, so a terminal bar redraws each time
+    monkeypatch.setattr("tqdm.std.time", lambda: float(next(clock)))
+    bar = progress_bar(updates, desc="demo", unit="ep")
+    for _ in range(updates):
+        bar.update(1)
+    bar.close()
+    return stream.getvalue()
+
+
+def test_a_log_file_gets_a_redraw_per_minute_not_per_update(monkeypatch: pytest.MonkeyPatch) -> None:
+    # 100 updates, one second apart: 100 s of work -> at most two timed redraws, plus the first and last.
+    text = _run_bar(monkeypatch, io.StringIO(), 100)
+    assert LOG_INTERVAL == 60.0
+    assert 2 <= text.count("\r") <= 4, text
+    assert "100/100" in text
+
+
+def test_a_terminal_gets_a_redraw_per_update(monkeypatch: pytest.MonkeyPatch) -> None:
+    text = _run_bar(monkeypatch, _Terminal(), 100)
+    assert text.count("\r") >= 100
+
+
+def test_a_notebook_keeps_tqdms_own_bar(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    monkeypatch.setitem(sys.modules, "ipykernel", object())
+    assert not _progress._writes_to_log()
+    monkeypatch.delitem(sys.modules, "ipykernel")
+    assert _progress._writes_to_log()
+
+
+def test_a_disabled_bar_writes_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    stream = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", stream)
+    bar = progress_bar(10, enabled=False)
+    bar.update(10)
+    bar.close()
+    assert stream.getvalue() == ""
