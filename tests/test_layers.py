@@ -15,8 +15,8 @@ PACKAGE = SRC / "socialnav"
 #: only units of a lower layer (units of one layer are independent of each other). Imports inside
 #: a unit are free, and so is a package's ``__init__`` re-exporting its own submodules (its API).
 LAYERS: list[dict[str, tuple[str, ...]]] = [
-    {"io": ("socialnav._io", "socialnav._runtime", "socialnav._progress", "socialnav._core", "socialnav.plugins",
-            "socialnav.config", "socialnav.settings"),
+    {"io": ("socialnav._io", "socialnav._runtime", "socialnav._progress", "socialnav._core",
+            "socialnav.plugins", "socialnav.config", "socialnav.settings"),
      "data": ("socialnav.checkpoints", "socialnav.configs")},
     {"static_map": ("socialnav.static_map", "socialnav.map_files")},
     {"scenarios": ("socialnav.scenarios",)},
