@@ -235,3 +235,49 @@ def file_sha256(path: str | Path) -> str:
         for block in iter(lambda: f.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+# ------------------------------------------------------------------------------------------- YAML
+_STRICT_LOADER: Any = None
+
+
+def load_yaml(text: str) -> Any:
+    """``yaml.safe_load``, refusing a mapping that gives one key twice.
+
+    PyYAML keeps the last of two equal keys without a word, so a preset, training config, sweep or map
+    file with a block pasted twice (two ``walls:``, two ``world:``) would silently lose the first.
+    Every user YAML (and JSON) file is read through this.
+
+    Raises:
+        yaml.YAMLError: Not valid YAML, or a repeated key (the message names it and both lines).
+    """
+    import yaml
+
+    global _STRICT_LOADER
+    if _STRICT_LOADER is None:
+
+        class StrictLoader(yaml.SafeLoader):
+            pass
+
+        def construct_mapping(loader: Any, node: Any, deep: bool = False) -> Any:
+            seen: dict[Any, int] = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":  # `<<: *base`: keys given here override it
+                    continue
+                key = loader.construct_object(key_node, deep=True)
+                try:
+                    first = seen.get(key)
+                except TypeError:  # an unhashable key: PyYAML refuses it below, in its own words
+                    continue
+                line = key_node.start_mark.line + 1
+                if first is not None:
+                    where = f"line {line}" if first == line else f"lines {first} and {line}"
+                    raise yaml.constructor.ConstructorError(
+                        None, None, f"key {key!r} is given twice ({where}); only one can hold",
+                        key_node.start_mark)
+                seen[key] = line
+            return yaml.SafeLoader.construct_mapping(loader, node, deep)
+
+        StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
+        _STRICT_LOADER = StrictLoader
+    return yaml.load(text, Loader=_STRICT_LOADER)  # noqa: S506  (a SafeLoader subclass)

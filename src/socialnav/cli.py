@@ -17,7 +17,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from socialnav._io import json_safe
+from socialnav._io import json_safe, load_yaml
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     ImportError,  # an optional dependency not installed (the extra is named), or no compiled core
@@ -367,7 +367,7 @@ def parse_policy_args(items: list[str]) -> dict[str, Any]:
         if key in params:
             raise ValueError(f"--policy-arg {key} given twice")
         try:
-            params[key] = yaml.safe_load(text) if text.strip() else ""
+            params[key] = load_yaml(text) if text.strip() else ""
         except yaml.YAMLError as err:
             raise ValueError(f"--policy-arg {item!r}: VALUE is not valid YAML ({err})") from None
     return params

@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from socialnav._io import load_yaml
 from socialnav.static_map import MapError, StaticMap
 
 __all__ = ["MAP_SUFFIXES", "MapFileError", "load_map", "map_from_svg", "map_from_yaml", "save_map"]
@@ -109,7 +110,7 @@ def map_from_yaml(text: str, *, source: str = "<map>") -> StaticMap:
     import yaml
 
     try:
-        data = yaml.safe_load(text)
+        data = load_yaml(text)
     except yaml.YAMLError as err:
         raise MapFileError(f"{source}: not valid YAML: {' '.join(str(err).split())}") from None
     if not isinstance(data, dict):

@@ -14,6 +14,7 @@ from typing import Any, ClassVar
 
 import yaml
 
+from socialnav._io import load_yaml
 from socialnav.configs import shipped_presets
 from socialnav.scenarios.seeds import SPLIT_BASES
 from socialnav.settings import ConfigError, Settings, from_dict, setting
@@ -184,7 +185,7 @@ def load_preset(name_or_path: str | Path) -> Preset:
         text = shipped_preset_text(str(name_or_path))
         source = f"{name_or_path}.yaml"
     try:
-        data = yaml.safe_load(text)
+        data = load_yaml(text)
     except yaml.YAMLError as err:
         raise ConfigError(f"{source}: not valid YAML: {' '.join(str(err).split())}") from None
     if data is None:  # e.g. `socialnav preset show <typo> > my.yaml` left an empty file

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from importlib import resources
 from typing import Any
 
+from socialnav._io import load_yaml
 from socialnav.evaluate.report import _render
 
 
@@ -61,10 +62,8 @@ SIDE_SCENARIOS = ("passing", "overtaking", "crossing")
 # -- the paper's numbers -----------------------------------------------------------------------
 def load_paper_results() -> dict[str, Any]:
     """The paper's Tables I–III as transcribed in ``socialnav/configs/paper/wang2022.yaml``."""
-    import yaml
-
     text = (resources.files("socialnav.configs") / "paper" / "wang2022.yaml").read_text()
-    return yaml.safe_load(text)
+    return load_yaml(text)
 
 # -- values ------------------------------------------------------------------------------------
 @dataclass(frozen=True)

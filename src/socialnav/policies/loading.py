@@ -14,6 +14,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from socialnav._io import load_yaml
 from socialnav.config import ConfigError
 from socialnav.policies.base import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
 from socialnav.policies.learned_catalog import get_learned_spec
@@ -234,7 +235,7 @@ def read_checkpoint_index() -> list[ShippedCheckpoint]:
     if not source.is_file():
         return []
     try:
-        data = yaml.safe_load(source.read_text()) or {}
+        data = load_yaml(source.read_text()) or {}
     except yaml.YAMLError as err:
         raise ConfigError(f"checkpoints/{INDEX_FILE}: not valid YAML: {err}") from None
     fields = {f.name for f in dataclasses.fields(ShippedCheckpoint)}

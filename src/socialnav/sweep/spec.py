@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from socialnav._io import load_yaml
 from socialnav.settings import ConfigError, Settings, setting
 from socialnav.sim.settings import HUMAN_MODELS
 from socialnav.train.config import DEVICES, INFORMATION
@@ -178,7 +179,7 @@ def load_sweep(path: str | Path) -> SweepSpec:
     if not path.is_file():
         raise ConfigError(f"sweep file {path}: " + ("is a directory" if path.is_dir() else "does not exist"))
     try:
-        data = yaml.safe_load(path.read_text())
+        data = load_yaml(path.read_text())
     except UnicodeDecodeError:
         raise ConfigError(f"sweep file {path}: not a text (YAML) file") from None
     except yaml.YAMLError as err:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from socialnav._io import load_yaml
 from socialnav.configs import shipped_presets
 from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
 
@@ -92,7 +93,7 @@ def _config_trainer(config: str) -> str | None:
     from socialnav.train.ppo_config import PPOSettings
 
     try:
-        data = yaml.safe_load(_resolve_config(config).read_text(encoding="utf-8"))
+        data = load_yaml(_resolve_config(config).read_text(encoding="utf-8"))
     except (ConfigError, OSError, UnicodeDecodeError, yaml.YAMLError):
         return None
     if not isinstance(data, dict):

@@ -17,6 +17,7 @@ from typing import Any, ClassVar, TypeVar
 import numpy as np
 import yaml
 
+from socialnav._io import load_yaml
 from socialnav.policies.learned_catalog import VALUE_DEFAULTS, get_learned_spec
 from socialnav.settings import ConfigError, Settings, from_dict, setting
 
@@ -237,7 +238,7 @@ def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[st
         if path.is_dir():
             raise ConfigError(f"training config {path} is a directory, not a YAML file")
         try:
-            data = yaml.safe_load(path.read_text()) or {}
+            data = load_yaml(path.read_text()) or {}
         except UnicodeDecodeError:
             raise ConfigError(f"training config {path} is not a text (YAML) file") from None
         except yaml.YAMLError as err:

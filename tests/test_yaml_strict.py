@@ -1,0 +1,64 @@
+"""Every user YAML/JSON file refuses a key given twice (PyYAML would keep the last one silently)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from socialnav._io import load_yaml
+from socialnav.config import ConfigError
+from socialnav.map_files import MapFileError, load_map
+from socialnav.presets import load_preset
+from socialnav.sweep.spec import load_sweep
+from socialnav.train.config import load_train_settings
+
+
+def test_plain_yaml_reads_as_safe_load_does() -> None:
+    text = "a: 1\nb: {c: [1, 2]}\nd: &base {k: 1, j: 2}\ne:\n  <<: *base\n  k: 3\nf: [{x: 1}, {x: 2}]\n"
+    assert load_yaml(text) == yaml.safe_load(text)
+    assert load_yaml(text)["e"] == {"k": 3, "j": 2}  # a key over a merged one is an override, not a repeat
+    assert load_yaml("") is None
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("a: 1\nb: 2\na: 3\n", r"key 'a' is given twice \(lines 1 and 3\)"),
+        ("world:\n  dt: 0.25\n  dt: 0.5\n", r"key 'dt' is given twice \(lines 2 and 3\)"),
+        ('{"walls": [], "walls": [[[0, 0], [1, 0]]]}', r"key 'walls' is given twice \(line 1\)"),
+    ],
+)
+def test_a_repeated_key_is_refused_with_its_lines(text: str, message: str) -> None:
+    with pytest.raises(yaml.YAMLError, match=message):
+        load_yaml(text)
+
+
+def test_a_map_file_with_two_walls_blocks_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "map.yaml"
+    path.write_text("walls:\n  - [[0, 0], [1, 0]]\nwalls:\n  - [[0, 2], [1, 2]]\n")
+    expected = r"map.yaml: not valid YAML: key 'walls' is given twice \(lines 1 and 3"
+    with pytest.raises(MapFileError, match=expected):
+        load_map(path)
+    path = tmp_path / "map.json"
+    path.write_text('{"rectangles": [[0, 0, 1, 1]], "rectangles": [[2, 2, 3, 3]]}')
+    with pytest.raises(MapFileError, match=r"map.json: not valid YAML: key 'rectangles' is given twice"):
+        load_map(path)
+
+
+def test_presets_training_configs_and_sweeps_refuse_a_repeated_key(tmp_path: Path) -> None:
+    preset = tmp_path / "preset.yaml"
+    preset.write_text("name: mine\nworld:\n  time_limit: 30\nworld:\n  time_limit: 40\n")
+    expected = r"preset.yaml: not valid YAML: key 'world' is given twice \(lines 2 and"
+    with pytest.raises(ConfigError, match=expected):
+        load_preset(preset)
+    config = tmp_path / "train.yaml"
+    config.write_text("rl:\n  episodes: 10\n  episodes: 20\n")
+    with pytest.raises(ConfigError, match=r"train.yaml: not valid YAML: key 'episodes' is given twice"):
+        load_train_settings(config)
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text("jobs:\n  - kind: evaluate\n    policy: orca\n    policy: linear\n")
+    expected = r"sweep.yaml: not valid YAML: key 'policy' is given twice \(lines 3 and"
+    with pytest.raises(ConfigError, match=expected):
+        load_sweep(sweep)
