@@ -226,6 +226,24 @@ def test_the_obstruction_must_leave_the_robot_a_way_past_the_group() -> None:
     assert np.min(np.maximum(left, right)) < 2 * sc.robot_radius + 0.1  # and no more than needed
 
 
+def test_the_obstruction_refuses_a_corridor_too_narrow_to_place_the_group_off_centre() -> None:
+    # group_offset 0.5: the outer humans' centres reach 0.5 + 0.4 = 0.9 m from the axis and must stay
+    # 0.3 + 0.2 m from a wall, so the corridor needs 2 * 1.4 = 2.8 m; at 2.7 m some episodes (test 1
+    # and 37 among the first 40) could not be placed, and the run died in the middle
+    expected = (r"^PedestrianObstruction.corridor_width must be >= 2.8 m, or a group drawn 0.5 m "
+                r"\(group_offset\) off the corridor's centre may stand closer to a wall than "
+                r"human_radius \+ discomfort_dist = 0.5 m.*lower group_offset, got 2.7$")
+    with pytest.raises(ValueError, match=expected):
+        make_scenario("pedestrian_obstruction", corridor_width=2.7)
+    with pytest.raises(ValueError, match=r"must be >= 3.2 m"):
+        make_scenario("pedestrian_obstruction", corridor_width=3.0, group_offset=0.7)
+    # exactly wide enough: every episode of the split is placed
+    sc = make_scenario("pedestrian_obstruction", corridor_width=2.8)
+    batch = sc.episodes("test", range(1000))
+    batch.validate()
+    assert np.abs(batch.human_start[:, :, 0]).max() <= 0.9 + 1e-12
+
+
 def test_pillars_keep_clear_of_the_robots_start_and_goal() -> None:
     # drawn over the whole circle, pillars would land on the robot's start or goal in some episodes
     sc = make_scenario("circle_crossing_obstacles", obstacle_area=1.0)

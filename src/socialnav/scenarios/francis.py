@@ -157,6 +157,24 @@ class PedestrianObstruction(WalledScenario):
                         "leave no gap beside it wider than the robot's diameter (2 · robot_radius = "
                         f"{2 * self.robot_radius:g} m) and block the route to the goal in {self.name}; "
                         "widen the corridor or make the agents smaller")
+        placed = self.placement_width()
+        if self.corridor_width < placed:
+            clearance = self.human_radius + self.discomfort_dist
+            self.refuse("corridor_width", f"must be >= {placed:.3g} m, or a group drawn "
+                        f"{self.group_offset:g} m (group_offset) off the corridor's centre may stand "
+                        f"closer to a wall than human_radius + discomfort_dist = {clearance:.3g} m, and its "
+                        f"episodes could not be placed in {self.name}; widen the corridor or lower "
+                        "group_offset")
+
+    def placement_width(self) -> float:
+        """The corridor width [m] that places the group at any drawn centre.
+
+        Its outer humans' centres, at the largest offset, stay ``human_radius + discomfort_dist`` from
+        the walls, as every start must.
+        """
+        reach = max(abs(x) for x, _ in self.FORMATION[: self.n_humans])
+        # rounded so that a width of exactly this one is accepted despite float noise
+        return round(2 * (self.group_offset + reach + self.human_radius + self.discomfort_dist), 9)
 
     def group_span(self) -> tuple[float, float]:
         """The group's extent across the corridor [m], edge to edge, relative to its centre."""
