@@ -6,7 +6,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 from tests.sim._walls import pillars_and_walls
 
+from socialnav.scenarios import make_scenario
 from socialnav.sim.env import SocialNavEnv, SocialNavVectorEnv
+from socialnav.sim.settings import WorldSettings
+from socialnav.sim.world import World
 from socialnav.static_map import StaticMap
 
 ACROSS = StaticMap(([[-2.0, 0.0], [2.0, 0.0]],))  # across the robot's straight route (0, -4) -> (0, 4)
@@ -136,7 +139,17 @@ def test_static_map_may_be_a_map_file(tmp_path):
 
 def test_a_static_map_beside_a_walled_scenario_is_said_to_be_unused():
     with pytest.warns(UserWarning, match="scenario 'narrow_hallway' has walls of its own, which win over "
-                      "static_map: the given map is not used"):
+                      "static_map: the given map is not used") as said:
         env = SocialNavEnv(scenario="narrow_hallway", static_map=pillars_and_walls())
+    assert len([w for w in said if "walls of its own" in str(w.message)]) == 1  # the env's World is not told
+    # a World built directly says it too, and its episodes keep the scenario's walls
+    scenario = make_scenario("narrow_hallway")
+    with pytest.warns(UserWarning, match="scenario 'narrow_hallway' has walls of its own"):
+        world = World(WorldSettings(), scenario, 2, split="test", record=False,
+                      static_map=pillars_and_walls())
+    world.reset()
+    batch = scenario.episodes("test", range(2))
+    for slot in range(2):
+        np.testing.assert_array_equal(world.static_maps[slot].edges()[0], batch.static_map(slot).edges()[0])
     own = SocialNavEnv(scenario="narrow_hallway")
     assert env.observation_space["obstacles"].shape == own.observation_space["obstacles"].shape

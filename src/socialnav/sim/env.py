@@ -134,6 +134,7 @@ class _EnvConfig:
 
             warnings.warn(f"scenario {scenario!r} has walls of its own, which win over static_map: the given "
                           "map is not used (docs/walls.md)", UserWarning, stacklevel=3)
+            self.static_map = None  # said once, here: the World is not given it
         edges = own if own else (0 if self.static_map is None else len(self.static_map.edges()[0]))
         #: The episodes have walls: the observation should show them.
         self.has_walls = edges > 0

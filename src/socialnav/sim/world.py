@@ -15,6 +15,7 @@ The names users imported from here still are (``__all__``).
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 
@@ -163,6 +164,9 @@ class World:
         )
         if static_map is not None and not isinstance(static_map, StaticMap):
             raise TypeError(f"static_map must be a StaticMap or None, got {type(static_map).__name__}")
+        if static_map and int(getattr(scenario, "max_obstacle_edges", 0)):
+            warnings.warn(f"scenario {scenario.name!r} has walls of its own, which win over static_map: the "
+                          "given map is not used (docs/walls.md)", UserWarning, stacklevel=2)
         fixed = (static_map or None) if static_map is not None else scenario_map(scenario)
         self._maps = SlotMaps(B, settings.max_obstacle_vertices, fixed)
         #: (B,) each slot's static map (None: open floor); change it through `set_static_map` only.
