@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -116,6 +117,30 @@ def test_svg_subset_with_labels_transform_scale_and_flip(tmp_path: Path) -> None
     assert len(shapes) == 5
     # scale argument overrides data-scale
     assert load_map(tmp_path / "map.svg", scale=1.0).polygons[4].tolist() == [[0.0, 0.0], [1.0, -1.0]]
+
+
+def test_svg_layers_switched_off_are_not_obstacles() -> None:
+    # Inkscape hides a layer with style="display:none"; SVG also has the display attribute
+    text = ('<svg xmlns="http://www.w3.org/2000/svg">'
+            '<g style="opacity:1; display : none"><rect x="0" y="0" width="1" height="1"/></g>'
+            '<rect x="5" y="5" width="1" height="1" display="none"/>'
+            '<g style="display:inline"><line x1="0" y1="0" x2="2" y2="0"/></g></svg>')
+    smap = map_from_svg(text)
+    assert [p.tolist() for p in smap.polygons] == [[[0.0, 0.0], [2.0, 0.0]]]
+
+
+def test_svg_page_in_millimetres_without_a_scale_is_said(tmp_path: Path) -> None:
+    page = ('<svg xmlns="http://www.w3.org/2000/svg" width="210mm" height="297mm" viewBox="0 0 210 297"{}>'
+            '<rect x="0" y="0" width="10" height="5"/></svg>')
+    with pytest.warns(UserWarning, match=r"map.svg: the page is 210mm wide for a viewBox 210 user units wide "
+                      r"\(1 user unit = 0.001 m on paper\); the map reads 1 user unit as 1 m"):
+        smap = load_map(_write(tmp_path, page.format(""), "map.svg"))
+    assert smap.polygons[0].max() == 10.0  # read as said: metres
+    with warnings.catch_warnings():  # a scale given, either way: nothing to say
+        warnings.simplefilter("error")
+        map_from_svg(page.format(' data-scale="0.1"'))
+        map_from_svg(page.format(""), scale=0.05)
+        map_from_svg(page.format("").replace('width="210mm"', 'width="210"'))  # user units: nothing to say
 
 
 def test_unlabelled_svg_takes_every_shape(tmp_path: Path) -> None:

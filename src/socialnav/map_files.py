@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -249,6 +250,8 @@ _UNSUPPORTED = {
 }
 _NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _TRANSFORM = r"(\w+)\s*\(([^)]*)\)"
+# metres per unit of the lengths a root's width may be given in (CSS absolute units)
+_PAGE_UNITS = {"mm": 1e-3, "cm": 1e-2, "q": 2.5e-4, "in": 0.0254, "pt": 0.0254 / 72, "pc": 0.0254 / 6}
 
 
 def map_from_svg(text: str, *, source: str = "<svg>", scale: float | None = None) -> StaticMap:
@@ -262,6 +265,8 @@ def map_from_svg(text: str, *, source: str = "<svg>", scale: float | None = None
     if _tag(root) != "svg":
         raise MapFileError(f"{source}: root element is <{_tag(root)}>, not <svg>")
     if scale is None:
+        if root.get("data-scale") is None:
+            _warn_page_size(root, source)
         raw = root.get("data-scale", "1")
         scale = float(raw) if re.fullmatch(_NUMBER, raw.strip()) else math.nan
         if not scale > 0:
@@ -349,9 +354,40 @@ def _is_obstacle_label(elem: Any) -> bool:
     return any(w.startswith(("obstacle", "wall")) for w in re.split(r"[\s_]+", words) if w)
 
 
+def _warn_page_size(root: Any, source: str) -> None:
+    """Warns where the root gives the page a physical size and no scale was given.
+
+    Inkscape writes ``width="210mm"`` and a viewBox: one user unit is then a millimetre on paper, but
+    the map reads it as one metre.
+    """
+    width, box = root.get("width", ""), root.get("viewBox", "").replace(",", " ").split()
+    match = re.fullmatch(rf"\s*({_NUMBER})\s*([a-zA-Z]+)\s*", width)
+    if not match or match.group(2).lower() not in _PAGE_UNITS or len(box) != 4:
+        return
+    try:
+        per_unit = float(match.group(1)) * _PAGE_UNITS[match.group(2).lower()] / float(box[2])
+    except (ValueError, ZeroDivisionError):
+        return
+    if math.isfinite(per_unit) and per_unit > 0:
+        warnings.warn(
+            f"{source}: the page is {width.strip()} wide for a viewBox {box[2]} user units wide (1 user unit "
+            f"= {per_unit:.4g} m on paper); the map reads 1 user unit as 1 m: give the metres per user unit "
+            "(scale=, --map-scale, or the root's data-scale) if the drawing is to another scale",
+            UserWarning, stacklevel=4,
+        )
+
+
+def _hidden(elem: Any) -> bool:
+    """``display="none"`` or ``style="display:none"``: not drawn (an Inkscape layer switched off)."""
+    if elem.get("display", "").strip() == "none":
+        return True
+    style = re.sub(r"\s+", "", elem.get("style", "")).lower()
+    return any(item == "display:none" for item in style.split(";"))
+
+
 def _collect(elem: Any, transform: np.ndarray, inside: bool, drawing: _Drawing, source: str) -> None:
     tag = _tag(elem)
-    if tag in _NOT_DRAWN:
+    if tag in _NOT_DRAWN or _hidden(elem):
         return
     here = transform @ _parse_transform(elem.get("transform", ""), tag, source)
     own = _is_obstacle_label(elem)
