@@ -168,6 +168,8 @@ def test_geometry_by_hand() -> None:
     ("narrow_hallway", {"n_humans": 2}, r"NarrowHallway.n_humans must be 1"),
     ("pedestrian_obstruction", {"randomize_attributes": True}, r"randomize_attributes must be False"),
     ("narrow_doorway", {"door_width": -1.0}, r"NarrowDoorway.door_width must be > 0"),
+    ("narrow_doorway", {"door_width": float("nan")}, r"NarrowDoorway.door_width must be finite, got nan"),
+    ("entering_room", {"room_width": float("inf")}, r"EnteringRoom.room_width must be finite, got inf"),
 ])
 def test_bad_settings_are_named(name: str, settings: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
