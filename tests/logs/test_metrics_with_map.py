@@ -51,11 +51,30 @@ def test_map_file_scores_the_obstacle_metrics(tmp_path: Path, capsys: pytest.Cap
             assert row[key] == value, key
 
 
+def test_success_label_through_a_wall_is_said(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # the wall at y = 0.5 crosses the robot's path: at sample 3 (y = 0.6, t = 0.75 s) its centre is 0.1 m
+    # past it, clearance 0.1 - 0.3 = -0.2 m; the worst sample is y = 0.4 or 0.6 (0.1 m away): the first
+    (tmp_path / "map.yaml").write_text("walls: [[[-5, 0.5], [5, 0.5]]]\n")
+    log = _log(tmp_path)
+    # scored, and the contradiction makes the exit status 1 (as a person overlapped is)
+    assert main(["metrics", str(log), "--map", str(tmp_path / "map.yaml"), "--json"]) == 1
+    said = json.loads(capsys.readouterr().out)["warnings"]
+    assert said == [f"{log}: episode 0: labelled 'success' but the robot overlaps an obstacle at t = 0.5 s "
+                    "(clearance -0.2 m)"]
+    assert main(["metrics", str(log), "--json"]) == 0  # without the map nothing contradicts the label
+    assert json.loads(capsys.readouterr().out)["warnings"] == []
+
+
 def test_log_carrying_its_map_and_replacement_note(tmp_path: Path,
                                                    capsys: pytest.CaptureFixture[str]) -> None:
     stored = StaticMap.from_polygons([[[-5, 1.0], [5, 1.0]]])
     log = _log(tmp_path, stored, "log.parquet")
-    assert _json(capsys, [str(log)])["episodes"][0][MIN_KEY] == pytest.approx(-0.1)
+    # the stored map has the robot's disc over the wall at its last sample: scored, and the 'success'
+    # label contradicted (exit status 1)
+    assert main(["metrics", str(log), "--json"]) == 1
+    out = json.loads(capsys.readouterr().out)
+    assert out["episodes"][0][MIN_KEY] == pytest.approx(-0.1)
+    assert "labelled 'success' but the robot overlaps an obstacle at t = 1 s" in out["warnings"][0]
     (tmp_path / "map.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg" data-scale="0.1">'
                                       '<line x1="-50" y1="-12" x2="50" y2="-12"/></svg>')  # y = +1.2 m
     out = _json(capsys, [str(log), "--map", str(tmp_path / "map.svg")])

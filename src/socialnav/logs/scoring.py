@@ -18,6 +18,7 @@ import numpy as np
 
 from socialnav.logs.readers import _ALIASES, ETH_UCY_FPS, FIELDS, MAX_SPEED, read_eth_ucy, read_table
 from socialnav.logs.scene import Scene, SceneError, id_matches
+from socialnav.metrics.obstacles import obstacle_clearance
 from socialnav.trajectory import AssumedValueWarning, Trajectory, TrajectoryFormatError
 from socialnav.trajectory_io.schema import OPTIONAL_COLUMNS, REQUIRED_COLUMNS
 
@@ -296,8 +297,9 @@ def _select(path: Path, scenes: list[Scene], ego: Any) -> list[Trajectory]:
 def outcome_problems(traj: Trajectory, goal_tolerance: float | None = None) -> list[str]:
     """Contradictions between a logged ``success`` and the geometry (empty when none).
 
-    A successful robot neither overlaps a human at any sample (centre distance < r_r + r_h) nor ends
-    farther than ``goal_tolerance`` (default its radius, the simulator's success test) from its goal.
+    A successful robot neither overlaps a human at any sample (centre distance < r_r + r_h) nor, where
+    the trajectory has a map, an obstacle, nor ends farther than ``goal_tolerance`` (default its radius,
+    the simulator's success test) from its goal.
     """
     if traj.outcome != "success":
         return []
@@ -313,6 +315,12 @@ def outcome_problems(traj: Trajectory, goal_tolerance: float | None = None) -> l
             who = ids[h + 1] if ids else h + 1
             out.append(f"{where}: labelled 'success' but the robot overlaps agent {who} at "
                        f"t = {k * traj.dt:g} s (clearance {d[k, h]:.3g} m)")
+    clearance = obstacle_clearance(traj)  # None without a map
+    if clearance is not None and clearance.size:
+        k = int(np.argmin(clearance))
+        if clearance[k] < -1e-9:  # samples 1..K
+            out.append(f"{where}: labelled 'success' but the robot overlaps an obstacle at "
+                       f"t = {(k + 1) * traj.dt:g} s (clearance {clearance[k]:.3g} m)")
     tol = float(traj.radii[0]) if goal_tolerance is None else float(goal_tolerance)
     miss = float(np.linalg.norm(traj.positions[-1, 0] - traj.goals[0]))
     if miss > tol + 1e-9:
