@@ -173,3 +173,14 @@ def test_a_registered_record_saves_loads_and_acts(isolated_registries, tmp_path)
     assert actions.shape == (2, 2) and np.isfinite(actions).all()
     speed = np.hypot(actions[:, 0], actions[:, 1])
     assert np.all(speed <= observation.robot[:, 7] + 1e-9) and np.any(speed > 0)
+
+
+def test_an_alias_finds_its_policys_shipped_checkpoint():
+    # `--policy ga3c_cadrl` without --checkpoint: lstm_rl's shipped network, which it names
+    from socialnav.policies.loading import build_policy, shipped_checkpoint
+    from socialnav.presets import load_preset
+
+    assert shipped_checkpoint("ga3c_cadrl", "wang2022") == shipped_checkpoint("lstm_rl", "wang2022") is not None
+    policy = build_policy("ga3c_cadrl", load_preset("wang2022"), None)
+    assert policy.describe()["policy"] == "ga3c_cadrl"
+    assert policy.describe()["checkpoint"] == str(shipped_checkpoint("lstm_rl", "wang2022"))

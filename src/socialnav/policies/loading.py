@@ -17,7 +17,7 @@ from typing import Any
 from socialnav._io import load_yaml
 from socialnav.config import ConfigError
 from socialnav.policies.base import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
-from socialnav.policies.learned_catalog import get_learned_spec
+from socialnav.policies.learned_catalog import canonical_name, get_learned_spec
 from socialnav.presets import Preset
 
 INDEX_FILE = "index.yaml"
@@ -311,7 +311,8 @@ def list_shipped_checkpoints() -> list[str]:
 
 
 def shipped_checkpoint(policy: str, preset: str, variant: str = "protocol") -> Path | None:
-    """The shipped checkpoint of ``policy`` trained for ``preset`` (``variant``: see the index), if any."""
+    """The shipped checkpoint of ``policy`` (name or alias) for ``preset`` (``variant``: see the index)."""
+    policy = canonical_name(policy)  # ga3c_cadrl's checkpoint is lstm_rl's
     for entry in shipped_checkpoints(preset):
         if entry.policy == policy and entry.variant == variant:
             return entry.path
