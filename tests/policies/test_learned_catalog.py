@@ -180,7 +180,8 @@ def test_an_alias_finds_its_policys_shipped_checkpoint():
     from socialnav.policies.loading import build_policy, shipped_checkpoint
     from socialnav.presets import load_preset
 
-    assert shipped_checkpoint("ga3c_cadrl", "wang2022") == shipped_checkpoint("lstm_rl", "wang2022") is not None
+    lstm = shipped_checkpoint("lstm_rl", "wang2022")
+    assert lstm is not None and shipped_checkpoint("ga3c_cadrl", "wang2022") == lstm
     policy = build_policy("ga3c_cadrl", load_preset("wang2022"), None)
     assert policy.describe()["policy"] == "ga3c_cadrl"
-    assert policy.describe()["checkpoint"] == str(shipped_checkpoint("lstm_rl", "wang2022"))
+    assert policy.describe()["checkpoint"] == str(lstm)
