@@ -304,3 +304,40 @@ def test_a_native_policys_parameter_of_the_wrong_type_is_named(tmp_path, capsys,
             str(tmp_path), "--quiet", "--policy-arg", arg]
     assert main(argv) == 2
     assert message in capsys.readouterr().err
+
+
+class Telepath(GoalSeeker):
+    """Claims an information setting the runner does not know."""
+
+    information = "telepathy"
+
+
+class Unrecordable(GoalSeeker):
+    """Describes itself with a value no manifest can hold."""
+
+    def describe(self):
+        return {**super().describe(), "shaping": lambda d: d}
+
+
+class NumpyDescribed(GoalSeeker):
+    """Describes itself with numpy values (recorded as plain numbers and lists)."""
+
+    def describe(self):
+        return {**super().describe(), "gain": np.float32(0.5), "n": np.int64(3), "limits": np.array([1, 2])}
+
+
+def test_a_policys_information_and_record_are_checked_before_the_run(tmp_path, capsys):
+    code, _, err = evaluate(capsys, tmp_path / "t", "--policy", f"{MODULE}:Telepath")
+    assert code == 2
+    assert ("policy 'goal_seeker': information must be one of none, constant_velocity, oracle, learned, got "
+            "'telepathy'") in err
+    code, _, err = evaluate(capsys, tmp_path / "u", "--policy", f"{MODULE}:Unrecordable")
+    assert code == 2
+    assert "policy 'goal_seeker': describe()['shaping'] is a function" in err and "plain data" in err
+    assert not (tmp_path / "t").exists() and not (tmp_path / "u").exists()  # refused before any file
+    code, _, err = evaluate(capsys, tmp_path / "n", "--policy", f"{MODULE}:NumpyDescribed")
+    assert code == 0, err
+    policy = json.loads((tmp_path / "n" / "manifest.json").read_text())["policy"]
+    assert (policy["gain"], policy["n"], policy["limits"]) == (0.5, 3, [1, 2])
+    episode = "circle_crossing/invisible/0"  # rebuilt from the record, and identical
+    assert main(["replay", str(tmp_path / "n"), "--episode", episode, "--quiet"]) == 0

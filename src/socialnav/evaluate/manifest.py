@@ -27,7 +27,7 @@ from socialnav.evaluate.chunks import (
     refuse_foreign_chunks,
 )
 from socialnav.evaluate.plan import Cell
-from socialnav.policies.base import RECORDED_ONLY, Policy
+from socialnav.policies.base import RECORDED_ONLY, Policy, policy_record
 from socialnav.presets import Preset
 
 
@@ -96,7 +96,7 @@ def protocol_manifest(
             # information only (run_identity leaves it out): a run resumed by a newer release continues
             "socialnav_version": __version__,
             "preset": preset.to_dict(),
-            "policy": {"label": label, **policy.describe()},
+            "policy": {"label": label, **policy_record(policy)},
             **({"policy_sources": sources} if sources else {}),
             "cells": [
                 {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from socialnav.evaluate.results import ResultsError, find_episode, load_episode, load_manifest
-from socialnav.policies.base import RECORDED_ONLY
+from socialnav.policies.base import RECORDED_ONLY, policy_record
 from socialnav.trajectory import Trajectory
 
 _ARRAYS = ("positions", "velocities", "radii", "v_pref", "goals", "min_clearance", "continuation")
@@ -71,7 +71,7 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     else:
         params = {k: desc[k] for k in entry.parameters if k in desc}
         policy = build_policy(name, preset, None, **params)
-    rebuilt = {"label": desc.get("label"), **policy.describe()}
+    rebuilt = {"label": desc.get("label"), **policy_record(policy)}
     if entry.learned and "scorer" not in desc:
         rebuilt.pop("scorer", None)
     for key in RECORDED_ONLY:  # e.g. the native kernel: bit-identical values on any CPU
@@ -99,7 +99,7 @@ def _rebuild_from_module(manifest: dict[str, Any], desc: dict[str, Any], preset:
     if recorded and policy_sources(policy) != recorded:
         raise ResultsError(f"manifest.json: the source of policy {entry} changed since the run (SHA-256 "
                            f"recorded: {recorded}); replay needs the code the run used")
-    rebuilt = {"label": desc.get("label"), **policy.describe()}
+    rebuilt = {"label": desc.get("label"), **policy_record(policy)}
     if json_norm(rebuilt) != json_norm(desc):
         raise ResultsError(
             f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"
@@ -124,7 +124,7 @@ def _rebuild_sb3(desc: dict[str, Any], preset: Any) -> Any:
             f"manifest.json: model file {model} changed since the run (SHA-256 {desc.get('sha256')} "
             f"recorded, {policy.sha256} now); replay needs the file the run used"
         )
-    rebuilt = {"label": desc.get("label"), **policy.describe()}
+    rebuilt = {"label": desc.get("label"), **policy_record(policy)}
     if json_norm(rebuilt) != json_norm(desc):
         raise ResultsError(
             f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"

@@ -31,6 +31,46 @@ from socialnav.sim.observation import Observation
 RECORDED_ONLY: tuple[str, ...] = ("native_kernel",)
 
 
+#: What a policy may know of the humans' future (docs/custom_policies.md): nothing, their current
+#: velocity held, their exact next states (the runner adds them to the observation), or a learned
+#: predictor's forecast.
+INFORMATION: tuple[str, ...] = ("none", "constant_velocity", "oracle", "learned")
+
+
+def policy_record(policy: Any) -> dict[str, Any]:
+    """The policy's ``describe()``, checked: what a run's manifest records.
+
+    Numpy scalars and arrays become plain numbers and lists; anything else that JSON cannot hold is
+    refused, naming the key, so that no run starts with a manifest that cannot be written.
+
+    Raises:
+        ValueError: ``information`` is not one of :data:`INFORMATION`, ``describe()`` does not return a
+            mapping, or one of its values is not plain data.
+    """
+    name = getattr(policy, "name", type(policy).__name__)
+    information = getattr(policy, "information", None)
+    if information not in INFORMATION:
+        raise ValueError(f"policy {name!r}: information must be one of {', '.join(INFORMATION)}, got "
+                         f"{information!r} (docs/custom_policies.md)")
+    record = policy.describe()
+    if not isinstance(record, dict):
+        raise ValueError(f"policy {name!r}: describe() must return a dict, got a {type(record).__name__}")
+    return {str(key): _plain(value, f"policy {name!r}: describe()[{key!r}]") for key, value in record.items()}
+
+
+def _plain(value: Any, where: str) -> Any:
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    if isinstance(value, np.generic | np.ndarray):
+        return value.tolist()
+    if isinstance(value, list | tuple):
+        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, dict):
+        return {str(k): _plain(v, f"{where}[{k!r}]") for k, v in value.items()}
+    raise ValueError(f"{where} is a {type(value).__name__} ({value!r:.60}); describe() must return plain "
+                     "data (strings, numbers, booleans, None, lists and dicts of them), which results record")
+
+
 class PolicyError(RuntimeError):
     """A policy failed while acting, or returned actions the world cannot take.
 
