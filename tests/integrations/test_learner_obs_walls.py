@@ -98,3 +98,57 @@ def test_sb3_checker_accepts_the_wrapped_env_with_walls():
     obs = adapter.reset()
     assert obs["obstacle_points"].shape == (2, 8, 3) and obs["obstacle_point_mask"].shape == (2, 8)
     adapter.close()
+
+
+def _on_outline(points: np.ndarray, static_map: StaticMap) -> bool:
+    """Every encoded point lies on the map's outline (distance 0 to its edges, to float32)."""
+    return bool(np.all(static_map.distance(points) < 1e-5))  # float32 observations
+
+
+@pytest.mark.parametrize("scenario", ["narrow_doorway", "circle_crossing_obstacles"])
+def test_the_wrappers_and_the_sb3_adapter_encode_each_episodes_own_walls(scenario):
+    # A scenario's walls (not only a static_map given to the env) reach the learner's observation, each
+    # episode's own (circle_crossing_obstacles draws pillars per episode), in final_obs too: what the
+    # SB3 policy is given at evaluation (integrations/sb3_policy.py)
+    from socialnav.scenarios import make_scenario
+
+    settings = ObservationSettings(obstacle_points=16)
+    sc = make_scenario(scenario)
+    env = LearnerObservation(gym.make("socialnav/CircleCrossing-v0", scenario=scenario, split="test"),
+                             settings)
+    obs, info = env.reset(options={"index": 3})
+    own = sc.episodes("test", [3]).static_map(0)
+    points = obs["obstacle_points"][obs["obstacle_point_mask"].astype(bool)]
+    assert len(points) > 0 and _on_outline(points, own)
+    venv = LearnerObservationVector(SocialNavVectorEnv(4, scenario=scenario, split="test"), settings)
+    vobs, vinfo = venv.reset(options={"index": 0})
+    rng = np.random.default_rng(1)
+    finals = seen = 0
+    for _ in range(200):
+        for b in range(4):
+            episode_map = sc.episodes("test", [int(vinfo["episode_index"][b])]).static_map(0)
+            kept = vobs["obstacle_point_mask"][b].astype(bool)  # none where every wall is out of range
+            assert _on_outline(vobs["obstacle_points"][b][kept], episode_map)
+            seen += int(kept.sum())
+        vobs, _, _, _, vinfo_step = venv.step(rng.uniform(-1, 1, (4, 2)))
+        for b in np.flatnonzero(vinfo_step.get("_final_obs", np.zeros(4, bool))):
+            final, index = vinfo_step["final_obs"][b], int(vinfo_step["final_info"]["episode_index"][b])
+            kept = final["obstacle_point_mask"].astype(bool)
+            assert _on_outline(final["obstacle_points"][kept], sc.episodes("test", [index]).static_map(0))
+            finals += 1
+        vinfo = vinfo_step
+    assert finals > 0 and seen > 0
+    env.close()
+    venv.close()
+    pytest.importorskip("stable_baselines3")
+    from socialnav.integrations.sb3 import SocialNavVecEnv
+
+    adapter = SocialNavVecEnv(scenario, 2, observation=settings, split="test")
+    adapter.seed(0)
+    sobs = adapter.reset()
+    for b in range(2):
+        episode_map = sc.episodes("test", [adapter.reset_infos[b]["episode_index"]]).static_map(0)
+        kept = sobs["obstacle_point_mask"][b].astype(bool)
+        assert _on_outline(sobs["obstacle_points"][b][kept], episode_map)
+    assert sobs["obstacle_point_mask"].any()
+    adapter.close()

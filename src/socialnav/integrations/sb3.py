@@ -34,7 +34,7 @@ except ImportError as err:  # the optional extra is missing: say which one
 
 from socialnav.sim.env import SocialNavVectorEnv
 from socialnav.sim.learner_obs import ObservationSettings
-from socialnav.sim.learner_wrappers import make_transform, training_record
+from socialnav.sim.learner_wrappers import make_transform, observation_maps, training_record
 from socialnav.sim.registration import ENV_IDS
 
 #: Attribute of an SB3 model under which :func:`save_model` stores the training record (SB3 saves
@@ -133,10 +133,12 @@ class SocialNavVecEnv(VecEnv):
         if dones.any():
             done = np.flatnonzero(dones)
             finals = [info["final_obs"][b] for b in done]
+            encodes_walls = bool(self.transform.settings.obstacle_points)
             terminal = self.transform(
                 np.stack([f["robot"] for f in finals]),
                 np.stack([f["humans"] for f in finals]),
                 np.stack([f["human_mask"] for f in finals]),
+                [self.venv.final_observation_maps[int(b)] for b in done] if encodes_walls else None,
             )
             final_info = info["final_info"]
             for k, b in enumerate(done):
@@ -220,7 +222,9 @@ class SocialNavVecEnv(VecEnv):
 
     def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self._robot = np.array(obs["robot"], dtype=np.float64)
-        return self.transform(obs["robot"], obs["humans"], obs["human_mask"])
+        # each slot's own walls (a scenario's, or the env's static_map), as the evaluation gives them
+        return self.transform(obs["robot"], obs["humans"], obs["human_mask"],
+                              observation_maps(self.venv, self.transform))
 
     def _indices(self, indices: Iterable[int] | int | None) -> list[int]:
         if indices is None:

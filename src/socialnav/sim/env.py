@@ -89,6 +89,11 @@ def _obs_rows(obs: Observation, max_edges: int = 0) -> dict[str, np.ndarray]:
     return rows
 
 
+def _maps_of(obs: Observation) -> tuple:
+    """(B,) each row's static map (None: open floor), for wrappers that encode the walls themselves."""
+    return obs.obstacles.maps if obs.obstacles is not None else (None,) * obs.batch_size
+
+
 class _EnvConfig:
     """Shared construction of the world's settings and scenario from keyword arguments."""
 
@@ -260,6 +265,7 @@ class SocialNavEnv(gym.Env):
                                max_obstacle_edges)
         self._world = World(self._cfg.settings, self._cfg.scenario, 1, split=split, record=False,
                             static_map=self._cfg.static_map)
+        self.observation_maps: tuple = ()
         self._order: EpisodeOrder | None = None
         self._position = 0
         self.observation_space, self.action_space = observation_and_action_spaces(
@@ -286,6 +292,8 @@ class SocialNavEnv(gym.Env):
         obs = self._world.use_stream(self._cfg.stream(self._order, self._position, 1))
         self._position += 1
         single = self._single(obs)
+        #: (1,) the static map of the observation last returned (the learner wrappers encode it)
+        self.observation_maps = _maps_of(obs)
         index = int(self._world.episode_index[0])
         if self._recorder is not None:
             self._recorder.start(self._world, single, index)
@@ -321,6 +329,7 @@ class SocialNavEnv(gym.Env):
             info = self._info("running", float(w.dmin[0]), float(w.steps[0] * w.settings.dt),
                               int(w.episode_index[0]))
         single = self._single(obs)
+        self.observation_maps = _maps_of(obs)
         if self._recorder is not None:
             self._recorder.record(single, info["outcome"])
             if self.render_mode == "human":
@@ -389,6 +398,8 @@ class SocialNavVectorEnv(VectorEnv):
         self.num_envs = int(num_envs)
         self._world = World(self._cfg.settings, self._cfg.scenario, self.num_envs, split=split,
                             record=False, static_map=self._cfg.static_map)
+        self.observation_maps: tuple = ()
+        self.final_observation_maps: dict[int, Any] = {}
         self._order: EpisodeOrder | None = None
         self.single_observation_space, self.single_action_space = observation_and_action_spaces(
             self._cfg.scenario.n_humans, self._cfg.settings, self._cfg.v_pref, action_set, self._cfg.max_edges
@@ -423,6 +434,9 @@ class SocialNavVectorEnv(VectorEnv):
         else:
             position = self._world.stream.next_index  # continue the stream: no episode twice
         obs = self._world.use_stream(self._cfg.stream(self._order, position))
+        #: (n_envs,) each slot's static map in the observations last returned, and in ``final_obs``
+        #: ({slot: map} of the last step's finished slots): the learner wrappers encode them
+        self.observation_maps, self.final_observation_maps = _maps_of(obs), {}
         return _obs_rows(obs, self._cfg.max_edges), self._current_info()
 
     def close_extras(self, **kwargs: Any) -> None:
@@ -443,13 +457,16 @@ class SocialNavVectorEnv(VectorEnv):
         result = self._world.step(self._cfg.to_actions(actions, self.num_envs), final_observation=True,
                                   observe=True)
         obs = _obs_rows(result.observation, self._cfg.max_edges)
+        self.observation_maps, self.final_observation_maps = _maps_of(result.observation), {}
         done = result.terminated | result.truncated
         info = self._current_info()
         if done.any():
             final = np.full(self.num_envs, None, dtype=object)
             rows = _obs_rows(result.final_observation, self._cfg.max_edges)
+            final_maps = _maps_of(result.final_observation)
             for k, b in enumerate(np.flatnonzero(done)):
                 final[b] = {key: value[k] for key, value in rows.items()}
+                self.final_observation_maps[int(b)] = final_maps[k]
             info["final_obs"], info["_final_obs"] = final, done.copy()
             info["final_info"], info["_final_info"] = self._final_info(result, done), done.copy()
         return obs, result.reward, result.terminated, result.truncated, info

@@ -67,6 +67,24 @@ def make_transform(cfg: Any, settings: ObservationSettings | dict[str, Any] | No
     )
 
 
+def observation_maps(env: Any, transform: ObservationTransform) -> Any:
+    """Each row's static map in the observation ``env`` last returned, where the transform encodes walls.
+
+    None (the transform's own map for every row) where it encodes no walls. The socialnav envs keep the
+    maps of what they last returned; Gymnasium's vector envs of socialnav env copies are asked copy by
+    copy (``get_attr``).
+    """
+    if not transform.settings.obstacle_points:
+        return None
+    raw = env.unwrapped
+    maps = getattr(raw, "observation_maps", None)
+    if maps is not None:
+        return maps
+    if isinstance(raw, gym.vector.VectorEnv):  # Gymnasium's sync/async vector env of socialnav envs
+        return [copy[0] for copy in raw.get_attr("observation_maps")]
+    return None
+
+
 def training_record(cfg: Any, transform: ObservationTransform) -> dict[str, Any]:
     """What evaluating a model trained on this env needs to know (JSON-ready)."""
     from socialnav import __version__
@@ -129,7 +147,8 @@ class LearnerObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self._robot = np.array(obs["robot"], dtype=np.float64)
-        out = self.transform(obs["robot"][None], obs["humans"][None], obs["human_mask"][None])
+        out = self.transform(obs["robot"][None], obs["humans"][None], obs["human_mask"][None],
+                             observation_maps(self.env, self.transform))
         return {k: v[0] for k, v in out.items()}
 
 
@@ -168,9 +187,11 @@ class LearnerObservationVector(VectorWrapper):
         obs, reward, terminated, truncated, info = self.env.step(actions)
         if "final_obs" in info:
             final = np.array(info["final_obs"], dtype=object)
+            maps = self._final_maps()
             for b in np.flatnonzero(info["_final_obs"]):
                 one = final[b]
-                converted = self.transform(one["robot"][None], one["humans"][None], one["human_mask"][None])
+                converted = self.transform(one["robot"][None], one["humans"][None], one["human_mask"][None],
+                                           None if maps is None else [maps(int(b))])
                 final[b] = {k: v[0] for k, v in converted.items()}
             info = {**info, "final_obs": final}
         return self._convert(obs), reward, terminated, truncated, info
@@ -181,7 +202,20 @@ class LearnerObservationVector(VectorWrapper):
 
     def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self._robot = np.array(obs["robot"], dtype=np.float64)
-        return self.transform(obs["robot"], obs["humans"], obs["human_mask"])
+        return self.transform(obs["robot"], obs["humans"], obs["human_mask"],
+                              observation_maps(self.env, self.transform))
+
+    def _final_maps(self) -> Any:
+        """Slot -> the static map of its ``final_obs`` (None: the transform's own map)."""
+        if not self.transform.settings.obstacle_points:
+            return None
+        finals = getattr(self.env.unwrapped, "final_observation_maps", None)
+        if finals is not None:  # the native vector env
+            return finals.__getitem__
+        # env copies (autoreset in the same step): a copy's current map, the finished episode's where
+        # its scenario's layout is fixed (every walled scenario but circle_crossing_obstacles)
+        current = observation_maps(self.env, self.transform)
+        return None if current is None else current.__getitem__
 
 
 def _first_copy_config(env: gym.vector.VectorEnv) -> Any:
