@@ -65,6 +65,23 @@ def test_run_writes_every_result_file_and_consistent_rates(tmp_path, orca):
     assert inv["success_rate_ci_low"] <= inv["success_rate"] <= inv["success_rate_ci_high"]
 
 
+def test_the_pooled_row_is_over_every_multi_human_scenario_the_run_evaluated(tmp_path, orca):
+    # francis2023's multi_human list has no circle_crossing: asked for beside narrow_doorway, both are
+    # pooled (the pooled row was missing and Table II showed circle_crossing's row under "pooled")
+    preset = load_preset("francis2023")
+    preset = dataclasses.replace(preset, evaluation=dataclasses.replace(preset.evaluation, episodes=3))
+    result = run_protocol(orca, preset, tmp_path, scenarios=["circle_crossing", "narrow_doorway"],
+                          visibility="invisible", progress=False, trajectories=False)
+    by_scenario = {r["scenario"]: r for r in result.summary}
+    pooled = by_scenario["pooled"]
+    assert pooled["pooled_over"] == "circle_crossing,narrow_doorway" and pooled["episodes"] == 6
+    rates = [by_scenario[s]["success_rate"] for s in ("circle_crossing", "narrow_doorway")]
+    expected = sum(rates) / 2
+    assert pooled["success_rate"] == pytest.approx(expected)
+    table = (tmp_path / "table2.md").read_text().split("### Table II, circle_crossing")[0]
+    assert f"| orca | {100 * expected:.2f} |" in table
+
+
 def test_interrupted_run_resumes_without_recomputing(tmp_path, orca, monkeypatch):
     preset = small_preset()
     real = execution_module.simulate_chunk

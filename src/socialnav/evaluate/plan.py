@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from socialnav.config import ConfigError
@@ -32,6 +33,15 @@ class Cell:
     def chunks(self, size: int) -> list[tuple[int, int]]:
         """The cell's episodes as ``[start, stop)`` ranges of at most ``size`` (the result chunks)."""
         return [(start, min(start + size, self.episodes)) for start in range(0, self.episodes, size)]
+
+
+def multi_human_scenarios(cells: Sequence[Cell]) -> list[str]:
+    """The run's multi-human scenarios, which Table II pools.
+
+    Every scenario it evaluated that is not a single-human one: a ``--scenario`` list may name ones
+    outside the preset's ``multi_human``.
+    """
+    return list(dict.fromkeys(c.scenario for c in cells if not c.single_human))
 
 
 def plan_cells(preset: Preset, scenarios: list[str] | None = None, episodes: int | None = None,

@@ -36,7 +36,7 @@ from socialnav._runtime import one_blas_thread
 from socialnav.evaluate.chunks import ResumeMismatchError, chunk_path, read_chunk, read_episode_rows
 from socialnav.evaluate.execution import compute_chunks, validate_cells
 from socialnav.evaluate.manifest import manifest_stamp, protocol_manifest, resume_directory
-from socialnav.evaluate.plan import Cell, plan_cells
+from socialnav.evaluate.plan import Cell, multi_human_scenarios, plan_cells
 from socialnav.evaluate.report import mismatch_caveats, render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
 from socialnav.policies.base import Policy
@@ -149,7 +149,7 @@ def run_protocol(
             batch_size, workers, trajectories, simulate_in_workers,
         )
         rows = read_episode_rows(out, cells, chunk_size, label, stamp, verified)
-        summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
+        summary = summarize_episodes(rows, multi_human=multi_human_scenarios(cells))
         write_reports(out, summary, rows, preset, mismatch_caveats(manifest["policy"]))
     return ProtocolResult(out, rows, summary, computed)
 
@@ -182,5 +182,5 @@ def conclude_chunks(
     rows: list[dict[str, Any]] = []
     for cell, a, b, path, data in chunks:
         rows.extend(read_chunk(Path(path), cell, a, b, label, stamp, data))
-    summary = summarize_episodes(rows, multi_human=preset.evaluation.multi_human)
+    summary = summarize_episodes(rows, multi_human=multi_human_scenarios([c[0] for c in chunks]))
     return len(rows), summary, render_reports(summary, preset)
