@@ -261,6 +261,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     Returns:
         The exit status.
     """
+    from socialnav.evaluate.plan import preset_for_scenarios
     from socialnav.evaluate.report import mismatch_caveats, table2, table3, table_notes, with_caveats
     from socialnav.evaluate.runner import run_protocol
     from socialnav.policies.loading import build_policy
@@ -291,8 +292,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                     raise ValueError(f"--{key.replace('_', '-')} applies to learned policies; "
                                      f"{args.policy!r} is not one")
             overrides[key] = getattr(args, key)
+    # checked against the scenarios this run evaluates (--scenario may name ones outside the preset's)
     policy = build_policy(
-        args.policy, preset, args.checkpoint, allow_preset_mismatch=args.allow_preset_mismatch, **overrides
+        args.policy, preset_for_scenarios(preset, args.scenario), args.checkpoint,
+        allow_preset_mismatch=args.allow_preset_mismatch, **overrides,
     )
     for difference in getattr(policy, "preset_mismatch", []):
         print(f"warning: preset mismatch allowed: {difference}", file=sys.stderr)

@@ -209,11 +209,26 @@ def test_a_checkpoint_trained_without_walls_is_refused_among_walls_naming_both(t
     err = capsys.readouterr().err
     assert ("walls: the checkpoint was trained without walls (on circle_crossing, random, "
             "parallel_traffic, perpendicular_traffic), preset 'walls_fast' evaluates scenarios with "
-            "walls (frontal_approach") in err
+            "walls (narrow_doorway)") in err  # the run's scenarios
     assert "dt " not in err and "robot.v_pref" not in err  # nothing else differs
     assert main([*argv, "--allow-preset-mismatch"]) == 0
     manifest = json.loads((tmp_path / "o" / "manifest.json").read_text())
     assert manifest["policy"]["preset_mismatch_allowed"][0].startswith("walls: the checkpoint was trained")
+    capsys.readouterr()
+    # replay rebuilds the policy against the run's scenarios, as the run did
+    assert main(["replay", str(tmp_path / "o"), "--episode", "narrow_doorway/invisible/0", "--quiet"]) == 0
+
+
+def test_walled_scenarios_asked_for_under_an_open_floor_preset_are_checked_too(tmp_path, capsys):
+    # wang2022 lists no walled scenario; --scenario names one: the walls-less checkpoint is refused
+    pytest.importorskip("torch")
+    argv = ["evaluate", "--policy", "sarl", "--scenario", "circle_crossing", "blind_corner", "--episodes",
+            "2", "--visibility", "invisible", "--out", str(tmp_path / "o"), "--no-progress"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "preset 'wang2022' evaluates scenarios with walls (blind_corner) that its network" in err
+    assert not (tmp_path / "o").exists()
+    assert main([*argv[:3], "--episodes", "2", "--out", str(tmp_path / "p"), "--no-progress"]) == 0
 
 
 def test_other_kinematics_are_refused_even_with_allow_preset_mismatch(tmp_path, capsys):

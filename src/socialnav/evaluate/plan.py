@@ -106,6 +106,22 @@ def plan_cells(preset: Preset, scenarios: list[str] | None = None, episodes: int
     return cells
 
 
+def preset_for_scenarios(preset: Preset, scenarios: Sequence[str] | None) -> Preset:
+    """``preset`` with the scenario lists of a run of ``scenarios`` (None: the preset's own).
+
+    What a policy is checked against (a checkpoint trained without walls is refused where the run
+    evaluates scenarios with walls): the scenarios the run evaluates, which ``--scenario`` may take
+    from outside the preset's lists. The run's manifest keeps the preset itself.
+    """
+    if not scenarios:
+        return preset
+    ev = preset.evaluation
+    single = [s for s in scenarios if s in ev.single_human or _is_single_human(s)]
+    multi = [s for s in scenarios if s not in single]
+    return dataclasses.replace(preset, evaluation=dataclasses.replace(
+        ev, multi_human=tuple(multi), single_human=tuple(single)))
+
+
 def _is_single_human(name: str) -> bool:
     return name in ("passing", "overtaking", "crossing")
 

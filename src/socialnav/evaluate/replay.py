@@ -67,7 +67,9 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
             raise ResultsError(f"manifest.json: the policy's checkpoint {checkpoint} does not exist")
         # Results written before the scorer was recorded were scored by the PyTorch module.
         scorer = desc.get("scorer", "torch")
-        policy = build_policy(name, preset, checkpoint, information=desc.get("information"), scorer=scorer)
+        # a run that allowed a preset mismatch recorded it: rebuilt the same way, compared below
+        policy = build_policy(name, preset, checkpoint, information=desc.get("information"), scorer=scorer,
+                              allow_preset_mismatch=bool(desc.get("preset_mismatch_allowed")))
     else:
         params = {k: desc[k] for k in entry.parameters if k in desc}
         policy = build_policy(name, preset, None, **params)
@@ -148,7 +150,7 @@ def replay_episode(results_dir: str | Path, episode_id: str) -> ReplayResult:
     from socialnav.config import ConfigError, from_dict
     from socialnav.evaluate.execution import episode_id as make_id
     from socialnav.evaluate.execution import simulate_chunk
-    from socialnav.evaluate.plan import Cell, _is_single_human
+    from socialnav.evaluate.plan import Cell, _is_single_human, preset_for_scenarios
     from socialnav.presets import Preset
 
     root = Path(results_dir)
@@ -165,7 +167,9 @@ def replay_episode(results_dir: str | Path, episode_id: str) -> ReplayResult:
         raise ResultsError(f"{root}/manifest.json: no cell {ref.scenario}/{ref.visibility}")
     single = ref.scenario in preset.evaluation.single_human or _is_single_human(ref.scenario)
     cell = Cell(ref.scenario, ref.visibility, int(recorded["episodes"]), single)
-    policy = rebuild_policy(manifest, preset)
+    # built against the run's scenarios, as the run built it (cli: preset_for_scenarios)
+    run_scenarios = list(dict.fromkeys(c["scenario"] for c in manifest.get("cells", [])))
+    policy = rebuild_policy(manifest, preset_for_scenarios(preset, run_scenarios))
     a, b = ref.chunk
     trajs = simulate_chunk(
         policy,

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from socialnav.evaluate.plan import Cell
+from socialnav.evaluate.plan import Cell, preset_for_scenarios
 from socialnav.presets import Preset
 
 #: Policies a worker has built, by job key: a worker runs many chunks of one job.
@@ -85,7 +85,7 @@ def build_job_policy(
         overrides["threads"] = threads
     return build_policy(
         name,
-        preset,
+        preset_for_scenarios(preset, params.get("scenarios")),  # the job's scenarios, as evaluate's
         checkpoint,
         allow_preset_mismatch=bool(params.get("allow_preset_mismatch", False)),
         **overrides,
