@@ -311,6 +311,27 @@ def test_env_rgb_array_rendering():
     env.close()
 
 
+def test_env_rendering_draws_the_episodes_walls():
+    import gymnasium as gym
+
+    import socialnav.sim.registration  # noqa: F401
+    from socialnav.scenarios import make_scenario
+    from socialnav.trajectory import Trajectory
+
+    env = gym.make("socialnav/CircleCrossing-v0", scenario="blind_corner", render_mode="rgb_array",
+                   split="test")
+    env.reset(options={"index": 0})
+    frame = env.render()
+    recorder = env.unwrapped._recorder
+    drawn = recorder.trajectory()
+    walls = make_scenario("blind_corner").episodes("test", [0]).static_map(0)
+    assert drawn.static_map is not None and drawn.static_map.edges()[0].tolist() == walls.edges()[0].tolist()
+    bare = Trajectory.from_positions(np.stack(recorder.positions), drawn.dt, radii=drawn.radii,
+                                     v_pref=drawn.v_pref, goals=drawn.goals)
+    assert np.mean(recorder.viewer().frame(bare) != frame) > 0.002  # the walls are in the picture
+    env.close()
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="displays are detected by DISPLAY on Linux")
 def test_env_human_mode_without_display_is_a_clear_error(monkeypatch):
     from socialnav.sim.env import SocialNavEnv

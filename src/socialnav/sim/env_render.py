@@ -105,6 +105,7 @@ class EnvRecorder:
         self.dt = world.settings.dt
         self.index = index
         self.scenario = getattr(world.scenario, "name", "")
+        self.static_map = world.static_maps[0]  # the episode's walls (None: an open floor)
         self.positions = []
         self.outcome = "unknown"
         self.record(obs)
@@ -129,6 +130,7 @@ class EnvRecorder:
             goals=self.goals,
             outcome=self.outcome if self.outcome in ("success", "collision", "timeout") else "unknown",
             settings={"episode": f"{self.scenario} #{self.index}"},
+            static_map=self.static_map,
         )
 
     def frame(self) -> np.ndarray:
