@@ -197,6 +197,26 @@ def test_replay_reproduces_a_learned_policy_with_its_checkpoint(tmp_path):
         assert result.max_abs_diff == 0.0
 
 
+@pytest.mark.parametrize(
+    ("name", "overrides"),
+    [("crowdnav_pp", {}), ("mp_rgl", {"planning_depth": 1, "planning_width": 1}),
+     ("sarl", {"information": "oracle"})],
+)
+def test_replay_rebuilds_the_recorded_settings_of_every_learned_kind(tmp_path, name, overrides):
+    # a PPO policy takes no information or scorer; --planning-depth/--information runs record theirs
+    pytest.importorskip("torch")
+    from socialnav.policies.loading import build_policy
+
+    preset = small_preset(episodes=2, chunk_size=2)
+    policy = build_policy(name, preset, None, **overrides)
+    for key, value in overrides.items():
+        assert policy.describe()[key] == value
+    run_protocol(policy, preset, tmp_path, scenarios=["circle_crossing"], visibility="invisible",
+                 progress=False, workers=0, batch_size=2)
+    result = replay_episode(tmp_path, "circle_crossing/invisible/1")
+    assert result.identical and result.max_abs_diff == 0.0, result.differences
+
+
 @pytest.mark.parametrize("scorer", ["torch", "legacy"])
 def test_replay_rebuilds_the_recorded_scorer(tmp_path, scorer):
     """A run scored by the module replays with the module; so does a manifest from before the scorer

@@ -65,11 +65,14 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
         checkpoint = desc.get("checkpoint") or manifest.get("checkpoint")
         if checkpoint and not Path(checkpoint).is_file():
             raise ResultsError(f"manifest.json: the policy's checkpoint {checkpoint} does not exist")
-        # Results written before the scorer was recorded were scored by the PyTorch module.
-        scorer = desc.get("scorer", "torch")
+        # The recorded settings the policy takes (information, planning depth and width, scorer for the
+        # value-based ones; deterministic for PPO); the device is not recorded and changes no decision.
+        params = {k: desc[k] for k in entry.parameters if k in desc and k != "device"}
+        if "scorer" in entry.parameters:  # results written before it was recorded: the PyTorch module
+            params["scorer"] = desc.get("scorer", "torch")
         # a run that allowed a preset mismatch recorded it: rebuilt the same way, compared below
-        policy = build_policy(name, preset, checkpoint, information=desc.get("information"), scorer=scorer,
-                              allow_preset_mismatch=bool(desc.get("preset_mismatch_allowed")))
+        policy = build_policy(name, preset, checkpoint,
+                              allow_preset_mismatch=bool(desc.get("preset_mismatch_allowed")), **params)
     else:
         params = {k: desc[k] for k in entry.parameters if k in desc}
         policy = build_policy(name, preset, None, **params)
