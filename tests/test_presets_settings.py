@@ -5,6 +5,7 @@ unchanged; every field is documented with its unit and constraint."""
 from __future__ import annotations
 
 import dataclasses
+import re
 import subprocess
 import sys
 
@@ -143,6 +144,16 @@ def test_a_presets_scenario_and_policy_typos_are_named_with_the_file(tmp_path, c
     assert main(argv) == 2  # the section is checked whatever the policy evaluated
     assert ("p1.yaml: policies.orca: policy 'orca' has no parameter(s) safty_space; valid: safety_space, "
             "threads") in capsys.readouterr().err
+    # values out of range, and a learned policy's settings, are named with the file too (no PyTorch needed)
+    for section, message in [
+        ("orca: {safety_space: -1}", "policies.orca: policy 'orca': safety_space must be >= 0, got -1"),
+        ("sarl: {foo: 1}", "policies.sarl: policy 'sarl' has no parameter(s) foo; valid: device"),
+        ("sarl: {planning_depth: 0}", "policies.sarl: policy 'sarl': planning_depth must be an integer >= 1"),
+        ("mp_rgl: {information: psychic}", "policies.mp_rgl: policy 'mp_rgl': information must be one of"),
+    ]:
+        bad.write_text(f"name: t\npolicies:\n  {section}\n")
+        with pytest.raises(ConfigError, match=re.escape(f"p1.yaml: {message}")):
+            check_preset_policies(load_preset(bad), str(bad))
 
 
 def test_an_empty_preset_file_is_refused(tmp_path):

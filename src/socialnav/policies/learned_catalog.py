@@ -20,6 +20,10 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
+#: What a value-based policy's lookahead may assume of the humans' next states (no PyTorch needed to
+#: check it: a preset's settings are checked where PyTorch may be missing).
+VALUE_INFORMATION: tuple[str, ...] = ("constant_velocity", "oracle", "learned")
+
 __all__ = [
     "TRAINERS",
     "VALUE_DEFAULTS",

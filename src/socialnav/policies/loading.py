@@ -17,7 +17,7 @@ from typing import Any
 from socialnav._io import load_yaml
 from socialnav.config import ConfigError
 from socialnav.policies.base import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
-from socialnav.policies.learned_catalog import canonical_name, get_learned_spec
+from socialnav.policies.learned_catalog import VALUE_INFORMATION, canonical_name, get_learned_spec
 from socialnav.presets import Preset
 
 INDEX_FILE = "index.yaml"
@@ -121,10 +121,10 @@ def check_preset_policies(preset: Preset, source: str) -> None:
             entry = get_policy_entry(name)
         except KeyError as err:
             raise ConfigError(f"{source}: policies.{name}: {err.args[0] if err.args else err}") from None
-        if entry.learned:
-            continue  # checked when the policy is built (it needs PyTorch, which this run may lack)
         try:
-            check_policy_parameters(name, entry, params)
+            # a learned policy's device is checked when it is built (that needs PyTorch, which this run
+            # may lack); its other settings now, as a native policy's
+            check_policy_parameters(name, entry, params, check_device=False)
         except ValueError as err:
             raise ConfigError(f"{source}: policies.{name}: {err}") from None
 
@@ -165,6 +165,8 @@ def check_policy_parameters(
         whole = isinstance(value, int) and not isinstance(value, bool)
         if key == "threads" and not (whole and value >= 0):
             raise ValueError(f"policy {name!r}: threads must be an integer >= 0, got {value!r}")
+        if key == "safety_space" and value < 0:  # a clearance: ORCA inflates radii by it
+            raise ValueError(f"policy {name!r}: safety_space must be >= 0, got {value!r}")
 
 
 def check_learned_parameters(name: str, valid: dict[str, Any], params: dict[str, Any]) -> None:
@@ -194,12 +196,9 @@ def check_learned_parameters(name: str, valid: dict[str, Any], params: dict[str,
         if key in ("planning_depth", "planning_width") and (
                 isinstance(value, bool) or not isinstance(value, int) or value < 1):
             raise ValueError(f"policy {name!r}: {key} must be an integer >= 1, got {value!r}")
-        if key == "information":
-            from socialnav.policies.learned.value_policy import INFORMATION
-
-            if value not in INFORMATION:
-                raise ValueError(f"policy {name!r}: information must be one of {', '.join(INFORMATION)}, "
-                                 f"got {value!r}")
+        if key == "information" and value not in VALUE_INFORMATION:
+            raise ValueError(f"policy {name!r}: information must be one of {', '.join(VALUE_INFORMATION)}, "
+                             f"got {value!r}")
         if key == "device":
             _check_device(name, value)
 

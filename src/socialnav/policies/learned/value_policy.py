@@ -72,12 +72,13 @@ from socialnav.policies.learned.state import (
     propagate_robot,
     rotate,
 )
+from socialnav.policies.learned_catalog import VALUE_INFORMATION
 from socialnav.sim.obstacle_points import ObstaclePoints
 
 __all__ = ["ValuePolicy", "Information"]
 
 Information = Literal["constant_velocity", "oracle", "learned"]
-INFORMATION: tuple[str, ...] = ("constant_velocity", "oracle", "learned")
+INFORMATION: tuple[str, ...] = VALUE_INFORMATION
 
 
 class ValuePolicy:
