@@ -284,14 +284,20 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     check_preset_policies(preset, args.preset)
     overrides = parse_policy_args(args.policy_arg)
     for key in ("information", "planning_depth", "planning_width"):
-        if getattr(args, key) is not None:
-            if args.policy != "all" and ":" not in args.policy and not args.policy.startswith("sb3:"):
-                from socialnav.policies.base import get_policy_entry
+        value = getattr(args, key)
+        if value is None:
+            continue
+        flag = f"--{key.replace('_', '-')}"
+        if key in overrides and overrides[key] != value:
+            raise ValueError(f"{flag} {value} and --policy-arg {key}={overrides[key]} disagree; give one "
+                             "of them")
+        if ":" not in args.policy and not args.policy.startswith("sb3:"):
+            from socialnav.policies.base import get_policy_entry
 
-                if not get_policy_entry(args.policy).learned:
-                    raise ValueError(f"--{key.replace('_', '-')} applies to learned policies; "
-                                     f"{args.policy!r} is not one")
-            overrides[key] = getattr(args, key)
+            if key not in get_policy_entry(args.policy).parameters:
+                raise ValueError(f"{flag} applies to the value-based learned policies (CADRL, LSTM-RL, SARL, "
+                                 f"OM-SARL, RGL, MP-RGL); {args.policy!r} has no {key} setting")
+        overrides[key] = value
     # checked against the scenarios this run evaluates (--scenario may name ones outside the preset's)
     policy = build_policy(
         args.policy, preset_for_scenarios(preset, args.scenario), args.checkpoint,

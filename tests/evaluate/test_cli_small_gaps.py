@@ -175,4 +175,12 @@ def test_small_command_line_conveniences(tmp_path, capsys):
     argv = ["evaluate", "--policy", "linear", "--information", "oracle", "--scenario", "passing",
             "--episodes", "2", "--out", str(tmp_path)]
     assert main(argv) == 2
-    assert "--information applies to learned policies; 'linear' is not one" in capsys.readouterr().err
+    assert ("--information applies to the value-based learned policies (CADRL, LSTM-RL, SARL, OM-SARL, RGL, "
+            "MP-RGL); 'linear' has no information setting") in capsys.readouterr().err
+    argv[2] = "crowdnav_pp"  # learned, but by policy gradient: no lookahead settings
+    assert main(argv) == 2
+    assert "'crowdnav_pp' has no information setting" in capsys.readouterr().err
+    argv[2:5] = ["sarl", "--policy-arg", "information=oracle", "--information", "constant_velocity"]
+    assert main(argv) == 2
+    assert ("--information constant_velocity and --policy-arg information=oracle disagree; give one of them"
+            in capsys.readouterr().err)
