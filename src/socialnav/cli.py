@@ -299,10 +299,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                                  f"OM-SARL, RGL, MP-RGL); {args.policy!r} has no {key} setting")
         overrides[key] = value
     # checked against the scenarios this run evaluates (--scenario may name ones outside the preset's)
-    policy = build_policy(
-        args.policy, preset_for_scenarios(preset, args.scenario), args.checkpoint,
-        allow_preset_mismatch=args.allow_preset_mismatch, **overrides,
-    )
+    with warnings.catch_warnings(record=True) as building:
+        warnings.simplefilter("always")
+        policy = build_policy(
+            args.policy, preset_for_scenarios(preset, args.scenario), args.checkpoint,
+            allow_preset_mismatch=args.allow_preset_mismatch, **overrides,
+        )
+    for note in dict.fromkeys(str(w.message) for w in building):
+        print(f"warning: {note}", file=sys.stderr)
     for difference in getattr(policy, "preset_mismatch", []):
         print(f"warning: preset mismatch allowed: {difference}", file=sys.stderr)
     # A module path would make a poor directory name: such policies are labelled by their own name.

@@ -288,3 +288,21 @@ def test_a_resume_with_another_network_at_the_checkpoint_path_is_refused(tmp_pat
     capsys.readouterr()
     assert main(argv) != 0
     assert "checkpoint_sha256" in capsys.readouterr().err
+
+
+def test_a_checkpoint_that_records_no_world_is_evaluated_with_a_warning(tmp_path, capsys):
+    # saved by hand (docs/policies_learned.md's snippet): no config.value_policy, so no world to compare
+    pytest.importorskip("torch")
+    from socialnav.policies.learned import build, save_checkpoint
+    from socialnav.policies.loading import shipped_checkpoint
+
+    hand = save_checkpoint(tmp_path / "hand.pt", "sarl", build("sarl"), config={"kinematics": "holonomic"})
+    argv = ["evaluate", "--policy", "sarl", "--scenario", "circle_crossing", "--episodes", "1",
+            "--visibility", "invisible", "--no-progress", "--json"]
+    assert main([*argv, "--checkpoint", str(hand), "--out", str(tmp_path / "a")]) == 0
+    assert (f"warning: checkpoint {hand} records no training world (config.value_policy): its dt, "
+            "kinematics, reward and robot v_pref cannot be compared with preset 'wang2022'"
+            ) in capsys.readouterr().err
+    trained = str(shipped_checkpoint("sarl", "wang2022"))
+    assert main([*argv, "--checkpoint", trained, "--out", str(tmp_path / "b")]) == 0
+    assert "records no training world" not in capsys.readouterr().err

@@ -8,6 +8,7 @@ so that the evaluator scores candidate actions exactly as the trainer did.
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -193,6 +194,13 @@ def checked_preset_mismatches(
     A :class:`PresetMismatchError` names them unless ``allow`` (then the caller records them); a
     kinematics mismatch is refused even then, as for SB3 models.
     """
+    if preset is not None and not (config.get("value_policy") or config.get("ppo_policy")):
+        # e.g. saved by hand with save_checkpoint and a config of one's own: nothing to compare
+        warnings.warn(
+            f"checkpoint {checkpoint} records no training world (config.value_policy): its dt, kinematics, "
+            f"reward and robot v_pref cannot be compared with preset {preset.name!r}, and are assumed to "
+            "match (socialnav train records them)", UserWarning, stacklevel=3,
+        )
     mismatch = preset_mismatches(config, preset) if preset is not None else []
     kinematics = [m for m in mismatch if m.startswith("kinematics ")]
     if kinematics:  # the network's actions would be read in another action space: never meaningful
