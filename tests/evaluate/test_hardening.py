@@ -265,6 +265,8 @@ def test_learned_policy_arguments_are_checked_before_the_checkpoint(tmp_path, ca
         from socialnav.policies import make_policy
 
         make_policy("sarl", checkpoint="unused.pt", planning_depth=0)
+    with pytest.raises(ValueError, match=r"policy 'sarl' is learned: make_policy needs checkpoint=PATH"):
+        make_policy("sarl")  # said, instead of a factory's missing positional argument
 
 
 def test_a_resume_with_another_network_at_the_checkpoint_path_is_refused(tmp_path, capsys):

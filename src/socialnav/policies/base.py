@@ -176,6 +176,10 @@ def get_policy_entry(name: str) -> PolicyEntry:
 def make_policy(name: str, **params: Any) -> Policy:
     """Builds a registered policy; unknown parameters are refused with the valid ones listed."""
     entry = get_policy_entry(name)
+    if entry.learned and params.get("checkpoint") is None:
+        raise ValueError(f"policy {name!r} is learned: make_policy needs checkpoint=PATH (a file of "
+                         f"`socialnav train`); build_policy({name!r}, preset) takes the checkpoint that "
+                         "ships for a preset")
     if not name.startswith(SB3_PREFIX):
         from socialnav.policies.loading import check_policy_parameters
 
