@@ -103,11 +103,12 @@ class NotAPolicy:
     name = "x"
 
 
-def _plugin_env(tmp_path: Path) -> dict:
+def _plugin_env(tmp_path: Path, extra: str = "") -> dict:
     dist = tmp_path / "site" / "socialnav_test_plugin-0.1.dist-info"
     dist.mkdir(parents=True)
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: socialnav-test-plugin\nVersion: 0.1\n")
-    (dist / "entry_points.txt").write_text(f"[socialnav.policies]\ngoal_seeker = {MODULE}:GoalSeeker\n")
+    entries = f"[socialnav.policies]\ngoal_seeker = {MODULE}:GoalSeeker\n{extra}"
+    (dist / "entry_points.txt").write_text(entries)
     return subprocess_env(tmp_path / "site", HERE, ROOT)  # ROOT: the module imports tests._env
 
 
@@ -127,6 +128,26 @@ def test_policy_from_an_entry_point(tmp_path):
     assert json.loads(run.stdout)["rows"][0]["episodes"] == 4
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert manifest["policy"]["speed_factor"] == 0.8 and manifest["policy"]["label"] == "goal_seeker"
+
+
+def test_a_plugin_under_a_taken_or_reserved_name_is_said_not_registered(tmp_path):
+    env = _plugin_env(tmp_path, f"orca = {MODULE}:GoalSeeker\nall = {MODULE}:GoalSeeker\n")
+    listed = subprocess.run([sys.executable, "-m", "socialnav.cli", "list", "--json"], capture_output=True,
+                            text=True, env=env, cwd=tmp_path)
+    assert listed.returncode == 0, listed.stderr
+    names = {p["name"]: p for p in json.loads(listed.stdout)["policies"]}
+    assert "goal_seeker" in names and "all" not in names
+    assert names["orca"]["parameters"] == {"safety_space": 0.2, "threads": 0}  # the built-in stays
+    assert "policy plugin 'orca'" in listed.stderr and "the name is taken by another policy" in listed.stderr
+    assert "policy plugin 'all'" in listed.stderr and "cannot be registered" in listed.stderr
+
+
+def test_register_policy_refuses_names_the_command_line_reads_otherwise():
+    from socialnav.policies import register_policy
+
+    for name in ("all", "pkg.mod:Thing", "sb3:model.zip", ""):
+        with pytest.raises(ValueError, match="cannot be registered"):
+            register_policy(name, description="x")
 
 
 def test_docs_example_runs_as_a_script_and_from_the_cli(tmp_path):

@@ -17,6 +17,7 @@ import importlib
 import inspect
 import os
 import sys
+import warnings
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
@@ -129,6 +130,10 @@ def register_policy(name: str, *, description: str, learned: bool = False,
     ``parameters`` maps each keyword the factory accepts to its default (shown by ``socialnav list``;
     other keywords are refused). Left out, they are read from the factory's signature.
     """
+    # names the command line reads otherwise: every shipped checkpoint, a module path, a saved SB3 model
+    if not isinstance(name, str) or not name or name == "all" or ":" in name:
+        raise ValueError(f"policy name {name!r} cannot be registered: `--policy` reads 'all' as every "
+                         "shipped checkpoint and a name with ':' as module.path:Class or sb3:PATH")
 
     def decorator(factory: Callable[..., Policy]) -> Callable[..., Policy]:
         if name in _REGISTRY:
@@ -275,9 +280,21 @@ def _load_plugins() -> None:
         return
     _plugins_loaded = True
     for ep, obj in load_entry_points(ENTRY_POINT_GROUP, "policy"):
-        if callable(obj) and ep.name not in _REGISTRY:
-            doc = (inspect.getdoc(obj) or "").strip().splitlines()
+        if not callable(obj):  # a module whose import registered its policies
+            continue
+        if ep.name in _REGISTRY and _REGISTRY[ep.name].factory is not obj:
+            warnings.warn(f"policy plugin {ep.name!r} ({ep.value}) is not registered: the name is taken by "
+                          f"another policy ({_REGISTRY[ep.name].description}); give the entry point another "
+                          "name", RuntimeWarning, stacklevel=3)
+            continue
+        if ep.name in _REGISTRY:
+            continue
+        doc = (inspect.getdoc(obj) or "").strip().splitlines()
+        try:
             register_policy(ep.name, description=doc[0] if doc else f"plugin {ep.value}")(obj)
+        except ValueError as err:
+            warnings.warn(f"policy plugin {ep.name!r} ({ep.value}) is not registered: {err}", RuntimeWarning,
+                          stacklevel=3)
 
 
 def _load_builtin() -> None:
