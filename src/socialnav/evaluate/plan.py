@@ -116,8 +116,9 @@ def preset_for_scenarios(preset: Preset, scenarios: Sequence[str] | None) -> Pre
     if not scenarios:
         return preset
     ev = preset.evaluation
-    single = [s for s in scenarios if s in ev.single_human or _is_single_human(s)]
-    multi = [s for s in scenarios if s not in single]
+    names = list(dict.fromkeys(scenarios))  # a name given twice is refused by plan_cells, in its words
+    single = [s for s in names if s in ev.single_human or _is_single_human(s)]
+    multi = [s for s in names if s not in single]
     return dataclasses.replace(preset, evaluation=dataclasses.replace(
         ev, multi_human=tuple(multi), single_human=tuple(single)))
 
