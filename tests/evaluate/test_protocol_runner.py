@@ -160,3 +160,23 @@ def test_summary_json_rows_hold_every_metric_mean_and_std(tmp_path, orca):
                 continue
             assert f"{key}.mean" in row and f"{key}.std" in row, key
     assert np.isfinite(data["rows"][0]["nav_time_s"])
+
+
+def test_a_policy_built_without_the_presets_policy_settings_is_said(tmp_path):
+    # crowdnav's policies section sets ORCA's safety space to 0: `socialnav evaluate` applies it
+    # (build_policy); make_policy has the registry's 0.2, so the run would not be the CLI's
+    import warnings
+
+    from socialnav.policies.loading import build_policy
+
+    preset = load_preset("crowdnav")
+    preset = dataclasses.replace(preset, evaluation=dataclasses.replace(preset.evaluation, episodes=1))
+    with pytest.warns(UserWarning, match=r"policy 'orca' runs with safety_space = 0.2 \(the preset: 0.0\): "
+                      r"preset 'crowdnav' sets these for it"):
+        run_protocol(make_policy("orca"), preset, tmp_path / "a", progress=False, trajectories=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        run_protocol(build_policy("orca", preset), preset, tmp_path / "b", progress=False, trajectories=False)
+        # overridden on purpose through build_policy: nothing to say either
+        run_protocol(build_policy("orca", preset, safety_space=0.2), preset, tmp_path / "c", progress=False,
+                     trajectories=False)

@@ -26,6 +26,7 @@ or in workers) and :mod:`~socialnav.evaluate.chunks` (the chunk files). A sweep 
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -133,6 +134,8 @@ def run_protocol(
     # Everything that can be refused is refused before the first file is written.
     validate_cells(preset, cells, batch_size)
     manifest = protocol_manifest(policy, preset, cells, label, batch_size, trajectories, extra_manifest)
+    if getattr(policy, "built_for_preset", None) != preset.name:  # build_policy applied them
+        _say_preset_policy_settings_unused(manifest["policy"], preset)
     stamp = manifest_stamp(manifest)
     make_output_dir(out)
     # Worker processes are the parallelism; the bootstrap's small products need one BLAS thread
@@ -152,6 +155,23 @@ def run_protocol(
         summary = summarize_episodes(rows, multi_human=multi_human_scenarios(cells))
         write_reports(out, summary, rows, preset, mismatch_caveats(manifest["policy"]))
     return ProtocolResult(out, rows, summary, computed)
+
+
+def _say_preset_policy_settings_unused(record: dict[str, Any], preset: Preset) -> None:
+    """Warns where the policy runs with other settings than the preset's ``policies`` section gives it.
+
+    ``socialnav evaluate`` builds the policy with them (``build_policy(name, preset)``); a policy built
+    in Python with ``make_policy`` has the registry's defaults, and the run would not be the CLI's.
+    """
+    wanted = preset.policies.get(str(record.get("policy")), {})
+    differ = [f"{k} = {record[k]!r} (the preset: {v!r})" for k, v in wanted.items()
+              if k in record and record[k] != v]
+    if differ:
+        warnings.warn(
+            f"policy {record['policy']!r} runs with {', '.join(differ)}: preset {preset.name!r} sets these "
+            "for it (policies section), as `socialnav evaluate` would apply; build it with "
+            "build_policy(name, preset) to use them", UserWarning, stacklevel=3,
+        )
 
 
 def conclude_chunks(

@@ -82,6 +82,16 @@ def build_policy(
         ValueError: A checkpoint given to a policy that does not learn, or missing for one that does;
             a checkpoint trained for another world than the preset's (unless ``allow_preset_mismatch``).
     """
+    policy = _build(name, preset, checkpoint, allow_preset_mismatch, overrides)
+    try:  # run_protocol then knows the preset's policies section was applied (or deliberately overridden)
+        policy.built_for_preset = preset.name
+    except AttributeError:  # a policy object that takes no new attributes
+        pass
+    return policy
+
+
+def _build(name: str, preset: Preset, checkpoint: str | Path | None, allow_preset_mismatch: bool,
+           overrides: dict[str, Any]) -> Policy:
     entry = get_policy_entry(name)
     params = {**preset.policy_params(name), **overrides}
     if name.startswith(SB3_PREFIX):
