@@ -360,5 +360,29 @@ def test_a_policys_information_and_record_are_checked_before_the_run(tmp_path, c
     assert code == 0, err
     policy = json.loads((tmp_path / "n" / "manifest.json").read_text())["policy"]
     assert (policy["gain"], policy["n"], policy["limits"]) == (0.5, 3, [1, 2])
+    class NotANumber(GoalSeeker):
+        def describe(self):
+            return {**super().describe(), "gain": float("nan")}
+
+    from socialnav.policies.base import policy_record
+
+    with pytest.raises(ValueError, match=r"describe\(\)\['gain'\] is nan; results record no NaN"):
+        policy_record(NotANumber())
     episode = "circle_crossing/invisible/0"  # rebuilt from the record, and identical
     assert main(["replay", str(tmp_path / "n"), "--episode", episode, "--quiet"]) == 0
+
+
+class Named(GoalSeeker):
+    """Takes its name as a parameter (make_policy's and build_policy's own arguments are positional)."""
+
+    def __init__(self, name: str = "named", speed_factor: float = 1.0):
+        super().__init__(speed_factor)
+        self.name = name
+
+
+def test_a_policy_parameter_called_name(tmp_path, capsys):
+    policy = make_policy(f"{MODULE}:Named", name="mine")
+    assert policy.name == "mine"
+    code, out, err = evaluate(capsys, tmp_path, "--policy", f"{MODULE}:Named", "--policy-arg", "name=ours")
+    assert code == 0, err
+    assert json.loads(out)["rows"][0]["policy"] == "ours"

@@ -60,10 +60,14 @@ def policy_record(policy: Any) -> dict[str, Any]:
 
 
 def _plain(value: Any, where: str) -> Any:
+    if isinstance(value, np.generic | np.ndarray):
+        return _plain(value.tolist(), where)
+    if isinstance(value, float) and not np.isfinite(value):
+        # JSON has no NaN: the manifest would hold null, and every resume would find the record changed
+        raise ValueError(f"{where} is {value!r}; results record no NaN or infinity (JSON): describe it by "
+                         "None or a string")
     if value is None or isinstance(value, bool | int | float | str):
         return value
-    if isinstance(value, np.generic | np.ndarray):
-        return value.tolist()
     if isinstance(value, list | tuple):
         return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
     if isinstance(value, dict):
@@ -178,8 +182,11 @@ def get_policy_entry(name: str) -> PolicyEntry:
     return _REGISTRY[name]
 
 
-def make_policy(name: str, **params: Any) -> Policy:
-    """Builds a registered policy; unknown parameters are refused with the valid ones listed."""
+def make_policy(name: str, /, **params: Any) -> Policy:
+    """Builds a registered policy; unknown parameters are refused with the valid ones listed.
+
+    ``name`` is positional only, so a policy may have a parameter called ``name``.
+    """
     entry = get_policy_entry(name)
     if entry.learned and params.get("checkpoint") is None:
         raise ValueError(f"policy {name!r} is learned: make_policy needs checkpoint=PATH (a file of "

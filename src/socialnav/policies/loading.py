@@ -71,11 +71,14 @@ def build_policy(
     name: str,
     preset: Preset,
     checkpoint: str | Path | None = None,
+    /,
     *,
     allow_preset_mismatch: bool = False,
     **overrides,
 ) -> Policy:
     """The policy ``name`` with the preset's defaults for it, overridden by ``overrides``.
+
+    ``name``, ``preset`` and ``checkpoint`` are positional only: a policy may have parameters so called.
 
     Raises:
         KeyError: Unknown policy (the valid ones are listed).
