@@ -62,3 +62,15 @@ def test_presets_training_configs_and_sweeps_refuse_a_repeated_key(tmp_path: Pat
     expected = r"sweep.yaml: not valid YAML: key 'policy' is given twice \(lines 3 and"
     with pytest.raises(ConfigError, match=expected):
         load_sweep(sweep)
+
+
+def test_numbers_in_scientific_notation_are_numbers(tmp_path: Path, capsys) -> None:
+    # YAML 1.1 reads 1e-2 (no dot) as text; a quoted one stays text
+    assert load_yaml("a: 1e-2\nb: -2E+3\nc: 1.5e-3\nd: '1e-2'\ne: e5\n") == {
+        "a": 0.01, "b": -2000.0, "c": 0.0015, "d": "1e-2", "e": "e5"}
+    from socialnav.cli import parse_policy_args
+
+    assert parse_policy_args(["safety_space=1e-2"]) == {"safety_space": 0.01}
+    preset = tmp_path / "p.yaml"
+    preset.write_text("name: p\npolicies:\n  orca: {safety_space: 5e-2}\n")
+    assert load_preset(preset).policies["orca"]["safety_space"] == 0.05

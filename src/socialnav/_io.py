@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -242,7 +243,7 @@ _STRICT_LOADER: Any = None
 
 
 def load_yaml(text: str) -> Any:
-    """``yaml.safe_load``, refusing a mapping that gives one key twice.
+    """``yaml.safe_load``, refusing a mapping that gives one key twice, and reading ``1e-2`` as a number.
 
     PyYAML keeps the last of two equal keys without a word, so a preset, training config, sweep or map
     file with a block pasted twice (two ``walls:``, two ``world:``) would silently lose the first.
@@ -279,5 +280,10 @@ def load_yaml(text: str) -> Any:
             return yaml.SafeLoader.construct_mapping(loader, node, deep)
 
         StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
+        # YAML 1.1 reads 1e-2 (no dot) as text; every number a user writes so is meant as a number
+        StrictLoader.add_implicit_resolver(
+            "tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+            list("-+0123456789"),
+        )
         _STRICT_LOADER = StrictLoader
     return yaml.load(text, Loader=_STRICT_LOADER)  # noqa: S506  (a SafeLoader subclass)
