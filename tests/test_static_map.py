@@ -60,3 +60,13 @@ def test_a_file_name_given_as_polygons_points_to_load_map():
     with pytest.raises(MapError, match=r"StaticMap takes polygons, not a file \('walls.yaml'\): read a map "
                        r"file with socialnav.map_files.load_map"):
         StaticMap("walls.yaml")
+
+
+@pytest.mark.parametrize(("given", "match"), [
+    ({"polygons": []}, r"not a dict: StaticMap.from_dict reads the dict form .*got keys \['polygons'\]"),
+    (None, r"a sequence of polygons \(vertex lists\), got NoneType None; an open floor is StaticMap\(\)"),
+    (5, r"got int 5"),
+])
+def test_what_is_not_a_sequence_of_polygons_is_named(given, match):
+    with pytest.raises(MapError, match=match):
+        StaticMap(given)

@@ -103,6 +103,14 @@ class StaticMap:
         if isinstance(self.polygons, str | bytes) or hasattr(self.polygons, "__fspath__"):
             raise MapError(f"StaticMap takes polygons, not a file ({self.polygons!r}): read a map file with "
                            "socialnav.map_files.load_map")
+        if isinstance(self.polygons, dict):
+            keys = sorted(map(str, self.polygons))
+            raise MapError("StaticMap takes a sequence of polygons, not a dict: StaticMap.from_dict reads "
+                           f"the dict form ({{'polygons': [...]}}), got keys {keys}")
+        if not isinstance(self.polygons, Iterable):
+            raise MapError(f"StaticMap takes a sequence of polygons (vertex lists), got "
+                           f"{type(self.polygons).__name__} {self.polygons!r:.40}; an open floor is "
+                           "StaticMap() or no map (None) where a map is optional")
         checked = []
         for i, poly in enumerate(self.polygons):
             try:
