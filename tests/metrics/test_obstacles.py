@@ -79,6 +79,20 @@ def test_wall_collision_without_kind_uses_the_clearance() -> None:
         wall_collision(_robot_along_y([0.0, 0.3], WALL, "collision", collision_kind="wall"))
 
 
+@pytest.mark.parametrize(("human_y", "expected"), [
+    (1.2, 0.0),  # the person overlaps the robot at the wall's sample (y = 0.8): a person, as the simulator
+    (0.5, 0.0),  # the person was hit first, at y = 0.3 (centres 0.2 m apart)
+    (5.0, 1.0),  # nobody near: the wall
+])
+def test_a_log_that_hit_a_person_and_a_wall_counts_what_came_first(human_y: float, expected: float) -> None:
+    tr = _robot_along_y([0.0, 0.3, 0.8], WALL, "collision")
+    pos = tr.positions.copy()
+    pos[:, 1] = [0.0, human_y]  # a person standing on the robot's line
+    tr = Trajectory.from_positions(pos, 0.25, radii=0.3, v_pref=1.0, goals=np.zeros((2, 2)),
+                                   outcome="collision", static_map=WALL)
+    assert wall_collision(tr)["value"] == expected
+
+
 def test_score_episode_keys_and_wang_metrics_unchanged_by_a_map() -> None:
     ys = [0.0, 0.2, 0.45, 0.6]
     with_map, without = score_episode(_robot_along_y(ys, WALL)), score_episode(_robot_along_y(ys, None))

@@ -83,8 +83,9 @@ def wall_collision(traj: Trajectory) -> dict[str, float]:
 
     The cause is ``settings["collision_kind"]`` (``"obstacle"`` or ``"human"``, recorded by the
     simulator); a collision episode without it counts as an obstacle collision when the robot's
-    clearance to the map went below zero. NaN when the outcome is unknown, and on an open floor (no
-    map, and no log saying the robot hit an obstacle), where the rate would be a meaningless 0: the
+    clearance to the map went below zero before (not at the same sample as) it overlapped a person.
+    NaN when the outcome is unknown, and on an open floor (no map, and no log saying the robot hit an
+    obstacle), where the rate would be a meaningless 0: the
     simulator records ``collision_kind`` in every world, walls or not. The ``collision`` rate keeps
     counting every collision; this one is the part of it caused by walls.
     """
@@ -98,4 +99,15 @@ def wall_collision(traj: Trajectory) -> dict[str, float]:
             raise ValueError(f"settings['{COLLISION_KIND_KEY}'] must be 'human' or 'obstacle', got {kind!r}")
         return {"value": float(kind == "obstacle")}
     c = obstacle_clearance(traj)
-    return {"value": float(c is not None and c.size > 0 and bool(c.min() < 0.0))}
+    if c is None or c.size == 0 or not bool(c.min() < 0.0):
+        return {"value": 0.0}
+    # The first overlap is the collision, a person's where both come at one sample (the simulator
+    # reports a step that hit both as a human collision).
+    first_wall = int(np.argmax(c < 0.0))  # samples 1..K
+    if traj.n_humans:
+        pos, present = traj.positions[1:], traj.presence[1:, 1:]
+        gap = np.linalg.norm(pos[:, 1:] - pos[:, :1], axis=-1) - traj.radii[1:] - traj.radii[0]
+        hit = (present & (gap < 0.0)).any(axis=1)
+        if hit[: first_wall + 1].any():
+            return {"value": 0.0}
+    return {"value": 1.0}
