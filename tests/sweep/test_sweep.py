@@ -525,6 +525,29 @@ def test_training_then_evaluating_its_checkpoint(tmp_path):
     assert len(episode_rows(tmp_path / "out/evaluate/sarl-s3")) == 4
 
 
+def test_a_ppo_training_job_then_evaluating_its_checkpoint(tmp_path):
+    # crowdnav_pp trains with PPO (its own settings: ppo_smoke, env_steps), as `socialnav train` does
+    preset = small_preset(tmp_path)
+    jobs = [
+        {"kind": "train", "policy": "crowdnav_pp", "config": "ppo_smoke", "env_steps": 128, "name": "pp"},
+        {"kind": "evaluate", "policy": "crowdnav_pp", "checkpoint": "train:pp", "name": "pp", "episodes": 2,
+         "scenarios": ["circle_crossing"], "visibility": "invisible"},
+    ]
+    path = write_sweep(tmp_path, {"defaults": {"preset": preset}, "jobs": jobs})
+    result = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False)
+    assert result.ok, result.failures
+    assert result.jobs["train/pp"]["status"] == "done"
+    assert (tmp_path / "out/train/pp/best.pt").is_file()
+    assert len(episode_rows(tmp_path / "out/evaluate/pp")) == 2
+    # the value-based trainer's settings are refused for a PPO job, and the other way round
+    with pytest.raises(ConfigError, match=r"rl_episodes: not a setting of the PPO trainer of 'crowdnav_pp'"):
+        parse_sweep({"jobs": [{"kind": "train", "policy": "crowdnav_pp", "rl_episodes": 3}]})
+    with pytest.raises(ConfigError, match=r"env_steps: not a setting of the value-based trainer of 'sarl'"):
+        parse_sweep({"jobs": [{"kind": "train", "policy": "sarl", "env_steps": 3}]})
+    with pytest.raises(ConfigError, match=r"config: .*unknown"):
+        parse_sweep({"jobs": [{"kind": "train", "policy": "ppo_mlp", "config": "smoke"}]})
+
+
 def test_evaluation_of_a_failed_training_is_reported(tmp_path):
     preset = small_preset(tmp_path)
     bad_config = tmp_path / "bad_train.yaml"

@@ -106,8 +106,11 @@ class TrainJobSettings(Settings):
     config: str | None = setting(None, "training settings: a YAML file or a shipped config name (smoke)")
     device: str | None = setting(None, "torch device", choices=DEVICES)
     information: str | None = setting(None, "the lookahead's prediction", choices=INFORMATION)
-    rl_episodes: int | None = setting(None, "RL episodes", ge=0)
-    collection_batch: int | None = setting(None, "episodes stepped in lockstep while collecting", ge=1)
+    rl_episodes: int | None = setting(None, "RL episodes (value-based trainer)", ge=0)
+    env_steps: int | None = setting(None, "environment steps in all (PPO trainer)", ge=1)
+    collection_batch: int | None = setting(
+        None, "episodes stepped in lockstep while collecting (PPO: environments, n_envs)", ge=1
+    )
     human_model: str | None = setting(
         None, "the humans' model (overrides the preset's)", choices=HUMAN_MODELS
     )
@@ -307,6 +310,35 @@ def _fill(value: Any, context: dict[str, Any], where: str, key: str) -> Any:
         raise ConfigError(f"{where}: {key} template {value!r} names no key of the job ({err})") from None
 
 
+def _check_train_job(entry: Any, params: dict[str, Any], where: str, base: Path | None) -> None:
+    """A training job: a learned policy, its trainer's settings (as ``socialnav train`` checks them)."""
+    from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
+
+    if not entry.learned:
+        raise ConfigError(f"{where}: policy {params['policy']!r} does not learn; train takes "
+                          f"{', '.join(learned_policy_names())}")
+    trainer = get_learned_spec(str(params["policy"])).trainer
+    other = ("information", "rl_episodes") if trainer == "ppo" else ("env_steps",)
+    given = [k for k in other if params.get(k) is not None]
+    if given:
+        kind = "PPO" if trainer == "ppo" else "value-based"
+        raise ConfigError(f"{where}: {', '.join(given)}: not a setting of the {kind} trainer of "
+                          f"{params['policy']!r} (docs/{'ppo' if trainer == 'ppo' else 'training'}.md)")
+    if params.get("config") is not None:
+        params["config"] = _path_or_name(params["config"], base)
+    try:
+        if trainer == "ppo":
+            from socialnav.train.ppo_config import load_ppo_settings
+
+            load_ppo_settings(params.get("config") or "ppo", policy=str(params["policy"]))
+        elif params.get("config") is not None:
+            from socialnav.train.config import load_train_settings
+
+            load_train_settings(params["config"])
+    except ConfigError as err:
+        raise ConfigError(f"{where}: config: {err}") from None
+
+
 def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None) -> None:
     """What the settings classes cannot check without running: policies, presets, scenarios, files."""
     from socialnav.policies.base import get_policy_entry
@@ -322,19 +354,7 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
     except (KeyError, ValueError, ConfigError) as err:
         raise ConfigError(f"{where}: {err.args[0] if err.args else err}") from None
     if kind == "train":
-        if not entry.learned:
-            raise ConfigError(
-                f"{where}: policy {params['policy']!r} does not learn; train takes cadrl, "
-                "lstm_rl, sarl, om_sarl, rgl or mp_rgl"
-            )
-        if params.get("config") is not None:
-            from socialnav.train.config import load_train_settings
-
-            params["config"] = _path_or_name(params["config"], base)
-            try:
-                load_train_settings(params["config"])
-            except ConfigError as err:
-                raise ConfigError(f"{where}: config: {err}") from None
+        _check_train_job(entry, params, where, base)
         return
     _check_policy_args(where, str(params["policy"]), entry, params)
     checkpoint = params.get("checkpoint")

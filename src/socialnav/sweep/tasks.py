@@ -186,6 +186,10 @@ def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int
 
     ``_payload`` is unused; every task takes one.
     """
+    from socialnav.policies.learned_catalog import get_learned_spec
+
+    if get_learned_spec(str(params["policy"])).trainer == "ppo":
+        return _train_ppo_job(params, out_dir, threads)
     from socialnav.train.config import resolve_train_settings
     from socialnav.train.trainer import train
 
@@ -201,6 +205,32 @@ def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int
         "best_checkpoint": str(result.best_checkpoint),
         "episodes": result.episodes,
         "gradient_steps": result.gradient_steps,
+        "best_val": best,
+        "resumed": result.resumed,
+        "where": where_am_i(),
+        "seconds": round(time.perf_counter() - t0, 3),
+    }
+
+
+def _train_ppo_job(params: dict[str, Any], out_dir: str, threads: int) -> dict[str, Any]:
+    """A PPO training job (crowdnav_pp, ppo_mlp), as ``socialnav train`` runs it (docs/ppo.md)."""
+    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo_config import load_ppo_settings
+
+    t0 = time.perf_counter()
+    settings = load_ppo_settings(
+        params.get("config") or "ppo",  # the shipped default schedule, as the command's
+        seed=params.get("seed"), device=params.get("device"), n_envs=params.get("collection_batch"),
+        total_env_steps=params.get("env_steps"), policy=str(params["policy"]),
+    )
+    settings = dataclasses.replace(settings, threads=threads)
+    result = train_ppo(job_preset(params), out_dir, settings, progress=False)
+    best = {k: (None if isinstance(v, float) and v != v else v) for k, v in (result.best_val or {}).items()}
+    return {
+        "best_checkpoint": str(result.best_checkpoint),
+        "episodes": result.episodes,
+        "updates": result.updates,
+        "env_steps": result.env_steps,
         "best_val": best,
         "resumed": result.resumed,
         "where": where_am_i(),
