@@ -1,5 +1,7 @@
 """Training settings: YAML with strict keys, derived seeds."""
 
+import json
+
 import pytest
 
 from socialnav.config import ConfigError
@@ -145,3 +147,25 @@ def test_a_run_directory_of_another_policy_is_named_as_such(tmp_path):
                        rf"checkpoint {tmp_path}/last.pt holds policy 'sarl', expected 'cadrl'.*train 'cadrl' "
                        r"into another --out"):
         load_resume_checkpoint(tmp_path / "last.pt", "cadrl", tmp_path)
+
+
+def test_a_runs_own_config_file_is_a_training_config(tmp_path):
+    # a refused resume points to the run's config.yaml: --config takes it (its train section), for the
+    # value-based and the PPO trainer, and the command line's trainer check reads its kind from it
+    import yaml
+
+    from socialnav.train.cli import _config_trainer
+    from socialnav.train.ppo_config import PPOSettings, load_ppo_settings
+
+    settings = load_train_settings("smoke", seed=7)
+    record = {"value_policy": {"dt": 0.25}, "policy": "sarl", "preset": {"name": "wang2022"},
+              "train": settings.to_dict(), "seeds": {}, "n_humans": 5}
+    path = tmp_path / "config.yaml"
+    path.write_text(yaml.safe_dump(record))
+    assert load_train_settings(path) == settings
+    assert _config_trainer(str(path)) == "value"
+    ppo = load_ppo_settings("ppo_smoke", seed=3)
+    path.write_text(yaml.safe_dump({"ppo_policy": {}, "policy": "crowdnav_pp", "preset": {},
+                                    "train": json.loads(json.dumps(ppo.to_dict()))}))
+    assert load_ppo_settings(path) == ppo and isinstance(ppo, PPOSettings)
+    assert _config_trainer(str(path)) == "ppo"

@@ -98,6 +98,8 @@ def _config_trainer(config: str) -> str | None:
         return None
     if not isinstance(data, dict):
         return None
+    if "ppo_policy" in data or "value_policy" in data:  # a run's record: its trainer is written there
+        return "ppo" if "ppo_policy" in data else "value"
     keys = {str(k) for k in data}
     fits = [t for t, cls in (("value", TrainSettings), ("ppo", PPOSettings))
             if keys <= {f.name for f in dataclasses.fields(cls)}]

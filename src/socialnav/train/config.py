@@ -218,6 +218,16 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
     return load_settings_file(TrainSettings, path, overrides)
 
 
+def settings_of(data: dict[str, Any]) -> dict[str, Any]:
+    """The training settings of a config file: itself, or a run's record's ``train`` section.
+
+    A run directory's ``config.yaml`` (what a refused resume points to) records the policy, the preset
+    and the world beside its ``train`` settings; ``--config`` takes such a file as its settings.
+    """
+    record = isinstance(data.get("train"), dict) and ("value_policy" in data or "ppo_policy" in data)
+    return dict(data["train"]) if record else data
+
+
 def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[str, Any]) -> T:
     """Settings of class ``cls`` from a YAML file, with top-level ``overrides`` applied after it.
 
@@ -245,6 +255,7 @@ def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[st
             raise ConfigError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
         if not isinstance(data, dict):
             raise ConfigError(f"{path}: expected a mapping of settings, got {type(data).__name__}")
+        data = settings_of(data)
     data.update({k: v for k, v in overrides.items() if v is not None})
     try:
         return from_dict(cls, data)
