@@ -169,3 +169,12 @@ def test_a_runs_own_config_file_is_a_training_config(tmp_path):
                                     "train": json.loads(json.dumps(ppo.to_dict()))}))
     assert load_ppo_settings(path) == ppo and isinstance(ppo, PPOSettings)
     assert _config_trainer(str(path)) == "ppo"
+
+
+def test_resuming_under_an_alias_of_the_runs_policy_is_no_difference():
+    from socialnav.train.config import resume_diff
+
+    saved = {"policy": "ga3c_cadrl", "train": {"policy": "ga3c_cadrl", "seed": 0}}
+    assert resume_diff(saved, {"policy": "lstm_rl", "train": {"policy": "lstm_rl", "seed": 0}}) == []
+    assert resume_diff(saved, {"policy": "sarl", "train": {"policy": "sarl", "seed": 0}}) == [
+        "policy", "train.policy"]

@@ -337,10 +337,15 @@ def resume_diff(saved: dict[str, Any], current: dict[str, Any]) -> list[str]:
     Ignores the settings a resumed run may change (:data:`RESUMABLE_CHANGES`) and settings added
     since the run was saved when the current value is the one such runs had (:data:`ADDED_SETTINGS`).
     """
+    from socialnav.policies.learned_catalog import canonical_name
+
     out = []
     for key in flat_diff(saved, current):
         if any(key == f"train.{r}" or key.startswith(f"train.{r}.") for r in RESUMABLE_CHANGES):
             continue
+        if key in ("policy", "train.policy") and canonical_name(str(_lookup(saved, key))) == canonical_name(
+                str(_lookup(current, key))):
+            continue  # an alias names the same policy (ga3c_cadrl is lstm_rl)
         if key in ADDED_SETTINGS and _lookup(saved, key) is _MISSING:
             if _lookup(current, key) == ADDED_SETTINGS[key]:
                 continue
