@@ -62,9 +62,11 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         "--collection-batch",
         type=int,
         dest="collection_batch",
-        help="episodes stepped in lockstep while collecting (default 128; PPO: n_envs)",
+        help="episodes stepped in lockstep while collecting (default: the config's, 128 in the default "
+        "schedule; PPO: n_envs)",
     )
-    tr.add_argument("--rl-episodes", type=int, dest="rl_episodes", help="RL episodes (default 10000)")
+    tr.add_argument("--rl-episodes", type=int, dest="rl_episodes",
+                    help="RL episodes (default: the config's, 10000 in the default schedule)")
     tr.add_argument(
         "--compile",
         action="store_true",
