@@ -52,3 +52,35 @@ def test_each_case_gives_the_labelled_cases_and_the_failures_split_by_outcome():
     assert TABLE3_COUNTS_NOTE in md and TABLE3_DASH_NOTE in md
     assert "% " + TABLE3_COUNTS_NOTE in table3([row], "tex")
     assert TABLE3_DASH_NOTE not in table3([passing, row, {**passing, "scenario": "crossing"}], "md")
+
+
+def test_one_human_encounters_among_the_multi_human_scenarios_get_their_side_preference(tmp_path):
+    # francis2023's frontal_approach and narrow_hallway meet one human head-on (the spec: M_VI applies to
+    # Francis (a) and (j)): their Table II rows stay, and Table III gets a part of their own
+    import dataclasses
+
+    from socialnav.evaluate.runner import run_protocol
+    from socialnav.metrics import side_case_of_row
+    from socialnav.policies.loading import build_policy
+    from socialnav.presets import load_preset
+
+    preset = load_preset("francis2023")
+    preset = dataclasses.replace(preset, evaluation=dataclasses.replace(preset.evaluation, episodes=6))
+    result = run_protocol(build_policy("orca", preset), preset, tmp_path,
+                          scenarios=["frontal_approach", "intersection"], visibility="invisible",
+                          progress=False, trajectories=False)
+    rows = {r["scenario"]: r for r in result.summary}
+    frontal = rows["frontal_approach"]
+    assert frontal["single_human"] is False and rows["intersection"]["single_human"] is False
+    assert "m6_left_pct" not in rows["intersection"]  # four crossing people: no passing side
+    # the counts are the episode rows' cases, by hand
+    cases = [side_case_of_row(r) if r["outcome"] == "success" else "failed"
+             for r in result.rows if r["scenario"] == "frontal_approach"]
+    assert frontal["m6_n_left"] == cases.count("left") and frontal["m6_n_right"] == cases.count("right")
+    assert frontal["m6_n_failed"] == cases.count("failed") and len(cases) == 6
+    table2_text = (tmp_path / "table2.md").read_text()
+    assert "### Table II, frontal_approach" in table2_text
+    text = (tmp_path / "table3.md").read_text()
+    assert "Table III, one-human encounters among the multi-human scenarios" in text
+    assert "| Policy | frontal_approach L % | frontal_approach R % | frontal_approach n |" in text
+    assert f"| orca | {frontal['m6_left_pct']:.0f} | {frontal['m6_right_pct']:.0f} |" in text

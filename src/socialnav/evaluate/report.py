@@ -166,6 +166,15 @@ def _finite(x: Any) -> bool:
     return isinstance(x, (int, float)) and math.isfinite(x)
 
 
+def single_human(row: dict[str, Any]) -> bool:
+    """Whether a summary row is a single-human sweep's (Table III), not a Table II scenario's.
+
+    Summaries written before rows said so (``single_human``) are told by their M_VI columns, which only
+    the sweeps had then.
+    """
+    return bool(row["single_human"]) if "single_human" in row else "m6_left_pct" in row
+
+
 def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> list[list[str]]:
     """Table II's rows (one per policy and visibility) for ``scenario`` (default: pooled)."""
     idx = _index(summary)
@@ -177,7 +186,7 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
         # (per policy: compared runs may differ, see pooled_coverage)
         own = scenario
         if scenario == "pooled" and not any(k[0] == p and k[1] == "pooled" for k in idx):
-            multi = [r["scenario"] for r in summary if r["policy"] == p and "m6_left_pct" not in r]
+            multi = [r["scenario"] for r in summary if r["policy"] == p and not single_human(r)]
             own = multi[0] if multi else scenario
         inv, vis = idx.get((p, own, "invisible")), idx.get((p, own, "visible"))
         base = inv or vis
@@ -212,7 +221,7 @@ def pooled_coverage(summary: Sequence[dict[str, Any]]) -> dict[str, tuple[str, .
         p = r["policy"]
         if r["scenario"] == "pooled" and r.get("pooled_over"):
             out[p] = tuple(str(r["pooled_over"]).split(","))
-        elif "m6_left_pct" not in r and r["scenario"] != "pooled" and p not in out:
+        elif not single_human(r) and r["scenario"] != "pooled" and p not in out:
             out[p] = (r["scenario"],)
     return out
 
@@ -241,7 +250,7 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
     ]
     # Tables without rows are left out (a run of single-human scenarios only has no Table II).
     pooled = table2_rows(summary)
-    passes = {r.get("visibility") for r in summary if "m6_left_pct" not in r}
+    passes = {r.get("visibility") for r in summary if not single_human(r)}
     if "visible" not in passes:
         title = ("Table II: pooled over the multi-human scenarios (invisible robot; M_III needs the visible "
                  "pass, --visibility both)")
@@ -254,7 +263,7 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
     scenarios = [
         s
         for s in dict.fromkeys(r["scenario"] for r in summary)
-        if s != "pooled" and not any("m6_left_pct" in r for r in summary if r["scenario"] == s)
+        if s != "pooled" and not any(single_human(r) for r in summary if r["scenario"] == s)
     ]
     for s in scenarios:
         rows = table2_rows(summary, s)
@@ -333,14 +342,48 @@ def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
     ):
         header += [f"{scenario} {left}", f"{scenario} {right}", f"{scenario} n", f"{scenario} failed"]
     rows = table3_rows(summary)
-    if not rows:
+    encounters = encounter_scenarios(summary)
+    if not rows and not encounters:
         return ""  # no single-human scenario in the run: no table, not an empty header
-    text = _render("Table III: M_VI side preference (successful single-human cases)", header, rows, fmt)
     sep = "% " if fmt == "tex" else "\n"
-    text += sep + TABLE3_COUNTS_NOTE + "\n"
-    if any(r[i] == "–" for r in rows for i in TABLE3_PERCENT_COLUMNS):
+    parts = []
+    dashes = any(r[i] == "–" for r in rows for i in TABLE3_PERCENT_COLUMNS)
+    if rows:
+        parts.append(_render("Table III: M_VI side preference (successful single-human cases)", header, rows,
+                             fmt))
+    if encounters:
+        header = ["Policy"] + [f"{s} {c}" for s in encounters for c in ("L %", "R %", "n", "failed")]
+        found = encounter_rows(summary, encounters)
+        dashes = dashes or any(c == "–" for r in found for c in r[1::4] + r[2::4])
+        parts.append(_render("Table III, one-human encounters among the multi-human scenarios: M_VI side "
+                             "preference (invisible robot)", header, found, fmt))
+    text = "\n".join(parts) + sep + TABLE3_COUNTS_NOTE + "\n"
+    if dashes:
         text += sep + TABLE3_DASH_NOTE + "\n"
     return text
+
+
+def encounter_scenarios(summary: Sequence[dict[str, Any]]) -> list[str]:
+    """The Table II scenarios of a run that have an M_VI reading (one human met head-on, Francis (a), (j))."""
+    return list(dict.fromkeys(r["scenario"] for r in summary
+                              if r["scenario"] != "pooled" and not single_human(r) and "m6_left_pct" in r))
+
+
+def encounter_rows(summary: Sequence[dict[str, Any]], scenarios: Sequence[str]) -> list[list[str]]:
+    """Per policy: left %, right %, n and failed of each encounter scenario (invisible pass)."""
+    idx = _index(summary)
+    out = []
+    for p in dict.fromkeys(r["policy"] for r in summary):
+        found = [idx.get((p, s, "invisible")) for s in scenarios]
+        if not any(found):
+            continue
+        cells = [p]
+        for row in found:
+            left = row.get("m6_left_pct") if row else None
+            right = row.get("m6_right_pct") if row else None
+            cells += [_num(left), _num(right), _count(row, "m6_n_labelled"), _failures(row)]
+        out.append(cells)
+    return out
 
 
 #: Under Table III: what n and failed count.

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.metrics import summarize_side_preference
+from socialnav.metrics import side_case_of_row, summarize_side_preference
 from socialnav.metrics.aggregate import column_stats
 
 ID_COLUMNS = ("policy", "scenario", "visibility", "index", "seed", "outcome", "information", "side")
@@ -42,7 +42,9 @@ def summarize_episodes(
     for (policy, scenario, visibility), members in groups.items():
         if scenario in multi_human:
             pooled.setdefault((policy, "pooled", visibility), []).extend(members)
-    out = [summarize_group(key, members) for key, members in groups.items()]
+    # every scenario row says which table it belongs to: Table II (multi-human) or Table III's sweeps
+    out = [{**summarize_group(key, members), "single_human": key[1] not in multi_human}
+           for key, members in groups.items()]
     for key, members in pooled.items():
         scenarios = {m["scenario"] for m in members}
         if len(scenarios) > 1:
@@ -93,7 +95,21 @@ def summarize_group(
     if any("side" in r for r in rows):
         side = summarize_side_preference([r.get("side", "unlabelled") for r in rows], scenario)
         out.update({f"m6_{k}": v for k, v in side.items()})
+    elif passing_side(scenario):  # a one-human encounter among the multi-human cells (Francis (a), (j))
+        cases = ["failed" if r.get("outcome") != "success" else side_case_of_row(r) for r in rows]
+        out.update({f"m6_{k}": v for k, v in summarize_side_preference(cases, scenario).items()})
+        out["single_human"] = False  # a Table II scenario with a side reading, not a sweep
     return out
+
+
+def passing_side(scenario: str) -> bool:
+    """Whether ``scenario`` is a one-human encounter whose passing side is defined (M_VI applies)."""
+    from socialnav.scenarios import get_scenario
+
+    try:
+        return bool(getattr(get_scenario(scenario), "passing_side", False))
+    except KeyError:  # a scenario of a plugin that is not installed here, or "pooled"
+        return False
 
 
 _STAT_NAMES = ("mean", "std", "ci_low", "ci_high", "n")  # the order of column_stats' outputs

@@ -77,6 +77,9 @@ class _Hallway(WalledScenario):
 
     fixed_n_humans = True
     passages = ("corridor_width",)
+    #: One human met head-on, so a passing side is defined: M_VI applies (Francis (a) and (j)), and
+    #: the evaluation's summary gives it a side-preference row (Table III, one-human encounters).
+    passing_side: ClassVar[bool] = True
 
     n_humans: int = param(1, "humans per episode (always 1 here)", ge=1)
     corridor_width: float = param(1.8, "distance between the two walls", unit="m", gt=0)

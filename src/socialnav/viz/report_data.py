@@ -83,8 +83,9 @@ class ResultRun:
             r["policy"] = label
 
 
-#: The summary rows' text fields; every other field is a number or null.
+#: The summary rows' text fields and flags; every other field is a number or null.
 _TEXT_FIELDS = ("policy", "scenario", "visibility", "information", "pooled_over")
+_FLAG_FIELDS = ("single_human",)
 
 
 def read_summary(path: Path, rows: list[dict[str, Any]]) -> dict[str, Any]:
@@ -119,7 +120,10 @@ def read_summary(path: Path, rows: list[dict[str, Any]]) -> dict[str, Any]:
             if not isinstance(r.get(field), str):
                 raise ValueError(f"{path}: rows[{i}].{field} must be text, got {r.get(field)!r}; {again}")
         for key, value in r.items():
-            if key not in _TEXT_FIELDS and value is not None and (
+            if key in _FLAG_FIELDS and not isinstance(value, bool):
+                raise ValueError(f"{path}: rows[{i}] ({r['scenario']}/{r['visibility']}).{key} must be true "
+                                 f"or false, got {value!r}; {again}")
+            if key not in _TEXT_FIELDS + _FLAG_FIELDS and value is not None and (
                     isinstance(value, bool) or not isinstance(value, int | float)):
                 raise ValueError(f"{path}: rows[{i}] ({r['scenario']}/{r['visibility']}).{key} must be a "
                                  f"number or null, got {value!r}; {again}")
