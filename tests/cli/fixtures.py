@@ -222,7 +222,7 @@ CASES: list[Case] = [
         "checkpoint",
         EV_SARL + " --checkpoint {base}/list.pt",
         "list.pt",
-        "not a socialnav learned-policy checkpoint",
+        "not a socialnav learned-policy checkpoint: it holds a list, expected format",
     ),
     C(
         "ckpt-no-state-dict",

@@ -179,7 +179,12 @@ def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any
             f"checkpoint {path} is damaged or not a torch file ({type(err).__name__}: {_one_line(err)}){hint}"
         ) from None
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
-        raise CheckpointError(f"{path} is not a socialnav learned-policy checkpoint (format {FORMAT!r})")
+        if not isinstance(payload, dict):
+            found = f"it holds a {type(payload).__name__}"
+        else:
+            found = f"its format is {payload['format']!r}" if "format" in payload else "it records no format"
+        raise CheckpointError(f"{path} is not a socialnav learned-policy checkpoint: {found}, expected "
+                              f"format {FORMAT!r}")
     for key, kind in _FIELDS.items():
         value = payload.get(key)
         if not isinstance(value, kind) or isinstance(value, bool):
