@@ -105,7 +105,7 @@ def test_refuses_non_plain_config(tmp_path):
 def test_not_a_checkpoint(tmp_path):
     path = tmp_path / "other.pt"
     torch.save({"hello": torch.zeros(1)}, path)
-    with pytest.raises(CheckpointError, match="not a socialnav learned-policy checkpoint: it records no format"):
+    with pytest.raises(CheckpointError, match="learned-policy checkpoint: it records no format"):
         load_checkpoint(path, "sarl")
     torch.save({"format": "socialnav.learned/9", "policy": "sarl"}, path)  # the found format is named
     with pytest.raises(CheckpointError, match=r"its format is 'socialnav.learned/9', expected format "
