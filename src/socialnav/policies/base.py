@@ -177,7 +177,8 @@ def get_policy_entry(name: str) -> PolicyEntry:
     if name not in _REGISTRY:
         raise KeyError(
             f"unknown policy {name!r}; valid: {', '.join(sorted(_REGISTRY))}, or module.path:ClassName "
-            f"(see docs/custom_policies.md)"
+            f"(see docs/custom_policies.md), or sb3:PATH, a saved Stable-Baselines3 model "
+            f"(docs/train_your_own.md)"
         )
     return _REGISTRY[name]
 
