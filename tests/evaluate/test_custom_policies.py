@@ -319,9 +319,13 @@ def test_a_module_policy_is_replayed_and_its_arguments_guard_a_resume(tmp_path, 
     ("safety_space=abc", "policy 'orca': safety_space must be a finite number, got 'abc'"),
     ("safety_space=.nan", "policy 'orca': safety_space must be a finite number, got nan"),
     ("threads=1.5", "policy 'orca': threads must be an integer >= 0, got 1.5"),
+    # a policy of one's own: each value of its default's kind (GoalSeeker: float, str, bool)
+    ("flag=1", ":GoalSeeker': flag must be true or false, got 1"),
+    ("tag=3", ":GoalSeeker': tag must be text, got 3"),
 ])
 def test_a_native_policys_parameter_of_the_wrong_type_is_named(tmp_path, capsys, arg, message):
-    argv = ["evaluate", "--policy", "orca", "--scenario", "passing", "--episodes", "2", "--out",
+    policy = "orca" if "orca" in message else f"{MODULE}:GoalSeeker"
+    argv = ["evaluate", "--policy", policy, "--scenario", "passing", "--episodes", "2", "--out",
             str(tmp_path), "--quiet", "--policy-arg", arg]
     assert main(argv) == 2
     assert message in capsys.readouterr().err

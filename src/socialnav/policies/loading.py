@@ -170,14 +170,20 @@ def check_policy_parameters(
     if unknown:
         raise ValueError(f"policy {name!r} has no parameter(s) {', '.join(unknown)}; "
                          f"valid: {', '.join(sorted(entry.parameters)) or 'none'}")
-    for key, value in params.items():  # a numeric parameter gets a finite number (threads an integer)
+    for key, value in params.items():  # a value of its default's kind: a flag, an integer, a number, text
         default = entry.parameters[key]
         number = isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-        if isinstance(default, int | float) and not isinstance(default, bool) and not number:
-            raise ValueError(f"policy {name!r}: {key} must be a finite number, got {value!r}")
         whole = isinstance(value, int) and not isinstance(value, bool)
         if key == "threads" and not (whole and value >= 0):
             raise ValueError(f"policy {name!r}: threads must be an integer >= 0, got {value!r}")
+        if isinstance(default, bool) and not isinstance(value, bool):
+            raise ValueError(f"policy {name!r}: {key} must be true or false, got {value!r}")
+        if isinstance(default, int) and not isinstance(default, bool) and not whole:
+            raise ValueError(f"policy {name!r}: {key} must be an integer, got {value!r}")
+        if isinstance(default, float) and not number:
+            raise ValueError(f"policy {name!r}: {key} must be a finite number, got {value!r}")
+        if isinstance(default, str) and not isinstance(value, str):
+            raise ValueError(f"policy {name!r}: {key} must be text, got {value!r}")
         if key == "safety_space" and value < 0:  # a clearance: ORCA inflates radii by it
             raise ValueError(f"policy {name!r}: safety_space must be >= 0, got {value!r}")
 
