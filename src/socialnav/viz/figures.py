@@ -31,6 +31,25 @@ OUTCOME_COLOURS = {"success": "#2ca02c", "collision": "#d62728", "timeout": "#ff
 SIDE_COLOURS = {"left": "#1f77b4", "right": "#9467bd", "unlabelled": "#c7c7c7", "failed": "#7f7f7f"}
 
 
+def _side_case(row: dict[str, Any]) -> str | None:
+    """A row's M_VI case: its ``side`` (single-human sweeps), computed for a one-human encounter."""
+    if row.get("side") is not None:
+        return str(row["side"])
+    if row.get("visibility") != "invisible" or not _passing_side(str(row.get("scenario"))):
+        return None
+    from socialnav.metrics import side_case_of_row
+
+    return "failed" if row.get("outcome") != "success" else side_case_of_row(row)
+
+
+def _passing_side(scenario: str, _known: dict[str, bool] = {}) -> bool:  # noqa: B006 (a cache)
+    if scenario not in _known:
+        from socialnav.evaluate.summary import passing_side
+
+        _known[scenario] = passing_side(scenario)
+    return _known[scenario]
+
+
 def metric_key(rows: Sequence[dict[str, Any]], prefix: str) -> str | None:
     """The first column of the rows that starts with ``prefix`` (a metric and its variant)."""
     for row in rows:
@@ -125,8 +144,14 @@ def outcome_bars(rows: Sequence[dict[str, Any]]):
 
 
 def side_bars(rows: Sequence[dict[str, Any]]):
-    """M_VI: left / right / unlabelled / failed % per single-human scenario and policy; None without any."""
-    side_rows = [r for r in rows if r.get("side") is not None]
+    """M_VI: left / right / unlabelled / failed % per single-human scenario and policy; None without any.
+
+    The one-human encounters among the multi-human scenarios (francis2023's frontal approach and narrow
+    hallway) are counted too, from their rows' M_VI values (invisible pass), as their summaries are.
+    """
+    # the bars' four groups: never level, started past and undetermined are the unlabelled cases
+    side_rows = [{**r, "side": side if side in SIDE_COLOURS else "unlabelled"}
+                 for r in rows if (side := _side_case(r)) is not None and side != "not_applicable"]
     if not side_rows:
         return None
     scenarios = _order(r["scenario"] for r in side_rows)

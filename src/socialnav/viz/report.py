@@ -120,7 +120,8 @@ def _figures(
     made = [("outcomes", "Outcomes per scenario and policy", outcome_bars(rows))]
     side = side_bars(rows)
     if side is not None:
-        made.append(("side_preference", "M_VI side preference per single-human scenario", side))
+        made.append(("side_preference", "M_VI side preference per single-human scenario (and one-human "
+                     "encounter)", side))
     for prefix, label, visibility in DISTRIBUTION_METRICS:
         key = metric_key(rows, prefix)
         if key is None or not any(r["visibility"] == visibility and r.get("side") is None for r in rows):
