@@ -262,3 +262,26 @@ def test_replay_as_a_subprocess(run_dir):
     )
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
     assert "has indices 0..3, 4..5" in bad.stderr
+
+
+def test_replay_from_another_directory_says_where_a_relative_checkpoint_was_looked_for(
+        tmp_path, monkeypatch, capsys):
+    pytest.importorskip("torch")
+    import shutil
+
+    from socialnav.cli import main
+    from socialnav.policies.loading import shipped_checkpoint
+
+    (tmp_path / "work" / "ck").mkdir(parents=True)
+    shutil.copy(shipped_checkpoint("sarl", "wang2022"), tmp_path / "work" / "ck" / "sarl.pt")
+    monkeypatch.chdir(tmp_path / "work")
+    argv = ["evaluate", "--policy", "sarl", "--checkpoint", "ck/sarl.pt", "--scenario", "circle_crossing",
+            "--episodes", "1", "--visibility", "invisible", "--out", str(tmp_path / "run"), "--quiet"]
+    assert main(argv) == 0
+    episode = ["replay", str(tmp_path / "run"), "--episode", "circle_crossing/invisible/0", "--quiet"]
+    assert main(episode) == 0  # from the directory the run was started in
+    monkeypatch.chdir(tmp_path)
+    assert main(episode) == 2
+    err = capsys.readouterr().err
+    assert "the policy's checkpoint ck/sarl.pt does not exist (looked for from" in err
+    assert "relative to the directory it was started from; replay from that directory" in err

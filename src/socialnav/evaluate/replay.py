@@ -64,7 +64,8 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     if entry.learned:
         checkpoint = desc.get("checkpoint") or manifest.get("checkpoint")
         if checkpoint and not Path(checkpoint).is_file():
-            raise ResultsError(f"manifest.json: the policy's checkpoint {checkpoint} does not exist")
+            raise ResultsError(f"manifest.json: the policy's checkpoint {checkpoint} does not exist"
+                               + _relative_hint(checkpoint))
         # The recorded settings the policy takes (information, planning depth and width, scorer for the
         # value-based ones; deterministic for PPO); the device is not recorded and changes no decision.
         params = {k: desc[k] for k in entry.parameters if k in desc and k != "device"}
@@ -118,7 +119,8 @@ def _rebuild_sb3(desc: dict[str, Any], preset: Any) -> Any:
 
     model = desc.get("model", "")
     if not Path(model).is_file():
-        raise ResultsError(f"manifest.json: the policy's model file {model} does not exist")
+        raise ResultsError(f"manifest.json: the policy's model file {model} does not exist"
+                           + _relative_hint(model))
     allow = bool(desc.get("preset_mismatch_allowed"))
     policy = build_policy(
         desc["policy"], preset, None, allow_preset_mismatch=allow, algo=desc.get("algorithm"),
@@ -135,6 +137,14 @@ def _rebuild_sb3(desc: dict[str, Any], preset: Any) -> Any:
             f"manifest.json: cannot rebuild the recorded policy {desc}; this installation builds {rebuilt}"
         )
     return policy
+
+
+def _relative_hint(path: str) -> str:
+    """Where a path recorded as typed (relative) is looked for, and how to replay it."""
+    if Path(path).is_absolute():
+        return ""
+    return (f" (looked for from {Path.cwd()}: the run recorded the path as typed, relative to the directory "
+            "it was started from; replay from that directory)")
 
 
 def json_norm(value: Any) -> Any:
