@@ -308,3 +308,22 @@ def test_a_checkpoint_that_records_no_world_is_evaluated_with_a_warning(tmp_path
     trained = str(shipped_checkpoint("sarl", "wang2022"))
     assert main([*argv, "--checkpoint", trained, "--out", str(tmp_path / "b")]) == 0
     assert "records no training world" not in capsys.readouterr().err
+
+
+def test_the_same_checkpoint_under_another_path_string_is_refused_with_the_way_to_resume(
+        tmp_path, monkeypatch, capsys):
+    pytest.importorskip("torch")
+    import shutil
+
+    from socialnav.policies.loading import shipped_checkpoint
+
+    shutil.copy(shipped_checkpoint("sarl", "wang2022"), tmp_path / "sarl.pt")
+    monkeypatch.chdir(tmp_path)
+    argv = ["evaluate", "--policy", "sarl", "--scenario", "circle_crossing", "--episodes", "1",
+            "--visibility", "invisible", "--out", str(tmp_path / "o"), "--quiet"]
+    assert main([*argv, "--checkpoint", "sarl.pt"]) == 0
+    assert main([*argv, "--checkpoint", str(tmp_path / "sarl.pt")]) == 2
+    err = capsys.readouterr().err
+    assert ("or resume it: the checkpoint is the same file (SHA-256 equal) given as another path; give "
+            "--checkpoint sarl.pt as the run did") in err
+    assert main([*argv, "--checkpoint", "sarl.pt"]) == 0  # as said

@@ -180,7 +180,7 @@ def check_or_write_manifest(out: Path, manifest: dict) -> None:
                                "resume")
             raise ResumeMismatchError(
                 f"{out} holds results of a different run (differs in: {differences}); "
-                "use another --out directory or delete it"
+                "use another --out directory or delete it" + _same_checkpoint_hint(previous, manifest)
             )
     atomic_write_json(path, manifest)
 
@@ -235,6 +235,20 @@ def _cell_names(manifest: dict) -> str:
     if not isinstance(cells, list):
         return "?"
     return ", ".join(f"{c.get('scenario')}/{c.get('visibility')}" for c in cells if isinstance(c, dict))
+
+
+def _same_checkpoint_hint(previous: dict, manifest: dict) -> str:
+    """Where only the checkpoint's path string differs and its content is the same: how to resume."""
+    def without_paths(m: dict) -> dict:
+        policy = {k: v for k, v in (m.get("policy") or {}).items() if k != "checkpoint"}
+        return {**{k: v for k, v in run_identity(m).items() if k != "checkpoint"}, "policy": policy}
+
+    same_file = previous.get("checkpoint_sha256") and previous.get("checkpoint_sha256") == manifest.get(
+        "checkpoint_sha256")
+    if not same_file or without_paths(previous) != without_paths(manifest):
+        return ""
+    return (f" - or resume it: the checkpoint is the same file (SHA-256 equal) given as another path; give "
+            f"--checkpoint {previous.get('checkpoint')} as the run did")
 
 
 def describe_differences(old: Any, new: Any, limit: int = 6) -> str:
