@@ -150,6 +150,18 @@ def test_evaluate_all_one_directory_resumes_and_refuses_checkpoint(tmp_path, cap
     capsys.readouterr()
     again = json.loads((tmp_path / "timings.json").read_text())["policies"]
     assert again == timings
+    from socialnav.evaluate.multi import default_specs, run_policies
+    from socialnav.presets import load_preset
+
+    resumed = run_policies(default_specs("wang2022")[:2], load_preset("wang2022"), tmp_path,
+                           scenarios=["circle_crossing", "random"], episodes=2, visibility="invisible",
+                           progress=False)
+    assert resumed.timings == {name: timings[name] for name in resumed.timings}  # what the call returns too
+    # among walls the shipped open-floor networks are refused, as with --policy sarl
+    walls = ["evaluate", "--policy", "all", "--scenario", "narrow_hallway", "--episodes", "2",
+             "--out", str(tmp_path / "w"), "--no-progress"]
+    assert main(walls) == 2
+    assert "was trained without walls" in capsys.readouterr().err
     assert main(["evaluate", "--policy", "all", "--checkpoint", "x.pt", "--out", str(tmp_path / "y")]) == 2
     assert "--policy all takes no --checkpoint" in capsys.readouterr().err
     argv = ["evaluate", "--policy", "all", "--policy-arg", "safety_space=0.5", "--out", str(tmp_path / "y")]

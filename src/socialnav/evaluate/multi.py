@@ -117,9 +117,15 @@ def run_policies(
     out = Path(out_dir)
     summary: list[dict[str, Any]] = []
     timings: dict[str, dict[str, float]] = {}
+    kept: dict[str, dict[str, float]] = {}
+    from socialnav.evaluate.plan import preset_for_scenarios
+
+    # each policy is checked against the scenarios this run evaluates, as `evaluate --policy P` checks it
+    # (a checkpoint trained without walls is refused among walls)
+    checked_against = preset_for_scenarios(preset, scenarios)
     for spec in specs:
         t0 = time.perf_counter()
-        policy = build(spec.policy, preset, spec.checkpoint)
+        policy = build(spec.policy, checked_against, spec.checkpoint)
         extra = {"checkpoint": str(spec.checkpoint) if spec.checkpoint else None}
         if spec.checkpoint is not None:
             extra["checkpoint_sha256"] = file_sha256(spec.checkpoint)
@@ -144,13 +150,33 @@ def run_policies(
         if log is not None:
             log(f"{spec.name}: {result.computed_episodes} episodes simulated in {seconds:.1f} s")
         summary.extend(result.summary)
+        kept = _write_timings(out, preset, specs, timings)  # after each policy: an interruption keeps them
     write_reports(out, summary, [], preset)
-    atomic_write_json(
-        out / "timings.json",
-        {"preset": preset.name, "human_model": preset.world.human_model,
-         "policies": _kept_timings(out / "timings.json", timings)},
-    )
-    return MultiResult(out, summary, timings, list(specs))
+    return MultiResult(out, summary, kept, list(specs))
+
+
+def _write_timings(out: Path, preset: Preset, specs: Sequence[PolicySpec],
+                   timings: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+    """Writes ``timings.json`` and returns this call's policies' timings.
+
+    The file holds this call's timings, the earlier ones where this call simulated nothing, and those of
+    the run's policies this call has not reached yet (an interrupted call keeps them).
+    """
+    import json
+
+    path = out / "timings.json"
+    try:
+        previous = json.loads(path.read_text()).get("policies", {})
+    except (OSError, ValueError, AttributeError):
+        previous = {}
+    earlier = {s.name: previous[s.name] for s in specs
+               if isinstance(previous, dict) and isinstance(previous.get(s.name), dict)}
+    kept = {**earlier, **_kept_timings(path, timings)}
+    order = {s.name: i for i, s in enumerate(specs)}
+    kept = dict(sorted(kept.items(), key=lambda item: order[item[0]]))
+    atomic_write_json(path, {"preset": preset.name, "human_model": preset.world.human_model,
+                             "policies": kept})
+    return {name: kept[name] for name in timings}
 
 
 def _kept_timings(path: Path, timings: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
