@@ -156,7 +156,8 @@ def test_evaluate_all_one_directory_resumes_and_refuses_checkpoint(tmp_path, cap
     resumed = run_policies(default_specs("wang2022")[:2], load_preset("wang2022"), tmp_path,
                            scenarios=["circle_crossing", "random"], episodes=2, visibility="invisible",
                            progress=False)
-    assert resumed.timings == {name: timings[name] for name in resumed.timings}  # what the call returns too
+    assert resumed.recorded_timings == {name: timings[name] for name in resumed.timings}  # returned too
+    assert all(t["episodes"] == 0 for t in resumed.timings.values())  # this call's own: nothing simulated
     # among walls the shipped open-floor networks are refused, as with --policy sarl
     walls = ["evaluate", "--policy", "all", "--scenario", "narrow_hallway", "--episodes", "2",
              "--out", str(tmp_path / "w"), "--no-progress"]

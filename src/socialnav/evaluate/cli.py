@@ -120,7 +120,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print(json.dumps(json_safe({
             "preset": PRESET, "out": str(out), "quick": args.quick, "human_models": list(models),
             "rows": rows, "comparison": result.comparison, "ranking": result.ranking,
-            "timings": {hm: run.timings for hm, run in result.runs.items()},
+            "timings": {hm: run.recorded_timings for hm, run in result.runs.items()},
         })))
         return 0
     for text in result.tables.values():

@@ -13,6 +13,7 @@ directory instead of being mixed with results of its predecessor.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -50,13 +51,16 @@ class MultiResult:
     Attributes:
         out_dir: The result directory.
         summary: One summary row per (policy, scenario, visibility) group.
-        timings: Per policy name, ``{"episodes": simulated in this run, "seconds": wall time [s]}``.
+        timings: Per policy name, ``{"episodes": simulated in this call, "seconds": wall time [s]}``.
         specs: The policies evaluated, in order.
+        recorded_timings: Per policy name, what ``timings.json`` records: this call's timing, or the
+            earlier call's where this one simulated nothing (a resume).
     """
     out_dir: Path
     summary: list[dict[str, Any]]
     timings: dict[str, dict[str, float]]  # name -> {"episodes": simulated now, "seconds": wall time}
     specs: list[PolicySpec]
+    recorded_timings: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
 
 
 def default_specs(preset_name: str, learned: bool = True) -> list[PolicySpec]:
@@ -152,7 +156,7 @@ def run_policies(
         summary.extend(result.summary)
         kept = _write_timings(out, preset, specs, timings)  # after each policy: an interruption keeps them
     write_reports(out, summary, [], preset)
-    return MultiResult(out, summary, kept, list(specs))
+    return MultiResult(out, summary, timings, list(specs), kept)
 
 
 def _write_timings(out: Path, preset: Preset, specs: Sequence[PolicySpec],

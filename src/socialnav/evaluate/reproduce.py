@@ -165,7 +165,7 @@ def write_reproduction(
         {"socialnav_version": __version__, "preset": PRESET, "quick": quick, "episodes": episodes,
          "human_models": list(runs),
          "compared_on": main_model, "comparison": json_safe(comparison), "ranking": json_safe(ranking),
-         "timings": {hm: r.timings for hm, r in runs.items()}},
+         "timings": {hm: r.recorded_timings for hm, r in runs.items()}},
     )
     return Reproduction(out, runs, comparison, ranking, {k: v[0] for k, v in tables.items()})
 
