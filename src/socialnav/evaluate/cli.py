@@ -80,7 +80,8 @@ def add_reproduce_parser(sub: argparse._SubParsersAction) -> None:
     rp.add_argument(
         "--episodes", type=int, help="episodes per scenario (default: the protocol's 500; 3 with --quick)"
     )
-    rp.add_argument("--workers", type=int, help="worker processes (default: one per core, at most 4)")
+    rp.add_argument("--workers", type=int,
+                    help="worker processes (default: one per core, at most 4; 0: all in this process)")
     rp.add_argument("--batch-size", type=int, default=256,
                     help="episodes simulated in lockstep (default 256)")
     rp.add_argument("--json", action="store_true", help="print one JSON object last (rows of every summary)")
@@ -102,6 +103,9 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
     if args.episodes is not None and args.episodes < 1:
         raise ValueError(f"--episodes must be >= 1, got {args.episodes}")
+    if args.workers is not None and args.workers < 0:
+        raise ValueError(f"--workers must be >= 0 (0: simulate and score in this process), got "
+                         f"{args.workers}")
     models = HUMAN_MODELS if args.human_model == "both" else (args.human_model,)
     out = Path(args.out or ("runs/reproduce-quick" if args.quick else "runs/reproduce"))
     log = None if args.json else (lambda line: print(line, file=sys.stderr))

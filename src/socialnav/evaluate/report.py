@@ -252,23 +252,25 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
     pooled = table2_rows(summary)
     passes = {r.get("visibility") for r in summary if not single_human(r)}
     if "visible" not in passes:
-        title = ("Table II: pooled over the multi-human scenarios (invisible robot; M_III needs the visible "
-                 "pass, --visibility both)")
+        which = "(invisible robot; M_III needs the visible pass, --visibility both)"
     elif "invisible" not in passes:
-        title = ("Table II: pooled over the multi-human scenarios (visible robot only; M_I, M_II, M_IV, M_V "
-                 "need the invisible pass)")
+        which = "(visible robot only; M_I, M_II, M_IV, M_V need the invisible pass)"
     else:
-        title = "Table II: pooled over the multi-human scenarios (invisible robot; M_III visible)"
-    parts = [_render(title, header, pooled, fmt)] if pooled else []
+        which = "(invisible robot; M_III visible)"
+    title = f"Table II: pooled over the multi-human scenarios {which}"
     scenarios = [
         s
         for s in dict.fromkeys(r["scenario"] for r in summary)
         if s != "pooled" and not any(single_human(r) for r in summary if r["scenario"] == s)
     ]
+    alone = len(scenarios) == 1 and not any(r["scenario"] == "pooled" for r in summary)
+    if alone:  # one multi-human scenario: nothing is pooled; its own table says which passes it has
+        pooled = []
+    parts = [_render(title, header, pooled, fmt)] if pooled else []
     for s in scenarios:
         rows = table2_rows(summary, s)
         if rows:
-            parts.append(_render(f"Table II, {s}", header, rows, fmt))
+            parts.append(_render(f"Table II, {s} {which}" if alone else f"Table II, {s}", header, rows, fmt))
     if notes and parts:
         prefix = "% " if fmt == "tex" else ""
         parts.append("".join(f"{prefix}Note: {n}\n" for n in notes))
@@ -420,6 +422,8 @@ def _render(title: str, header: list[str], rows: list[list[str]], fmt: str) -> s
                 .replace("³", "$^3$")
                 .replace("²", "$^2$")
                 .replace("≥", "$\\geq$")
+                .replace("Δ", "$\\Delta$")
+                .replace("−", "$-$")
                 .replace("–", "--")
             )
 

@@ -1,0 +1,29 @@
+"""Small things of the result tables: LaTeX symbols, one multi-human scenario, bad reproduce options."""
+
+from __future__ import annotations
+
+import pytest
+
+from socialnav.cli import main
+from socialnav.evaluate.report import _render, table2
+
+
+def test_the_comparison_columns_are_valid_latex():
+    tex = _render("t", ["Δ ours − paper", "M_V≥ (s)"], [["−0.5 ± 0.1"]], "tex")
+    assert "$\\Delta$ ours $-$ paper" in tex and "M\\_V$\\geq$ (s)" in tex and "$-$0.5 $\\pm$ 0.1" in tex
+    assert not any(ch in tex for ch in "Δ−±≥")
+
+
+def test_one_multi_human_scenario_is_one_table_by_its_name():
+    row = {"policy": "orca", "scenario": "circle_crossing", "visibility": "invisible", "single_human": False,
+           "episodes": 3, "success_rate": 1.0, "collision_rate": 0.0, "timeout_rate": 0.0}
+    text = table2([row])
+    assert "pooled" not in text and text.count("### Table II") == 1
+    assert "### Table II, circle_crossing (invisible robot; M_III needs the visible pass" in text
+
+
+@pytest.mark.parametrize("workers", ["-2"])
+def test_reproduce_refuses_a_negative_worker_count(tmp_path, capsys, workers):
+    assert main(["reproduce", "--quick", "--workers", workers, "--out", str(tmp_path / "r")]) == 2
+    assert "--workers must be >= 0 (0: simulate and score in this process), got -2" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
