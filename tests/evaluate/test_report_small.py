@@ -27,3 +27,18 @@ def test_reproduce_refuses_a_negative_worker_count(tmp_path, capsys, workers):
     assert main(["reproduce", "--quick", "--workers", workers, "--out", str(tmp_path / "r")]) == 2
     assert "--workers must be >= 0 (0: simulate and score in this process), got -2" in capsys.readouterr().err
     assert not (tmp_path / "r").exists()
+
+
+def test_a_directory_of_another_kind_of_run_is_refused(tmp_path, capsys):
+    # their top-level summary and tables share names: one kind's run overwrote the other's conclusion
+    one = ["evaluate", "--policy", "orca", "--scenario", "circle_crossing", "--episodes", "1", "--quiet"]
+    assert main([*one, "--out", str(tmp_path / "single")]) == 0
+    every = ["evaluate", "--policy", "all", "--scenario", "circle_crossing", "--episodes", "1", "--quiet"]
+    assert main([*every, "--out", str(tmp_path / "single")]) == 2
+    assert ("single holds the results of an evaluation of one policy (manifest.json); this is `evaluate "
+            "--policy all`: use another --out") in capsys.readouterr().err
+    (tmp_path / "several" / "policies").mkdir(parents=True)  # what `evaluate --policy all` leaves
+    assert main([*one, "--out", str(tmp_path / "several")]) == 2
+    assert "several holds the results of `evaluate --policy all` (policies)" in capsys.readouterr().err
+    assert main(["reproduce", "--quick", "--out", str(tmp_path / "single")]) == 2
+    assert "this is `socialnav reproduce`: use another --out" in capsys.readouterr().err

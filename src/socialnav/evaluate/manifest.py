@@ -237,6 +237,31 @@ def _cell_names(manifest: dict) -> str:
     return ", ".join(f"{c.get('scenario')}/{c.get('visibility')}" for c in cells if isinstance(c, dict))
 
 
+#: What marks each kind of result directory: one policy's run, ``evaluate --policy all``'s, a
+#: reproduction's.
+_KIND_MARKS = {"one policy": "manifest.json", "several policies": "policies",
+               "reproduction": "reproduction.json"}
+
+
+def refuse_other_kind(out: Path, kind: str) -> None:
+    """Refuses a result directory that holds another kind of run than ``kind`` (see :data:`_KIND_MARKS`).
+
+    Their top-level files share names (summary.json, table2.md, ...): one kind's run would overwrite the
+    other's conclusion without a word.
+
+    Raises:
+        ResumeMismatchError: ``out`` holds another kind of run, named.
+    """
+    for other, mark in _KIND_MARKS.items():
+        if other != kind and (out / mark).exists():
+            raise ResumeMismatchError(f"{out} holds the results of {_KIND_NAMES[other]} ({mark}); this is "
+                                      f"{_KIND_NAMES[kind]}: use another --out")
+
+
+_KIND_NAMES = {"one policy": "an evaluation of one policy", "several policies": "`evaluate --policy all`",
+               "reproduction": "`socialnav reproduce`"}
+
+
 def _same_checkpoint_hint(previous: dict, manifest: dict) -> str:
     """Where only the checkpoint's path string differs and its content is the same: how to resume."""
     def without_paths(m: dict) -> dict:

@@ -112,6 +112,7 @@ def run_policies(
     Raises:
         ResumeMismatchError: A policy's directory holds a different run's results.
     """
+    from socialnav.evaluate.manifest import refuse_other_kind
     from socialnav.evaluate.runner import run_protocol
     from socialnav.policies.loading import build_policy
 
@@ -119,6 +120,7 @@ def run_policies(
         raise ValueError("no policies to evaluate")
     build = build or build_policy
     out = Path(out_dir)
+    refuse_other_kind(out, "several policies")
     summary: list[dict[str, Any]] = []
     timings: dict[str, dict[str, float]] = {}
     kept: dict[str, dict[str, float]] = {}

@@ -26,6 +26,7 @@ from typing import Any
 
 from socialnav import __version__
 from socialnav._io import atomic_write_json, atomic_write_text, json_safe
+from socialnav.evaluate.manifest import refuse_other_kind
 from socialnav.evaluate.multi import MultiResult, PolicySpec, default_specs, run_policies
 from socialnav.evaluate.paper_tables import (
     BASIC,
@@ -110,6 +111,7 @@ def run_reproduction(
         if hm not in HUMAN_MODELS:
             raise ValueError(f"human model {hm!r}: must be one of {', '.join(HUMAN_MODELS)}")
     out = Path(out_dir)
+    refuse_other_kind(out, "reproduction")
     specs = list(specs) if specs is not None else default_specs(PRESET)
     if quick and episodes is None:
         episodes = QUICK_EPISODES

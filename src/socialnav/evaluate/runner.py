@@ -36,7 +36,7 @@ from socialnav._io import DirectoryLock, make_output_dir
 from socialnav._runtime import one_blas_thread
 from socialnav.evaluate.chunks import ResumeMismatchError, chunk_path, read_chunk, read_episode_rows
 from socialnav.evaluate.execution import compute_chunks, validate_cells
-from socialnav.evaluate.manifest import manifest_stamp, protocol_manifest, resume_directory
+from socialnav.evaluate.manifest import manifest_stamp, protocol_manifest, refuse_other_kind, resume_directory
 from socialnav.evaluate.plan import Cell, multi_human_scenarios, plan_cells
 from socialnav.evaluate.report import mismatch_caveats, render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
@@ -137,6 +137,7 @@ def run_protocol(
     if getattr(policy, "built_for_preset", None) != preset.name:  # build_policy applied them
         _say_preset_policy_settings_unused(manifest["policy"], preset)
     stamp = manifest_stamp(manifest)
+    refuse_other_kind(out, "one policy")
     make_output_dir(out)
     # Worker processes are the parallelism; the bootstrap's small products need one BLAS thread
     # (socialnav/_runtime.py), and spinning BLAS threads would take CPU from the workers.
