@@ -180,7 +180,8 @@ def cmd_evaluate_all(args: argparse.Namespace, write_report: Any = None) -> int:
     for note in sorted({str(w.message) for w in caught}):
         print(f"warning: {note}", file=sys.stderr)
     if write_report is not None:
-        write_report([out / "policies" / s.name for s in specs], out / "report.html", progress=not (quiet or args.no_progress))
+        write_report([out / "policies" / s.name for s in specs], out / "report.html",
+                     progress=not (quiet or args.no_progress))
         if args.quiet:
             print(out / "report.html")  # quiet prints no tables, but the file asked for is named
     if args.json:
