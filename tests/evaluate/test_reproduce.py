@@ -111,6 +111,9 @@ def test_tables_put_the_papers_numbers_beside_ours_with_differences(tmp_path):
     assert ranking["m4"]["kendall_tau_b"] == -1.0
     assert ranking["m4"]["orca_ranking"] == "orca > cadrl"
     assert "Kendall" in (tmp_path / "ranking.md").read_text()
+    # a later run of one human model into the same directory leaves no ranking of the earlier one
+    write_reproduction(tmp_path, {"social_force": runs["social_force"]}, specs)
+    assert not any((tmp_path / f"ranking.{ext}").exists() for ext in ("md", "tex", "json"))
 
 
 def test_wilson_interval_hand_values():

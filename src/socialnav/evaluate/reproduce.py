@@ -162,6 +162,9 @@ def write_reproduction(
             atomic_write_text(out / f"{stem}.tex", tex)
     if ranking:
         atomic_write_json(out / "ranking.json", {"rows": ranking})
+    else:  # a run of one human model: an earlier run's ranking would read as this one's
+        for stale in ("ranking.md", "ranking.tex", "ranking.json"):
+            (out / stale).unlink(missing_ok=True)
     atomic_write_json(
         out / "reproduction.json",
         {"socialnav_version": __version__, "preset": PRESET, "quick": quick, "episodes": episodes,
