@@ -113,6 +113,7 @@ def run_policies(
         ResumeMismatchError: A policy's directory holds a different run's results.
     """
     from socialnav.evaluate.manifest import refuse_other_kind
+    from socialnav.evaluate.plan import preset_for_scenarios
     from socialnav.evaluate.runner import run_protocol
     from socialnav.policies.loading import build_policy
 
@@ -124,8 +125,6 @@ def run_policies(
     summary: list[dict[str, Any]] = []
     timings: dict[str, dict[str, float]] = {}
     kept: dict[str, dict[str, float]] = {}
-    from socialnav.evaluate.plan import preset_for_scenarios
-
     # each policy is checked against the scenarios this run evaluates, as `evaluate --policy P` checks it
     # (a checkpoint trained without walls is refused among walls)
     checked_against = preset_for_scenarios(preset, scenarios)
@@ -163,9 +162,10 @@ def run_policies(
 
 def _write_timings(out: Path, preset: Preset, specs: Sequence[PolicySpec],
                    timings: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
-    """Writes ``timings.json`` and returns this call's policies' timings.
+    """Writes ``timings.json`` and returns this call's policies' timings as it records them.
 
-    The file holds this call's timings, the earlier ones where this call simulated nothing, and those of
+    The file holds this call's timings, the earlier ones where this call simulated nothing (a resume
+    would otherwise record 0 episodes in 0 s for the policies an earlier call evaluated), and those of
     the run's policies this call has not reached yet (an interrupted call keeps them).
     """
     import json
@@ -175,32 +175,18 @@ def _write_timings(out: Path, preset: Preset, specs: Sequence[PolicySpec],
         previous = json.loads(path.read_text()).get("policies", {})
     except (OSError, ValueError, AttributeError):
         previous = {}
-    earlier = {s.name: previous[s.name] for s in specs
-               if isinstance(previous, dict) and isinstance(previous.get(s.name), dict)}
-    kept = {**earlier, **_kept_timings(path, timings)}
-    order = {s.name: i for i, s in enumerate(specs)}
-    kept = dict(sorted(kept.items(), key=lambda item: order[item[0]]))
+    if not isinstance(previous, dict):
+        previous = {}
+    kept = {}
+    for spec in specs:
+        before, now = previous.get(spec.name), timings.get(spec.name)
+        useful = isinstance(before, dict) and before.get("episodes", 0) > 0
+        if now is not None and not (now["episodes"] == 0 and useful):
+            kept[spec.name] = now
+        elif isinstance(before, dict):
+            kept[spec.name] = before
     atomic_write_json(path, {"preset": preset.name, "human_model": preset.world.human_model,
                              "policies": kept})
     return {name: kept[name] for name in timings}
-
-
-def _kept_timings(path: Path, timings: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
-    """This call's timings, but a policy with nothing left to simulate keeps its earlier timing.
-
-    A resume would otherwise record 0 episodes in 0 s for the policies an earlier call evaluated.
-    """
-    import json
-
-    try:
-        previous = json.loads(path.read_text()).get("policies", {})
-    except (OSError, ValueError, AttributeError):
-        previous = {}
-    kept = {}
-    for name, now in timings.items():
-        before = previous.get(name) if isinstance(previous, dict) else None
-        useful = isinstance(before, dict) and before.get("episodes", 0) > 0
-        kept[name] = before if now["episodes"] == 0 and useful else now
-    return kept
 
 
