@@ -277,8 +277,9 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
     return "\n".join(parts)
 
 
-def table3_rows(summary: Sequence[dict[str, Any]]) -> list[list[str]]:
-    """Passing sides per policy and single-human scenario.
+def table3_rows(summary: Sequence[dict[str, Any]],
+                scenarios: Sequence[str] = SIDE_SCENARIOS) -> list[list[str]]:
+    """Passing sides per policy and scenario (default: the single-human sweeps), invisible pass.
 
     Left %, right %, the labelled cases the percentages are of (n) and the episodes that failed (collisions
     ``c`` and timeouts ``t``), which carry no side.
@@ -289,7 +290,7 @@ def table3_rows(summary: Sequence[dict[str, Any]]) -> list[list[str]]:
     for p in policies:
         cells = [p]
         was_run = False
-        for s in SIDE_SCENARIOS:
+        for s in scenarios:
             row = idx.get((p, s, "invisible"))
             was_run = was_run or row is not None
             left = row.get("m6_left_pct") if row else None
@@ -355,7 +356,7 @@ def table3(summary: Sequence[dict[str, Any]], fmt: str = "md") -> str:
                              fmt))
     if encounters:
         header = ["Policy"] + [f"{s} {c}" for s in encounters for c in ("L %", "R %", "n", "failed")]
-        found = encounter_rows(summary, encounters)
+        found = table3_rows(summary, encounters)
         dashes = dashes or any(c == "–" for r in found for c in r[1::4] + r[2::4])
         parts.append(_render("Table III, one-human encounters among the multi-human scenarios: M_VI side "
                              "preference (invisible robot)", header, found, fmt))
@@ -369,23 +370,6 @@ def encounter_scenarios(summary: Sequence[dict[str, Any]]) -> list[str]:
     """The Table II scenarios of a run that have an M_VI reading (one human met head-on, Francis (a), (j))."""
     return list(dict.fromkeys(r["scenario"] for r in summary
                               if r["scenario"] != "pooled" and not single_human(r) and "m6_left_pct" in r))
-
-
-def encounter_rows(summary: Sequence[dict[str, Any]], scenarios: Sequence[str]) -> list[list[str]]:
-    """Per policy: left %, right %, n and failed of each encounter scenario (invisible pass)."""
-    idx = _index(summary)
-    out = []
-    for p in dict.fromkeys(r["policy"] for r in summary):
-        found = [idx.get((p, s, "invisible")) for s in scenarios]
-        if not any(found):
-            continue
-        cells = [p]
-        for row in found:
-            left = row.get("m6_left_pct") if row else None
-            right = row.get("m6_right_pct") if row else None
-            cells += [_num(left), _num(right), _count(row, "m6_n_labelled"), _failures(row)]
-        out.append(cells)
-    return out
 
 
 #: Under Table III: what n and failed count.
