@@ -291,7 +291,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         if key in overrides and overrides[key] != value:
             raise ValueError(f"{flag} {value} and --policy-arg {key}={overrides[key]} disagree; give one "
                              "of them")
-        if ":" not in args.policy and not args.policy.startswith("sb3:"):
+        if ":" not in args.policy:  # a module path's or sb3: model's settings are its own to check
             from socialnav.policies.base import get_policy_entry
 
             if key not in get_policy_entry(args.policy).parameters:

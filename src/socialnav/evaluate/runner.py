@@ -40,7 +40,7 @@ from socialnav.evaluate.manifest import manifest_stamp, protocol_manifest, refus
 from socialnav.evaluate.plan import Cell, multi_human_scenarios, plan_cells
 from socialnav.evaluate.report import mismatch_caveats, render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
-from socialnav.policies.base import Policy
+from socialnav.policies.base import Policy, missing_policy_members
 from socialnav.presets import Preset
 
 __all__ = ["ProtocolResult", "ResumeMismatchError", "conclude_chunks", "run_protocol"]
@@ -114,7 +114,7 @@ def run_protocol(
     """
     from socialnav.presets import load_preset
 
-    missing = [a for a in ("name", "act", "describe") if not hasattr(policy, a)]
+    missing = missing_policy_members(policy)
     if missing:
         raise TypeError(f"policy must have name, act(observation) and describe() "
                         f"(docs/custom_policies.md); a {type(policy).__name__} has no {', '.join(missing)}")

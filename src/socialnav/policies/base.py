@@ -76,6 +76,11 @@ def _plain(value: Any, where: str) -> Any:
                      "data (strings, numbers, booleans, None, lists and dicts of them), which results record")
 
 
+def missing_policy_members(policy: Any) -> list[str]:
+    """Which of ``name``, ``act`` and ``describe`` (the :class:`Policy` protocol) ``policy`` lacks."""
+    return [a for a in ("name", "act", "describe") if not hasattr(policy, a)]
+
+
 class PolicyError(RuntimeError):
     """A policy failed while acting, or returned actions the world cannot take.
 
@@ -202,7 +207,7 @@ def make_policy(name: str, /, **params: Any) -> Policy:
         policy = entry.factory(**params)
     except TypeError as err:  # e.g. a required argument missing: the user's to fix, so no traceback
         raise ValueError(f"policy {name!r} could not be built with {params}: {err}") from None
-    missing = [a for a in ("name", "act", "describe") if not hasattr(policy, a)]
+    missing = missing_policy_members(policy)
     if missing:
         raise ValueError(
             f"policy {name!r} built a {type(policy).__name__} without {', '.join(missing)}: a policy needs "
