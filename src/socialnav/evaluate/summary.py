@@ -102,8 +102,12 @@ def summarize_group(
     return out
 
 
+@functools.lru_cache(maxsize=256)
 def passing_side(scenario: str) -> bool:
-    """Whether ``scenario`` is a one-human encounter whose passing side is defined (M_VI applies)."""
+    """Whether ``scenario`` is a one-human encounter whose passing side is defined (M_VI applies).
+
+    Cached: the report asks it for every episode row.
+    """
     from socialnav.scenarios import get_scenario
 
     try:

@@ -35,19 +35,13 @@ def _side_case(row: dict[str, Any]) -> str | None:
     """A row's M_VI case: its ``side`` (single-human sweeps), computed for a one-human encounter."""
     if row.get("side") is not None:
         return str(row["side"])
-    if row.get("visibility") != "invisible" or not _passing_side(str(row.get("scenario"))):
+    from socialnav.evaluate.summary import passing_side
+
+    if row.get("visibility") != "invisible" or not passing_side(str(row.get("scenario"))):
         return None
     from socialnav.metrics import side_case_of_row
 
     return "failed" if row.get("outcome") != "success" else side_case_of_row(row)
-
-
-def _passing_side(scenario: str, _known: dict[str, bool] = {}) -> bool:  # noqa: B006 (a cache)
-    if scenario not in _known:
-        from socialnav.evaluate.summary import passing_side
-
-        _known[scenario] = passing_side(scenario)
-    return _known[scenario]
 
 
 def metric_key(rows: Sequence[dict[str, Any]], prefix: str) -> str | None:
