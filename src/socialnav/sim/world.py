@@ -242,8 +242,6 @@ class World:
         """
         running = (self.status == _core.STATUS_RUNNING) | (self.status == _core.STATUS_CONTINUING)
         if running.any():
-            import warnings
-
             dropped = self.episode_index[running]
             shown = ", ".join(str(int(i)) for i in dropped[:8]) + (" ..." if dropped.size > 8 else "")
             warnings.warn(f"reset() drops {dropped.size} episode(s) in flight (indices {shown}); they are "
