@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from socialnav.metrics.basic import indicator_outputs
+from socialnav.metrics.basic import indicator_outputs, robot_human_distance
 from socialnav.metrics.registry import register_metric
 from socialnav.trajectory import Trajectory
 
@@ -85,8 +85,8 @@ def wall_collision(traj: Trajectory) -> dict[str, float]:
     simulator); a collision episode without it counts as an obstacle collision when the robot's
     clearance to the map went below zero before (not at the same sample as) it overlapped a person.
     NaN when the outcome is unknown, and on an open floor (no map, and no log saying the robot hit an
-    obstacle), where the rate would be a meaningless 0: the
-    simulator records ``collision_kind`` in every world, walls or not. The ``collision`` rate keeps
+    obstacle), where the rate would be a meaningless 0: the simulator records ``collision_kind`` in
+    every world, walls or not. The ``collision`` rate keeps
     counting every collision; this one is the part of it caused by walls.
     """
     kind = traj.settings.get(COLLISION_KIND_KEY)
@@ -103,11 +103,6 @@ def wall_collision(traj: Trajectory) -> dict[str, float]:
         return {"value": 0.0}
     # The first overlap is the collision, a person's where both come at one sample (the simulator
     # reports a step that hit both as a human collision).
-    first_wall = int(np.argmax(c < 0.0))  # samples 1..K
-    if traj.n_humans:
-        pos, present = traj.positions[1:], traj.presence[1:, 1:]
-        gap = np.linalg.norm(pos[:, 1:] - pos[:, :1], axis=-1) - traj.radii[1:] - traj.radii[0]
-        hit = (present & (gap < 0.0)).any(axis=1)
-        if hit[: first_wall + 1].any():
-            return {"value": 0.0}
-    return {"value": 1.0}
+    first_wall = int(np.argmax(c < 0.0))  # samples 1..K, as robot_human_distance's
+    hit_person = (robot_human_distance(traj, "clearance") < 0.0).any(axis=1)
+    return {"value": 0.0 if hit_person[: first_wall + 1].any() else 1.0}
