@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from socialnav._io import json_safe
 from socialnav.evaluate.plan import Cell, preset_for_scenarios
 from socialnav.presets import Preset
 
@@ -200,7 +201,7 @@ def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int
     )
     settings = dataclasses.replace(settings, threads=threads)
     result = train(str(params["policy"]), job_preset(params), out_dir, settings, progress=False)
-    best = {k: (None if isinstance(v, float) and v != v else v) for k, v in result.best_val.items()}
+    best = json_safe(result.best_val)  # NaN (no validation yet) as None
     return {
         "best_checkpoint": str(result.best_checkpoint),
         "episodes": result.episodes,
@@ -225,7 +226,7 @@ def _train_ppo_job(params: dict[str, Any], out_dir: str, threads: int) -> dict[s
     )
     settings = dataclasses.replace(settings, threads=threads)
     result = train_ppo(job_preset(params), out_dir, settings, progress=False)
-    best = {k: (None if isinstance(v, float) and v != v else v) for k, v in (result.best_val or {}).items()}
+    best = json_safe(result.best_val or {})
     return {
         "best_checkpoint": str(result.best_checkpoint),
         "episodes": result.episodes,
