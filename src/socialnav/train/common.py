@@ -288,7 +288,17 @@ def check_same_run(saved: dict[str, Any], config: dict[str, Any], out: Path) -> 
     Raises:
         ConfigError: the settings differ.
     """
-    diff = resume_diff(saved, config)
+    refuse_other_settings(saved, config, resume_diff(saved, config), out)
+
+
+def refuse_other_settings(saved: dict[str, Any], config: dict[str, Any], diff: list[str], out: Path) -> None:
+    """Refuses a resume where ``diff`` (dotted keys) is not empty, naming each key's two values.
+
+    The one message of both trainers, which decide differently which keys may change.
+
+    Raises:
+        ConfigError: ``diff`` names keys.
+    """
     if diff:
         changes = "; ".join(f"{k}: {dotted(saved, k)!r} -> {dotted(config, k)!r}" for k in diff[:6])
         raise ConfigError(

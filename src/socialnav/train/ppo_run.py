@@ -34,9 +34,9 @@ from socialnav.presets import Preset, load_preset
 from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.train.common import (
     RunFiles,
-    dotted,
     load_optimizer_state,
     load_resume_checkpoint,
+    refuse_other_settings,
     resolve_device,
 )
 from socialnav.train.config import derive_seeds, flat_diff
@@ -179,11 +179,7 @@ def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints |
 
 def _check_resumable(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:
     diff = [k for k in flat_diff(saved, config) if not any(k == f"train.{r}" for r in PPO_RESUMABLE_CHANGES)]
-    if diff:
-        changes = "; ".join(f"{k}: {dotted(saved, k)!r} -> {dotted(config, k)!r}" for k in diff[:6])
-        more = "; ..." if len(diff) > 6 else ""
-        raise ConfigError(f"{out} holds a run with other settings ({changes}{more}); use another --out or "
-                          "the run's own settings (config.yaml)")
+    refuse_other_settings(saved, config, diff, out)
 
 
 def setup_ppo_run(
