@@ -273,6 +273,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         from socialnav.viz import require_viz
 
         require_viz()
+    if args.policy != "all" and args.policy.lower() == "all":
+        raise ValueError(f"unknown policy {args.policy!r} (did you mean 'all': every shipped checkpoint for "
+                         "the preset and the native policies?)")
     if args.policy == "all":
         from socialnav.evaluate.cli import cmd_evaluate_all
         from socialnav.viz.report import write_report
@@ -484,8 +487,10 @@ def cmd_list(args: argparse.Namespace) -> int:
     import importlib.util
 
     without_torch = importlib.util.find_spec("torch") is None
-    print("Policies:" + (" (learned ones need PyTorch, not installed here: pip install 'socialnav[learn]')"
-                         if without_torch else ""))
+    no_torch = " (learned ones need PyTorch, not installed here: pip install 'socialnav[learn]')"
+    print("Policies [settings=default]:" + (no_torch if without_torch else ""))
+    print("  (a learned policy's information and planning settings come from its checkpoint unless given;"
+          " the defaults shown are a new training run's)")
     for p in data["policies"]:
         extra = ", ".join(f"{k}={v}" for k, v in p["parameters"].items())
         print(

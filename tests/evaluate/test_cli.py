@@ -157,3 +157,5 @@ def test_list_prints_each_scenario_parameter_with_its_unit_and_constraint(capsys
     assert ", randomize_attributes=False, " in line  # no unit, no constraint: the default alone
     assert ", random_v_pref_range=(0.5, 1.5) m/s, random_radius_range=(0.3, 0.5) m, " in line
     assert line.endswith(", traffic_area=half_square (one of 'half_square', 'band'), band_width=2.0 m (> 0)")
+    # Learned policies' bracketed settings are registry defaults; the listing says a checkpoint's win.
+    assert "information and planning settings come from its checkpoint unless given" in out

@@ -79,6 +79,11 @@ def test_policy_arguments_reach_a_registered_policy(tmp_path, capsys):
         (["--policy", "orca", "--policy-arg", "safety_space"], "expected KEY=VALUE"),
         (["--policy", "orca", "--policy-arg", "safety_space=[1"], "not valid YAML"),
         (["--policy", "not_registered"], "unknown policy 'not_registered'"),
+        (["--policy", "ORCA"], "unknown policy 'ORCA' (did you mean 'orca'? names are lower case)"),
+        (["--policy", "ALL"], "unknown policy 'ALL' (did you mean 'all': every shipped checkpoint"),
+        (["--policy", "./my_policy.py:Go"], "not a file path: run from '.' (or with it on PYTHONPATH) "
+                                            "with --policy my_policy:Go"),
+        (["--policy", "my_policy.py:Go"], "run from the file's directory with --policy my_policy:Go"),
     ],
 )
 def test_bad_policy_specs_are_one_line_errors(tmp_path, capsys, argv, message):

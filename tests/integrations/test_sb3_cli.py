@@ -106,6 +106,9 @@ def test_mismatched_action_space_kinematics_and_observation_are_refused(model5, 
     assert not (tmp_path / "a").exists()  # refused before anything is written
     code, _, err = evaluate(capsys, "--policy", f"sb3:{tmp_path / 'none.zip'}", *PASSING)
     assert code != 0 and "none.zip does not exist" in err
+    code, _, err = evaluate(capsys, "--policy", f"sb3:{model5.parent}", *PASSING)
+    assert code != 0 and "is a directory; give the model's .zip file (it holds " in err
+    assert model5.name in err
 
 
 def test_discrete_and_unrecorded_models(tmp_path, capsys):

@@ -156,6 +156,10 @@ def load_sb3_policy(
             f"policy {spec}: no parameter(s) {', '.join(unknown)}; valid: {', '.join(PARAMETERS)}"
         )
     _require_sb3(spec)
+    if path.is_dir():
+        found = sorted(p.name for p in path.glob("*.zip"))
+        hint = f" (it holds {', '.join(found[:5])}{' …' if len(found) > 5 else ''})" if found else ""
+        raise SB3ModelError(f"policy {spec}: {path} is a directory; give the model's .zip file{hint}")
     if not path.is_file():
         raise SB3ModelError(f"policy {spec}: model file {path} does not exist")
     data = path.read_bytes()

@@ -180,8 +180,9 @@ def get_policy_entry(name: str) -> PolicyEntry:
         return _entry_from_path(name)
     _load_plugins()
     if name not in _REGISTRY:
+        hint = f" (did you mean {name.lower()!r}? names are lower case)" if name.lower() in _REGISTRY else ""
         raise KeyError(
-            f"unknown policy {name!r}; valid: {', '.join(sorted(_REGISTRY))}, or module.path:ClassName "
+            f"unknown policy {name!r}{hint}; valid: {', '.join(sorted(_REGISTRY))}, or module.path:ClassName "
             f"(see docs/custom_policies.md), or sb3:PATH, a saved Stable-Baselines3 model "
             f"(docs/train_your_own.md)"
         )
@@ -238,6 +239,16 @@ def _entry_from_path(spec: str) -> PolicyEntry:
     module_name, _, attr = spec.partition(":")
     if not module_name or not attr:
         raise ValueError(f"policy {spec!r}: expected module.path:ClassName")
+    if module_name.endswith(".py") or "/" in module_name or os.sep in module_name:
+        # A file path would be recorded in the run's manifest relative to wherever it was typed; a module
+        # name is found again from the same directory or PYTHONPATH, which is what replay and resume need.
+        folder, file = os.path.split(module_name)
+        module = file.removesuffix(".py")
+        where = f"from {folder!r} (or with it on PYTHONPATH)" if folder else "from the file's directory"
+        raise ValueError(
+            f"policy {spec!r}: give a module name, not a file path: run {where} with "
+            f"--policy {module}:{attr or 'ClassName'}"
+        )
     if os.getcwd() not in sys.path and "" not in sys.path:
         sys.path.append(os.getcwd())  # `socialnav evaluate --policy my_policy:X` finds ./my_policy.py
     try:
