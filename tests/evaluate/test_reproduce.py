@@ -99,7 +99,8 @@ def test_tables_put_the_papers_numbers_beside_ours_with_differences(tmp_path):
     assert entry["difference"] == pytest.approx(10.0 - 5.63) and entry["paper_inside_ci"] is False
     # Table I: retrained CADRL compared, original missing -> noted
     t1 = (tmp_path / "table1.md").read_text()
-    assert "no shipped checkpoint (cadrl_circle_wang2022.pt)" in t1 and "| CADRL [Retrained] Δ" in t1
+    assert "no shipped checkpoint (cadrl_circle_wang2022.pt)" in t1 and "| CADRL, retrained Δ" in t1
+    assert "| CADRL, original (ours) | – |" in t1  # the missing checkpoint: its row kept, empty
     # Table III: 25 % of 20 labelled -> Wilson interval, paper 5 % -> +20
     t3 = (tmp_path / "table3.md").read_text()
     low, high = wilson_interval(5, 20)
@@ -173,6 +174,26 @@ def test_evaluate_all_one_directory_resumes_and_refuses_checkpoint(tmp_path, cap
     assert "--policy all takes no --policy-arg (each policy uses its own settings" in capsys.readouterr().err
 
 
+def test_evaluate_all_under_a_preset_without_checkpoints_says_so(tmp_path, capsys):
+    from importlib.resources import files
+
+    text = (files("socialnav.configs") / "wang2022.yaml").read_text()
+    mine = tmp_path / "mine.yaml"
+    mine.write_text(text.replace("name: wang2022", "name: my_wang", 1))
+    argv = ["evaluate", "--policy", "all", "--preset", str(mine), "--scenario", "passing", "--episodes", "1",
+            "--out", str(tmp_path / "out"), "--no-progress", "--no-trajectories"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "note: no checkpoint ships for preset 'my_wang' (checkpoints ship for crowdnav, francis2023, " \
+           "wang2022), so only the native policies run" in err
+    ran = sorted(p.name for p in (tmp_path / "out" / "policies").iterdir())
+    assert ran == ["linear", "orca", "social_force"]
+    shipped = ["evaluate", "--policy", "all", "--scenario", "passing", "--episodes", "1", "--out",
+               str(tmp_path / "shipped"), "--no-progress", "--no-trajectories"]
+    assert main(shipped) == 0  # wang2022: its checkpoints run, no note
+    assert "no checkpoint ships" not in capsys.readouterr().err
+
+
 def test_evaluate_all_honours_quiet_no_trajectories_and_report(tmp_path, capsys):
     pytest.importorskip("matplotlib")
     argv = ["evaluate", "--policy", "all", "--scenario", "passing", "--episodes", "2", "--out", str(tmp_path),
@@ -241,4 +262,5 @@ def test_table3_keeps_a_policy_that_never_succeeded_on_the_single_human_scenario
     write_reproduction(tmp_path, {"orca": run}, specs)
     t3 = (tmp_path / "table3.md").read_text()
     assert "| Stuck (ours) | – n=0 | – n=0 |" in t3  # run, no labelled success: kept, not dropped
+    assert "– n=0: no labelled case (no success, or no success that passed the human on a side)" in t3
     assert "MultiOnly" not in t3  # never run on a single-human scenario: no row

@@ -169,6 +169,13 @@ def cmd_evaluate_all(args: argparse.Namespace, write_report: Any = None) -> int:
     specs = default_specs(preset.name)
     out = Path(args.out or f"runs/evaluate/{preset.name}-all")
     quiet = args.json or args.quiet
+    if not any(s.checkpoint for s in specs) and not quiet:
+        from socialnav.policies.loading import shipped_checkpoints
+
+        shipped = sorted({e.preset for e in shipped_checkpoints()})
+        print(f"note: no checkpoint ships for preset {preset.name!r} (checkpoints ship for "
+              f"{', '.join(shipped) or 'no preset'}), so only the native policies run; evaluate a learned "
+              "policy with --policy P --checkpoint FILE", file=sys.stderr)
     log = None if quiet else (lambda line: print(line, file=sys.stderr))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

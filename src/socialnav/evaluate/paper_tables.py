@@ -230,14 +230,13 @@ def table1(summary, specs, paper, comparison, notes) -> tuple[str, str]:
             extra.append(f"CADRL {paper_name.lower()}: no shipped checkpoint "
                          f"({'cadrl_circle_wang2022.pt' if variant == 'original' else 'cadrl_wang2022.pt'}).")
             ours = [Value(math.nan)] * len(cols)
-            label = f"CADRL {paper_name.lower()}"
         else:
             row = pooled_row(summary, spec.name, "invisible")
             ours = [our_value(row, c) for c in cols]
-            label = spec.label
             for c, o, pv in zip(cols, ours, p, strict=True):
-                _record(comparison, "I", spec.name, label, paper_name, c, o, pv)
-        rows += _side_by_side(f"{label} [{paper_name}]", ours, p, cols, with_std=False)
+                _record(comparison, "I", spec.name, spec.label, paper_name, c, o, pv)
+        # The paper's row name alone: the checkpoint's label ("CADRL (original)") would say it twice.
+        rows += _side_by_side(f"CADRL, {paper_name.lower()}", ours, p, cols, with_std=False)
     header = ["CADRL", *[c.header for c in cols]]
     return _both("Table I: CADRL trained the original way vs under the protocol (wang2022 test protocol, "
                  "pooled over the multi-human scenarios)", header, rows, [*extra, CI_NOTE])
@@ -343,6 +342,8 @@ def table3(summary, specs, paper, comparison, notes) -> tuple[str, str]:
                          *[_diff_cell(_diff(o, pv), 0) for o, pv in zip(ours, p, strict=True)]])
     table_notes = [
         "ours: % of labelled successful single-human cases [95 % Wilson score interval] n = labelled cases",
+        *(["– n=0: no labelled case (no success, or no success that passed the human on a side)"]
+          if any(cell.startswith("– n=0") for row in rows for cell in row[1:]) else []),
         "crossing: L = passing behind the human, R = in front of it",
         f"paper: {paper.get('table3_note', '')} OM-SARL is absent from the paper's Table III.",
     ]
