@@ -66,6 +66,23 @@ def test_locked_directory_is_refused_and_lock_dies_with_holder(tmp_path):
     run_protocol(make_policy("orca"), preset, tmp_path, **KW)  # released: runs
 
 
+def test_several_policies_and_reproduce_lock_their_own_directory(tmp_path):
+    from socialnav.evaluate.multi import PolicySpec, run_policies
+    from socialnav.evaluate.reproduce import run_reproduction
+
+    specs = [PolicySpec("orca", "orca", "ORCA")]
+    with DirectoryLock(tmp_path, "evaluation of several policies"):
+        with pytest.raises(DirectoryLockedError, match="in use by another evaluation of several policies"):
+            run_policies(specs, load_preset("crowdnav"), tmp_path, scenarios=["passing"], episodes=1,
+                         progress=False)
+        with pytest.raises(DirectoryLockedError, match="in use by another reproduction"):
+            run_reproduction(tmp_path, specs=specs, episodes=1, progress=False)
+    assert not (tmp_path / "policies").exists()  # refused before any policy ran
+    run_policies(specs, load_preset("crowdnav"), tmp_path, scenarios=["passing"], episodes=1,
+                 progress=False)  # released: runs
+    assert (tmp_path / "policies" / "orca" / "manifest.json").exists()
+
+
 def test_chunk_of_another_configuration_is_refused(tmp_path):
     preset = load_preset("crowdnav")
     run_protocol(make_policy("orca", safety_space=0.0), preset, tmp_path / "a", **KW)

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from socialnav._io import atomic_write_json, file_sha256
+from socialnav._io import DirectoryLock, atomic_write_json, file_sha256
 from socialnav.evaluate.report import write_reports
 from socialnav.presets import Preset
 
@@ -113,8 +113,6 @@ def run_policies(
         ResumeMismatchError: A policy's directory holds a different run's results.
     """
     from socialnav.evaluate.manifest import refuse_other_kind
-    from socialnav.evaluate.plan import preset_for_scenarios
-    from socialnav.evaluate.runner import run_protocol
     from socialnav.policies.loading import build_policy
 
     if not specs:
@@ -122,6 +120,21 @@ def run_policies(
     build = build or build_policy
     out = Path(out_dir)
     refuse_other_kind(out, "several policies")
+    out.mkdir(parents=True, exist_ok=True)
+    # Each policy's directory has its own lock; this one keeps two calls from writing the shared
+    # summary, tables and timings of the same directory at once.
+    with DirectoryLock(out, "evaluation of several policies"):
+        return _run_policies_locked(specs, preset, out, build, log, dict(
+            scenarios=scenarios, episodes=episodes, visibility=visibility, progress=progress,
+            batch_size=batch_size, workers=workers, trajectories=trajectories))
+
+
+def _run_policies_locked(specs: Sequence[PolicySpec], preset: Preset, out: Path, build: Callable[..., Any],
+                         log: Callable[[str], None] | None, options: dict[str, Any]) -> MultiResult:
+    from socialnav.evaluate.plan import preset_for_scenarios
+    from socialnav.evaluate.runner import run_protocol
+
+    scenarios = options["scenarios"]
     summary: list[dict[str, Any]] = []
     timings: dict[str, dict[str, float]] = {}
     kept: dict[str, dict[str, float]] = {}
@@ -141,14 +154,8 @@ def run_policies(
             preset,
             out / "policies" / spec.name,
             label=spec.name,
-            scenarios=scenarios,
-            episodes=episodes,
-            visibility=visibility,
-            progress=progress,
-            batch_size=batch_size,
-            workers=workers,
-            trajectories=trajectories,
             extra_manifest=extra,
+            **options,
         )
         seconds = time.perf_counter() - t0
         timings[spec.name] = {"episodes": result.computed_episodes, "seconds": round(seconds, 3)}

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from socialnav import __version__
-from socialnav._io import atomic_write_json, atomic_write_text, json_safe
+from socialnav._io import DirectoryLock, atomic_write_json, atomic_write_text, json_safe
 from socialnav.evaluate.manifest import refuse_other_kind
 from socialnav.evaluate.multi import MultiResult, PolicySpec, default_specs, run_policies
 from socialnav.evaluate.paper_tables import (
@@ -116,14 +116,16 @@ def run_reproduction(
     if quick and episodes is None:
         episodes = QUICK_EPISODES
     runs = {}
-    for hm in dict.fromkeys(human_models):
-        if log is not None:
-            log(f"human model {hm}:")
-        runs[hm] = run_policies(
-            specs, preset_for(hm), out / hm, episodes=episodes, progress=progress,
-            batch_size=batch_size, workers=workers, log=log,
-        )
-    return write_reproduction(out, runs, specs, quick=quick, episodes=episodes)
+    out.mkdir(parents=True, exist_ok=True)
+    with DirectoryLock(out, "reproduction"):  # the tables and reproduction.json of `out` are shared
+        for hm in dict.fromkeys(human_models):
+            if log is not None:
+                log(f"human model {hm}:")
+            runs[hm] = run_policies(
+                specs, preset_for(hm), out / hm, episodes=episodes, progress=progress,
+                batch_size=batch_size, workers=workers, log=log,
+            )
+        return write_reproduction(out, runs, specs, quick=quick, episodes=episodes)
 
 
 def write_reproduction(
