@@ -162,8 +162,12 @@ def test_resumed_run_equals_an_uninterrupted_one_bit_for_bit(tmp_path):
     whole = train_ppo("wang2022", tmp_path / "whole", s, progress=False, log=lambda _: None)
     first = train_ppo("wang2022", tmp_path / "split", s, progress=False, stop_after=3, log=lambda _: None)
     assert not first.finished and first.updates == 3
-    second = train_ppo("wang2022", tmp_path / "split", s, progress=False, log=lambda _: None)
+    lines: list[str] = []
+    second = train_ppo("wang2022", tmp_path / "split", s, progress=False, log=lines.append)
     assert second.resumed and second.finished and second.updates == 6
+    split = tmp_path / "split"
+    assert lines[:2] == [f"resuming {split} at update 3 ({8 * 8 * 3} env steps)",
+                         f"training crowdnav_pp under preset 'wang2022' on cpu into {split}"]
     a = load_checkpoint(whole.last_checkpoint, "crowdnav_pp", -1)
     b = load_checkpoint(second.last_checkpoint, "crowdnav_pp", -1)
     for key, value in a.model.state_dict().items():

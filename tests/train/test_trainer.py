@@ -209,6 +209,7 @@ def test_damaged_curve_rows_do_not_block_resume(tmp_path, tiny, quick_preset):
     second = train("sarl", quick_preset, out, settings, progress=False, log=lines.append)
     assert second.resumed and second.finished
     assert any("3 damaged row(s) left out" in line for line in lines), lines
+    assert f"training sarl under preset 'crowdnav_quick' on cpu into {out}" in lines  # the device used
     rows = _rows(out / "curves.csv")
     assert all(r["phase"] in ("il", "rl") and r["episode"].isdigit() for r in rows)
     assert not list(out.glob(".*.tmp"))

@@ -274,6 +274,8 @@ def setup_ppo_run(
     import yaml
 
     atomic_write_text(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
+    # config.yaml keeps the device as asked (`auto` resumes anywhere); the log says which one ran.
+    say(f"training {s.policy} under preset {preset.name!r} on {device} into {out}")
     curves = Curves(
         out / "curves.csv",
         None if resumed is None else int(resumed["update"]),
