@@ -1,4 +1,6 @@
-"""Progress bars on stderr for long work (evaluations, sweeps, training), the same everywhere.
+"""Progress bars and warnings on stderr for long work (evaluations, sweeps, training).
+
+Warnings of a command's work are printed once each (:func:`warnings_said_once`).
 
 On a terminal a bar redraws up to ten times a second. Where stderr is a file or a pipe (``nohup``,
 a batch job, CI), every redraw would be appended to the log, a line of it per tenth of a second over a
@@ -8,7 +10,10 @@ own widget.
 
 from __future__ import annotations
 
+import contextlib
 import sys
+import warnings
+from collections.abc import Iterator
 from typing import Any
 
 #: Seconds between redraws where stderr is not a terminal.
@@ -54,3 +59,23 @@ def progress_bar(total: int, initial: int = 0, *, desc: str | None = None, unit:
         maxinterval=max(LOG_INTERVAL, 10.0) if log else 10.0,
         smoothing=0.0 if log else 0.3,
     )
+
+
+@contextlib.contextmanager
+def warnings_said_once(sort: bool = True) -> Iterator[None]:
+    """Collects the warnings of a command's work and prints each distinct one once, as ``warning: …``.
+
+    A warning raised per episode or per task would otherwise fill the terminal (Python's own filter
+    shows it once per code location, hiding different messages from the same line).
+
+    Args:
+        sort: Print in sorted order (True) or in the order first raised.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            yield
+        finally:
+            messages = dict.fromkeys(str(w.message) for w in caught)
+            for note in sorted(messages) if sort else messages:
+                print(f"warning: {note}", file=sys.stderr)

@@ -13,11 +13,11 @@ import argparse
 import json
 import os
 import sys
-import warnings
 from pathlib import Path
 from typing import Any
 
 from socialnav._io import json_safe, load_yaml
+from socialnav._progress import warnings_said_once
 
 USER_ERRORS: tuple[type[BaseException], ...] = (
     ImportError,  # an optional dependency not installed (the extra is named), or no compiled core
@@ -302,14 +302,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                                  f"OM-SARL, RGL, MP-RGL); {args.policy!r} has no {key} setting")
         overrides[key] = value
     # checked against the scenarios this run evaluates (--scenario may name ones outside the preset's)
-    with warnings.catch_warnings(record=True) as building:
-        warnings.simplefilter("always")
+    with warnings_said_once(sort=False):
         policy = build_policy(
             args.policy, preset_for_scenarios(preset, args.scenario), args.checkpoint,
             allow_preset_mismatch=args.allow_preset_mismatch, **overrides,
         )
-    for note in dict.fromkeys(str(w.message) for w in building):
-        print(f"warning: {note}", file=sys.stderr)
     for difference in getattr(policy, "preset_mismatch", []):
         print(f"warning: preset mismatch allowed: {difference}", file=sys.stderr)
     # A module path would make a poor directory name: such policies are labelled by their own name.
@@ -330,8 +327,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         from socialnav._io import file_sha256
 
         extra["checkpoint_sha256"] = file_sha256(args.checkpoint)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with warnings_said_once():  # once per run, not once per episode
         result = run_protocol(
             policy,
             preset,
@@ -345,8 +341,6 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             trajectories=not args.no_trajectories,
             extra_manifest=extra,
         )
-    for note in sorted({str(w.message) for w in caught}):  # once per run, not once per episode
-        print(f"warning: {note}", file=sys.stderr)
     if args.report:
         from socialnav.viz.report import write_report
 

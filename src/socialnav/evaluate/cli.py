@@ -9,9 +9,10 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import warnings
 from pathlib import Path
 from typing import Any
+
+from socialnav._progress import warnings_said_once
 
 
 def add_replay_parser(sub: argparse._SubParsersAction) -> None:
@@ -109,14 +110,11 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     models = HUMAN_MODELS if args.human_model == "both" else (args.human_model,)
     out = Path(args.out or ("runs/reproduce-quick" if args.quick else "runs/reproduce"))
     log = None if args.json else (lambda line: print(line, file=sys.stderr))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with warnings_said_once():
         result = run_reproduction(
             out, human_models=models, quick=args.quick, episodes=args.episodes,
             progress=not args.no_progress, batch_size=args.batch_size, workers=args.workers, log=log,
         )
-    for note in sorted({str(w.message) for w in caught}):
-        print(f"warning: {note}", file=sys.stderr)
     if args.json:
         rows = [
             {"human_model": hm, **row} for hm, run in result.runs.items() for row in run.summary
@@ -177,15 +175,12 @@ def cmd_evaluate_all(args: argparse.Namespace, write_report: Any = None) -> int:
               f"{', '.join(shipped) or 'no preset'}), so only the native policies run; evaluate a learned "
               "policy with --policy P --checkpoint FILE", file=sys.stderr)
     log = None if quiet else (lambda line: print(line, file=sys.stderr))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with warnings_said_once():
         result = run_policies(
             specs, preset, out, scenarios=args.scenario, episodes=args.episodes, visibility=args.visibility,
             progress=not (args.no_progress or quiet), batch_size=args.batch_size, log=log,
             trajectories=not args.no_trajectories,
         )
-    for note in sorted({str(w.message) for w in caught}):
-        print(f"warning: {note}", file=sys.stderr)
     if write_report is not None:
         write_report([out / "policies" / s.name for s in specs], out / "report.html",
                      progress=not (quiet or args.no_progress))

@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import warnings
 from pathlib import Path
+
+from socialnav._progress import warnings_said_once
 
 
 def add_sweep_parser(sub: argparse._SubParsersAction) -> None:
@@ -59,11 +60,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     )
     out = Path(args.out or spec.out or f"runs/sweep/{Path(args.sweep).stem}")
     log = None if (args.json or args.quiet) else (lambda line: print(line, file=sys.stderr))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with warnings_said_once():
         result = run_sweep(spec, out, executor, progress=not (args.quiet or args.json), log=log)
-    for note in sorted({str(w.message) for w in caught}):
-        print(f"warning: {note}", file=sys.stderr)
     if args.json:
         print(
             json.dumps(
