@@ -226,6 +226,35 @@ def test_m3_known_arrival_times_and_robot_censoring() -> None:
     assert aggregated_time(known, cap_s=3.0) == {"time_s": 6.0, "steps": 12.0, "censored": 2.0,
                                                  "unresolved": 0.0}
 
+    # A human present from sample 2 (1 s): a known arrival at 3 s took 2 s, as a detected one would.
+    present = np.ones((9, 2), bool)
+    present[:2, 1] = False
+    late = dataclasses.replace(tr, present=present, arrival_times=np.array([np.nan, 3.0]))
+    assert aggregated_time(late)["time_s"] == 4.0 + (3.0 - 1.0)
+    seen = pos.copy()
+    seen[6:, 1] = goals[1]  # the same arrival at sample 6, detected from the positions instead
+    detected = Trajectory.from_positions(seen, 0.5, radii=0.3, goals=goals, outcome="success",
+                                         present=present)
+    assert aggregated_time(detected)["time_s"] == aggregated_time(late)["time_s"]
+    with pytest.raises(ValueError, match="agent 1 arrives at 0.5 s, before it enters the data at 1 s"):
+        aggregated_time(dataclasses.replace(late, arrival_times=np.array([np.nan, 0.5])))
+
+
+def test_m3_of_a_pedestrian_scene_counts_each_person_from_its_entry(tmp_path) -> None:
+    from socialnav.metrics.comfort import aggregated_time
+
+    # ego 1 walks 0..1.6 s; pedestrian 3 enters at 0.8 s and leaves at 2.0 s: it took 1.2 s
+    rows = ["time,id,x,y"]
+    rows += [f"{0.2 * i:.1f},1,0,{0.25 * i}" for i in range(9)]
+    rows += [f"{0.2 * i:.1f},3,5,{0.3 * i:.1f}" for i in range(4, 11)]
+    path = tmp_path / "peds.csv"
+    path.write_text("\n".join(rows) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AssumedValueWarning)
+        (tr,) = load_trajectories(path, ego=1)
+    assert tr.present is not None and not tr.present[:4, 1].any() and tr.present[4, 1]
+    assert aggregated_time(tr)["time_s"] == pytest.approx(1.6 + (2.0 - 0.8))
+
 
 # ------------------------------------------------------------------------------ outcome checks
 def test_success_label_contradicted_by_geometry_warns(tmp_path) -> None:

@@ -297,7 +297,13 @@ def aggregated_time(traj: Trajectory, cap_s: float = 100.0) -> dict[str, float]:
     first[0] = traj.n_steps  # the robot's time is its episode, successful by contract
     entry = entry_steps(traj)
     known = np.full(traj.n_agents, np.nan) if traj.arrival_times is None else traj.arrival_times / traj.dt
-    took = np.where(np.isfinite(known), known, first - entry)  # steps from entry to arrival
+    # Known arrivals are times since sample 0, as detected ones are samples: both less the entry.
+    early = np.isfinite(known) & (known < entry - 1e-9)
+    if early.any():
+        a = int(np.flatnonzero(early)[0])
+        raise ValueError(f"M_III: agent {a} arrives at {known[a] * traj.dt:g} s, before it enters the "
+                         f"data at {entry[a] * traj.dt:g} s (arrival times are seconds since sample 0)")
+    took = np.where(np.isfinite(known), known, first) - entry  # steps from entry to arrival
     last_step = traj.n_steps + (0 if traj.continuation is None else traj.continuation.shape[0])
     arrived = ~np.isnan(took)
     late = arrived & (took > cap_steps + 1e-9)
