@@ -56,3 +56,25 @@ def test_a_disabled_bar_writes_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
     bar.update(10)
     bar.close()
     assert stream.getvalue() == ""
+
+
+def test_warnings_said_once_prints_each_distinct_warning_once_and_nothing_on_failure(capsys):
+    import warnings
+
+    import pytest
+
+    from socialnav._progress import warnings_said_once
+
+    with warnings_said_once():
+        for _ in range(3):
+            warnings.warn("b: per episode", stacklevel=1)
+        warnings.warn("a: once", stacklevel=1)
+    assert capsys.readouterr().err == "warning: a: once\nwarning: b: per episode\n"
+    with warnings_said_once(sort=False):
+        warnings.warn("z", stacklevel=1)
+        warnings.warn("a", stacklevel=1)
+    assert capsys.readouterr().err == "warning: z\nwarning: a\n"
+    with pytest.raises(ValueError), warnings_said_once():
+        warnings.warn("before the failure", stacklevel=1)
+        raise ValueError("bad input")
+    assert capsys.readouterr().err == ""  # the error alone reaches the user

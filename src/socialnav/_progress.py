@@ -73,9 +73,7 @@ def warnings_said_once(sort: bool = True) -> Iterator[None]:
     """
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        try:
-            yield
-        finally:
-            messages = dict.fromkeys(str(w.message) for w in caught)
-            for note in sorted(messages) if sort else messages:
-                print(f"warning: {note}", file=sys.stderr)
+        yield  # a failure propagates without them: its one-line error is what the user needs then
+    messages = dict.fromkeys(str(w.message) for w in caught)
+    for note in sorted(messages) if sort else messages:
+        print(f"warning: {note}", file=sys.stderr)
