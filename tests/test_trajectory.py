@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -193,6 +194,38 @@ def test_resample_keeps_the_robots_whole_run(tmp_path: Path) -> None:
     assert traj.dt == pytest.approx(0.5) and traj.n_steps * traj.dt == pytest.approx(2.0)
     np.testing.assert_allclose(traj.positions[:, 0, 1], [0.0, 0.5, 1.0, 1.5, 2.0], atol=1e-12)
     np.testing.assert_array_equal(traj.present[:, 1], [True, True, True, False, False])
+
+
+def test_a_requested_step_that_cuts_the_run_short_is_said(tmp_path: Path) -> None:
+    path = _csv(tmp_path, _two_agent_lines([0.0, 0.1, 0.3, 0.4]))
+    with pytest.warns(AssumedValueWarning, match=r"episode 0: the 0.3 s grid ends 0.1 s before the robot's "
+                                                 r"last sample .* leave dt out"):
+        (traj,) = read_trajectories(path, resample=True, dt=0.3)
+    assert traj.n_steps == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_trajectories(path, resample=True, dt=0.2)  # divides the 0.4 s run: nothing to say
+
+
+def test_epoch_timestamps_are_a_regular_grid(tmp_path: Path) -> None:
+    # 10 Hz stamped in epoch seconds with 3 decimals: float64 resolves 2.4e-7 s there, more than 1e-6
+    # of the step, and the samples are regular all the same
+    lines = [HEADER] + [f"0,{1_700_000_000 + 0.1 * k:.3f},{a},{0.1 * k if a == 0 else 2},0,0.3,5,0,1"
+                        for k in range(40) for a in (0, 1)]
+    (traj,) = read_trajectories(_csv(tmp_path, lines))
+    assert traj.dt == 0.1 and traj.n_steps == 39 and "resampled" not in traj.settings
+    assert traj.settings["t0"] == 1_700_000_000.0
+    present = [line for i, line in enumerate(lines) if i == 0 or not (i % 2 == 0 and 10 <= i <= 20)]
+    (masked,) = read_trajectories(_csv(tmp_path, present, "m.csv"))  # a human absent for some samples
+    assert masked.dt == 0.1 and masked.present is not None and (~masked.present[:, 1]).sum() == 6
+
+
+def test_a_sample_the_robot_lacks_names_the_agent_that_has_it(tmp_path: Path) -> None:
+    lines = _two_agent_lines([0.0, 0.25, 0.5])
+    del lines[3]  # the robot's row at 0.25 s
+    lines = [line.replace(",1,2,1,", ",7,2,1,") for line in lines]  # the human is agent 7
+    _expect(_csv(tmp_path, lines), "t", None, "episode 0: agent 7 has a sample at t = 0.25 s where the "
+            "robot (agent 0) has none (its next is at t = 0.5 s)")
 
 
 # ------------------------------------------------------------------------------- bad input

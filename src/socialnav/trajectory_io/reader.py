@@ -25,7 +25,7 @@ from socialnav.trajectory_io.resample import (
     regular_continuation,
     resample_to_grid,
 )
-from socialnav.trajectory_io.schema import DT_RTOL
+from socialnav.trajectory_io.schema import step_from_span, time_tolerance
 from socialnav.trajectory_io.table import TrajectoryTable
 
 
@@ -118,12 +118,13 @@ def _fast_episode(tab: TrajectoryTable, rows: np.ndarray, agents: np.ndarray, ke
         return None
     t_main = t[:n_main, 0]
     steps = np.diff(t_main)
-    dt = float(dt_arg) if dt_arg is not None else float(f"{(t_main[-1] - t_main[0]) / steps.size:.12g}")
-    if not (dt > 0 and (np.abs(steps - dt) <= DT_RTOL * dt).all()):
+    dt = float(dt_arg) if dt_arg is not None else step_from_span(t_main[-1] - t_main[0], steps.size, t_main)
+    if not (dt > 0 and (np.abs(steps - dt) <= time_tolerance(dt, t_main)).all()):
         return None
     if n_main < n_samples:
         expected = t_main[-1] + dt * np.arange(1, n_samples - n_main + 1)
-        if (np.abs(t[n_main:, 0] - expected) > DT_RTOL * dt * np.arange(1, n_samples - n_main + 1)).any():
+        tol = time_tolerance(dt, t[:, 0]) * np.arange(1, n_samples - n_main + 1)
+        if (np.abs(t[n_main:, 0] - expected) > tol).any():
             return None
     per_agent = {}
     for name in ("radius", "gx", "gy", "v_pref", "arrival_t"):
@@ -246,7 +247,7 @@ def _read_episode(
                 raise tab.fail(c, int(arows[main_bad[0]]), "missing or not finite (drop the vx/vy columns "
                                "to derive velocities from positions)")
         per_agent.append({
-            "rows": arows, "t": t, "cont": is_cont,
+            "id": int(a), "rows": arows, "t": t, "cont": is_cont,
             "pos": np.stack([cols["x"][arows], cols["y"][arows]], axis=1), "vel": vel,
             "radius": _constant(tab, "radius", arows), "v_pref": _constant(tab, "v_pref", arows),
             "arrival": _constant(tab, "arrival_t", arows) if "arrival_t" in cols else None,
@@ -284,7 +285,8 @@ def _read_episode(
         if "min_clearance" in cols:
             min_clearance = _min_clearance(tab, robot)
     else:
-        pos, vel, cont, grid_t, present, dt = resample_to_grid(per_agent, dt, fit_step=dt_arg is None)
+        pos, vel, cont, grid_t, present, dt = resample_to_grid(per_agent, dt, fit_step=dt_arg is None,
+                                                               where=f"{tab.path}: episode {key!r}")
         settings["resampled"] = True
     if grid_t[0] != 0.0:
         settings["t0"] = float(grid_t[0])

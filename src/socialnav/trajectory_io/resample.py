@@ -8,12 +8,13 @@ velocities (``vel``, (K, 2) m/s or None when the file has none).
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
 
-from socialnav.trajectory import TrajectoryFormatError
-from socialnav.trajectory_io.schema import DT_RTOL, MAX_RESAMPLED_STEPS
+from socialnav.trajectory import AssumedValueWarning, TrajectoryFormatError
+from socialnav.trajectory_io.schema import DT_RTOL, MAX_RESAMPLED_STEPS, step_from_span, time_tolerance
 from socialnav.trajectory_io.table import TrajectoryTable
 
 
@@ -41,12 +42,10 @@ def check_grid(
         if not np.isfinite(dt) or dt <= 0:
             raise TrajectoryFormatError(f"{tab.path}: dt argument must be > 0, got {dt_arg!r}")
     elif steps.size:
-        # the span over the step count is the least noisy estimate on a regular grid; rounding to 12
-        # significant digits recovers the written dt exactly (k·0.1 written as text is not exact)
-        dt = float(f"{(robot_t[-1] - robot_t[0]) / steps.size:.12g}")
+        dt = step_from_span(robot_t[-1] - robot_t[0], steps.size, robot_t)
     else:
         raise tab.fail("t", int(per_agent[0]["rows"][0]), f"episode {key!r} has one sample: pass dt=")
-    tol = DT_RTOL * dt
+    tol = time_tolerance(dt, robot_t)
     regular = bool(np.all(np.abs(steps - dt) <= tol))
     for p in per_agent[1:]:
         t = p["t"][~p["cont"]]
@@ -72,7 +71,8 @@ def masked_grid(
     if any(np.any(p["cont"]) for p in per_agent):
         return None  # continuation samples need every agent at every sample
     robot_t = per_agent[0]["t"]
-    if robot_t.size < 2 or not np.all(np.abs(np.diff(robot_t) - dt) <= DT_RTOL * dt):
+    tol = time_tolerance(dt, robot_t)
+    if robot_t.size < 2 or not np.all(np.abs(np.diff(robot_t) - dt) <= tol):
         return None
     n = robot_t.size
     pos = np.full((n, len(per_agent), 2), np.nan)
@@ -82,7 +82,8 @@ def masked_grid(
     for a, p in enumerate(per_agent):
         k = (p["t"] - robot_t[0]) / dt
         ki = np.rint(k)
-        if np.any(np.abs(k - ki) > DT_RTOL * np.maximum(1.0, np.abs(k))) or ki.min() < 0 or ki.max() > n - 1:
+        off_grid = np.abs(k - ki) > np.maximum(DT_RTOL * np.abs(k), time_tolerance(dt, p["t"]) / dt)
+        if np.any(off_grid) or ki.min() < 0 or ki.max() > n - 1:
             return None
         ki = ki.astype(np.int64)
         pos[ki, a], present[ki, a] = p["pos"], True
@@ -101,7 +102,7 @@ def grid_error(
     """Describe the first sample that breaks a shared regular grid."""
     robot = per_agent[0]
     robot_t = robot["t"][~robot["cont"]]
-    tol = DT_RTOL * dt
+    tol = time_tolerance(dt, robot_t)
     hint = " (resample it: --resample on the command line, resample=True in Python)"
     steps = np.diff(robot_t)
     ref = float(np.median(steps)) if steps.size else dt  # the typical step, to point at the odd one
@@ -112,17 +113,22 @@ def grid_error(
         if abs(step - ref) > tol:
             return tab.fail("t", int(robot["rows"][i + 1]), f"irregular sampling in episode {key!r}: step "
                             f"{step:g} s, typical step {ref:g} s{hint}")
-    for a, p in enumerate(per_agent[1:], start=1):
+    for p in per_agent[1:]:
         t = p["t"][~p["cont"]]
         n = min(len(t), len(robot_t))
         off = np.flatnonzero(np.abs(t[:n] - robot_t[:n]) > tol)
         if off.size:
             i = int(off[0])
-            return tab.fail("t", int(p["rows"][i]), f"episode {key!r}: agent row {a} at t = {t[i]:g} s, "
-                            f"the robot at t = {robot_t[i]:g} s{hint}")
+            if t[i] < robot_t[i]:
+                what = (f"agent {p['id']} has a sample at t = {t[i]:g} s where the robot (agent 0) has none "
+                        f"(its next is at t = {robot_t[i]:g} s)")
+            else:
+                what = (f"the robot (agent 0) has a sample at t = {robot_t[i]:g} s where agent {p['id']} has "
+                        f"none (its next is at t = {t[i]:g} s)")
+            return tab.fail("t", int(p["rows"][i]), f"episode {key!r}: {what}{hint}")
         if len(t) != len(robot_t):
-            return tab.fail("t", int(p["rows"][n - 1]), f"episode {key!r}: agent row {a} has {len(t)} "
-                            f"samples, the robot {len(robot_t)}{hint}")
+            return tab.fail("t", int(p["rows"][n - 1]), f"episode {key!r}: agent {p['id']} has {len(t)} "
+                            f"samples, the robot (agent 0) {len(robot_t)}{hint}")
     return tab.fail("t", int(robot["rows"][0]), f"irregular sampling in episode {key!r}{hint}")
 
 
@@ -169,13 +175,14 @@ def regular_continuation(
     if n == 0 and not any(np.any(p["cont"]) for p in per_agent):
         return None
     expected = t_end + dt * np.arange(1, n + 1)
-    for a, p in enumerate(per_agent):
+    for p in per_agent:
         t = p["t"][p["cont"]]
         rows = p["rows"][p["cont"]]
         if len(t) != n:
             raise tab.fail("continuation", int(rows[0] if len(rows) else p["rows"][-1]),
-                           f"episode {key!r}: agent row {a} has {len(t)} continuation samples, robot {n}")
-        off = np.flatnonzero(np.abs(t - expected) > DT_RTOL * dt * np.arange(1, n + 1))
+                           f"episode {key!r}: agent {p['id']} has {len(t)} continuation samples, the robot "
+                           f"(agent 0) {n}")
+        off = np.flatnonzero(np.abs(t - expected) > time_tolerance(dt, t) * np.arange(1, n + 1))
         if off.size:
             raise tab.fail("t", int(rows[off[0]]), f"continuation sample at t = {t[off[0]]:g} s, expected "
                            f"{expected[off[0]]:g} s (continuation must continue the grid)")
@@ -200,7 +207,7 @@ def step_fitted_to(span: float, step: float) -> float:
 
 
 def resample_to_grid(
-    per_agent: list[dict[str, Any]], dt: float, fit_step: bool
+    per_agent: list[dict[str, Any]], dt: float, fit_step: bool, where: str = "resampling"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray, np.ndarray | None, float]:
     """Linear interpolation of every agent onto t_0 + k·dt over the robot's time span.
 
@@ -213,6 +220,7 @@ def resample_to_grid(
         per_agent: The episode's agents, robot first.
         dt: The step [s]: the requested one, or the median of the robot's steps.
         fit_step: Whether ``dt`` may be adjusted to end on the robot's last sample.
+        where: The file and episode, for the warning that a requested step cuts the run short.
 
     Returns:
         ``(positions, velocities, continuation or None, grid times, present or None, dt)``; ``present``
@@ -227,11 +235,16 @@ def resample_to_grid(
     if fit_step:
         dt = step_fitted_to(span, dt)
     k = int(np.floor(span / dt + 1e-9))
+    lost = span - k * dt
+    if lost > time_tolerance(dt, main[0][0]):
+        warnings.warn(f"{where}: the {dt:g} s grid ends {lost:.3g} s before the robot's last sample (the "
+                      f"requested step does not divide its {span:g} s run; leave dt out to fit the step to "
+                      "it)", AssumedValueWarning, stacklevel=2)
     if k >= MAX_RESAMPLED_STEPS:
         raise TrajectoryFormatError(f"resampling {span:.6g} s at dt {dt:.6g} s makes {k + 1} samples per "
                                     f"agent, more than the {MAX_RESAMPLED_STEPS} allowed: raise --dt")
     grid = t0 + dt * np.arange(k + 1)
-    tol = DT_RTOL * dt
+    tol = time_tolerance(dt, grid)
     present = np.stack([(grid >= t[0] - tol) & (grid <= t[-1] + tol) for t, _ in main], axis=1)
     present[:, 0] = True
     pos = np.stack([np.stack([np.interp(grid, t, x[:, d]) for d in (0, 1)], -1) for t, x in main], 1)
