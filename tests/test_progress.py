@@ -61,8 +61,6 @@ def test_a_disabled_bar_writes_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_warnings_said_once_prints_each_distinct_warning_once_and_nothing_on_failure(capsys):
     import warnings
 
-    import pytest
-
     from socialnav._progress import warnings_said_once
 
     with warnings_said_once():
