@@ -42,6 +42,19 @@ def test_m1_uses_nearest_human_and_strict_threshold() -> None:
         comfort.personal_space_flags(_traj([robot, far]), distance="surface")
 
 
+def test_a_clearance_of_exactly_eps_is_not_flagged_whatever_its_rounding() -> None:
+    from socialnav.metrics.basic import discomfort
+
+    # 1.2 − 0.5 − 0.5 is 0.19999999999999996 and 0.8 − 0.3 − 0.3 is 0.20000000000000007: both are ε
+    for centre, radius in ((1.2, 0.5), (0.8, 0.3), (0.7, 0.25), (1.0, 0.4)):
+        traj = _traj([[[0, 0]] * 3, [[centre, 0]] * 3], radii=radius)
+        assert comfort.personal_space(traj, eps=0.2)["count"] == 0.0, (centre, radius)
+        assert discomfort(traj, threshold=0.2)["count"] == 0.0, (centre, radius)
+        closer = _traj([[[0, 0]] * 3, [[centre - 1e-6, 0]] * 3], radii=radius)  # a micrometre in: flagged
+        assert comfort.personal_space(closer, eps=0.2)["count"] == 2.0, (centre, radius)
+        assert discomfort(closer, threshold=0.2)["count"] == 2.0, (centre, radius)
+
+
 # ----------------------------------------------------------------------------------------- M_II
 def test_rectangles_touching_intersect_separated_do_not() -> None:
     a = _square(0, 0)

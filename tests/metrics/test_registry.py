@@ -97,6 +97,8 @@ def test_import_is_numpy_only() -> None:
     ({"m3_aggregated_time": {"cap_s": -5}}, ValueError, "parameter cap_s must be a finite number >= 0"),
     ({"m1_personal_space": {"eps": True}}, ValueError, "parameter eps must be a finite number >= 0, got Tr"),
     ({"m2_projected_path": {"tau": float("nan")}}, ValueError, "parameter tau must be a finite number >= 0"),
+    ({"m3_aggregated_time": {"cap_s": 0}}, ValueError, "parameter cap_s must be > 0, got 0"),
+    ({"m2_projected_path": {"tau": 0.0}}, ValueError, "parameter tau must be > 0, got 0.0"),
     ({"m1_personal_space": {"eps": "big"}}, ValueError, "parameter eps must be a finite number >= 0"),
     ({"m1_personal_space": []}, TypeError, r"params\['m1_personal_space'\] must be a dict of parameters or a "
                                            "non-empty list"),

@@ -14,6 +14,11 @@ import numpy as np
 from socialnav.metrics.registry import WANG2022, register_metric
 from socialnav.trajectory import Trajectory
 
+DISTANCE_TOL = 1e-9
+"""Slack [m] below a distance threshold before a sample is flagged (M_I, discomfort): a clearance of
+exactly ε is not a violation, also when its floating-point value lands a rounding below ε
+(1.2 − 0.5 − 0.5 is 0.19999999999999996)."""
+
 __all__ = [
     "collision",
     "discomfort",
@@ -160,7 +165,7 @@ def discomfort(traj: Trajectory, threshold: float = 0.2) -> dict[str, float]:
     Wang et al., ARSO 2022 (arXiv 2202.01045), definition of M_I, which uses samples only.
     """
     c = _clearance_per_step(traj)
-    count = float(np.count_nonzero(c < threshold))
+    count = float(np.count_nonzero(c < threshold - DISTANCE_TOL))
     k = traj.n_steps
     if k == 0:
         return {"count": 0.0, "per_step": float("nan"), "per_s": float("nan")}

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from socialnav.metrics.basic import indicator_outputs, min_over_humans, robot_human_distance
+from socialnav.metrics.basic import DISTANCE_TOL, indicator_outputs, min_over_humans, robot_human_distance
 from socialnav.metrics.registry import JIN2020, WANG2022, register_metric
 from socialnav.trajectory import Trajectory
 
@@ -38,12 +38,13 @@ def personal_space_flags(traj: Trajectory, eps: float = 0.2, distance: str = "cl
     """Samples k = 1..K whose robot–human distance d_k is below ``eps``.
 
     Wang et al., ARSO 2022 (arXiv 2202.01045), definition of M_I: d_k = min_h |p^h_k − p^r_k| − r_h − r_r
-    (``distance="clearance"``) or the centre distance (``"centre"``); flag d_k < ε.
+    (``distance="clearance"``) or the centre distance (``"centre"``); flag d_k < ε (less a rounding's
+    slack, :data:`~socialnav.metrics.basic.DISTANCE_TOL`).
 
     Returns:
         Flags, shape (K,) bool.
     """
-    return min_over_humans(robot_human_distance(traj, distance)) < eps
+    return min_over_humans(robot_human_distance(traj, distance)) < eps - DISTANCE_TOL
 
 
 @register_metric(
@@ -219,6 +220,7 @@ def projected_path_flags(traj: Trajectory, tau: float = 1.0, anchor: str = "rear
     "m2_projected_path", unit="s", direction="lower", outputs=_INDICATOR,
     parameters={"tau": 1.0, "anchor": "rear"}, variants=({"tau": 0.5}, {"tau": 1.0}, {"tau": 2.0}),
     social=True, reference=WANG2022 + ", definition of M_II, Table II; " + JIN2020,
+    positive_parameters=("tau",),
 )
 def projected_path(traj: Trajectory, tau: float = 1.0, anchor: str = "rear") -> dict[str, float]:
     """M_II projected-path intrusion: robot and human velocity rectangles overlap.
@@ -270,6 +272,7 @@ def entry_steps(traj: Trajectory) -> np.ndarray:
     "m3_aggregated_time", unit="s", direction="lower",
     outputs={"time_s": "s", "steps": "steps", "censored": "count", "unresolved": "count"},
     parameters={"cap_s": 100.0}, social=True, reference=WANG2022 + ", definition of M_III, Table II",
+    positive_parameters=("cap_s",),
 )
 def aggregated_time(traj: Trajectory, cap_s: float = 100.0) -> dict[str, float]:
     """M_III aggregated time: robot's navigation time plus each human's first arrival at its goal.

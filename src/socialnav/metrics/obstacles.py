@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from socialnav.metrics.basic import indicator_outputs, robot_human_distance
+from socialnav.metrics.basic import DISTANCE_TOL, indicator_outputs, robot_human_distance
 from socialnav.metrics.registry import register_metric
 from socialnav.trajectory import Trajectory
 
@@ -72,7 +72,7 @@ def obstacle_proximity(traj: Trajectory, threshold: float = 0.2) -> dict[str, fl
     c = obstacle_clearance(traj)
     if c is None:
         return {"duration_s": float("nan"), "count": float("nan"), "fraction": float("nan")}
-    return indicator_outputs(c < threshold, traj.dt)
+    return indicator_outputs(c < threshold - DISTANCE_TOL, traj.dt)
 
 
 @register_metric("wall_collision", unit="1", direction="lower", outputs={"value": "1"},

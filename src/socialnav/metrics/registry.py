@@ -68,6 +68,8 @@ class Metric:
             navigation time) or ``"known_outcome"`` (outcome rates; NaN when the outcome is unknown).
         quiet_parameters: Parameters listed in a key only when they differ from their default
             (parameters added after the metric's keys were published; see the module docstring).
+        positive_parameters: Numeric parameters that must be > 0, not only >= 0 (a zero cap or
+            horizon makes every value 0, silently).
         fn: ``fn(traj, **params) -> {output: value}``.
     """
 
@@ -82,6 +84,7 @@ class Metric:
     social: bool = False
     population: str = "all"
     quiet_parameters: frozenset[str] = frozenset()
+    positive_parameters: frozenset[str] = frozenset()
     fn: MetricFn = field(default=lambda traj: {}, repr=False)
 
     def resolve(self, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -100,6 +103,8 @@ class Metric:
                     not number or not math.isfinite(value) or value < 0):
                 raise ValueError(f"metric {self.name!r}: parameter {key} must be a finite number >= 0, got "
                                  f"{value!r}")
+            if key in self.positive_parameters and not value > 0:
+                raise ValueError(f"metric {self.name!r}: parameter {key} must be > 0, got {value!r}")
         return {**self.parameters, **overrides}
 
     def __call__(self, traj: Any, **params: Any) -> dict[str, float]:
@@ -188,6 +193,7 @@ def register_metric(
     description: str | None = None,
     population: str | None = None,
     quiet_parameters: tuple[str, ...] = (),
+    positive_parameters: tuple[str, ...] = (),
 ) -> Callable[[MetricFn], MetricFn]:
     """Decorator registering ``fn(traj, **params) -> {output: value}`` as a metric.
 
@@ -214,7 +220,8 @@ def register_metric(
             name=name, unit=unit, direction=direction, parameters=dict(parameters or {}),
             description=description or (fn.__doc__ or "").strip().splitlines()[0],
             reference=reference, outputs=dict(outputs), variants=tuple(variants), social=social,
-            population=population, quiet_parameters=frozenset(quiet_parameters), fn=fn,
+            population=population, quiet_parameters=frozenset(quiet_parameters),
+            positive_parameters=frozenset(positive_parameters), fn=fn,
         )
         for variant in metric.variants:
             metric.resolve(variant)  # fail at import time on a misspelt variant parameter
