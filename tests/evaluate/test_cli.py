@@ -37,6 +37,7 @@ def test_evaluate_full_wang2022_protocol_fills_every_table_column(tmp_path, caps
     # the M_V caveat is stated once, in the table's notes, not as a warning on every run
     assert "Note: robot v_pref 1.5 m/s <= v_th 1.5 m/s" in out and "M_V" not in err
     assert (tmp_path / "table2.md").read_text().count("Note: robot v_pref") == 1
+    assert "Note: mean ± standard deviation over episodes, not a confidence interval" in out
     summary = json.loads((tmp_path / "summary.json").read_text())
     pooled = [r for r in summary["rows"] if r["scenario"] == "pooled" and r["visibility"] == "invisible"][0]
     assert pooled["episodes"] == 2000

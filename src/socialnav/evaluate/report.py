@@ -226,6 +226,11 @@ def pooled_coverage(summary: Sequence[dict[str, Any]]) -> dict[str, tuple[str, .
     return out
 
 
+SPREAD_NOTE = ("mean ± standard deviation over episodes, not a confidence interval; Nav. time and M_I–M_V "
+               "over the successful episodes; each mean's 95 % bootstrap confidence interval is in "
+               "summary.json and summary.csv (*.ci_low, *.ci_high)")
+
+
 def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[str] = ()) -> str:
     """Table II (pooled) and one per multi-human scenario; ``notes`` (see :func:`table_notes`) follow.
 
@@ -235,6 +240,7 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
     """
     walls = has_walls(summary)
     notes = [*notes, WALL_COLLISION_NOTE] if walls else list(notes)
+    notes.append(SPREAD_NOTE)
     coverage = pooled_coverage(summary)
     if len(set(coverage.values())) > 1:
         notes.append("the pooled rows are over different scenarios, so they do not compare: "
