@@ -264,6 +264,20 @@ def test_irregular_sampling_names_row(tmp_path: Path) -> None:
     _expect(_csv(tmp_path, _two_agent_lines([0.0, 0.1, 0.2, 0.35, 0.45])), "t", 7, "irregular")
 
 
+def test_negative_radius_or_speed_names_its_row(tmp_path: Path) -> None:
+    lines = _two_agent_lines([0.0, 0.1, 0.2])
+    lines[4] = "0,0.1,1,2,1,-0.3,2,1,1"  # one negative cell: the value is the problem, not its constancy
+    _expect(_csv(tmp_path, lines), "radius", 4, "must be >= 0, got -0.3")
+    lines = [line.replace(",2,1,1", ",2,1,-1") for line in _two_agent_lines([0.0, 0.1])]  # every row
+    _expect(_csv(tmp_path, lines, "v.csv"), "v_pref", 2, "must be >= 0, got -1")
+
+
+def test_a_cell_that_is_not_a_number_names_its_row(tmp_path: Path) -> None:
+    lines = _two_agent_lines([0.0, 0.1, 0.2])
+    lines[5] = "0,0.2,0,0.2,abc,0.3,5,0,1"
+    _expect(_csv(tmp_path, lines), "y", 5, "not numeric")
+
+
 def test_robotless_episode(tmp_path: Path) -> None:
     lines = _two_agent_lines([0.0, 0.1])
     lines += ["7,0.0,1,0,0,0.3,0,0,1", "7,0.1,1,0,0,0.3,0,0,1"]
@@ -273,7 +287,7 @@ def test_robotless_episode(tmp_path: Path) -> None:
 def test_per_agent_constant_and_outcome(tmp_path: Path) -> None:
     lines = _two_agent_lines([0.0, 0.1])
     lines[3] = "0,0.1,0,0.1,0,0.4,5,0,1"  # robot radius changes on data row 3
-    _expect(_csv(tmp_path, lines), "radius", 3, "constant")
+    _expect(_csv(tmp_path, lines), "radius", 3, "value 0.4 differs from 0.3 (row 1); it must be constant")
     lines = [HEADER + ",outcome"] + [line + ",crashed" for line in _two_agent_lines([0.0, 0.1])[1:]]
     _expect(_csv(tmp_path, lines, "o.csv"), "outcome", 1, "crashed")
 
@@ -311,3 +325,15 @@ def test_from_positions_names_radii_of_the_wrong_length() -> None:
     with pytest.raises(ValueError, match=r"radii must be a scalar or one value per agent \(2\), got shape "
                        r"\(3,\)"):
         Trajectory.from_positions(pos, 0.25, radii=[0.3, 0.3, 0.3], goals=pos[-1])
+
+
+def test_nan_positions_without_a_mask_point_to_present() -> None:
+    pos = np.zeros((3, 2, 2))
+    pos[1, 1, 0] = np.nan
+    message = r"positions: non-finite value nan at index \(1, 1, 0\) \(an agent absent at some samples"
+    with pytest.raises(ValueError, match=message):
+        Trajectory.from_positions(pos, 0.25, radii=0.3, goals=np.zeros((2, 2)))
+    present = np.ones((3, 2), bool)
+    present[1, 1] = False
+    masked = Trajectory.from_positions(pos, 0.25, radii=0.3, goals=np.zeros((2, 2)), present=present)
+    assert not masked.present[1, 1]

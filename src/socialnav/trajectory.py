@@ -72,10 +72,10 @@ def _frozen_array(value: Any, name: str, shape: tuple[int | None, ...]) -> np.nd
     return arr
 
 
-def _require_finite(arr: np.ndarray, name: str) -> None:
+def _require_finite(arr: np.ndarray, name: str, hint: str = "") -> None:
     if not np.isfinite(arr).all():
         bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
-        raise ValueError(f"Trajectory.{name}: non-finite value {arr[bad]!r} at index {bad}")
+        raise ValueError(f"Trajectory.{name}: non-finite value {float(arr[bad])} at index {bad}{hint}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,8 +148,9 @@ class Trajectory:
             _require_finite(pos[present], "positions (where present)")
             _require_finite(vel[present], "velocities (where present)")
         else:
-            _require_finite(pos, "positions")
-            _require_finite(vel, "velocities")
+            absent = " (an agent absent at some samples: pass present=, a (K+1, A) mask, with NaN there)"
+            _require_finite(pos, "positions", absent)
+            _require_finite(vel, "velocities", absent)
         set_(self, "present", present)
         set_(self, "positions", pos)
         set_(self, "velocities", vel)

@@ -134,6 +134,8 @@ def _fast_episode(tab: TrajectoryTable, rows: np.ndarray, agents: np.ndarray, ke
         first = v[:1]
         if not ((v == first) | (np.isnan(v) & np.isnan(first))).all():
             return None
+        if name in ("radius", "v_pref") and (v[0] < 0).any():
+            return None  # the general reader names the row
         per_agent[name] = v[0]
     for name in ("role", "outcome", "human_overlaps"):
         if name in cols:
@@ -191,13 +193,27 @@ def _constant(tab: TrajectoryTable, name: str, rows: np.ndarray, *, allow_empty:
     if np.all(empty):
         return None
     ref_i = int(np.flatnonzero(~empty)[0])
+    if name in ("radius", "v_pref"):  # a negative value is the problem, not its being one of two
+        bad = [i for i in np.flatnonzero(~empty) if not float(values[i]) >= 0]
+        if bad:
+            raise tab.fail(name, int(rows[bad[0]]), f"must be >= 0, got {_shown(values[bad[0]])}")
     for i in np.flatnonzero(~empty):
         if values[i] != values[ref_i]:
-            raise tab.fail(name, int(rows[i]), f"value {values[i]!r} differs from {values[ref_i]!r} "
-                           f"(row {rows[ref_i] + 1}); it must be constant per episode/agent")
+            first = f"{_shown(values[ref_i])} (row {tab.file_row(int(rows[ref_i]))})"
+            raise tab.fail(name, int(rows[i]), f"value {_shown(values[i])} differs from {first}; it must be "
+                           "constant per episode/agent")
     if not allow_empty and np.any(empty):
         raise tab.fail(name, int(rows[np.flatnonzero(empty)[0]]), "value missing")
     return values[ref_i]
+
+
+def _shown(value: Any) -> str:
+    """A cell as the file has it: 0.3, not np.float64(0.3)."""
+    if isinstance(value, float | np.floating):
+        return f"{float(value):g}"
+    if isinstance(value, np.integer):
+        return str(int(value))
+    return repr(value)
 
 
 def _read_episode(

@@ -119,7 +119,7 @@ class TrajectoryTable:
                 try:
                     arr = col.cast(pa.float64()).to_numpy()
                 except (pa.ArrowInvalid, pa.ArrowNotImplementedError) as exc:
-                    raise TrajectoryFormatError(f"{path}: column '{name}': not numeric ({exc})") from exc
+                    raise self.fail(name, _first_not_numeric(col), f"not numeric ({exc})") from exc
             elif name in ("agent", "episode") and pa.types.is_integer(col.type) and col.null_count == 0:
                 arr = col.to_numpy()
             elif (pa.types.is_string(col.type) or pa.types.is_large_string(col.type)
@@ -182,6 +182,12 @@ class TrajectoryTable:
         where = f"column '{column}'" + ("" if row_index is None else f", row {row_index + 1}")
         return TrajectoryFormatError(f"{self.path}: {where}: {message}")
 
+    def file_row(self, row_index: int) -> int:
+        """The 1-based row number in the file of this table's row ``row_index`` (as :meth:`fail` names it)."""
+        if self.row_map is not None:
+            row_index = int(self.row_map[row_index])
+        return row_index + 1
+
     def int_column(self, name: str) -> np.ndarray:
         """A column as int64, every value checked.
 
@@ -221,3 +227,15 @@ class TrajectoryTable:
         bad = np.flatnonzero(~np.isfinite(arr))
         if bad.size:
             raise self.fail(name, int(bad[0]), f"value is {arr[bad[0]]} (missing or not finite)")
+
+
+def _first_not_numeric(col: Any) -> int | None:
+    """The row (0-based) of a column's first cell that is not a number, or None if none is found."""
+    for i, value in enumerate(col.to_pylist()):
+        if value is None or isinstance(value, int | float) and not isinstance(value, bool):
+            continue
+        try:
+            float(value)
+        except (TypeError, ValueError):
+            return i
+    return None
