@@ -385,7 +385,8 @@ TABLE3_COUNTS_NOTE = (
 )
 #: Under Table III when a percentage is empty.
 TABLE3_DASH_NOTE = (
-    "Note: – : no successful case of that policy in that scenario (or the scenario was not run)."
+    "Note: – : no labelled successful case of that policy in that scenario (n = 0: no success, or no "
+    "success with a side label, or the scenario was not run)."
 )
 #: The left/right percentage columns of a Table III row.
 TABLE3_PERCENT_COLUMNS = (1, 2, 5, 6, 9, 10)
