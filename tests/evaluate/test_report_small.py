@@ -22,6 +22,22 @@ def test_one_multi_human_scenario_is_one_table_by_its_name():
     assert "### Table II, circle_crossing (invisible robot; M_III needs the visible pass" in text
 
 
+def test_a_visible_only_policy_is_marked_in_a_table_of_the_invisible_robot():
+    def row(policy, visibility, success):
+        return {"policy": policy, "scenario": "circle_crossing", "visibility": visibility,
+                "single_human": False, "episodes": 4, "success_rate": success, "collision_rate": 0.0,
+                "timeout_rate": 1 - success}
+
+    text = table2([row("orca", "invisible", 0.5), row("orca", "visible", 0.75), row("linear", "visible", 1.0)])
+    assert "| orca | 50.00 |" in text  # the invisible pass, as the title says
+    assert "| linear (visible robot only) | 100.00 |" in text
+    assert "Note: a row marked (visible robot only) is of a policy run with a visible robot only" in text
+    alone = table2([row("linear", "visible", 1.0)])  # the title already says visible only: no mark
+    assert "(visible robot only; M_I, M_II, M_IV, M_V need the invisible pass)" in alone.splitlines()[0]
+    assert "| linear | 100.00 |" in alone
+    assert "Note: a row marked" not in alone
+
+
 @pytest.mark.parametrize("workers", ["-2"])
 def test_reproduce_refuses_a_negative_worker_count(tmp_path, capsys, workers):
     assert main(["reproduce", "--quick", "--workers", workers, "--out", str(tmp_path / "r")]) == 2

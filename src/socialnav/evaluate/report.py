@@ -175,11 +175,17 @@ def single_human(row: dict[str, Any]) -> bool:
     return bool(row["single_human"]) if "single_human" in row else "m6_left_pct" in row
 
 
+#: After a Table II row of a policy evaluated with a visible robot only, in a table of the invisible one.
+VISIBLE_ONLY_MARK = "(visible robot only)"
+
+
 def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> list[list[str]]:
     """Table II's rows (one per policy and visibility) for ``scenario`` (default: pooled)."""
     idx = _index(summary)
     walls = has_walls(summary)
     policies = list(dict.fromkeys(r["policy"] for r in summary))
+    # Where the table is of the invisible robot, a policy run with a visible robot only says so in its row.
+    invisible_table = any(r.get("visibility") == "invisible" and not single_human(r) for r in summary)
     out = []
     for p in policies:
         # a run of a single multi-human scenario has no pooled row: its scenario's row is its pooled one
@@ -193,7 +199,7 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
         if base is None:
             continue
         cells = [
-            p,
+            f"{p} {VISIBLE_ONLY_MARK}" if inv is None and invisible_table else p,
             _pct(base.get("success_rate")),
             _pct(base.get("collision_rate")),
             *([_pct(base.get("wall_collision_rate"))] if walls else []),
@@ -273,10 +279,16 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
     if alone:  # one multi-human scenario: nothing is pooled; its own table says which passes it has
         pooled = []
     parts = [_render(title, header, pooled, fmt)] if pooled else []
+    marked = any(VISIBLE_ONLY_MARK in r[0] for r in pooled)
     for s in scenarios:
         rows = table2_rows(summary, s)
+        marked = marked or any(VISIBLE_ONLY_MARK in r[0] for r in rows)
         if rows:
             parts.append(_render(f"Table II, {s} {which}" if alone else f"Table II, {s}", header, rows, fmt))
+    if marked:
+        notes.append(f"a row marked {VISIBLE_ONLY_MARK} is of a policy run with a visible robot only: its "
+                     "outcomes and Nav. time are the visible robot's, and M_I, M_II, M_IV, M_V (invisible "
+                     "pass) are empty")
     if notes and parts:
         prefix = "% " if fmt == "tex" else ""
         parts.append("".join(f"{prefix}Note: {n}\n" for n in notes))
