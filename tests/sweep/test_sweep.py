@@ -523,6 +523,39 @@ def test_training_then_evaluating_its_checkpoint(tmp_path):
     manifest = json.loads((tmp_path / "out/evaluate/sarl-s3/manifest.json").read_text())
     assert manifest["checkpoint"] == str(tmp_path / "out/train/sarl-s3/best.pt")
     assert len(episode_rows(tmp_path / "out/evaluate/sarl-s3")) == 4
+    assert (tmp_path / "out/summary.json").is_file()
+    # The training changed: refused on resume. Its evaluation must not run on the earlier best.pt, and
+    # the earlier combined tables, of which no job has rows now, must not stay as this call's.
+    data = yaml.safe_load(path.read_text())
+    data["jobs"][0]["collection_batch"] = 8
+    path.write_text(yaml.safe_dump(data))
+    again = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False)
+    assert again.jobs["train/sarl-s3"]["status"] == "failed"
+    assert again.jobs["evaluate/sarl-s3"]["status"] == "failed"
+    assert "the training job train/sarl-s3 failed in this call" in again.jobs["evaluate/sarl-s3"]["error"]
+    assert not (tmp_path / "out/summary.json").exists() and not (tmp_path / "out/table2.md").exists()
+
+
+def test_jobs_of_several_presets_say_so_in_the_combined_summary(tmp_path):
+    path = write_sweep(
+        tmp_path,
+        {
+            "defaults": {"episodes": 2, "scenarios": ["circle_crossing"], "visibility": "invisible"},
+            "jobs": [
+                {"kind": "evaluate", "policy": "orca", "preset": "wang2022", "name": "orca-wang"},
+                {"kind": "evaluate", "policy": "orca", "preset": "crowdnav", "name": "orca-crowdnav"},
+            ],
+        },
+    )
+    result = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False)
+    assert result.ok, result.failures
+    summary = json.loads((tmp_path / "out/summary.json").read_text())
+    assert summary["preset"] == "wang2022, crowdnav"
+    assert summary["presets"] == {"orca-wang": "wang2022", "orca-crowdnav": "crowdnav"}
+    assert any(n.startswith("wang2022 (orca-wang): robot v_pref 1.5 m/s") for n in summary["notes"])
+    assert any(n.startswith("crowdnav (orca-crowdnav): robot v_pref 1 m/s") for n in summary["notes"])
+    assert "rows of different presets do not compare: wang2022: orca-wang; crowdnav: orca-crowdnav" in (
+        tmp_path / "out/table2.md").read_text()
 
 
 def test_a_ppo_training_job_then_evaluating_its_checkpoint(tmp_path):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -38,14 +38,29 @@ WALL_COLLISION_NOTE = (
 
 def write_reports(
     out: Path, summary: list[dict[str, Any]], rows: list[dict[str, Any]], preset: Preset,
-    caveats: Sequence[str] = (),
+    caveats: Sequence[str] = (), presets_by_policy: Mapping[str, Preset] | None = None,
 ) -> None:
     """Write summary.json/csv and the Table II/III layouts into ``out``, atomically.
 
-    ``caveats`` (:func:`mismatch_caveats`) are stated above every table.
+    ``caveats`` (:func:`mismatch_caveats`) are stated above every table; ``presets_by_policy`` (a
+    sweep's jobs) gives each policy's own preset where they differ.
     """
-    for name, text in render_reports(summary, preset, caveats).items():
+    for name, text in render_reports(summary, preset, caveats, presets_by_policy).items():
         atomic_write_text(out / name, text)
+
+
+#: The files :func:`write_reports` writes.
+REPORT_FILES = ("summary.json", "summary.csv", "table2.md", "table2.tex", "table3.md", "table3.tex")
+
+
+def remove_reports(out: Path) -> list[str]:
+    """Delete the files :func:`write_reports` wrote into ``out`` (a run with no rows left to report)."""
+    removed = []
+    for name in REPORT_FILES:
+        if (out / name).exists():
+            (out / name).unlink()
+            removed.append(name)
+    return removed
 
 
 def mismatch_caveats(description: dict[str, Any]) -> list[str]:
@@ -67,11 +82,14 @@ def with_caveats(table: str, caveats: Sequence[str], fmt: str = "md") -> str:
 
 
 def render_reports(
-    summary: list[dict[str, Any]], preset: Preset, caveats: Sequence[str] = ()
+    summary: list[dict[str, Any]], preset: Preset, caveats: Sequence[str] = (),
+    presets_by_policy: Mapping[str, Preset] | None = None,
 ) -> dict[str, str]:
     """Render the text of every result file :func:`write_reports` writes, by file name.
 
-    A sweep's worker renders them and the driver, which alone writes results, stores them.
+    A sweep's worker renders them and the driver, which alone writes results, stores them. With
+    ``presets_by_policy`` naming several presets, each preset's notes say which rows they are about
+    and a note says that the rows of different presets do not compare.
     """
     metrics = [
         {
@@ -86,7 +104,19 @@ def render_reports(
         for m in list_metrics()
     ]
     notes = table_notes(preset)
-    document = {"preset": preset.name, "rows": summary, "metrics": metrics, "notes": notes}
+    document: dict[str, Any] = {"preset": preset.name, "rows": summary, "metrics": metrics, "notes": notes}
+    given = dict(presets_by_policy or {})
+    by_name: dict[str, list[str]] = {}
+    for policy, p in given.items():
+        by_name.setdefault(p.name, []).append(policy)
+    if len(by_name) > 1:
+        first = {p.name: p for p in given.values()}
+        notes = [f"{name} ({', '.join(pols)}): {n}" for name, pols in by_name.items()
+                 for n in table_notes(first[name])]
+        which = "; ".join(f"{name}: {', '.join(pols)}" for name, pols in by_name.items())
+        notes.append("the rows come from several presets, whose worlds differ, so rows of different presets "
+                     f"do not compare: {which}")
+        document.update(preset=", ".join(by_name), presets={k: v.name for k, v in given.items()}, notes=notes)
     if caveats:
         document["caveats"] = list(caveats)
     files = {

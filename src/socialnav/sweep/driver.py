@@ -144,10 +144,17 @@ def run_sweep(
         with open(out / "sweep_log.jsonl", "a", encoding="utf-8") as task_log, one_blas_thread():
             _run_training(spec, out, executor, statuses, failures, task_log, say)
             summary = _run_evaluations(spec, out, executor, statuses, failures, task_log, progress, say)
-        if summary:
-            from socialnav.evaluate.report import write_reports
+        from socialnav.evaluate.report import remove_reports, write_reports
 
-            write_reports(out, summary, [], job_preset(spec.evaluate_jobs[0].params))
+        if summary:
+            reported = {r["policy"] for r in summary}
+            presets = {job.name: job_preset(job.params) for job in spec.evaluate_jobs if job.name in reported}
+            first = job_preset(spec.evaluate_jobs[0].params)
+            write_reports(out, summary, [], first, presets_by_policy=presets)
+        else:  # no job has rows: an earlier call's combined tables would be taken for this call's
+            removed = remove_reports(out)
+            if removed:
+                say(f"no evaluation job has results: the earlier combined {', '.join(removed)} removed")
         atomic_write_json(out / "jobs.json", statuses)
         atomic_write_json(out / "failures.json", failures)
     return SweepResult(out, summary, statuses, failures)
@@ -202,7 +209,7 @@ def _run_evaluations(
         for job in spec.evaluate_jobs:
             key = f"evaluate/{job.name}"
             try:
-                ev = _prepare(job, out)
+                ev = _prepare(job, out, statuses)
             except _JobRefused as err:
                 statuses[key] = {"status": "failed", "dir": f"evaluate/{job.name}", "error": str(err)}
                 failures.append({"job": key, "task": key, "error": str(err), "attempts": 0})
@@ -330,11 +337,16 @@ class _JobRefused(Exception):
     """An evaluation job that cannot start (its training failed, its checkpoint is refused …)."""
 
 
-def _prepare(job: Job, out: Path) -> _EvalJob:
+def _prepare(job: Job, out: Path, statuses: dict[str, dict[str, Any]]) -> _EvalJob:
     """Builds the job's policy, writes or checks its manifest and lists the chunks still to compute."""
     checkpoint = job.get("checkpoint")
     if checkpoint is not None and str(checkpoint).startswith(TRAIN_REFERENCE):
-        trained = out / "train" / str(checkpoint)[len(TRAIN_REFERENCE) :] / "best.pt"
+        trainer = str(checkpoint)[len(TRAIN_REFERENCE) :]
+        if statuses.get(f"train/{trainer}", {}).get("status") == "failed":
+            # an earlier call's best.pt may still be there, but it is not this sweep's training
+            raise _JobRefused(f"its checkpoint {checkpoint}: the training job train/{trainer} failed in this "
+                              "call (see failures.json)")
+        trained = out / "train" / trainer / "best.pt"
         if not trained.is_file():
             raise _JobRefused(
                 f"its checkpoint {checkpoint} ({trained}) does not exist: the training job "
