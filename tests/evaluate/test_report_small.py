@@ -28,7 +28,8 @@ def test_a_visible_only_policy_is_marked_in_a_table_of_the_invisible_robot():
                 "single_human": False, "episodes": 4, "success_rate": success, "collision_rate": 0.0,
                 "timeout_rate": 1 - success}
 
-    text = table2([row("orca", "invisible", 0.5), row("orca", "visible", 0.75), row("linear", "visible", 1.0)])
+    rows = [row("orca", "invisible", 0.5), row("orca", "visible", 0.75), row("linear", "visible", 1.0)]
+    text = table2(rows)
     assert "| orca | 50.00 |" in text  # the invisible pass, as the title says
     assert "| linear (visible robot only) | 100.00 |" in text
     assert "Note: a row marked (visible robot only) is of a policy run with a visible robot only" in text
