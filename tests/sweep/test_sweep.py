@@ -138,6 +138,18 @@ def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
         ),
         ({"grid": {"kind": "evaluate", "policy": []}}, r"policy is an empty list"),
         (
+            {"grid": {"kind": "evaluate", "policy": "orca", "scenarios": []}},
+            r"grid\[0\]: scenarios is an empty list; leave the key out to run the preset's scenarios",
+        ),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "orca", "scenarios": ["passing", "passing"]}]},
+            r"jobs\[0\]: scenarios: passing given more than once",
+        ),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "orca", "information": "oracle"}]},
+            r"jobs\[0\]: information applies to the value-based learned policies .* 'orca' has no information",
+        ),
+        (
             {"jobs": [{"kind": "evaluate", "policy": "orca", "policy_args": {"safety_spaec": 0.1}}]},
             r"jobs\[0\]: policy_args: policy 'orca' has no parameter\(s\) safety_spaec; valid: safety_space",
         ),
@@ -534,6 +546,18 @@ def test_training_then_evaluating_its_checkpoint(tmp_path):
     assert again.jobs["evaluate/sarl-s3"]["status"] == "failed"
     assert "the training job train/sarl-s3 failed in this call" in again.jobs["evaluate/sarl-s3"]["error"]
     assert not (tmp_path / "out/summary.json").exists() and not (tmp_path / "out/table2.md").exists()
+
+
+def test_a_checkpoint_of_another_preset_names_the_sweep_key_that_allows_it(tmp_path):
+    pytest.importorskip("torch")
+    from socialnav.policies.loading import shipped_checkpoint
+
+    crowdnav_sarl = str(shipped_checkpoint("sarl", "crowdnav"))
+    path = write_sweep(tmp_path, {"jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": crowdnav_sarl,
+                                            "preset": "wang2022", "episodes": 1, "scenarios": ["passing"]}]})
+    result = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False)
+    error = result.jobs["evaluate/sarl"]["error"]
+    assert "allow_preset_mismatch: true" in error and "--allow-preset-mismatch" not in error
 
 
 def test_jobs_of_several_presets_say_so_in_the_combined_summary(tmp_path):

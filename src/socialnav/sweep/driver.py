@@ -361,7 +361,9 @@ def _prepare(job: Job, out: Path, statuses: dict[str, dict[str, Any]]) -> _EvalJ
         cells = plan_cells(preset, job.get("scenarios"), job.get("episodes"), job.get("visibility"))
         validate_cells(preset, cells, batch_size)
     except (ValueError, KeyError, RuntimeError) as err:
-        raise _JobRefused(err.args[0] if err.args else str(err)) from None
+        message = str(err.args[0] if err.args else err)
+        # the command line's flag is a key of the job here
+        raise _JobRefused(message.replace("--allow-preset-mismatch", "allow_preset_mismatch: true")) from None
     extra: dict[str, Any] = {"checkpoint": checkpoint}
     if checkpoint is not None:
         extra["checkpoint_sha256"] = file_sha256(checkpoint)

@@ -346,17 +346,29 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
     from socialnav.scenarios import get_scenario
 
     params["preset"] = _path_or_name(params["preset"], base)
+    scenarios = params.get("scenarios")
+    if scenarios is not None and len(scenarios) == 0:
+        raise ConfigError(f"{where}: scenarios is an empty list; leave the key out to run the preset's "
+                          "scenarios")
+    repeated = sorted({s for s in scenarios or () if list(scenarios).count(s) > 1})
+    if repeated:
+        raise ConfigError(f"{where}: scenarios: {', '.join(repeated)} given more than once")
     try:
         entry = get_policy_entry(str(params["policy"]))
         preset = load_preset(params["preset"])
-        for scenario in params.get("scenarios") or []:
+        for scenario in scenarios or []:
             get_scenario(scenario)
     except (KeyError, ValueError, ConfigError) as err:
         raise ConfigError(f"{where}: {err.args[0] if err.args else err}") from None
     if kind == "train":
         _check_train_job(entry, params, where, base)
         return
-    _check_policy_args(where, str(params["policy"]), entry, params)
+    name = str(params["policy"])
+    for key in ("information", "planning_depth", "planning_width"):
+        if params.get(key) is not None and ":" not in name and key not in entry.parameters:
+            raise ConfigError(f"{where}: {key} applies to the value-based learned policies (CADRL, LSTM-RL, "
+                              f"SARL, OM-SARL, RGL, MP-RGL); {name!r} has no {key} setting")
+    _check_policy_args(where, name, entry, params)
     checkpoint = params.get("checkpoint")
     if checkpoint is not None:
         if not entry.learned:
