@@ -147,7 +147,7 @@ def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
         ),
         (
             {"jobs": [{"kind": "evaluate", "policy": "orca", "information": "oracle"}]},
-            r"jobs\[0\]: information applies to the value-based learned policies .* 'orca' has no information",
+            r"jobs\[0\]: information applies to the value-based learned policies .* 'orca' has no informat",
         ),
         (
             {"jobs": [{"kind": "evaluate", "policy": "orca", "policy_args": {"safety_spaec": 0.1}}]},
