@@ -276,7 +276,8 @@ def test_a_killed_worker_is_retried_and_results_equal_an_undisturbed_run(tmp_pat
         }
         return run_sweep(parse_sweep(data), tmp_path / out, LocalExecutor(2, retries=2), progress=False)
 
-    faulty = sweep("DiesOnce", "faulty")
+    with pytest.warns(RuntimeWarning, match=r"a worker process died: \d+ task\(s\) in flight are run again"):
+        faulty = sweep("DiesOnce", "faulty")
     assert marker.exists(), "the worker did not die: the test tested nothing"
     clean = sweep("StraightToGoal", "clean")
     assert faulty.ok, faulty.failures
@@ -287,6 +288,7 @@ def test_a_killed_worker_is_retried_and_results_equal_an_undisturbed_run(tmp_pat
     assert len(set(episodes)) == len(episodes) == 24  # invisible + visible, no duplicates
 
 
+@pytest.mark.filterwarnings("ignore:a worker process died")
 @pytest.mark.parametrize("workers", [1, 2])
 def test_local_executor_charges_a_death_to_its_task_only_and_loses_nothing(workers):
     from socialnav.sweep.executors import Task, TaskFailed

@@ -159,6 +159,11 @@ class LocalExecutor:
                             yield task, TaskFailed(_one_line(err), attempts[task.key] + 1)
                         else:
                             yield task, result
+                    if suspects:
+                        warnings.warn(f"a worker process died: {len(suspects)} task(s) in flight are run "
+                                      "again, one at a time, so that a death is charged to the task that "
+                                      "causes it (retries counts the deaths of a task running alone)",
+                                      RuntimeWarning, stacklevel=2)
                     discard_broken_pool(pool)
                     pool = _process_pool(self.workers)
         except BaseException:

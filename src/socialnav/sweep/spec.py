@@ -58,7 +58,7 @@ class SweepSettings(Settings):
     workers: int | None = setting(
         None, "local processes / CPUs of a Ray instance started here (default: one per core)", ge=1
     )
-    retries: int = setting(3, "how often a task whose worker died is run again", ge=0)
+    retries: int = setting(3, "how often a task whose worker died while it ran alone is run again", ge=0)
     address: str | None = setting(None, "an existing Ray cluster's address (HEAD_IP:6379)")
     threads: int = setting(1, "torch and native threads per worker", ge=1)
     defaults: dict[str, Any] = setting(
