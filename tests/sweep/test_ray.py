@@ -169,3 +169,20 @@ def test_jobs_run_on_a_head_and_a_worker_node(tmp_path):
     nodes = {json.loads(x)["where"]["node"] for x in (out / "sweep_log.jsonl").read_text().splitlines()}
     assert len(nodes) == 2, "every chunk ran on one node"
     assert len(episode_rows(out / "evaluate/orca")) == 320
+
+
+def test_an_address_nothing_answers_at_is_refused_before_anything_is_written(tmp_path, capsys):
+    import socket
+
+    from socialnav.cli import main
+
+    with socket.socket() as free:  # a port bound and closed: nothing listens there
+        free.bind(("127.0.0.1", 0))
+        port = free.getsockname()[1]
+    sweep = tmp_path / "s.yaml"
+    sweep.write_text("jobs:\n  - {kind: evaluate, policy: orca, episodes: 1, scenarios: [passing]}\n")
+    out = tmp_path / "out"
+    code = main(["sweep", str(sweep), "--executor", "ray", "--address", f"127.0.0.1:{port}", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and f"--address 127.0.0.1:{port}: no Ray cluster answers there" in err, err
+    assert "Traceback" not in err and not out.exists()

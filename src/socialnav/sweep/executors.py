@@ -354,6 +354,8 @@ def init_ray(address: str | None = None, cpus: int | None = None) -> None:
         address: The cluster's address (None: start an instance here).
         cpus: CPUs of an instance started here (default: all).
     """
+    if address is not None:
+        _check_reachable(address)
     import ray
 
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
@@ -362,6 +364,30 @@ def init_ray(address: str | None = None, cpus: int | None = None) -> None:
         kwargs.update(num_cpus=cpus or (os.cpu_count() or 1), _node_ip_address="127.0.0.1")
         os.environ.setdefault("RAY_worker_niceness", "0")
     ray.init(address=address, **kwargs)
+
+
+def _check_reachable(address: str, timeout_s: float = 10.0) -> None:
+    """Refuses a cluster address nothing answers at, before ``ray.init`` waits on it for minutes.
+
+    ``HOST:PORT`` and ``ray://HOST:PORT`` are probed with one TCP connection; other forms (``auto``)
+    are Ray's to resolve.
+
+    Raises:
+        ConnectionError: Nothing accepts a connection there within ``timeout_s``.
+    """
+    import socket
+
+    host, sep, port = address.removeprefix("ray://").rpartition(":")
+    if not sep or not host or not port.isdigit():
+        return
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s):
+            pass
+    except OSError as err:
+        raise ConnectionError(
+            f"--address {address}: no Ray cluster answers there ({err.strerror or type(err).__name__}); "
+            "start one with `ray start --head` on that machine, or leave --address out to run Ray here"
+        ) from None
 
 
 def _call(fn: Callable[..., Any], payload: Any, *args: Any) -> Any:
@@ -384,11 +410,14 @@ def make_executor(
 
     Raises:
         ValueError: An unknown name, or an address for the local executor.
+        ConnectionError: Nothing answers at ``address``.
     """
     if name == "local":
         if address is not None:
             raise ValueError("--address is for the ray executor (the local one runs on this machine)")
         return LocalExecutor(workers, retries)
     if name == "ray":
+        if address is not None:
+            _check_reachable(address)  # before the sweep writes anything
         return RayExecutor(address, workers, retries)
     raise ValueError(f"executor must be local or ray, got {name!r}")
