@@ -182,7 +182,8 @@ def test_an_address_nothing_answers_at_is_refused_before_anything_is_written(tmp
     sweep = tmp_path / "s.yaml"
     sweep.write_text("jobs:\n  - {kind: evaluate, policy: orca, episodes: 1, scenarios: [passing]}\n")
     out = tmp_path / "out"
-    code = main(["sweep", str(sweep), "--executor", "ray", "--address", f"127.0.0.1:{port}", "--out", str(out)])
+    argv = ["sweep", str(sweep), "--executor", "ray", "--address", f"127.0.0.1:{port}", "--out", str(out)]
+    code = main(argv)
     err = capsys.readouterr().err
     assert code == 2 and f"--address 127.0.0.1:{port}: no Ray cluster answers there" in err, err
     assert "Traceback" not in err and not out.exists()
