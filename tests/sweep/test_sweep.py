@@ -503,7 +503,7 @@ def test_a_killed_driver_resumes_without_recomputing_or_duplicating(tmp_path, si
     assert len({(r["scenario"], r["index"]) for r in rows}) == len(rows) == 400
 
 
-def test_training_then_evaluating_its_checkpoint(tmp_path):
+def test_training_then_evaluating_its_checkpoint(tmp_path, capfd):
     preset = small_preset(tmp_path)
     path = write_sweep(
         tmp_path,
@@ -531,9 +531,12 @@ def test_training_then_evaluating_its_checkpoint(tmp_path):
             ],
         },
     )
-    result = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False)
+    result = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False,
+                       log=lambda _: None)
     assert result.ok, result.failures
     assert result.jobs["train/sarl-s3"]["episodes"] == 8
+    trainer_lines = [line for line in capfd.readouterr().err.splitlines() if "imitation" in line]
+    assert trainer_lines and all(line.startswith("train/sarl-s3: ") for line in trainer_lines)  # whose
     manifest = json.loads((tmp_path / "out/evaluate/sarl-s3/manifest.json").read_text())
     assert manifest["checkpoint"] == str(tmp_path / "out/train/sarl-s3/best.pt")
     assert len(episode_rows(tmp_path / "out/evaluate/sarl-s3")) == 4

@@ -142,7 +142,7 @@ def run_sweep(
         failures: list[dict[str, Any]] = []
         # the workers are the parallelism: the driver's summaries get one BLAS thread (socialnav/_runtime.py)
         with open(out / "sweep_log.jsonl", "a", encoding="utf-8") as task_log, one_blas_thread():
-            _run_training(spec, out, executor, statuses, failures, task_log, say)
+            _run_training(spec, out, executor, statuses, failures, task_log, say, quiet=log is None)
             summary = _run_evaluations(spec, out, executor, statuses, failures, task_log, progress, say)
         from socialnav.evaluate.report import remove_reports, write_reports
 
@@ -170,14 +170,14 @@ def _log_task(task_log, task: Task, result: Any) -> None:
     task_log.flush()
 
 
-def _run_training(spec, out, executor, statuses, failures, task_log, say) -> None:
+def _run_training(spec, out, executor, statuses, failures, task_log, say, quiet: bool = False) -> None:
     tasks = []
     for job in spec.train_jobs:
         run_dir = out / "train" / job.name
         run_dir.parent.mkdir(parents=True, exist_ok=True)
-        tasks.append(
-            Task(f"train/{job.name}", train_job, (job.params, str(run_dir), spec.threads), meta={"job": job})
-        )
+        label = None if quiet else f"train/{job.name}"
+        tasks.append(Task(f"train/{job.name}", train_job, (job.params, str(run_dir), spec.threads, label),
+                          meta={"job": job}))
     if tasks:
         say(f"training: {len(tasks)} job(s) on {executor.name}")
     for task, result in executor.run(tasks):

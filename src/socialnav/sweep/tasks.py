@@ -14,6 +14,7 @@ import socket
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -182,15 +183,21 @@ def conclude_job(
     }
 
 
-def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int) -> dict[str, Any]:
+def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int,
+              label: str | None = None) -> dict[str, Any]:
     """Run (or resume, from ``last.pt``) one training job of a sweep into ``out_dir``.
 
-    ``_payload`` is unused; every task takes one.
+    ``_payload`` is unused; every task takes one. The trainer's lines go to stderr, each starting with
+    ``label`` (the job: several train at once), or nowhere when ``label`` is None (``--quiet``).
     """
     from socialnav.policies.learned_catalog import get_learned_spec
 
+    def log(line: str) -> None:
+        if label is not None:
+            print(f"{label}: {line}", file=sys.stderr, flush=True)
+
     if get_learned_spec(str(params["policy"])).trainer == "ppo":
-        return _train_ppo_job(params, out_dir, threads)
+        return _train_ppo_job(params, out_dir, threads, log)
     from socialnav.train.config import resolve_train_settings
     from socialnav.train.trainer import train
 
@@ -200,7 +207,7 @@ def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int
         **{k: params.get(k) for k in ("seed", "device", "collection_batch", "information", "rl_episodes")},
     )
     settings = dataclasses.replace(settings, threads=threads)
-    result = train(str(params["policy"]), job_preset(params), out_dir, settings, progress=False)
+    result = train(str(params["policy"]), job_preset(params), out_dir, settings, progress=False, log=log)
     best = json_safe(result.best_val)  # NaN (no validation yet) as None
     return {
         "best_checkpoint": str(result.best_checkpoint),
@@ -213,7 +220,8 @@ def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int
     }
 
 
-def _train_ppo_job(params: dict[str, Any], out_dir: str, threads: int) -> dict[str, Any]:
+def _train_ppo_job(params: dict[str, Any], out_dir: str, threads: int,
+                   log: Callable[[str], None]) -> dict[str, Any]:
     """A PPO training job (crowdnav_pp, ppo_mlp), as ``socialnav train`` runs it (docs/ppo.md)."""
     from socialnav.train.ppo import train_ppo
     from socialnav.train.ppo_config import load_ppo_settings
@@ -225,7 +233,7 @@ def _train_ppo_job(params: dict[str, Any], out_dir: str, threads: int) -> dict[s
         total_env_steps=params.get("env_steps"), policy=str(params["policy"]),
     )
     settings = dataclasses.replace(settings, threads=threads)
-    result = train_ppo(job_preset(params), out_dir, settings, progress=False)
+    result = train_ppo(job_preset(params), out_dir, settings, progress=False, log=log)
     best = json_safe(result.best_val or {})
     return {
         "best_checkpoint": str(result.best_checkpoint),
