@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -98,6 +99,13 @@ def test_not_a_result_directory(tmp_path):
         list_episodes(tmp_path / "missing")
     with pytest.raises(ResultsError, match="no manifest.json"):
         list_episodes(tmp_path)
+    for sub, what in (("policies", "`socialnav evaluate --policy all`"), ("evaluate", "a sweep's jobs")):
+        (tmp_path / sub / "job").mkdir(parents=True)
+        (tmp_path / sub / "job" / "manifest.json").write_text("{}")
+        expected = f"holds the runs of {what}: pass them, e.g. `socialnav report {tmp_path}/{sub}/*`"
+        with pytest.raises(ResultsError, match=re.escape(expected)):
+            list_episodes(tmp_path)
+        (tmp_path / sub / "job" / "manifest.json").unlink()
 
 
 def test_metrics_command_reads_a_stored_chunk(run_dir, capsys):

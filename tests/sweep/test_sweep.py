@@ -121,7 +121,7 @@ def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
         ),
         (
             {"grid": {"kind": "evaluate", "policy": ["orca", "orca"]}},
-            r"grid\[0\]\{policy=orca\}.*job name 'orca'",
+            r"grid\[0\]\{policy=orca\}.*job name 'orca' is also the name of another job of the same entry",
         ),
         ({"jobs": [{"kind": "evaluate", "policy": "orca", "preset": "nope"}]}, r"jobs\[0\].*unknown preset"),
         ({"jobs": [{"kind": "evaluate", "policy": "orca", "scenarios": ["nope"]}]}, r"jobs\[0\].*nope"),
@@ -137,6 +137,16 @@ def test_grid_expands_to_named_jobs_with_defaults(tmp_path):
             r"unknown setting.*wokers \(did you mean workers\?\)",
         ),
         ({"grid": {"kind": "evaluate", "policy": []}}, r"policy is an empty list"),
+        ({"jobs": [{"kind": "evaluate"}]}, r"jobs\[0\]: an evaluate job needs policy:"),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "orca", "name": "../../escape"}]},
+            r"job name '../../escape' \(as a directory: '.._.._escape'\) may hold only",
+        ),
+        (
+            {"jobs": [{"kind": "evaluate", "policy": "orca", "policy_args": {"safety_space": 0.1},
+                       "name": "slow-{policy_args}"}]},
+            r"name template 'slow-\{policy_args\}': policy_args is a list or mapping, which a name cannot",
+        ),
         (
             {"grid": {"kind": "evaluate", "policy": "orca", "scenarios": []}},
             r"grid\[0\]: scenarios is an empty list; leave the key out to run the preset's scenarios",
@@ -585,6 +595,14 @@ def test_jobs_of_several_presets_say_so_in_the_combined_summary(tmp_path):
     assert any(n.startswith("crowdnav (orca-crowdnav): robot v_pref 1 m/s") for n in summary["notes"])
     assert "rows of different presets do not compare: wang2022: orca-wang; crowdnav: orca-crowdnav" in (
         tmp_path / "out/table2.md").read_text()
+    data = yaml.safe_load(path.read_text())
+    del data["jobs"][1]  # the grid edited: the other job's directory stays, and the log says so
+    path.write_text(yaml.safe_dump(data))
+    lines: list[str] = []
+    run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False, log=lines.append)
+    assert ("evaluate/{orca-crowdnav}: not jobs of this sweep file, left out of the combined tables"
+            in lines), lines
+    assert json.loads((tmp_path / "out/summary.json").read_text())["preset"] == "wang2022"
 
 
 def test_a_ppo_training_job_then_evaluating_its_checkpoint(tmp_path):

@@ -49,9 +49,9 @@ def load_manifest(results_dir: str | Path) -> dict[str, Any]:
     path = root / "manifest.json"
     if not path.is_file():
         hint = ""
-        if (root / "policies").is_dir() and any((root / "policies").glob("*/manifest.json")):
-            hint = (f"; it holds the runs of `socialnav evaluate --policy all`: pass them, "
-                    f"e.g. `socialnav report {root}/policies/*`")
+        for sub, what in (("policies", "`socialnav evaluate --policy all`"), ("evaluate", "a sweep's jobs")):
+            if (root / sub).is_dir() and any((root / sub).glob("*/manifest.json")):
+                hint = f"; it holds the runs of {what}: pass them, e.g. `socialnav report {root}/{sub}/*`"
         raise ResultsError(f"{root}: not a result directory of `socialnav evaluate` (no manifest.json){hint}")
     try:
         manifest = json.loads(path.read_text())

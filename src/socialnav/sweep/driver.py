@@ -146,6 +146,12 @@ def run_sweep(
             summary = _run_evaluations(spec, out, executor, statuses, failures, task_log, progress, say)
         from socialnav.evaluate.report import remove_reports, write_reports
 
+        names = {job.name for job in spec.evaluate_jobs}
+        others = sorted(d.name for d in (out / "evaluate").glob("*/") if d.is_dir() and d.name not in names)
+        if others:  # e.g. the jobs of an earlier grid: kept, but not this sweep's
+            say(f"evaluate/{{{', '.join(others)}}}: not jobs of this sweep file, left out of the combined "
+                "tables")
+
         if summary:
             reported = {r["policy"] for r in summary}
             presets = {job.name: job_preset(job.params) for job in spec.evaluate_jobs if job.name in reported}

@@ -229,8 +229,10 @@ def parse_sweep(data: Any, source: str = "<sweep>", base: Path | None = None) ->
     for job in jobs:
         key = (job.kind, job.name)
         if key in names:
+            other = ("another job of the same entry (an axis lists a value twice?)" if names[key] == job.where
+                     else names[key])
             raise ConfigError(
-                f"{job.where}: job name {job.name!r} is also the name of {names[key]}; "
+                f"{job.where}: job name {job.name!r} is also the name of {other}; "
                 "give the jobs distinct name: templates"
             )
         names[key] = job.where
@@ -279,7 +281,7 @@ def _make_job(params: dict[str, Any], axes: list[str], where: str, defaults: dic
     # the keys, types and ranges, declared once by the job's settings class
     _JOB_SETTINGS[kind].from_dict(merged, source=where)
     if "policy" not in merged:
-        raise ConfigError(f"{where}: a {kind} job needs policy:")
+        raise ConfigError(f"{where}: {'an' if kind[0] in 'aeiou' else 'a'} {kind} job needs policy:")
     merged.setdefault("preset", "wang2022")
     if kind == "train":
         merged.setdefault("seed", 0)
@@ -287,26 +289,34 @@ def _make_job(params: dict[str, Any], axes: list[str], where: str, defaults: dic
     context = {k: v for k, v in merged.items() if isinstance(v, (str, int, float, bool))}
     merged = {k: (_fill(v, context, where, k) if k == "checkpoint" else v) for k, v in merged.items()}
     if name_template is not None:
-        name = _fill(str(name_template), context, where, "name")
+        name = _fill(str(name_template), context, where, "name", merged)
     else:
         parts = [str(merged["policy"]).rpartition(":")[2]]
         parts += [f"{k}={merged[k]}" for k in axes if k not in ("policy", "kind")]
         if kind == "train" and "seed" not in axes:
             parts.append(f"seed={merged['seed']}")
         name = "-".join(parts)
-    name = name.replace("/", "_")
+    written, name = name, name.replace("/", "_")  # a preset file on an axis names a directory
     if not _NAME_OK.match(name):
-        raise ConfigError(f"{where}: job name {name!r} may hold only letters, digits and _ . = + -")
+        shown = repr(written) if written == name else f"{written!r} (as a directory: {name!r})"
+        raise ConfigError(f"{where}: job name {shown} may hold only letters, digits and _ . = + -")
     _check_job(kind, merged, where, base)
     return Job(kind, name, merged, where)
 
 
-def _fill(value: Any, context: dict[str, Any], where: str, key: str) -> Any:
+def _fill(value: Any, context: dict[str, Any], where: str, key: str,
+          job: dict[str, Any] | None = None) -> Any:
     if not isinstance(value, str) or "{" not in value:
         return value
     try:
         return value.format(**context)
-    except (KeyError, IndexError, ValueError) as err:
+    except KeyError as err:
+        missing = err.args[0] if err.args else ""
+        if job is not None and missing in job:
+            raise ConfigError(f"{where}: {key} template {value!r}: {missing} is a list or mapping, which a "
+                              "name cannot hold; use scalar keys (policy, seed, preset, …)") from None
+        raise ConfigError(f"{where}: {key} template {value!r} names no key of the job ({err})") from None
+    except (IndexError, ValueError) as err:
         raise ConfigError(f"{where}: {key} template {value!r} names no key of the job ({err})") from None
 
 
