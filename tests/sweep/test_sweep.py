@@ -603,6 +603,11 @@ def test_jobs_of_several_presets_say_so_in_the_combined_summary(tmp_path):
     assert ("evaluate/{orca-crowdnav}: not jobs of this sweep file, left out of the combined tables"
             in lines), lines
     assert json.loads((tmp_path / "out/summary.json").read_text())["preset"] == "wang2022"
+    # an evaluation does not write its tables over a sweep's, nor a sweep over an evaluation's
+    evaluate = ["evaluate", "--policy", "orca", "--episodes", "1", "--scenario", "passing", "--no-progress"]
+    assert main([*evaluate, "--out", str(tmp_path / "out")]) == 2
+    with pytest.raises(RuntimeError, match=r"holds the results of an evaluation of one policy \(manifest"):
+        run_sweep(load_sweep(path), tmp_path / "out/evaluate/orca-wang", LocalExecutor(1), progress=False)
 
 
 def test_a_ppo_training_job_then_evaluating_its_checkpoint(tmp_path):

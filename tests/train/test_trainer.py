@@ -113,6 +113,16 @@ def test_cli_train_then_evaluate(tmp_path, tiny, quick_preset, capsys):
     result = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert result["rows"]
     assert (ev / "summary.json").exists()
+    # a training run and an evaluation never share a directory, either way round
+    argv = ["train", "--policy", "sarl", "--preset", quick_preset, "--config", str(tiny), "--no-progress"]
+    assert main([*argv, "--out", str(ev)]) == 2
+    assert f"{ev} holds the results of an evaluation of one policy (manifest.json)" in capsys.readouterr().err
+    assert not (ev / "curves.csv").exists()
+    evaluate = ["evaluate", "--policy", "orca", "--episodes", "1", "--scenario", "passing", "--no-progress"]
+    assert main([*evaluate, "--out", str(out)]) == 2
+    assert f"{out} holds the results of a training run (`socialnav train`) (curves.csv)" in (
+        capsys.readouterr().err)
+    assert not (out / "manifest.json").exists()
 
 
 def test_resume_continues_counters(tmp_path, tiny, quick_preset):

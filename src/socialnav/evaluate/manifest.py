@@ -240,7 +240,7 @@ def _cell_names(manifest: dict) -> str:
 #: What marks each kind of result directory: one policy's run, ``evaluate --policy all``'s, a
 #: reproduction's.
 _KIND_MARKS = {"one policy": "manifest.json", "several policies": "policies",
-               "reproduction": "reproduction.json"}
+               "reproduction": "reproduction.json", "training": "curves.csv", "sweep": "sweep.json"}
 
 
 def refuse_other_kind(out: Path, kind: str) -> None:
@@ -259,7 +259,8 @@ def refuse_other_kind(out: Path, kind: str) -> None:
 
 
 _KIND_NAMES = {"one policy": "an evaluation of one policy", "several policies": "`evaluate --policy all`",
-               "reproduction": "`socialnav reproduce`"}
+               "reproduction": "`socialnav reproduce`", "training": "a training run (`socialnav train`)",
+               "sweep": "a sweep (`socialnav sweep`)"}
 
 
 def _same_checkpoint_hint(previous: dict, manifest: dict) -> str:

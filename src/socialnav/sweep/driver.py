@@ -44,7 +44,7 @@ from socialnav._io import (
 from socialnav._runtime import one_blas_thread
 from socialnav.evaluate.chunks import ResumeMismatchError, chunk_path, store_chunk_files
 from socialnav.evaluate.execution import episode_progress, reissue_warnings, validate_cells
-from socialnav.evaluate.manifest import manifest_stamp, protocol_manifest, resume_directory
+from socialnav.evaluate.manifest import manifest_stamp, protocol_manifest, refuse_other_kind, resume_directory
 from socialnav.evaluate.plan import plan_cells
 from socialnav.sweep.executors import Task, TaskFailed
 from socialnav.sweep.spec import TRAIN_REFERENCE, Job, SweepSpec, job_record
@@ -125,6 +125,7 @@ def run_sweep(
     """
     out = Path(out_dir)
     say = log or (lambda line: None)
+    refuse_other_kind(out, "sweep")
     make_output_dir(out)
     with DirectoryLock(out, "sweep"):
         remove_orphan_temporaries(out)

@@ -30,6 +30,7 @@ from socialnav._io import (
     remove_orphan_temporaries,
 )
 from socialnav.config import ConfigError
+from socialnav.evaluate.manifest import refuse_other_kind
 from socialnav.presets import Preset, load_preset
 from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.train.common import (
@@ -250,6 +251,7 @@ def setup_ppo_run(
         raise ConfigError(
             f"minibatches {s.minibatches} must be <= the number of environments ({world.batch_size})"
         )
+    refuse_other_kind(out, "training")  # an evaluation's or a sweep's directory: not written into
     make_output_dir(out)
     stack.enter_context(DirectoryLock(out, "training"))
     remove_orphan_temporaries(out)

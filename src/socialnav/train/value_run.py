@@ -30,6 +30,7 @@ from socialnav._io import (
     remove_orphan_temporaries,
 )
 from socialnav.config import ConfigError
+from socialnav.evaluate.manifest import refuse_other_kind
 from socialnav.presets import Preset, load_preset
 from socialnav.train.common import (
     RunFiles,
@@ -286,6 +287,7 @@ def setup_run(
         preset, n_humans, min(settings.collection_batch, rl.val_episodes), "val", 0, rl.val_episodes
     )
     stack.callback(val_world.close)
+    refuse_other_kind(out, "training")  # an evaluation's or a sweep's directory: not written into
     make_output_dir(out)
     stack.enter_context(DirectoryLock(out, "training"))
     remove_orphan_temporaries(out)
