@@ -152,6 +152,26 @@ def _curve_rows(path):
     ]
 
 
+def test_a_resumed_budget_may_not_fall_below_the_updates_done_and_an_extension_says_its_lr(tmp_path):
+    from socialnav.train.ppo import train_ppo
+
+    s = _tiny(n_envs=4, rollout_steps=4, total_env_steps=4 * 4 * 3, epochs=1, minibatches=1,
+              checkpoint_every=1)
+    train_ppo("wang2022", tmp_path / "run", s, progress=False, log=lambda _: None)  # 3 updates
+    shorter = dataclasses.replace(s, total_env_steps=4 * 4 * 2)
+    below = r"total_env_steps 32 \(2 updates\) is below the 3 updates this run has done \(total_env_steps 48"
+    with pytest.raises(ValueError, match=below):
+        train_ppo("wang2022", tmp_path / "run", shorter, progress=False, log=lambda _: None)
+    lines: list[str] = []
+    longer = dataclasses.replace(s, total_env_steps=4 * 4 * 6)
+    result = train_ppo("wang2022", tmp_path / "run", longer, progress=False, log=lines.append)
+    assert result.updates == 6
+    lr = s.lr * (1 - 3 / 6)  # the new schedule at update 3; the old one had reached 0 there
+    said = (f"total_env_steps 48 -> 96: with anneal_lr the learning rate decays to 0 over the new budget "
+            f"from update 3 on ({lr:.3g} there, not 0): the run follows neither schedule throughout")
+    assert said in lines, lines
+
+
 def test_resumed_run_equals_an_uninterrupted_one_bit_for_bit(tmp_path):
     from socialnav.policies.learned import load_checkpoint
     from socialnav.train.ppo import train_ppo

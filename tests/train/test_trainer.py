@@ -2,6 +2,7 @@
 and divergence handling."""
 
 import csv
+import dataclasses
 import json
 
 import pytest
@@ -144,6 +145,12 @@ def test_resume_continues_counters(tmp_path, tiny, quick_preset):
     episodes = [int(r["episode"]) for r in rows]
     assert episodes == sorted(episodes)  # rows after the resumed checkpoint were replaced, not duplicated
     assert len([r for r in _rows(out / "curves.csv") if r["phase"] == "il"]) == 1
+    # the budget may not fall below the episodes done (the record would then say 10 of a 24-episode run)
+    shorter = dataclasses.replace(settings, rl=dataclasses.replace(settings.rl, episodes=10))
+    below = f"rl.episodes 10 is below the {second.episodes} RL episodes this run has done"
+    with pytest.raises(ValueError, match=below):
+        train("sarl", quick_preset, out, shorter, progress=False)
+    assert load_checkpoint(out / "last.pt", "sarl").config["train"]["rl"]["episodes"] == 24
     # resuming with different settings is refused, naming the key
     other = load_train_settings(tiny, seed=5)
     with pytest.raises(ValueError, match="train.seed"):

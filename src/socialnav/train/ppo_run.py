@@ -183,6 +183,26 @@ def _check_resumable(saved: dict[str, Any], config: dict[str, Any], out: Path) -
     refuse_other_settings(saved, config, diff, out)
 
 
+def _check_budget(saved: dict[str, Any], s: PPOSettings, done: int, steps_per_update: int, out: Path,
+                  say: Callable[[str], None]) -> None:
+    """A resumed run's new ``total_env_steps``: refused below the updates done; its learning rate said.
+
+    Raises:
+        ConfigError: The budget ends before the updates the run has done.
+    """
+    before = (saved.get("train") or {}).get("total_env_steps")
+    n_updates = math.ceil(s.total_env_steps / steps_per_update)
+    if n_updates < min(done, math.ceil((before or s.total_env_steps) / steps_per_update)):
+        raise ConfigError(f"{out}: total_env_steps {s.total_env_steps} ({n_updates} updates) is below "
+                          f"the {done} updates this run has done (total_env_steps {before}): give at least "
+                          "as many")
+    if before is not None and before != s.total_env_steps and s.anneal_lr and done < n_updates:
+        old_n = math.ceil(before / steps_per_update)
+        say(f"total_env_steps {before} -> {s.total_env_steps}: with anneal_lr the learning rate decays to 0 "
+            f"over the new budget from update {done} on ({s.lr * (1 - done / n_updates):.3g} there, not "
+            f"{max(0.0, s.lr * (1 - done / old_n)):.3g}): the run follows neither schedule throughout")
+
+
 def setup_ppo_run(
     preset: Preset | str,
     out_dir: str | Path,
@@ -264,6 +284,7 @@ def setup_ppo_run(
         if not isinstance(resumed, dict):
             raise ConfigError(f"{last_path} is not a PPO training state (no 'resume' record); move it away")
         _check_resumable(ck.config, config, out)
+        _check_budget(ck.config, s, int(resumed["update"]), world.batch_size * s.rollout_steps, out, say)
         net.load_state_dict(ck.model.state_dict())
         load_optimizer_state(optimizer, resumed["optimizer"])
         action_gen.set_state(resumed["action_rng"])

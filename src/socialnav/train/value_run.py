@@ -302,6 +302,12 @@ def setup_run(
                 f"{last_path} is not a training state (no 'resume' record); move it away to restart"
             )
         check_same_run(ck.config, config, out)
+        # rl.episodes may change on resume (extend a run, or end it earlier), not fall below what is done
+        # (lockstep batches may finish a few episodes past the budget: the same budget again is fine)
+        saved_budget = int(((ck.config.get("train") or {}).get("rl") or {}).get("episodes", rl.episodes))
+        if rl.episodes < min(saved_budget, int(resumed["episode"])):
+            raise ConfigError(f"{out}: rl.episodes {rl.episodes} is below the {resumed['episode']} RL "
+                              "episodes this run has done: give at least as many (more extends it)")
         net.load_state_dict(ck.model.state_dict())
         if predictor is not None and ck.predictor is not None:
             predictor.load_state_dict(ck.predictor.state_dict())
