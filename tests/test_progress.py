@@ -76,3 +76,17 @@ def test_warnings_said_once_prints_each_distinct_warning_once_and_nothing_on_fai
         warnings.warn("before the failure", stacklevel=1)
         raise ValueError("bad input")
     assert capsys.readouterr().err == ""  # the error alone reaches the user
+
+
+def test_say_line_puts_a_line_above_an_active_bar_not_after_its_text(monkeypatch):
+    from socialnav._progress import say_line
+
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    bar = progress_bar(10, desc="work")
+    bar.update(3)
+    say_line("episode 32: validation success 0.500")
+    bar.close()
+    text = sys.stderr.getvalue()
+    # the bar's line is cleared first (\r, blanks, \r), so the line starts a line of its own
+    assert "\repisode 32: validation success 0.500\n" in text
+    assert "]episode 32" not in text and "s]episode" not in text  # not glued onto the bar's text

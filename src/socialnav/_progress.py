@@ -61,6 +61,20 @@ def progress_bar(total: int, initial: int = 0, *, desc: str | None = None, unit:
     )
 
 
+def say_line(line: str) -> None:
+    """Prints ``line`` on stderr on a line of its own, above a progress bar that is being drawn.
+
+    A plain ``print`` would land after the bar's text on the bar's own line.
+    """
+    try:
+        from tqdm import tqdm
+    except ImportError:  # no bar can be drawn either
+        print(line, file=sys.stderr, flush=True)
+        return
+    tqdm.write(line, file=sys.stderr)
+    sys.stderr.flush()
+
+
 @contextlib.contextmanager
 def warnings_said_once(sort: bool = True) -> Iterator[None]:
     """Collects the warnings of a command's work and prints each distinct one once, as ``warning: …``.

@@ -172,6 +172,27 @@ def test_a_resumed_budget_may_not_fall_below_the_updates_done_and_an_extension_s
     assert said in lines, lines
 
 
+def test_a_run_killed_before_its_first_checkpoint_is_not_overwritten_by_another(tmp_path):
+    import shutil
+
+    from socialnav.train.config import load_train_settings
+    from socialnav.train.ppo import train_ppo
+    from socialnav.train.trainer import train
+
+    s = _tiny(n_envs=4, rollout_steps=4, total_env_steps=4 * 4, epochs=1, minibatches=1)
+    train_ppo("wang2022", tmp_path / "done", s, progress=False, log=lambda _: None)
+    killed = tmp_path / "killed"  # what a run killed before its first last.pt leaves: its record
+    killed.mkdir()
+    shutil.copy(tmp_path / "done" / "config.json", killed / "config.json")
+    other = rf"{killed} holds a run with other settings \(policy: 'crowdnav_pp' -> 'sarl'"
+    with pytest.raises(ValueError, match=other):
+        train("sarl", "wang2022", killed, load_train_settings("smoke"), progress=False, log=lambda _: None)
+    with pytest.raises(ValueError, match=r"train.seed: 0 -> 1"):
+        train_ppo("wang2022", killed, dataclasses.replace(s, seed=1), progress=False, log=lambda _: None)
+    assert json.loads((killed / "config.json").read_text())["policy"] == "crowdnav_pp"  # untouched
+    assert train_ppo("wang2022", killed, s, progress=False, log=lambda _: None).finished  # its own settings
+
+
 def test_resumed_run_equals_an_uninterrupted_one_bit_for_bit(tmp_path):
     from socialnav.policies.learned import load_checkpoint
     from socialnav.train.ppo import train_ppo
@@ -377,3 +398,12 @@ def test_a_users_config_of_the_other_trainer_is_named_as_such(tmp_path, capsys):
     assert main(["train", "--policy", "sarl", "--config", str(both), "--rl-episodes", "-1",
                  "--out", str(tmp_path / "r")]) == 2
     assert "--rl-episodes must be >= 0" in capsys.readouterr().err
+
+
+def test_a_curves_window_without_finished_episodes_has_no_rates():
+    from socialnav.train.curves import window_columns
+
+    rates = {"success": 0.0, "collision": 0.0, "timeout": 0.0}  # what an empty window's counters give
+    assert window_columns(rates, 0) == {"train_episodes": 0}  # blank cells in curves.csv, not 0 % success
+    assert window_columns({"success": 0.5, "collision": 0.25, "timeout": 0.25}, 4) == {
+        "train_episodes": 4, "train_success": 0.5, "train_collision": 0.25, "train_timeout": 0.25}

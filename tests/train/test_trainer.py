@@ -126,6 +126,15 @@ def test_cli_train_then_evaluate(tmp_path, tiny, quick_preset, capsys):
     assert not (out / "manifest.json").exists()
 
 
+def test_imitation_diverging_in_its_first_epoch_names_no_file_it_did_not_write(tmp_path, tiny):
+    settings = load_train_settings(tiny)
+    settings = dataclasses.replace(settings, imitation=dataclasses.replace(
+        settings.imitation, episodes=8, epochs=3, lr=1e30, batch_size=4))  # NaN within the first epoch
+    with pytest.raises(TrainingDiverged, match=r"in epoch 0; no epoch finished \(lower imitation.lr\?\)"):
+        train("sarl", "crowdnav", tmp_path / "run", settings, progress=False, log=lambda _: None)
+    assert not (tmp_path / "run" / "il_state.pt").exists()
+
+
 def test_resume_continues_counters(tmp_path, tiny, quick_preset):
     out = tmp_path / "run"
     settings = load_train_settings(tiny)

@@ -6,6 +6,7 @@ a run directory holds this run.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -277,6 +278,28 @@ def better(a: dict[str, Any], b: dict[str, Any] | None) -> bool:
     return key(a) > key(b)
 
 
+def recorded_config(out: Path) -> dict[str, Any] | None:
+    """The settings a run recorded in ``<out>/config.json`` when it started, or None where there is none.
+
+    A run killed before its first ``last.pt`` leaves only this record (and imitation's files): another
+    run started into the directory must be checked against it, or it would overwrite that run.
+
+    Raises:
+        ConfigError: The record is not a JSON object.
+    """
+    path = out / "config.json"
+    if not path.is_file():
+        return None
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        raise ConfigError(f"{path}: the run's record cannot be read ({err}); move the directory away or "
+                          "use another --out") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: the run's record is not a JSON object; use another --out")
+    return data
+
+
 def check_same_run(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:
     """Refuses to resume a run directory written with other settings (naming keys and values).
 
@@ -300,6 +323,8 @@ def refuse_other_settings(saved: dict[str, Any], config: dict[str, Any], diff: l
         ConfigError: ``diff`` names keys.
     """
     if diff:
+        if "policy" in diff:  # another policy's run (maybe of the other trainer): said first, not 6th of 30
+            diff = ["policy", *(k for k in diff if k != "policy")]
         changes = "; ".join(f"{k}: {dotted(saved, k)!r} -> {dotted(config, k)!r}" for k in diff[:6])
         raise ConfigError(
             f"{out} holds a run with other settings ({changes}{'; ...' if len(diff) > 6 else ''}); "

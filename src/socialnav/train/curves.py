@@ -34,7 +34,9 @@ CURVE_COLUMNS = (
 
 
 def window_columns(rates: dict[str, float], episodes: int) -> dict[str, Any]:
-    """A row's columns for the training episodes of the window it closes."""
+    """A row's columns for the training episodes of the window it closes (rates empty without any)."""
+    if episodes == 0:  # no episode ended in the window: no rate, not a rate of 0
+        return {"train_episodes": 0}
     return {
         "train_episodes": episodes,
         "train_success": rates["success"],

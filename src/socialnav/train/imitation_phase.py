@@ -153,7 +153,8 @@ def run_imitation(run: ValueRun) -> tuple[float, list[float]]:
         }
         save_checkpoint(state_path, policy_name, net, config=config, extra=extra)
         bar.update(1)
-        bar.set_postfix(loss=f"{loss:.4g}")
+        # refresh=False: drawn at the bar's own pace (in a log file: once a minute), not at every epoch
+        bar.set_postfix(loss=f"{loss:.4g}", refresh=False)
 
     try:
         fit_values(
@@ -161,7 +162,9 @@ def run_imitation(run: ValueRun) -> tuple[float, list[float]]:
             compiled=settings.compile,
         )
     except FloatingPointError as err:
-        raise TrainingDiverged(f"{err}; {state_path} keeps the last good epoch") from None
+        kept = (f"{state_path} keeps the last good epoch" if state_path.exists()
+                else "no epoch finished (lower imitation.lr?)")
+        raise TrainingDiverged(f"{err}; {kept}") from None
     finally:
         bar.close()
     predictor_losses: list[float] = []

@@ -13,7 +13,6 @@ import inspect
 import json
 import math
 import os
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -29,6 +28,7 @@ from socialnav._io import (
     make_output_dir,
     remove_orphan_temporaries,
 )
+from socialnav._progress import say_line
 from socialnav.config import ConfigError
 from socialnav.evaluate.manifest import refuse_other_kind
 from socialnav.presets import Preset, load_preset
@@ -37,6 +37,7 @@ from socialnav.train.common import (
     RunFiles,
     load_optimizer_state,
     load_resume_checkpoint,
+    recorded_config,
     refuse_other_settings,
     resolve_device,
 )
@@ -240,7 +241,7 @@ def setup_ppo_run(
     if s.policy not in (ppo := learned_policy_names("ppo")):
         raise ConfigError(f"policy: {s.policy!r} is not trained with PPO (PPO policies: {', '.join(ppo)})")
     started = time.perf_counter()
-    say = log or (lambda line: print(line, file=sys.stderr, flush=True))
+    say = log or say_line  # above the progress bar, not glued to its line
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset
     device = resolve_device(s.device)
     torch.set_num_threads(s.threads or max(1, min(os.cpu_count() or 1, 8)))
@@ -292,6 +293,9 @@ def setup_ppo_run(
         restore_worlds(world, resumed["worlds"])
         say(f"resuming {out} at update {resumed['update']} ({resumed['env_steps']} env steps)")
     else:
+        recorded = recorded_config(out)  # a run killed before its first last.pt: not to be overwritten
+        if recorded is not None:
+            _check_resumable(recorded, config, out)
         world.reset()
     atomic_write_json(out / "config.json", config)
     import yaml

@@ -84,5 +84,5 @@ def write_row_if_due(
     }
     row.update(validation_columns(val))
     run.curves.write(row)
-    bar.set_postfix(succ=f"{rates['success']:.2f}", kl=f"{row['approx_kl']:.3g}")
+    bar.set_postfix(succ=f"{rates['success']:.2f}", kl=f"{row['approx_kl']:.3g}", refresh=False)
     state.clear_window()

@@ -307,7 +307,8 @@ def write_row_if_due(
     }
     row.update(validation_columns(val))
     run.curves.write(row)
-    bar.set_postfix(eps=f"{eps:.2f}", succ=f"{rates['success']:.2f}", loss=f"{row['loss']:.3g}")
+    bar.set_postfix(eps=f"{eps:.2f}", succ=f"{rates['success']:.2f}", loss=f"{row['loss']:.3g}",
+                    refresh=False)
     window.clear()
     while state.next_log <= ep:
         state.next_log += run.settings.log_every

@@ -13,7 +13,6 @@ import contextlib
 import dataclasses
 import json
 import os
-import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -29,6 +28,7 @@ from socialnav._io import (
     make_output_dir,
     remove_orphan_temporaries,
 )
+from socialnav._progress import say_line
 from socialnav.config import ConfigError
 from socialnav.evaluate.manifest import refuse_other_kind
 from socialnav.presets import Preset, load_preset
@@ -37,6 +37,7 @@ from socialnav.train.common import (
     check_same_run,
     load_resume_checkpoint,
     make_optimizer,
+    recorded_config,
     resolve_device,
     reward_config,
 )
@@ -225,7 +226,7 @@ def setup_run(
     from socialnav.policies.learned_catalog import canonical_name
 
     started = time.perf_counter()
-    say = log or (lambda s: print(s, file=sys.stderr, flush=True))
+    say = log or say_line  # above the progress bar, not glued to its line
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset
     settings = resolve_policy_settings(policy_name, settings)
     name = canonical_name(policy_name)
@@ -312,6 +313,10 @@ def setup_run(
         if predictor is not None and ck.predictor is not None:
             predictor.load_state_dict(ck.predictor.state_dict())
         say(f"resuming {out} at RL episode {resumed['episode']} ({resumed['gradient_steps']} gradient steps)")
+    else:
+        recorded = recorded_config(out)  # a run killed before its first last.pt: not to be overwritten
+        if recorded is not None:
+            check_same_run(recorded, config, out)
 
     atomic_write_json(out / "config.json", config)
     import yaml
