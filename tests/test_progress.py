@@ -90,3 +90,16 @@ def test_say_line_puts_a_line_above_an_active_bar_not_after_its_text(monkeypatch
     # the bar's line is cleared first (\r, blanks, \r), so the line starts a line of its own
     assert "\repisode 32: validation success 0.500\n" in text
     assert "]episode 32" not in text and "s]episode" not in text  # not glued onto the bar's text
+
+
+def test_warnings_said_as_they_come_print_at_once_without_the_source_line(monkeypatch):
+    import warnings
+
+    from socialnav._progress import warnings_said_as_they_come
+
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    with warnings_said_as_they_come():
+        warnings.warn("8 slots for 9 scenarios", UserWarning, stacklevel=1)
+        assert sys.stderr.getvalue() == "warning: 8 slots for 9 scenarios\n"  # at once, not at the end
+        warnings.warn("8 slots for 9 scenarios", UserWarning, stacklevel=1)
+    assert sys.stderr.getvalue() == "warning: 8 slots for 9 scenarios\n"  # once

@@ -76,6 +76,26 @@ def say_line(line: str) -> None:
 
 
 @contextlib.contextmanager
+def warnings_said_as_they_come() -> Iterator[None]:
+    """Prints each distinct warning once, as ``warning: …`` above any progress bar, when it is raised.
+
+    For long work (training) whose warnings matter before it ends; Python's own format would add the
+    source line that raised it.
+    """
+    said: set[str] = set()
+
+    def show(message: Warning | str, *_: Any, **__: Any) -> None:
+        if str(message) not in said:
+            said.add(str(message))
+            say_line(f"warning: {message}")
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = show
+        yield
+
+
+@contextlib.contextmanager
 def warnings_said_once(sort: bool = True) -> Iterator[None]:
     """Collects the warnings of a command's work and prints each distinct one once, as ``warning: …``.
 

@@ -54,6 +54,11 @@ def main(argv: list[str] | None = None) -> int:
     if not hasattr(args, "run"):
         parser.print_help()
         return 2
+    for option in ("out", "checkpoint", "preset", "config"):
+        if getattr(args, option, None) == "":  # `--out "$OUT"` with OUT unset: not the default directory
+            print(f"socialnav {args.command}: error: --{option} is empty (an unset shell variable?): give a "
+                  f"value or leave --{option} out", file=sys.stderr)
+            return 2
     previous = _on_sigterm()
     try:
         return args.run(args) or 0

@@ -375,6 +375,30 @@ def test_command_line_mistakes_are_named_by_their_option(argv, message, tmp_path
     assert not out.exists()
 
 
+def test_config_file_mistakes_name_the_file(tmp_path, capsys):
+    from socialnav.cli import main
+
+    out = tmp_path / "never"
+    rgl = tmp_path / "rgl.yaml"
+    rgl.write_text("policy: rgl\nrl: {episodes: 4}\n")
+    assert main(["train", "--policy", "sarl", "--config", str(rgl), "--out", str(out)]) == 2
+    assert f"--config {rgl} sets policy: rgl, and --policy sarl" in capsys.readouterr().err
+    same = tmp_path / "same.yaml"
+    same.write_text("policy: ga3c_cadrl\nrl: {episodes: -1}\n")  # lstm_rl's alias: refused for -1 only
+    assert main(["train", "--policy", "lstm_rl", "--config", str(same), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "sets policy" not in err and "episodes" in err
+    if not torch.cuda.is_available():
+        cuda = tmp_path / "cuda.yaml"
+        cuda.write_text("device: cuda\n")
+        assert main(["train", "--policy", "sarl", "--config", str(cuda), "--out", str(out)]) == 2
+        assert f"--config {cuda}: device: cuda, and torch.cuda.is_available() is False" in (
+            capsys.readouterr().err)
+    assert main(["train", "--policy", "sarl", "--out", ""]) == 2
+    assert "--out is empty (an unset shell variable?)" in capsys.readouterr().err
+    assert not out.exists()
+
+
 def test_a_budget_of_no_update_is_refused_in_a_config(tmp_path, capsys):
     from socialnav.cli import main
 

@@ -6,7 +6,7 @@ import argparse
 
 from socialnav._io import load_yaml
 from socialnav.configs import shipped_presets
-from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
+from socialnav.policies.learned_catalog import canonical_name, get_learned_spec, learned_policy_names
 
 
 def add_train_parser(sub: argparse._SubParsersAction) -> None:
@@ -108,6 +108,27 @@ def _config_trainer(config: str) -> str | None:
     return fits[0] if len(fits) == 1 else None
 
 
+def _config_policy(config: str) -> str | None:
+    """The learned policy a plain training config names with ``policy:``, else None.
+
+    A run's record (``--config <run>/config.yaml``) is left out: reusing one run's settings for another
+    policy is what it is for.
+    """
+    import yaml
+
+    from socialnav.config import ConfigError
+    from socialnav.train.config import _resolve_config
+
+    try:
+        data = load_yaml(_resolve_config(config).read_text(encoding="utf-8"))
+    except (ConfigError, OSError, UnicodeDecodeError, yaml.YAMLError):
+        return None  # the trainer's own loader says why
+    if not isinstance(data, dict) or "ppo_policy" in data or "value_policy" in data:
+        return None
+    named = data.get("policy")
+    return str(named) if isinstance(named, str) and named in learned_policy_names() else None
+
+
 def _check_args(args: argparse.Namespace) -> None:
     """Refuses what the command line itself gets wrong, naming the option (before any config is read)."""
     from socialnav.config import ConfigError
@@ -128,6 +149,10 @@ def _check_args(args: argparse.Namespace) -> None:
             f"--config {args.config}: {kind} config, and {args.policy} trains with the "
             f"{'PPO' if trainer == 'ppo' else 'value-based'} trainer (its shipped configs: {', '.join(own)})"
         )
+    named = None if args.config is None else _config_policy(args.config)
+    if named is not None and canonical_name(named) != canonical_name(args.policy):
+        raise ConfigError(f"--config {args.config} sets policy: {named}, and --policy {args.policy}: the run "
+                          "would train one of them silently; give one (remove policy: from the file)")
     for option, value, least in (
         ("--env-steps", getattr(args, "env_steps", None), 1),
         ("--collection-batch", getattr(args, "collection_batch", None), 1),
@@ -138,6 +163,13 @@ def _check_args(args: argparse.Namespace) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from socialnav._progress import warnings_said_as_they_come
+
+    with warnings_said_as_they_come():
+        return _train(args)
+
+
+def _train(args: argparse.Namespace) -> int:
     _check_args(args)
     if get_learned_spec(args.policy).trainer == "ppo":
         from socialnav.train.ppo import train_ppo_from_args

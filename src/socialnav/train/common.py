@@ -64,6 +64,17 @@ def resolve_device(name: str) -> torch.device:
     return torch.device(name)
 
 
+def check_config_device(config: str | None, device: str, given: str | None) -> None:
+    """Names the config file where a ``device: cuda`` it sets cannot be had (not the command line's).
+
+    Raises:
+        ConfigError: The file asks for CUDA and this machine has none.
+    """
+    if given is None and config is not None and device == "cuda" and not torch.cuda.is_available():
+        raise ConfigError(f"--config {config}: device: cuda, and torch.cuda.is_available() is False here "
+                          "(give --device cpu, or device: auto in the file)")
+
+
 def make_optimizer(params, lr: float, device: torch.device) -> torch.optim.Optimizer:
     """Adam over ``params``, fused where torch offers it (else ``foreach``).
 

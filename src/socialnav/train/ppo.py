@@ -30,7 +30,7 @@ from typing import Any
 
 from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
-from socialnav.train.common import progress_bar
+from socialnav.train.common import check_config_device, progress_bar
 from socialnav.train.ppo_config import PPOSettings
 from socialnav.train.ppo_rollout import collect_rollout
 from socialnav.train.ppo_run import PPO_CURVE_COLUMNS, PPO_STREAM_OFFSET, setup_ppo_run
@@ -188,6 +188,7 @@ def train_ppo_from_args(args) -> int:
         total_env_steps=getattr(args, "env_steps", None),
         policy=args.policy,
     )
+    check_config_device(getattr(args, "config", None), settings.device, getattr(args, "device", None))
     preset = load_preset(args.preset)
     out = Path(args.out or f"runs/train/{preset.name}-{args.policy}-s{settings.seed}")
     result = train_ppo(preset, out, settings, progress=not getattr(args, "no_progress", False))

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from socialnav.presets import Preset, load_preset
-from socialnav.train.common import resolve_device
+from socialnav.train.common import check_config_device, resolve_device
 from socialnav.train.config import TrainSettings, resolve_train_settings
 from socialnav.train.imitation_phase import imitate_then_validate
 from socialnav.train.value_rl_phase import OnValidation, build_learner, run_rl, save_last
@@ -158,6 +158,7 @@ def train_from_args(args) -> int:
         **{key: getattr(args, key, None)
            for key in ("seed", "device", "collection_batch", "information", "rl_episodes", "compile")},
     )
+    check_config_device(getattr(args, "config", None), settings.device, getattr(args, "device", None))
     preset = load_preset(args.preset)
     out = Path(args.out or f"runs/train/{preset.name}-{args.policy}-s{settings.seed}")
     result = train(args.policy, preset, out, settings, progress=not getattr(args, "no_progress", False))
