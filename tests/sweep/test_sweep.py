@@ -513,7 +513,7 @@ def test_a_killed_driver_resumes_without_recomputing_or_duplicating(tmp_path, si
     assert len({(r["scenario"], r["index"]) for r in rows}) == len(rows) == 400
 
 
-def test_training_then_evaluating_its_checkpoint(tmp_path, capfd):
+def test_training_then_evaluating_its_checkpoint(tmp_path):
     preset = small_preset(tmp_path)
     path = write_sweep(
         tmp_path,
@@ -545,8 +545,6 @@ def test_training_then_evaluating_its_checkpoint(tmp_path, capfd):
                        log=lambda _: None)
     assert result.ok, result.failures
     assert result.jobs["train/sarl-s3"]["episodes"] == 8
-    trainer_lines = [line for line in capfd.readouterr().err.splitlines() if "imitation" in line]
-    assert trainer_lines and all(line.startswith("train/sarl-s3: ") for line in trainer_lines)  # whose
     manifest = json.loads((tmp_path / "out/evaluate/sarl-s3/manifest.json").read_text())
     assert manifest["checkpoint"] == str(tmp_path / "out/train/sarl-s3/best.pt")
     assert len(episode_rows(tmp_path / "out/evaluate/sarl-s3")) == 4
@@ -608,6 +606,23 @@ def test_jobs_of_several_presets_say_so_in_the_combined_summary(tmp_path):
     assert main([*evaluate, "--out", str(tmp_path / "out")]) == 2
     with pytest.raises(RuntimeError, match=r"holds the results of an evaluation of one policy \(manifest"):
         run_sweep(load_sweep(path), tmp_path / "out/evaluate/orca-wang", LocalExecutor(1), progress=False)
+
+
+@pytest.mark.parametrize("label, said", [("train/sarl-s3", "train/sarl-s3: after imitation: 0.5\n"),
+                                          (None, "")])
+def test_a_training_jobs_lines_name_the_job_or_are_silenced(tmp_path, capsys, monkeypatch, label, said):
+    from types import SimpleNamespace
+
+    import socialnav.train.trainer as trainer
+    from socialnav.sweep.tasks import train_job
+
+    def fake_train(policy, preset, out, settings, progress, log):  # the trainer's log, not its work
+        log("after imitation: 0.5")
+        return SimpleNamespace(best_checkpoint=out, episodes=0, gradient_steps=0, best_val={}, resumed=False)
+
+    monkeypatch.setattr(trainer, "train", fake_train)
+    train_job(None, {"policy": "sarl", "preset": "wang2022"}, str(tmp_path), 1, label)
+    assert capsys.readouterr().err == said  # several jobs train at once: each line says whose it is
 
 
 def test_a_ppo_training_job_then_evaluating_its_checkpoint(tmp_path):

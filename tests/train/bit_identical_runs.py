@@ -6,7 +6,9 @@ trainings and compares. A digest covers a checkpoint's tensors and records (netw
 target network, optimizer state, generator states, counters, validations, the worlds in flight), not
 its bytes: ``torch.save`` output is not byte-stable. Wall-clock fields (``wall_time``,
 ``env_steps_per_s``) and the package versions are left out; so is the settings record (``config``),
-whose layout another module owns and other tests check.
+whose layout another module owns and other tests check. The PPO runs' ``curves.csv`` digests were
+regenerated once since, when a window in which no episode ended got empty rates instead of 0 (their
+checkpoints' digests did not change).
 
 Regenerate only from a commit whose trainer is known to be right::
 
