@@ -182,14 +182,21 @@ void World::step_episode(int b, const double* actions, int worker) {
     v_robot = Vec2{};
   } else if (config_.kinematics == kHolonomic) {
     v_robot = Vec2{actions[2 * b], actions[2 * b + 1]};
-    const double speed = norm(v_robot);
     const double v_max = buf_.v_pref[static_cast<size_t>(b) * A];
+    double speed = norm(v_robot);
+    if (std::isinf(speed)) {  // |a|^2 overflowed (an action of 1e200): its direction, at v_pref
+      v_robot = (1.0 / std::max(std::abs(v_robot.x), std::abs(v_robot.y))) * v_robot;
+      speed = norm(v_robot);
+    }
     if (speed > v_max) v_robot = (v_max / speed) * v_robot;
   } else {
     const double v_max = buf_.v_pref[static_cast<size_t>(b) * A];
     const double v = std::min(std::max(actions[2 * b], -v_max), v_max);
     const double rot = std::min(std::max(actions[2 * b + 1], -config_.rotation_limit), config_.rotation_limit);
-    theta += rot;
+    // Wrapped to [0, 2*pi) as CrowdSim's Agent.step does: the learned policies' heading feature
+    // (theta - goal direction) would otherwise grow with every turn the robot has made.
+    theta = std::fmod(theta + rot, 2.0 * M_PI);
+    if (theta < 0.0) theta += 2.0 * M_PI;
     v_robot = Vec2{v * std::cos(theta), v * std::sin(theta)};
   }
 
@@ -237,7 +244,8 @@ void World::step_episode(int b, const double* actions, int worker) {
   }
 
   // 6. Human-human overlaps never end an episode; CrowdSim does not count them.
-  if (!config_.crowdsim_compat) {
+  // Counted over the robot's episode only: not in the M_III continuation after its success.
+  if (!config_.crowdsim_compat && status == kRunning) {
     int count = 0;
     for (int i = 1; i < A; ++i) {
       if (!mask[i]) continue;

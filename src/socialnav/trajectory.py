@@ -9,7 +9,8 @@ table (one row per episode, sample and agent) as Parquet or CSV; the column sche
 
 Sample 0 is the initial state and sample k the state after step k, at time t_k = k·dt. Continuation
 samples (``continuation``, used by M_III) follow the episode: continuation row m (0-based) is the state
-after step K + m + 1, at time (K + m + 1)·dt, with the robot parked at its goal.
+after step K + m + 1, at time (K + m + 1)·dt, with the robot parked where it reached its goal (within
+its radius of it).
 """
 
 from __future__ import annotations
@@ -96,7 +97,7 @@ class Trajectory:
         outcome: One of ``OUTCOMES``.
         min_clearance: Simulator's swept minimum robot–human clearance per step [m], shape (K,), or
             None when not available (logs).
-        continuation: Positions after the robot's episode with the robot parked at its goal [m],
+        continuation: Positions after the robot's episode, the robot parked where it reached its goal [m],
             shape (M, A, 2), or None. Row m is at time (K + m + 1)·dt.
         human_overlaps: Human–human overlap count reported by the simulator, or None.
         settings: Free-form settings (scenario, split, index, seed, visibility, human_model, policy,

@@ -161,6 +161,10 @@ def test_validate_names_the_episode() -> None:
     row = rf"episode {int(bt.indices[2])} \(seed {int(bt.seeds[2])}, row 2 of the batch\) has"
     with pytest.raises(ValueError, match=rf"human_goal contains non-finite values: {row}"):
         bad.validate()
+    robot_goal, theta = bt.robot_goal.copy(), bt.robot_theta.copy()
+    robot_goal[0, 0] = theta[0] = np.nan  # a NaN goal, and the heading a scenario derives from it
+    with pytest.raises(ValueError, match=r"robot_goal contains non-finite values"):  # the cause, not theta
+        dataclasses.replace(bt, robot_goal=robot_goal, robot_theta=theta).validate()
     radius = bt.human_radius.copy()
     radius[1, 0] = 0.0
     with pytest.raises(ValueError, match=r"human_radius must be > 0 for real humans: episode .*row 1 of the "

@@ -56,6 +56,11 @@ def test_unknown_name_lists_valid() -> None:
         make_scenario("plaza")
 
 
+def test_a_scenario_object_instead_of_its_name_says_what_to_pass() -> None:
+    with pytest.raises(TypeError, match=r"must be a registered name, got a CircleCrossing: register"):
+        make_scenario(make_scenario("circle_crossing"))
+
+
 def test_unknown_parameter_named() -> None:
     with pytest.raises(TypeError, match=r"'n_human'.*circle_crossing.*valid parameters: n_humans"):
         make_scenario("circle_crossing", n_human=3)

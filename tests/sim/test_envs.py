@@ -89,3 +89,10 @@ def test_single_env_outcome_comes_from_the_world_not_the_reward():
         if terminated or truncated:
             break
     assert info["outcome"] == "success" and reward == 0.0
+
+
+@pytest.mark.parametrize("make", [lambda w: SocialNavEnv(world=w), lambda w: SocialNavVectorEnv(2, world=w)])
+def test_the_evaluations_continuation_is_refused_by_the_envs(make):
+    # With it, an env episode ran on after the robot's success (reward 1, not terminated) past the time limit.
+    with pytest.raises(ValueError, match="world.continue_after_success: the evaluation's M_III continuation"):
+        make({"continue_after_success": True})

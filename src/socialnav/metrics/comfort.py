@@ -279,9 +279,9 @@ def aggregated_time(traj: Trajectory, cap_s: float = 100.0) -> dict[str, float]:
 
     Wang et al., ARSO 2022 (arXiv 2202.01045), definition of M_III, measured with a visible robot.
     The robot contributes T = K·dt; each human its first arrival (within its radius) at the goal it had
-    at reset, searched through the episode and the ``continuation`` (robot parked at its goal). Known
-    arrival times (``traj.arrival_times``, finite entries) replace the detection, for the robot too.
-    A human that enters the scene late (presence mask) contributes its arrival minus its entry, the
+    at reset, searched through the episode and the ``continuation`` (robot parked where it reached its
+    goal). Known arrival times (``traj.arrival_times``, finite entries) replace the detection, for the
+    robot too. A human that enters the scene late (presence mask) contributes its arrival minus its entry, the
     time it took. Times above ``cap_s`` count as the cap and are ``censored`` (the robot's too); a
     human that has not arrived when the data reach the cap is censored (counted as the cap). A human
     that has not arrived when the data end *before* the cap is ``unresolved`` and makes the sums NaN,

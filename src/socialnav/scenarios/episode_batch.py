@@ -123,7 +123,8 @@ class EpisodeBatch:
                 raise ValueError(f"EpisodeBatch.{name} must be int64, got {dtype}")
         if self.human_mask.dtype != np.bool_:
             raise ValueError(f"EpisodeBatch.human_mask must be bool, got {self.human_mask.dtype}")
-        for name in _B_FIELDS[2:] + _B2_FIELDS + _BN2_FIELDS + _BN_FIELDS:
+        # positions first: a NaN goal makes the heading derived from it NaN too, and is the one to name
+        for name in _B2_FIELDS + _BN2_FIELDS + _B_FIELDS[2:] + _BN_FIELDS:
             arr = getattr(self, name)
             if arr.dtype != np.float64:
                 raise ValueError(f"EpisodeBatch.{name} must be float64, got {arr.dtype}")

@@ -180,6 +180,10 @@ def make_scenario(name: str, **params: Any) -> Scenario:
         TypeError: Unknown parameter (named, with the valid ones listed) or badly typed value.
         ValueError: Out-of-range value (named).
     """
+    if not isinstance(name, str):
+        raise TypeError(f"scenario must be a registered name, got a {type(name).__name__}: register the "
+                        "class with @register_scenario('my_name') and pass 'my_name' (its settings as "
+                        "parameters)")
     cls = get_scenario(name)
     fields = [f.name for f in dataclasses.fields(cls)]
     unknown = [k for k in params if k not in fields]

@@ -131,6 +131,12 @@ class _EnvConfig:
         self.settings = (
             world if isinstance(world, WorldSettings) else from_dict(WorldSettings, world, "world")
         )
+        if self.settings.continue_after_success:
+            # The protocol's M_III continuation runs the humans on after the robot's success, with the
+            # robot parked: an env's episode is the robot's, which ends at its success.
+            raise ValueError("world.continue_after_success: the evaluation's M_III continuation, not an "
+                             "environment setting (an env episode ends at the robot's success); leave it "
+                             "false")
         self.scenario = make_scenario(scenario, **(scenario_params or {}))
         # A scenario with walls of its own (which win over static_map, as in World) bounds its maps' edges.
         own = int(getattr(self.scenario, "max_obstacle_edges", 0))

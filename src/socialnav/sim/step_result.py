@@ -25,7 +25,8 @@ class StepResult:
         finished: trajectories of the episodes that ended in this step (empty when not recording).
         final_observation: observation of the finished slots before their reset (rows where done).
         outcome: (B,) "success", "collision" or "timeout" where an episode ended in this step, "" elsewhere.
-        final_dmin: (B,) the finished episodes' minimum robot-human distance (NaN elsewhere).
+        final_dmin: (B,) the finished episodes' robot-human clearance over their last step (the swept
+            surface-to-surface distance of CrowdSim's info['dmin'], inf without humans; NaN elsewhere).
         final_episode: (B,) the finished episodes' indices (-1 elsewhere).
         outcome_code: (B,) int8 final status code where an episode ended (``_core.STATUS_*``; 0,
             running, elsewhere); ``outcome`` names it.
