@@ -215,6 +215,23 @@ def test_render_a_users_csv_file(tmp_path, capsys):
     assert "no episode '7'" in capsys.readouterr().err
 
 
+def test_render_a_robot_log_of_another_layout_as_metrics_reads_it(tmp_path, capsys):
+    rows = ["stamp,track,px,py"]  # the README's log layout: no role, no radius, other column names
+    for k in range(12):
+        rows += [f"{0.25 * k},0,0,{-1.5 + 0.25 * k}", f"{0.25 * k},1,0.8,{1.5 - 0.2 * k}"]
+    path = tmp_path / "my_log.csv"
+    path.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "log.png"
+    argv = ["render", str(path), "--columns", "time=stamp,id=track,x=px,y=py", "--robot", "0",
+            "--out", str(out)]
+    assert main(argv) == 0
+    assert_not_blank(rgb(out))
+    err = capsys.readouterr().err
+    assert "note: " in err and "assumed radius 0.3 m" in err and "Warning" not in err  # notes, as metrics
+    assert main([*argv[:6], "--ego", "all", "--out", str(out)]) == 2
+    assert "--ego all: render draws one episode; give one agent id" in capsys.readouterr().err
+
+
 def test_bad_overlay_and_format_mismatch_are_clear(run_dir, capsys):
     assert main(["render", str(run_dir), "--episode", "passing/invisible/1", "--overlay", "m9"]) == 2
     assert "unknown overlay 'm9'; valid: personal_space" in capsys.readouterr().err

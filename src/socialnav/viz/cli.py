@@ -6,7 +6,9 @@ import argparse
 import math
 import re
 import sys
+import warnings
 from pathlib import Path
+from typing import Any
 
 from socialnav.logs.command import add_map_arguments, map_from_args
 
@@ -47,6 +49,13 @@ def add_viz_parsers(sub: argparse._SubParsersAction) -> None:
     rd.add_argument("--eps", type=float, default=0.2, help="M_I threshold of the overlay [m] (default 0.2)")
     rd.add_argument("--tau", type=float, default=1.0, help="M_II horizon of the overlay [s] (default 1)")
     rd.add_argument("--resample", action="store_true", help="files: resample irregular timestamps")
+    # A robot log in another layout is read as `socialnav metrics` reads it (docs/real_world_logs.md).
+    rd.add_argument("--columns", help="a log's column mapping FIELD=COLUMN,... (as socialnav metrics)")
+    rd.add_argument("--robot", help="a log's robot id (default: the agent with role 'robot')")
+    rd.add_argument("--ego", help="draw agent ID of a pedestrian log as the robot")
+    rd.add_argument("--radius", type=float, help="a log's agent radius when it has none [m] (default 0.3)")
+    rd.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], default="s", help="a log's time unit")
+    rd.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m", help="a log's length unit")
     add_map_arguments(
         rd,
         "draw the walls of this map file (YAML or SVG, docs/walls_maps.md) instead of "
@@ -81,8 +90,12 @@ def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "episode"
 
 
-def load_source(source: str | Path, episode: str | None, resample: bool = False):
-    """(trajectory, default output directory) from a result directory or a trajectory file."""
+def load_source(source: str | Path, episode: str | None, resample: bool = False, **log: Any):
+    """(trajectory, default output directory) from a result directory or a trajectory file.
+
+    ``log``: how to read a robot log of another layout (``columns``, ``robot``, ``ego``, ``radius``,
+    ``time_unit``, ``length_unit``, as :func:`socialnav.logs.load_trajectories` takes them).
+    """
     from socialnav.trajectory import read_trajectories
 
     path = Path(source)
@@ -98,10 +111,12 @@ def load_source(source: str | Path, episode: str | None, resample: bool = False)
         raise FileNotFoundError(f"{path}: no such result directory or trajectory file")
     from socialnav.logs.scoring import detect_format
 
-    if detect_format(path) != "long":
+    given = {k: v for k, v in log.items() if v is not None and (k, v) not in (("time_unit", "s"),
+                                                                              ("length_unit", "m"))}
+    if given or detect_format(path) != "long":
         # A robot log in another layout (no radius column, other column names, ETH/UCY): read as
         # `socialnav metrics` reads it, with the same assumed values and warnings.
-        return _one_log_episode(path, episode, resample), Path(".")
+        return _one_log_episode(path, episode, resample, **given), Path(".")
     trajs = read_trajectories(path, resample=resample, episodes=None if episode is None else [episode])
     if not trajs:
         keys = [str(t.settings.get("episode")) for t in read_trajectories(path, resample=resample)]
@@ -118,10 +133,12 @@ def load_source(source: str | Path, episode: str | None, resample: bool = False)
     return trajs[0], Path(".")
 
 
-def _one_log_episode(path: Path, episode: str | None, resample: bool):
+def _one_log_episode(path: Path, episode: str | None, resample: bool, **log: Any):
     from socialnav.logs.scoring import load_trajectories
 
-    trajs = load_trajectories(path, resample=resample)
+    if str(log.get("ego", "")).lower() == "all":
+        raise ValueError("--ego all: render draws one episode; give one agent id")
+    trajs = load_trajectories(path, resample=resample, **log)
 
     def key(t) -> str:
         return str(t.settings.get("episode", t.settings.get("scene")))
@@ -157,7 +174,14 @@ def _run_render(args: argparse.Namespace) -> int:
     if args.out and suffix not in ("", fmt):
         raise ValueError(f"--out {args.out} does not end in .{fmt} (the --format)")
     smap = map_from_args(args)
-    traj, default_dir = load_source(args.source, args.episode, args.resample)
+    log = {"columns": args.columns, "robot": args.robot, "ego": args.ego, "radius": args.radius,
+           "time_unit": args.time_unit, "length_unit": args.length_unit}
+    with warnings.catch_warnings(record=True) as caught:  # said as `socialnav metrics` says them
+        warnings.simplefilter("always")
+        traj, default_dir = load_source(args.source, args.episode, args.resample, **log)
+    for note in dict.fromkeys(str(w.message) for w in caught):
+        if not args.quiet:
+            print(f"note: {note}", file=sys.stderr)
     if smap is not None:
         import dataclasses
 
