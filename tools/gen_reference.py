@@ -42,8 +42,11 @@ def cli_page() -> str:
         "# Command line reference",
         "",
         "Every command of `socialnav` and its options, as `socialnav COMMAND --help` prints them.",
-        "Exit codes: 0 done; 2 bad input (one line on stderr naming the problem; set "
-        "`SOCIALNAV_TRACEBACK=1` for the traceback); 130 interrupted (Ctrl-C); 143 terminated (SIGTERM). "
+        "Exit codes: 0 done; 1 done with a finding the caller should see (`metrics`: a data warning, such "
+        "as an outcome contradicted by the positions; `replay`: the episode differs from the stored one; "
+        "`sweep`: some jobs failed, named in failures.json); 2 bad input (one line on stderr naming the "
+        "problem; set `SOCIALNAV_TRACEBACK=1` for the traceback); 130 interrupted (Ctrl-C); 143 terminated "
+        "(SIGTERM). "
         "Interrupted `evaluate`, `train`, `sweep` and `reproduce` runs keep their finished results and "
         "resume when the same command is run again.",
         "",

@@ -228,6 +228,7 @@ def test_render_a_robot_log_of_another_layout_as_metrics_reads_it(tmp_path, caps
     assert_not_blank(rgb(out))
     err = capsys.readouterr().err
     assert "note: " in err and "assumed radius 0.3 m" in err and "Warning" not in err  # notes, as metrics
+    assert "agent 0: no goals in the data; assumed the robot's goal (its last position)" in err
     assert main([*argv[:6], "--ego", "all", "--out", str(out)]) == 2
     assert "--ego all: render draws one episode; give one agent id" in capsys.readouterr().err
 

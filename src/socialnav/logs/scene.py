@@ -172,8 +172,9 @@ class Scene:
         if unknown_goal[1:].any() and not human_as_robot:
             assumed.append("the other agents' goals (their last observed positions)")
         goals[unknown_goal] = ends[unknown_goal]
-        if assumed:
-            warnings.warn(f"{label}: not in the data, assumed " + " and ".join(assumed), AssumedValueWarning,
+        if assumed:  # the goals are missing, not the agent: said so first
+            warnings.warn(f"{label}: no goals in the data; assumed " + " and ".join(assumed),
+                          AssumedValueWarning,
                           stacklevel=2)
         arrival = None
         if human_as_robot:
