@@ -102,7 +102,9 @@ def results_block() -> str:
         "Mean ± std over training seeds (each seed's pooled result over the four multi-human scenarios, "
         "2,000 test episodes, invisible robot); paper: its Table II (it has no SARL, MP-RGL or "
         "policy-gradient row; CrowdNav++ is the attention-graph policy trained here with PPO, docs/ppo.md). "
-        "M_IV, the jerk, "
+        "GA3C-CADRL is `lstm_rl`, an LSTM value network in the spirit of GA3C-CADRL (CrowdNav's LSTM-RL), "
+        "trained as the other value-based baselines, not the A3C policy-gradient original "
+        "(docs/policies_learned.md). M_IV, the jerk, "
         "is Wang et al.'s forward difference (docs/metrics.md); with central differences five of the six "
         "value-based baselines land in the paper's band and OM-SARL just above it "
         "(docs/reproduction_jerk.md).",
@@ -157,7 +159,7 @@ def speed_block() -> str:
     lines += [f"| {a} | {b} | {c} |" for a, b, c in rows]
     lines += [
         "",
-        "2-core x86-64 VMs (AMD EPYC where a run recorded its CPU model; most did not), figures from "
+        "2-core x86-64 VMs (AMD EPYC with AVX-512 where the run recorded its CPU model), figures from "
         "`benchmarks/results/*.json`; every benchmark, "
         "its command, date and machine: [benchmarks/results/README.md](benchmarks/results/README.md).",
     ]
