@@ -18,6 +18,7 @@ from socialnav._io import load_yaml
 from socialnav.config import ConfigError
 from socialnav.policies.base import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
 from socialnav.policies.learned_catalog import VALUE_INFORMATION, canonical_name, get_learned_spec
+from socialnav.policies.native import NativePolicy
 from socialnav.presets import Preset
 
 INDEX_FILE = "index.yaml"
@@ -104,7 +105,10 @@ def _build(name: str, preset: Preset, checkpoint: str | Path | None, allow_prese
     if not entry.learned:
         if checkpoint is not None:
             raise ValueError(f"policy {name!r} is not learned and takes no --checkpoint")
-        return make_policy(name, **params)
+        policy = make_policy(name, **params)
+        if isinstance(policy, NativePolicy):  # the robot's ORCA/social force as the preset's humans'
+            policy.use_world(preset.world)
+        return policy
     if checkpoint is None:
         checkpoint = shipped_checkpoint(name, preset.name)
         if checkpoint is None:

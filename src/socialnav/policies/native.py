@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -47,11 +48,28 @@ class NativePolicy:
         settings = WorldSettings(
             orca=orca or OrcaSettings(), social_force=social_force or SocialForceSettings(), threads=threads
         )
+        self._threads = threads
+        self._configure(settings)
+        self._pool = shared_pool(settings.resolved_threads)  # the worlds' pool (sim/pool.py)
+        self._out: np.ndarray | None = None
+
+    def _configure(self, settings: WorldSettings) -> None:
         self._orca_settings = settings.orca
         self._orca = orca_params(settings)
         self._social_force = social_force_params(settings)
-        self._pool = shared_pool(settings.resolved_threads)  # the worlds' pool (sim/pool.py)
-        self._out: np.ndarray | None = None
+        self.rotation_limit = float(settings.rotation_limit)
+
+    def use_world(self, world: WorldSettings) -> NativePolicy:
+        """Takes the world's ORCA and social-force parameters and rotation limit, as its humans use them.
+
+        ``build_policy`` calls it with the preset's world; a policy made with ``make_policy`` for a
+        ``World`` of other settings gets them with ``policy.use_world(world.settings)``.
+
+        Returns:
+            The policy itself.
+        """
+        self._configure(dataclasses.replace(world, threads=self._threads))
+        return self
 
     def act(self, observation: Observation) -> np.ndarray:
         """(B, 2) actions in the world's format for the observed batch (zeros where inactive)."""
@@ -66,7 +84,7 @@ class NativePolicy:
             np.ascontiguousarray(observation.human_mask),
             np.ascontiguousarray(observation.active),
             kinematics,
-            _ROTATION_LIMIT,
+            self.rotation_limit,
             observation.dt,
             self._orca,
             self._orca_settings.radius_margin,
@@ -82,8 +100,6 @@ class NativePolicy:
         """The record stored with results: policy, information and ORCA's safety space [m]."""
         return {"policy": self.name, "information": self.information, "safety_space": self.safety_space}
 
-
-_ROTATION_LIMIT = np.pi / 4
 
 
 @register_policy(

@@ -1,0 +1,50 @@
+"""The native robot policies (linear, ORCA, social force) take the world's settings, as its humans do."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from socialnav.policies.loading import build_policy
+from socialnav.policies.native import NativePolicy
+from socialnav.presets import load_preset
+from socialnav.scenarios import make_scenario
+from socialnav.sim import World
+from socialnav.sim.settings import OrcaSettings
+
+
+def _preset(**world):
+    preset = load_preset("wang2022")
+    return dataclasses.replace(preset, world=dataclasses.replace(preset.world, **world))
+
+
+def test_the_robot_orca_policy_uses_the_presets_orca_parameters():
+    orca = OrcaSettings(time_horizon=2.0, neighbor_dist=3.0)
+    preset = _preset(orca=orca)
+    policy = build_policy("orca", preset)
+    assert (policy._orca_settings.time_horizon, policy._orca_settings.neighbor_dist) == (2.0, 3.0)
+    world = World(preset.world, make_scenario("circle_crossing", n_humans=5, robot_v_pref=1.5), 8,
+                  split="test", count=8)
+    world.reset()
+    for _ in range(6):  # into the crossing, where the horizons decide
+        world.step(np.zeros((8, 2)))
+    obs = world.observe()
+    action = policy.act(obs)
+    by_hand = NativePolicy("orca", safety_space=policy.safety_space, orca=orca, threads=1).act(obs)
+    np.testing.assert_array_equal(action, by_hand)  # what the humans use, not the defaults
+    default = build_policy("orca", load_preset("wang2022")).act(obs)
+    assert not np.array_equal(default, action)  # the horizons matter here: the test can tell
+
+
+def test_native_policies_turn_by_the_worlds_rotation_limit():
+    preset = _preset(kinematics="unicycle", rotation_limit=math.pi / 3)
+    world = World(preset.world, make_scenario("circle_crossing", n_humans=0, robot_v_pref=1.5), 1,
+                  split="test", count=1)
+    world.reset()
+    world.goal[0, 0] = world.position[0, 0] + (5.0, 0.0)  # straight to the right: a turn of pi/2 wanted
+    obs = world.observe()
+    for name in ("linear", "orca", "social_force"):
+        action = build_policy(name, preset).act(obs)
+        assert abs(action[0, 1]) == math.pi / 3, name
