@@ -6,6 +6,7 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 
 from socialnav.policies.loading import build_policy
 from socialnav.policies.native import NativePolicy
@@ -48,3 +49,15 @@ def test_native_policies_turn_by_the_worlds_rotation_limit():
     for name in ("linear", "orca", "social_force"):
         action = build_policy(name, preset).act(obs)
         assert abs(action[0, 1]) == math.pi / 3, name
+
+
+def test_a_non_finite_real_human_is_refused_not_dropped():
+    world = World(load_preset("wang2022").world, make_scenario("circle_crossing", n_humans=2), 2,
+                  split="test", count=2)
+    world.reset()
+    obs = world.observe()
+    humans = obs.humans.copy()
+    humans[1, 0, 2] = np.inf
+    for name in ("linear", "orca", "social_force"):
+        with pytest.raises(ValueError, match=r"observation humans\[1, 0\] \(a real human\) is not finite"):
+            build_policy(name, load_preset("wang2022")).act(dataclasses.replace(obs, humans=humans))

@@ -16,7 +16,7 @@ import numpy as np
 
 from socialnav.policies.base import is_registered, register_policy
 from socialnav.policies.learned_catalog import learned_policy_specs
-from socialnav.sim.observation import Observation
+from socialnav.sim.observation import Observation, check_observation
 
 
 class LearnedPolicy:
@@ -57,6 +57,8 @@ class LearnedPolicy:
             raise ValueError(
                 f"policy {self.name!r} uses oracle information: observe the world with oracle=True"
             )
+        check_observation(observation, self.name, self.value_policy.kinematics,
+                          oracle=self.information == "oracle")
         actions = np.zeros((observation.batch_size, 2))
         rows = np.flatnonzero(observation.active)
         if rows.size == 0:
@@ -417,3 +419,4 @@ def register_catalog() -> None:
                 register_policy(
                     name, description=description, learned=True, parameters=spec.evaluation_parameters()
                 )(factory(name))
+

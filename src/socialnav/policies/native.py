@@ -9,7 +9,7 @@ import numpy as np
 
 from socialnav import _core
 from socialnav.policies.base import register_policy
-from socialnav.sim.observation import Observation
+from socialnav.sim.observation import Observation, check_observation
 from socialnav.sim.pool import shared_pool
 from socialnav.sim.settings import OrcaSettings, SocialForceSettings, WorldSettings
 from socialnav.sim.world import orca_params, social_force_params
@@ -73,6 +73,7 @@ class NativePolicy:
 
     def act(self, observation: Observation) -> np.ndarray:
         """(B, 2) actions in the world's format for the observed batch (zeros where inactive)."""
+        check_observation(observation, self.name)  # a NaN human was dropped by ORCA, NaN from social force
         B = observation.batch_size
         if self._out is None or self._out.shape[0] != B:
             self._out = np.zeros((B, 2))

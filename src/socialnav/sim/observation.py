@@ -158,3 +158,55 @@ def build_observation(position: np.ndarray, velocity: np.ndarray, goal: np.ndarr
     human_mask = mask[:, 1:].astype(bool)
     humans[~human_mask] = 0.0  # padded slots carry no stale data
     return Observation(robot, humans, human_mask, active.copy(), time.copy(), dt, kinematics)
+
+
+def check_observation(observation: Observation, name: str, kinematics: str | None = None,
+                      oracle: bool = False) -> None:
+    """Refuses an observation a policy would turn into a silently wrong action.
+
+    A network given NaN picks an arbitrary action (or, argmax over NaN, the first: stop); one given
+    another robot's kinematics sends (vx, vy) to a robot that reads (v, dθ). Checked: the arrays'
+    shapes, the kinematics (where the policy has one), and finite values in the active episodes' robot
+    rows and real humans.
+
+    Args:
+        observation: What the policy is given.
+        name: The policy, for the message.
+        kinematics: The kinematics the policy was made for, or None for any.
+        oracle: Check ``next_humans`` too.
+
+    Raises:
+        ValueError: Naming the array, the episode row and, for humans, the slot.
+    """
+    if kinematics is not None and observation.kinematics != kinematics:
+        raise ValueError(f"policy {name!r} was trained for a {kinematics} robot; the observation is of a "
+                         f"{observation.kinematics!r} one (its actions would be read as the other kind's)")
+    b, robot, humans = observation.batch_size, observation.robot, observation.humans
+    if robot.shape != (b, 9) or humans.ndim != 3 or humans.shape[0] != b or humans.shape[2] != 5:
+        raise ValueError(f"policy {name!r}: observation robot must be (B, 9) and humans (B, N, 5), got "
+                         f"{robot.shape} and {humans.shape}")
+    if observation.human_mask.shape != humans.shape[:2]:
+        raise ValueError(f"policy {name!r}: observation human_mask must be {humans.shape[:2]}, got "
+                         f"{observation.human_mask.shape}")
+    arrays = [("humans", humans)]
+    if oracle and observation.next_humans is not None:
+        if observation.next_humans.shape != humans.shape:
+            raise ValueError(f"policy {name!r}: next_humans must have the humans' shape {humans.shape}, got "
+                             f"{observation.next_humans.shape}")
+        arrays.append(("next_humans", observation.next_humans))
+    # The usual case at the cost of one sum per array (a NaN or inf makes the sum non-finite; a sum that
+    # overflows only sends it to the exact check below)
+    if all(np.isfinite(values.sum()) for values in (robot, *(v for _, v in arrays))):
+        return
+    active = np.asarray(observation.active, dtype=bool)
+    bad = np.flatnonzero(active & ~np.all(np.isfinite(robot), axis=1))
+    if bad.size:
+        raise ValueError(f"policy {name!r}: observation robot row {int(bad[0])} is not finite: "
+                         f"{robot[bad[0]].tolist()}")
+    real = observation.human_mask & active[:, None]
+    for label, values in arrays:
+        bad_slots = np.argwhere(real & ~np.all(np.isfinite(values), axis=2))
+        if bad_slots.size:
+            row, slot = (int(v) for v in bad_slots[0])
+            raise ValueError(f"policy {name!r}: observation {label}[{row}, {slot}] (a real human) is not "
+                             f"finite: {values[row, slot].tolist()}")
