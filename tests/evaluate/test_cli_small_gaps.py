@@ -184,3 +184,10 @@ def test_small_command_line_conveniences(tmp_path, capsys):
     assert main(argv) == 2
     assert ("--information constant_velocity and --policy-arg information=oracle disagree; give one of them"
             in capsys.readouterr().err)
+    # mp_rgl's checkpoint plans two steps with its predictor: the oracle knows one, which the message says
+    # (it blamed the checkpoint: "config.value_policy is invalid")
+    argv[2:7] = ["mp_rgl", "--information", "oracle", "--scenario", "passing"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    said = "'mp_rgl': information 'oracle' knows the humans' next step only, and the planning depth is 2"
+    assert said in err and "invalid" not in err

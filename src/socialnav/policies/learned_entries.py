@@ -270,6 +270,13 @@ def load_learned_policy(
     ):
         if value is not None:
             settings[key] = value
+    depth = int(settings.get("planning_depth") or 1)
+    if depth > 1 and settings.get("information") == "oracle":
+        # the oracle knows the humans' next step only: the caller's combination, not a bad checkpoint
+        raise ValueError(
+            f"policy {name!r}: information 'oracle' knows the humans' next step only, and the planning "
+            f"depth is {depth}: give --planning-depth 1 --planning-width 1 with it"
+        )
     if settings.get("information") == "learned" and ckpt.predictor is None:
         raise ValueError(
             f"checkpoint {checkpoint} stores no state predictor, so information 'learned' is not available "
