@@ -59,3 +59,12 @@ def test_a_directory_of_another_kind_of_run_is_refused(tmp_path, capsys):
     assert "several holds the results of `evaluate --policy all` (policies)" in capsys.readouterr().err
     assert main(["reproduce", "--quick", "--out", str(tmp_path / "single")]) == 2
     assert "this is `socialnav reproduce`: use another --out" in capsys.readouterr().err
+
+
+def test_a_run_larger_than_the_test_split_is_refused_before_any_file(tmp_path, capsys):
+    argv = ["evaluate", "--policy", "linear", "--scenario", "random", "--visibility", "invisible",
+            "--episodes", "1001", "--out", str(tmp_path / "out"), "--no-progress"]
+    assert main(argv) == 2
+    said = "random: 1001 episodes (--episodes / evaluation.episodes), more than the 1000 of the 'test' split"
+    assert said in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

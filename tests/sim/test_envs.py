@@ -96,3 +96,8 @@ def test_the_evaluations_continuation_is_refused_by_the_envs(make):
     # With it, an env episode ran on after the robot's success (reward 1, not terminated) past the time limit.
     with pytest.raises(ValueError, match="world.continue_after_success: the evaluation's M_III continuation"):
         make({"continue_after_success": True})
+
+
+def test_a_single_human_sweep_larger_than_its_split_is_refused_at_construction():
+    with pytest.raises(ValueError, match=r"'passing' has 1200 episodes, more than the 1000 of split 'test'"):
+        SocialNavEnv(scenario="passing", scenario_params={"repeats": 60}, split="test")

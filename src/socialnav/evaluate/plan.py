@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from socialnav.config import ConfigError
 from socialnav.presets import Preset
 from socialnav.scenarios import Scenario, get_scenario, make_scenario
+from socialnav.scenarios.seeds import SPLIT_SIZE
 from socialnav.sim.settings import WorldSettings
 
 #: Episodes per cell at most (a run of this size takes days; larger is a typo).
@@ -103,6 +104,14 @@ def plan_cells(preset: Preset, scenarios: list[str] | None = None, episodes: int
     if not cells:
         raise ConfigError(f"nothing to evaluate: the single-human scenarios ({', '.join(names)}) run with an "
                           f"invisible robot only, and --visibility is {visibility}")
+    if ev.split != "train":  # checked before a file is written: the run would die at episode 1000
+        for cell in cells:
+            if cell.episodes > SPLIT_SIZE:
+                why = (f"its offsets x evaluation.repeats {ev.repeats}" if cell.single_human
+                       else "--episodes / evaluation.episodes")
+                raise ConfigError(f"{cell.scenario}: {cell.episodes} episodes ({why}), more than the "
+                                  f"{SPLIT_SIZE} of the {ev.split!r} split; run at most {SPLIT_SIZE}, or "
+                                  "evaluation.split: train for more")
     return cells
 
 

@@ -161,6 +161,9 @@ class _EnvConfig:
         self.table = discrete_actions(self.settings.kinematics, self.v_pref, self.settings.rotation_limit)
         # Episodes available: a finite scenario's set, the val/test split's range, or endless (train).
         n = self.scenario.n_episodes
+        if n is not None and split != "train" and n > SPLIT_SIZE:  # refused here, not at episode 1000
+            raise ValueError(f"scenario {scenario!r} has {n} episodes, more than the {SPLIT_SIZE} of split "
+                             f"{split!r} (fewer repeats, or split='train')")
         self.n_episodes = n if n is not None else (None if split == "train" else SPLIT_SIZE)
 
     def order(self, *, seed: int | None = None, start: int | None = None) -> EpisodeOrder:
