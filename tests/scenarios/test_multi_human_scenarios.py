@@ -296,3 +296,9 @@ def test_robot_settings_used() -> None:
     np.testing.assert_array_equal(bt.robot_radius, 0.4)
     np.testing.assert_array_equal(bt.robot_start, [[0, -5.0]] * 3)
     check_rejection_invariant(bt, 0.2, circle=False)
+
+
+def test_traffic_bands_wider_than_their_offset_are_refused():
+    with pytest.raises(ValueError, match=r"band_width 12 m must be below 2 x circle_radius \(8 m\)"):
+        make_scenario("parallel_traffic", traffic_area="band", band_width=12.0)
+    make_scenario("perpendicular_traffic", traffic_area="band", band_width=7.9)

@@ -111,3 +111,20 @@ def test_single_bad_input(name: str) -> None:
         make_scenario(name, n_offsets=1)
     with pytest.raises(ValueError, match=r"offset_span must be > 0"):
         make_scenario(name, offset_span=-0.1)
+
+
+@pytest.mark.parametrize("name, params, message", [
+    ("overtaking", {"gap": 0.1}, r"Overtaking: the human can start 0.105 m from the robot's centre, within "
+                                 r"their radii \(0.6 m\)"),
+    ("crossing", {"circle_radius": 0.3}, r"Crossing: the human can start 0.3 m from the robot's centre"),
+    ("passing", {"circle_radius": 0.5, "repeats": 2, "start_jitter": 0.3}, r"Passing: the human can start"),
+    ("overtaking", {"speed_ratio": 1.0}, r"speed_ratio must be < 1"),
+])
+def test_settings_that_start_the_human_on_the_robot_are_refused(name, params, message):
+    with pytest.raises(ValueError, match=message):
+        make_scenario(name, **params)
+
+
+def test_the_protocols_single_human_scenarios_start_clear():
+    for name in ("passing", "overtaking", "crossing"):
+        make_scenario(name, repeats=10, robot_v_pref=1.5)  # wang2022's, jittered repeats included

@@ -11,6 +11,7 @@ each axis. No rejection is needed with one human.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,6 +53,31 @@ class _SingleHuman(Scenario):
                 f"{type(self).__name__}.randomize_attributes must be False (the offsets and "
                 f"speeds are the experiment's design), got {self.randomize_attributes!r}"
             )
+        self._check_start_clearance()
+
+    def _check_start_clearance(self) -> None:
+        """Refuses settings whose human can start touching the robot: the episode would end at once.
+
+        These scenarios place the human by design, with no rejection step; the check takes the exact
+        grid and, with repeats, the largest jitter towards the robot.
+        """
+        start, _ = self._line(self.offsets)
+        robot_start, _ = self.robot_endpoints()
+        gap = float(np.min(np.linalg.norm(start - np.asarray(robot_start, dtype=float), axis=1)))
+        if self.repeats > 1:
+            oj = self.span / (self.n_offsets - 1) if self.offset_jitter is None else self.offset_jitter
+            gap -= oj + math.sqrt(2.0) * self.start_jitter
+        need = self.robot_radius + self.human_radius
+        if not gap > need:
+            raise ValueError(
+                f"{type(self).__name__}: the human can start {max(gap, 0.0):.3g} m from the robot's centre, "
+                f"within their radii ({need:g} m): the episode would end in a collision at once "
+                f"(check circle_radius {self.circle_radius:g}{self._clearance_settings()}, start_jitter, "
+                "offset_jitter)"
+            )
+
+    def _clearance_settings(self) -> str:
+        return ""
 
     @property
     def span(self) -> float:
@@ -124,6 +150,16 @@ class Overtaking(_SingleHuman):
 
     gap: float = param(2.0, "head start of the human along +y", unit="m", gt=0)
     speed_ratio: float = param(0.5, "human v_pref / robot v_pref", gt=0)
+
+    def __post_init__(self) -> None:
+        """Also refuses a human at least as fast as the robot: it would never be overtaken."""
+        super().__post_init__()
+        if not self.speed_ratio < 1:
+            raise ValueError(f"Overtaking.speed_ratio must be < 1 (a slower human ahead, caught at "
+                             f"-R + gap/(1 - speed_ratio)), got {self.speed_ratio!r}")
+
+    def _clearance_settings(self) -> str:
+        return f", gap {self.gap:g}"
 
     def _human_v_pref(self) -> float:
         return self.speed_ratio * self.robot_v_pref
