@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import shutil
@@ -95,10 +96,14 @@ def test_chunk_of_another_configuration_is_refused(tmp_path):
 
 def test_invalid_settings_write_nothing_and_an_empty_manifest_blocks_nothing(tmp_path):
     preset = load_preset("crowdnav")
-    with pytest.raises(ValueError, match="GiB"):
+    evaluation = dataclasses.replace(preset.evaluation, split="train")
+    train_split = dataclasses.replace(preset, evaluation=evaluation)
+    with pytest.raises(ValueError, match="GiB"):  # the train split has episodes enough for the bound
         run_protocol(
-            make_policy("orca"), preset, tmp_path / "o", batch_size=10**8, **{**KW, "episodes": 10**6}
+            make_policy("orca"), train_split, tmp_path / "o", batch_size=10**8, **{**KW, "episodes": 10**6}
         )
+    with pytest.raises(ValueError, match="more than the 1000 of the 'test' split"):
+        run_protocol(make_policy("orca"), preset, tmp_path / "o", **{**KW, "episodes": 1001})
     assert not (tmp_path / "o").exists()
     # A directory with a manifest and no result (a run refused or killed at once) takes the new run.
     (tmp_path / "p").mkdir()

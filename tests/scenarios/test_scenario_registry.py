@@ -158,6 +158,20 @@ def test_entry_point_plugins_lazy(isolated: None, monkeypatch: pytest.MonkeyPatc
     make_scenario("corridor", n_humans=2).episodes("test", [0]).validate()
 
 
+def test_a_plugin_deriving_from_a_built_in_is_registered_under_its_entry_point(
+        isolated: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    from socialnav.scenarios.square import RandomPlacement
+
+    @dataclass(frozen=True, kw_only=True)
+    class Wide(RandomPlacement):
+        pass
+
+    assert Wide.name == "random"  # inherited: it was taken for "registered itself" and dropped
+    monkeypatch.setattr(importlib.metadata, "entry_points", lambda group: [_FakeEntryPoint("wide", Wide)])
+    assert get_scenario("wide") is Wide and Wide.name == "wide" and "wide" in list_scenarios()
+    assert get_scenario("random") is RandomPlacement  # the built-in keeps its name
+
+
 def test_unregistered_scenario_cannot_generate() -> None:
     @dataclass(frozen=True, kw_only=True)
     class Anonymous(Scenario):

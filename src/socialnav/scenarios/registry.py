@@ -138,7 +138,9 @@ def _load_plugins() -> None:
     _load_builtins()  # built-ins first: a plugin cannot take a built-in's name
     _plugins_loaded = True
     for ep, obj in load_entry_points(ENTRY_POINT_GROUP, "scenario"):
-        if isinstance(obj, type) and issubclass(obj, Scenario) and not obj.name:
+        # registered itself: its own name (not one inherited from a built-in it derives from) maps to it
+        own = obj.__dict__.get("name") if isinstance(obj, type) else None
+        if isinstance(obj, type) and issubclass(obj, Scenario) and not (own and _REGISTRY.get(own) is obj):
             register_scenario(ep.name)(obj)
 
 
