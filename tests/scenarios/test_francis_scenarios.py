@@ -158,8 +158,14 @@ def test_geometry_by_hand() -> None:
 
 @pytest.mark.parametrize("name, settings, match", [
     ("narrow_hallway", {"corridor_width": 0.8},
-     r"NarrowHallway: the robot's start \[0.0, -4.0\] is 0.4 m from a wall, less than robot_radius \+ "
-     r"discomfort_dist = 0.5 m; the settings .*corridor_width=0.8"),
+     r"NarrowHallway.corridor_width must be > 1 m \(2 x \(radius \+ discomfort_dist\)\)"),
+    ("narrow_hallway", {"lateral_jitter": 1.4}, r"NarrowHallway.lateral_jitter must be < corridor_width / 2"),
+    ("frontal_approach", {"lateral_jitter": 5.0}, r"lateral_jitter must be < .* = 2.5 m: a larger offset"),
+    ("intersection", {"corridor_width": 10.0}, r"Intersection.corridor_width must be < 2 x circle_radius"),
+    ("blind_corner", {"corridor_width": 9.0}, r"BlindCorner.corridor_width must be < 2 x circle_radius"),
+    ("pedestrian_obstruction", {"circle_radius": 1.5}, r"circle_radius must leave the standing group"),
+    ("entering_room", {"outside_distance": 0.2}, r"outside_distance must be > 1 m"),
+    ("narrow_doorway", {"door_width": "1.2"}, r"NarrowDoorway.door_width must be a number, got '1.2'"),
     ("entering_room", {"room_depth": 0.5},
      r"EnteringRoom: the robot's goal \[0.0, 0.3\] is 0.2 m from a wall"),
     ("exiting_room", {"door_width": 4.0}, r"ExitingRoom.door_width must be < room_width = 4.0 m, got 4.0"),

@@ -9,7 +9,7 @@ reason in ``docs/walls_maps.md``. Common conventions: the robot and the humans k
 between an agent and a wall, R = ``circle_radius`` (4 m) sets the travel distance, the robot walks
 from (0, −R) towards +y unless a scenario says otherwise. Corridor walls are zero-thickness wall
 segments (a width is then the distance between the wall lines); blocks that an agent cannot enter
-(corners, pillars, the group's obstruction) are solid polygons.
+(corners, pillars) are solid polygons; the obstruction is a group of standing people.
 """
 
 from __future__ import annotations
@@ -90,6 +90,11 @@ class _Hallway(WalledScenario):
     end_wall: float = param(3.0, "length of the hall walls at each end of the corridor, each side (0: none)",
                             unit="m", ge=0)
 
+    def cross_check(self) -> None:
+        """Also refuses jitter that draws the human beyond the corridor's walls."""
+        super().cross_check()
+        self.refuse_jitter_beyond_the_corridor()
+
     def walls(self) -> list[np.ndarray]:
         return _corridor_walls(self.corridor_width, self.corridor_length, self.end_wall)
 
@@ -163,6 +168,17 @@ class PedestrianObstruction(WalledScenario):
                         "leave no gap beside it wider than the robot's diameter (2 · robot_radius = "
                         f"{2 * self.robot_radius:g} m) and block the route to the goal in {self.name}; "
                         "widen the corridor or make the agents smaller")
+        # The group's centre is checked against the robot's start only; its members, up to 0.5 m + the
+        # formation's reach along the corridor, must clear the robot's start and goal as every start must.
+        ys = [y for _, y in self.FORMATION[: self.n_humans]]
+        need = self.robot_radius + self.human_radius + self.discomfort_dist
+        clear = min(self.circle_radius - (max(ys) + 0.5), self.circle_radius + (min(ys) - 0.5))
+        if clear < need:
+            self.refuse("circle_radius", "must leave the standing group (its members up to "
+                        f"{max(max(ys), -min(ys)) + 0.5:g} m from the middle along the corridor) at least "
+                        f"robot_radius + human_radius + discomfort_dist = {need:.3g} m from the robot's "
+                        f"start (0, -R) and goal (0, R); with R = {self.circle_radius:g} m a member can come "
+                        f"within {max(clear, 0.0):.3g} m: raise circle_radius")
         placed = self.placement_width()
         if self.corridor_width < placed:
             clearance = self.human_radius + self.discomfort_dist
@@ -225,10 +241,10 @@ class PedestrianObstruction(WalledScenario):
 class NarrowDoorway(WalledScenario):
     """Francis (k): a wall across an enclosure at y = 0 with a door; people flow through both ways.
 
-    Door 1.0 m: wider than one body with its discomfort gaps (0.6 + 2·0.2 m), narrower than two
-    bodies (1.2 m), so people pass one at a time. The closed enclosure (x = ±area_width/2,
-    y = ±(R + 1)) makes the door the only way through. Human j walks against the robot (from
-    y ∈ [1, R + 0.5] to y ∈ [−R − 0.5, −1]) for even j and with it for odd j.
+    Door 1.2 m (door_width): wider than one body with its discomfort gaps (0.6 + 2·0.2 m = 1.0 m),
+    not wide enough for two bodies with theirs, so people pass one at a time. The closed enclosure
+    (x = ±area_width/2, y = ±(R + 1)) makes the door the only way through. Human j walks against the
+    robot (from y ∈ [1, R + 0.5] to y ∈ [−R − 0.5, −1]) for even j and with it for odd j.
     """
 
     passages = ("door_width",)
@@ -237,10 +253,10 @@ class NarrowDoorway(WalledScenario):
     door_width: float = param(1.2, "width of the door", unit="m", gt=0)
     area_width: float = param(6.0, "distance between the side walls", unit="m", gt=0)
 
-    def __post_init__(self) -> None:
-        """Validate settings; the door must fit in its wall."""
+    def cross_check(self) -> None:
+        """Also refuses a door that does not fit in its wall (after the settings' own type checks)."""
+        super().cross_check()
         _door_fits(self, "area_width")
-        super().__post_init__()
 
     def walls(self) -> list[np.ndarray]:
         """The doorway's wall with its gap and the surrounding walls [m]: (2, 2) segments."""
@@ -274,6 +290,12 @@ class BlindCorner(WalledScenario):
     corridor_width: float = param(2.0, "width of both legs", unit="m", gt=0)
     lateral_jitter: float = param(0.2, "human offset o ~ U(-j, j) across its leg", unit="m", ge=0)
     start_jitter: float = param(0.5, "human start distance R ± U(-j, j) along its leg", unit="m", ge=0)
+
+    def cross_check(self) -> None:
+        """Also refuses a corridor too wide for the corner blocks, and jitter beyond its walls."""
+        super().cross_check()
+        self.refuse_blocks_wider_than_the_layout()
+        self.refuse_jitter_beyond_the_corridor()
 
     def robot_endpoints(self) -> tuple[np.ndarray, np.ndarray]:
         """Up the vertical leg, then right along the horizontal one."""
@@ -316,6 +338,12 @@ class Intersection(WalledScenario):
     lateral_jitter: float = param(0.2, "human offset o ~ U(-j, j) across its corridor", unit="m", ge=0)
     start_jitter: float = param(0.5, "human start distance R ± U(-j, j) from the junction", unit="m", ge=0)
 
+    def cross_check(self) -> None:
+        """Also refuses a corridor too wide for the corner blocks, and jitter beyond its walls."""
+        super().cross_check()
+        self.refuse_blocks_wider_than_the_layout()
+        self.refuse_jitter_beyond_the_corridor()
+
     def walls(self) -> list[np.ndarray]:
         """The four solid corner blocks of the crossing: (4, 2) polygons [m]."""
         h, length = self.corridor_width / 2, self.circle_radius + 1.0
@@ -342,10 +370,14 @@ class _Room(WalledScenario):
     door_width: float = param(1.2, "width of the door", unit="m", gt=0)
     outside_distance: float = param(3.0, "distance from the door of the point outside", unit="m", gt=0)
 
-    def __post_init__(self) -> None:
-        """Validate settings; the door must fit in its wall."""
+    def cross_check(self) -> None:
+        """Also refuses a door that does not fit in its wall, and an outside point in the doorway."""
+        super().cross_check()
         _door_fits(self, "room_width")
-        super().__post_init__()
+        least = 0.5 + self.widest_agent()[0] + self.discomfort_dist
+        if not self.outside_distance > least:  # the outside points are drawn within 0.5 m of it
+            self.refuse("outside_distance", f"must be > {least:.3g} m (0.5 m of drawn spread + radius + "
+                        f"discomfort_dist), or the point 'outside' {self.name}'s room lands in its doorway")
 
     def _inside(self) -> np.ndarray:
         return np.array([0.0, 0.6 * self.room_depth])
@@ -374,7 +406,7 @@ class _Room(WalledScenario):
 class EnteringRoom(_Room):
     """Francis (l): the robot enters a room by its door while a person inside leaves.
 
-    The room is 4 m × 4 m (a small office) with a 1 m door.
+    The room is 4 m × 4 m (a small office) with a 1.2 m door.
     """
 
     entering = True

@@ -13,6 +13,7 @@ impossible (:class:`~socialnav.scenarios.ScenarioGenerationError`, naming the hu
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -87,6 +88,42 @@ class WalledScenario(Scenario):
                             f"goes through it ({setting} = {radius:g} m): a narrower one blocks the route "
                             f"to the goal in {self.name}; widen {name} or make the agents smaller")
 
+    def refuse_blocks_wider_than_the_layout(self) -> None:
+        """Refuses a corridor so wide that the solid corner blocks beside it vanish or turn inside out.
+
+        The blocks reach ``circle_radius + 1`` from the centre; a half-width of ``circle_radius`` or
+        more would leave blocks under 1 m, or none, and the route would not need the corner.
+
+        Raises:
+            ConfigError: naming corridor_width, its value and the bound.
+        """
+        if not self.corridor_width < 2.0 * self.circle_radius:
+            self.refuse("corridor_width", f"must be < 2 x circle_radius = {2.0 * self.circle_radius:g} m: "
+                        f"the corner blocks of {self.name} reach circle_radius + 1 m from the centre, and a "
+                        "wider corridor leaves them under 1 m or none; narrow the corridor or raise "
+                        "circle_radius")
+
+    def refuse_jitter_beyond_the_corridor(self) -> None:
+        """Refuses people drawn beyond the corridor's walls, or a corridor too narrow to place anyone.
+
+        A corridor whose middle is closer to the walls than a person may start is refused. Draws near a
+        wall are rejected and drawn again (every start must clear the walls by radius + discomfort_dist);
+        one past the wall, clear of it on the outside, would be kept.
+
+        Raises:
+            ConfigError: naming corridor_width or lateral_jitter, its value and the bound.
+        """
+        margin = self.widest_agent()[0] + self.discomfort_dist
+        half = self.corridor_width / 2
+        if half <= margin:  # not even the corridor's middle clears the walls: the width is the problem
+            self.refuse("corridor_width", f"must be > {2 * margin:.3g} m (2 x (radius + discomfort_dist)): "
+                        f"a person in the middle of {self.name}'s corridor would be closer to a wall than "
+                        "that, and its episodes could not be placed")
+        if not self.lateral_jitter < half + margin:
+            self.refuse("lateral_jitter", f"must be < corridor_width / 2 + radius + discomfort_dist = "
+                        f"{half + margin:.3g} m: a larger offset draws people beyond the walls of "
+                        f"{self.name}; lower it or widen the corridor")
+
     def widest_agent(self) -> tuple[float, str]:
         """The largest radius among the robot and the humans [m], and the setting that gives it."""
         if self.randomize_attributes:
@@ -115,7 +152,8 @@ class WalledScenario(Scenario):
         return {k: v for k, v in self.__dict__.items() if k not in ("_map_cache", "_stack_cache")}
 
     def _geometry_settings(self) -> str:
-        own = [f for f in type(self).__dataclass_fields__ if f not in Scenario.__dataclass_fields__]
+        # dataclasses.fields leaves out the ClassVars (passages, entering, ...), which are no settings
+        own = [f.name for f in dataclasses.fields(self) if f.name not in Scenario.__dataclass_fields__]
         return ", ".join(f"{f}={getattr(self, f)!r}" for f in own) or "(defaults)"
 
     # ---- what subclasses declare ----------------------------------------------------------------
