@@ -180,3 +180,11 @@ def test_unregistered_scenario_cannot_generate() -> None:
 
     with pytest.raises(TypeError, match="register_scenario"):
         Anonymous().episodes("test", [0])
+
+
+def test_scenario_settings_that_are_not_a_mapping_say_what_is_expected() -> None:
+    from socialnav.scenarios import scenario_from_settings
+
+    for bad in ("circle_crossing", None):
+        with pytest.raises(TypeError, match=r"must be a mapping such as \{'type': 'circle_crossing'"):
+            scenario_from_settings(bad)  # type: ignore[arg-type]

@@ -34,7 +34,7 @@ class CircleCrossing(Scenario):
 
     start_noise: float = param(
         0.5,
-        "half-width of the uniform start noise per axis, in units of the human's v_pref",
+        "half-width of the uniform start noise per axis, as a time: noise [m] = start_noise x v_pref",
         unit="s",
         ge=0,
     )

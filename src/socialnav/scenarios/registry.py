@@ -208,6 +208,9 @@ def scenario_from_settings(settings: Mapping[str, Any]) -> Scenario:
     Returns:
         The validated scenario.
     """
+    if not isinstance(settings, Mapping):
+        raise TypeError(f"scenario settings must be a mapping such as {{'type': 'circle_crossing', "
+                        f"'n_humans': 5}}, got {type(settings).__name__} {settings!r}")
     if "type" not in settings:
         raise ValueError(
             f"scenario settings need a 'type' key naming the scenario; got keys {sorted(settings)}"
