@@ -159,11 +159,14 @@ CASES: list[Case] = [
     # -- evaluate: options ---------------------------------------------------------------------
     C("ev-episodes-0", "setting", EV + " --episodes 0", "episodes must be >= 1"),
     C("ev-episodes-huge", "bounds", EV + " --episodes 1000000000000", "episodes must be <= 10000000"),
+    C("ev-episodes-split", "bounds", EV + " --episodes 1001 --out {base}/o_split",
+      "circle_crossing: 1001 episodes", "more than the 1000 of the 'test' split", untouched=("o_split",)),
     C("ev-batch-0", "setting", EV + " --batch-size 0", "--batch-size must be >= 1"),
     C(
         "ev-batch-huge",
         "bounds",
-        EV + " --batch-size 100000000 --episodes 1000000 --out {base}/o_batch",
+        "evaluate --no-progress --scenario circle_crossing --preset {base}/train_split.yaml --batch-size "
+        "100000000 --episodes 1000000 --out {base}/o_batch",
         "GiB",
         "allowed",
         untouched=("o_batch",),
@@ -447,6 +450,7 @@ def build_inputs(base: Path):
         "dt_zero.yaml": "world: {dt: 0}\n",
         "time_limit.yaml": "world: {time_limit: 1.0e9}\n",
         "cap.yaml": "evaluation: {continuation_cap: 1.0e9}\n",
+        "train_split.yaml": "evaluation: {split: train}\n",  # episodes enough for the 4 GiB bound
         "vpref_nan.yaml": "robot: {v_pref: .nan}\n",
         "vpref_inf.yaml": "robot: {v_pref: .inf}\n",
         "humans.yaml": "evaluation: {n_humans: 100000}\n",

@@ -112,7 +112,9 @@ def wait_for_workers(pid: int, at_least: int, timeout: float = 30) -> set[int]:
 @pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
 def test_killed_evaluate_leaves_no_process_of_its_tree(tmp_path, sig):
     out = tmp_path / "out"
-    proc = evaluate(tmp_path, out, 2000)
+    # a long run to kill: 2000 episodes, more than the test split's 1000, from the training split
+    long_split = PRESET.replace("visibility: invisible}", "visibility: invisible, split: train}")
+    proc = evaluate(tmp_path, out, 2000, preset_text=long_split)
     wait_for_chunks(out, 1, proc)
     # forkserver + resource tracker + at least one scoring worker
     tree = wait_for_workers(proc.pid, 3)
