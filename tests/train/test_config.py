@@ -154,7 +154,7 @@ def test_a_runs_own_config_file_is_a_training_config(tmp_path):
     # value-based and the PPO trainer, and the command line's trainer check reads its kind from it
     import yaml
 
-    from socialnav.train.cli import _config_trainer
+    from socialnav.train.cli import _config_trainer, _read_config
     from socialnav.train.ppo_config import PPOSettings, load_ppo_settings
 
     settings = load_train_settings("smoke", seed=7)
@@ -163,12 +163,12 @@ def test_a_runs_own_config_file_is_a_training_config(tmp_path):
     path = tmp_path / "config.yaml"
     path.write_text(yaml.safe_dump(record))
     assert load_train_settings(path) == settings
-    assert _config_trainer(str(path)) == "value"
+    assert _config_trainer(_read_config(str(path))) == "value"
     ppo = load_ppo_settings("ppo_smoke", seed=3)
     path.write_text(yaml.safe_dump({"ppo_policy": {}, "policy": "crowdnav_pp", "preset": {},
                                     "train": json.loads(json.dumps(ppo.to_dict()))}))
     assert load_ppo_settings(path) == ppo and isinstance(ppo, PPOSettings)
-    assert _config_trainer(str(path)) == "ppo"
+    assert _config_trainer(_read_config(str(path))) == "ppo"
 
 
 def test_resuming_under_an_alias_of_the_runs_policy_is_no_difference():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from socialnav._io import load_yaml
 from socialnav.configs import shipped_presets
@@ -80,27 +81,44 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
     tr.set_defaults(run=_run)
 
 
-def _config_trainer(config: str) -> str | None:
-    """The trainer whose settings a training config's keys are: "value", "ppo", or None.
+def _read_config(config: str | None) -> dict[str, Any] | None:
+    """A training config's mapping, or None where there is none or it cannot be read.
 
-    None where the keys fit both (e.g. only ``threads``) or neither (the trainer's own loader then names
-    the unknown ones), or the file cannot be read (its loader says why).
+    An unreadable file is left to the trainer's own loader, which says why.
     """
-    import dataclasses
-
     import yaml
 
     from socialnav.config import ConfigError
-    from socialnav.train.config import TrainSettings, _resolve_config
-    from socialnav.train.ppo_config import PPOSettings
+    from socialnav.train.config import _resolve_config
 
+    if config is None:
+        return None
     try:
         data = load_yaml(_resolve_config(config).read_text(encoding="utf-8"))
     except (ConfigError, OSError, UnicodeDecodeError, yaml.YAMLError):
         return None
-    if not isinstance(data, dict):
+    return data if isinstance(data, dict) else None
+
+
+def _is_run_record(data: dict[str, Any]) -> bool:
+    """A run's ``config.yaml`` (``--config <run>/config.yaml``), not a plain training config."""
+    return "ppo_policy" in data or "value_policy" in data
+
+
+def _config_trainer(data: dict[str, Any] | None) -> str | None:
+    """The trainer whose settings a training config's keys are: "value", "ppo", or None.
+
+    None where the keys fit both (e.g. only ``threads``) or neither (the trainer's own loader then names
+    the unknown ones), or there is no readable config.
+    """
+    import dataclasses
+
+    from socialnav.train.config import TrainSettings
+    from socialnav.train.ppo_config import PPOSettings
+
+    if data is None:
         return None
-    if "ppo_policy" in data or "value_policy" in data:  # a run's record: its trainer is written there
+    if _is_run_record(data):  # its trainer is written there
         return "ppo" if "ppo_policy" in data else "value"
     keys = {str(k) for k in data}
     fits = [t for t, cls in (("value", TrainSettings), ("ppo", PPOSettings))
@@ -108,22 +126,12 @@ def _config_trainer(config: str) -> str | None:
     return fits[0] if len(fits) == 1 else None
 
 
-def _config_policy(config: str) -> str | None:
+def _config_policy(data: dict[str, Any] | None) -> str | None:
     """The learned policy a plain training config names with ``policy:``, else None.
 
-    A run's record (``--config <run>/config.yaml``) is left out: reusing one run's settings for another
-    policy is what it is for.
+    A run's record is left out: reusing one run's settings for another policy is what it is for.
     """
-    import yaml
-
-    from socialnav.config import ConfigError
-    from socialnav.train.config import _resolve_config
-
-    try:
-        data = load_yaml(_resolve_config(config).read_text(encoding="utf-8"))
-    except (ConfigError, OSError, UnicodeDecodeError, yaml.YAMLError):
-        return None  # the trainer's own loader says why
-    if not isinstance(data, dict) or "ppo_policy" in data or "value_policy" in data:
+    if data is None or _is_run_record(data):
         return None
     named = data.get("policy")
     return str(named) if isinstance(named, str) and named in learned_policy_names() else None
@@ -139,17 +147,18 @@ def _check_args(args: argparse.Namespace) -> None:
             f"{', '.join(learned_policy_names('value'))}; PPO: {', '.join(learned_policy_names('ppo'))}"
         )
     trainer = get_learned_spec(args.policy).trainer
-    other = None if args.config is None else _config_trainer(args.config)
+    data = _read_config(args.config)
+    other = _config_trainer(data)
     if other is not None and other != trainer:
         from socialnav.train.config import shipped_train_configs
 
         kind = "a PPO" if other == "ppo" else "a value-based training"
-        own = [name for name in shipped_train_configs() if _config_trainer(name) == trainer]
+        own = [name for name in shipped_train_configs() if _config_trainer(_read_config(name)) == trainer]
         raise ConfigError(
             f"--config {args.config}: {kind} config, and {args.policy} trains with the "
             f"{'PPO' if trainer == 'ppo' else 'value-based'} trainer (its shipped configs: {', '.join(own)})"
         )
-    named = None if args.config is None else _config_policy(args.config)
+    named = _config_policy(data)
     if named is not None and canonical_name(named) != canonical_name(args.policy):
         raise ConfigError(f"--config {args.config} sets policy: {named}, and --policy {args.policy}: the run "
                           "would train one of them silently; give one (remove policy: from the file)")
