@@ -270,13 +270,6 @@ def load_learned_policy(
     ):
         if value is not None:
             settings[key] = value
-    depth = int(settings.get("planning_depth") or 1)
-    if depth > 1 and settings.get("information") == "oracle":
-        # the oracle knows the humans' next step only: the caller's combination, not a bad checkpoint
-        raise ValueError(
-            f"policy {name!r}: information 'oracle' knows the humans' next step only, and the planning "
-            f"depth is {depth}: give --planning-depth 1 --planning-width 1 with it"
-        )
     if settings.get("information") == "learned" and ckpt.predictor is None:
         raise ValueError(
             f"checkpoint {checkpoint} stores no state predictor, so information 'learned' is not available "
@@ -294,6 +287,10 @@ def load_learned_policy(
     except ScorerError as err:  # the caller's choice of scorer, not a fault of the checkpoint
         raise ScorerError(f"{name}: {err}") from None
     except (TypeError, ValueError) as err:
+        if any(v is not None for v in (information, planning_depth, planning_width)):
+            # settings the caller gave over the checkpoint's (e.g. oracle information for mp_rgl's depth
+            # 2): the combination is the caller's, not a fault of the checkpoint
+            raise ValueError(f"policy {name!r}: {err}") from None
         raise CheckpointError(f"{where} is invalid: {err}") from None
     return LearnedPolicy(name, policy, Path(checkpoint), mismatch)
 
@@ -426,4 +423,3 @@ def register_catalog() -> None:
                 register_policy(
                     name, description=description, learned=True, parameters=spec.evaluation_parameters()
                 )(factory(name))
-

@@ -149,7 +149,9 @@ class ValuePolicy:
                 f"planning_depth and planning_width must be >= 1, got {planning_depth} and {planning_width}"
             )
         if int(planning_depth) > 1 and information == "oracle":
-            raise ValueError("planning_depth > 1 needs a predictor of later steps: the oracle knows one step")
+            raise ValueError(f"information 'oracle' knows the humans' next step only, and the planning "
+                             f"depth is {int(planning_depth)}: plan at depth 1 (--planning-depth 1 "
+                             "--planning-width 1)")
         self.network = network
         self.obstacle_encoding = (
             None if obstacle_encoding is None else ObstaclePoints.from_dict(obstacle_encoding)
