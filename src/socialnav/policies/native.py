@@ -102,7 +102,6 @@ class NativePolicy:
         return {"policy": self.name, "information": self.information, "safety_space": self.safety_space}
 
 
-
 @register_policy(
     "linear", description="straight to the goal at v_pref, ignoring humans", parameters={"threads": 0}
 )
