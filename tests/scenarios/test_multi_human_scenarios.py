@@ -299,6 +299,7 @@ def test_robot_settings_used() -> None:
 
 
 def test_traffic_bands_wider_than_their_offset_are_refused():
-    with pytest.raises(ValueError, match=r"band_width 12 m must be below 2 x circle_radius \(8 m\)"):
+    message = r"ParallelTraffic.band_width must be < 2 x circle_radius = 8 m in 'band' mode .*, got 12.0$"
+    with pytest.raises(ValueError, match=message):
         make_scenario("parallel_traffic", traffic_area="band", band_width=12.0)
     make_scenario("perpendicular_traffic", traffic_area="band", band_width=7.9)

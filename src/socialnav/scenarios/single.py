@@ -151,12 +151,12 @@ class Overtaking(_SingleHuman):
     gap: float = param(2.0, "head start of the human along +y", unit="m", gt=0)
     speed_ratio: float = param(0.5, "human v_pref / robot v_pref", gt=0)
 
-    def __post_init__(self) -> None:
+    def cross_check(self) -> None:
         """Also refuses a human at least as fast as the robot: it would never be overtaken."""
-        super().__post_init__()
+        super().cross_check()
         if not self.speed_ratio < 1:
-            raise ValueError(f"Overtaking.speed_ratio must be < 1 (a slower human ahead, caught at "
-                             f"-R + gap/(1 - speed_ratio)), got {self.speed_ratio!r}")
+            self.refuse("speed_ratio",
+                        "must be < 1 (a slower human ahead, caught at -R + gap/(1 - speed_ratio))")
 
     def _clearance_settings(self) -> str:
         return f", gap {self.gap:g}"

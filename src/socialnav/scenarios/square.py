@@ -148,13 +148,13 @@ class _TwoSidedTraffic(_SquareScenario):
     )
     band_width: float = param(2.0, "width of the bands in 'band' mode", unit="m", gt=0)
 
-    def __post_init__(self) -> None:
+    def cross_check(self) -> None:
         """Also refuses bands that reach past the centre line: a start and its goal on one side."""
-        super().__post_init__()
+        super().cross_check()
         if self.traffic_area == "band" and not self.band_width < 2 * self.circle_radius:
-            raise ValueError(f"{type(self).__name__}: band_width {self.band_width:g} m must be below "
-                             f"2 x circle_radius ({2 * self.circle_radius:g} m): the bands are centred on "
-                             "+-circle_radius, and a wider one reaches the other side")
+            self.refuse("band_width", f"must be < 2 x circle_radius = {2 * self.circle_radius:g} m in "
+                        "'band' mode (the bands are centred on +-circle_radius, and a wider one reaches the "
+                        "other side)")
 
     def _side(self, rng: EpisodeRandom, j: int) -> np.ndarray:
         return rng.choice_sign((STREAM_SIDE, j))
