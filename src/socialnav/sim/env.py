@@ -42,7 +42,7 @@ from socialnav.sim.env_render import available_render_modes
 from socialnav.sim.episode_order import EpisodeOrder
 from socialnav.sim.observation import Observation
 from socialnav.sim.settings import WorldSettings
-from socialnav.sim.world import EpisodeStream, StepResult, World
+from socialnav.sim.world import EpisodeStream, StepResult, World, walls_win_message
 from socialnav.static_map import StaticMap
 
 OUTCOME_CODES = {"running": 0, "success": 1, "collision": 2, "timeout": 3}
@@ -143,8 +143,7 @@ class _EnvConfig:
         if own and self.static_map is not None:
             import warnings
 
-            warnings.warn(f"scenario {scenario!r} has walls of its own, which win over static_map: the given "
-                          "map is not used (docs/walls.md)", UserWarning, stacklevel=3)
+            warnings.warn(walls_win_message(scenario), UserWarning, stacklevel=3)
             self.static_map = None  # said once, here: the World is not given it
         edges = own if own else (0 if self.static_map is None else len(self.static_map.edges()[0]))
         #: The episodes have walls: the observation should show them.

@@ -57,6 +57,12 @@ __all__ = [
 ObservationArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
+
+def walls_win_message(scenario: str) -> str:
+    """What is said where a ``static_map`` is given for a scenario with walls of its own (World, envs)."""
+    return (f"scenario {scenario!r} has walls of its own, which win over static_map: the given map is not "
+            "used (docs/walls.md)")
+
 class World:
     """B episode slots of (1 robot + N humans) stepped in lockstep by the native core.
 
@@ -165,8 +171,7 @@ class World:
         if static_map is not None and not isinstance(static_map, StaticMap):
             raise TypeError(f"static_map must be a StaticMap or None, got {type(static_map).__name__}")
         if static_map and int(getattr(scenario, "max_obstacle_edges", 0)):
-            warnings.warn(f"scenario {scenario.name!r} has walls of its own, which win over static_map: the "
-                          "given map is not used (docs/walls.md)", UserWarning, stacklevel=2)
+            warnings.warn(walls_win_message(scenario.name), UserWarning, stacklevel=2)
         fixed = (static_map or None) if static_map is not None else scenario_map(scenario)
         self._maps = SlotMaps(B, settings.max_obstacle_vertices, fixed)
         #: (B,) each slot's static map (None: open floor); change it through `set_static_map` only.
