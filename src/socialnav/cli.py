@@ -272,7 +272,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from socialnav.evaluate.plan import preset_for_scenarios
     from socialnav.evaluate.report import mismatch_caveats, table2, table3, table_notes, with_caveats
     from socialnav.evaluate.runner import run_protocol
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.loading import LOOKAHEAD_SETTINGS, build_policy, refuse_lookahead_setting
     from socialnav.presets import load_preset
 
     if args.batch_size < 1:
@@ -294,7 +294,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     check_preset_policies(preset, args.preset)
     overrides = parse_policy_args(args.policy_arg)
-    for key in ("information", "planning_depth", "planning_width"):
+    for key in LOOKAHEAD_SETTINGS:
         value = getattr(args, key)
         if value is None:
             continue
@@ -302,12 +302,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         if key in overrides and overrides[key] != value:
             raise ValueError(f"{flag} {value} and --policy-arg {key}={overrides[key]} disagree; give one "
                              "of them")
-        if ":" not in args.policy:  # a module path's or sb3: model's settings are its own to check
-            from socialnav.policies.base import get_policy_entry
-
-            if key not in get_policy_entry(args.policy).parameters:
-                raise ValueError(f"{flag} applies to the value-based learned policies (CADRL, LSTM-RL, SARL, "
-                                 f"OM-SARL, RGL, MP-RGL); {args.policy!r} has no {key} setting")
+        refuse_lookahead_setting(args.policy, key, flag)
         overrides[key] = value
     # checked against the scenarios this run evaluates (--scenario may name ones outside the preset's)
     with warnings_said_once(sort=False):

@@ -192,6 +192,24 @@ def check_policy_parameters(
             raise ValueError(f"policy {name!r}: safety_space must be >= 0, got {value!r}")
 
 
+#: The value-based policies' lookahead settings, which ``socialnav evaluate`` and sweep jobs take as keys of
+#: their own (``--information``, ``information:``) beside the policy's parameters.
+LOOKAHEAD_SETTINGS = ("information", "planning_depth", "planning_width")
+
+
+def refuse_lookahead_setting(name: str, key: str, shown: str) -> None:
+    """Refuses the lookahead setting ``key`` (given as ``shown``) for a policy that has no such setting.
+
+    A module path's or ``sb3:`` model's settings are its own to check.
+
+    Raises:
+        ValueError: Naming ``shown``, the policy and the policies that take it.
+    """
+    if ":" not in name and key not in get_policy_entry(name).parameters:
+        raise ValueError(f"{shown} applies to the value-based learned policies (CADRL, LSTM-RL, SARL, "
+                         f"OM-SARL, RGL, MP-RGL); {name!r} has no {key} setting")
+
+
 def check_learned_parameters(name: str, valid: dict[str, Any], params: dict[str, Any]) -> None:
     """Refuse evaluation parameters a learned policy does not have or cannot take.
 

@@ -373,11 +373,15 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
     if kind == "train":
         _check_train_job(entry, params, where, base)
         return
+    from socialnav.policies.loading import LOOKAHEAD_SETTINGS, refuse_lookahead_setting
+
     name = str(params["policy"])
-    for key in ("information", "planning_depth", "planning_width"):
-        if params.get(key) is not None and ":" not in name and key not in entry.parameters:
-            raise ConfigError(f"{where}: {key} applies to the value-based learned policies (CADRL, LSTM-RL, "
-                              f"SARL, OM-SARL, RGL, MP-RGL); {name!r} has no {key} setting")
+    try:
+        for key in LOOKAHEAD_SETTINGS:
+            if params.get(key) is not None:
+                refuse_lookahead_setting(name, key, key)
+    except ValueError as err:
+        raise ConfigError(f"{where}: {err}") from None
     _check_policy_args(where, name, entry, params)
     checkpoint = params.get("checkpoint")
     if checkpoint is not None:

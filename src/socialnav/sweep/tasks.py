@@ -61,8 +61,10 @@ def job_preset(params: dict[str, Any], threads: int | None = None) -> Preset:
 
 def policy_overrides(params: dict[str, Any]) -> dict[str, Any]:
     """``socialnav evaluate``'s ``--policy-arg``, ``--information`` and ``--planning-*`` of a job."""
+    from socialnav.policies.loading import LOOKAHEAD_SETTINGS
+
     overrides = dict(params.get("policy_args") or {})
-    for key in ("information", "planning_depth", "planning_width"):
+    for key in LOOKAHEAD_SETTINGS:
         if params.get(key) is not None:
             overrides[key] = params[key]
     return overrides
