@@ -100,11 +100,6 @@ def _read_config(config: str | None) -> dict[str, Any] | None:
     return data if isinstance(data, dict) else None
 
 
-def _is_run_record(data: dict[str, Any]) -> bool:
-    """A run's ``config.yaml`` (``--config <run>/config.yaml``), not a plain training config."""
-    return "ppo_policy" in data or "value_policy" in data
-
-
 def _config_trainer(data: dict[str, Any] | None) -> str | None:
     """The trainer whose settings a training config's keys are: "value", "ppo", or None.
 
@@ -113,12 +108,12 @@ def _config_trainer(data: dict[str, Any] | None) -> str | None:
     """
     import dataclasses
 
-    from socialnav.train.config import TrainSettings
+    from socialnav.train.config import TrainSettings, is_run_record
     from socialnav.train.ppo_config import PPOSettings
 
     if data is None:
         return None
-    if _is_run_record(data):  # its trainer is written there
+    if is_run_record(data):  # its trainer is written there
         return "ppo" if "ppo_policy" in data else "value"
     keys = {str(k) for k in data}
     fits = [t for t, cls in (("value", TrainSettings), ("ppo", PPOSettings))
@@ -131,7 +126,9 @@ def _config_policy(data: dict[str, Any] | None) -> str | None:
 
     A run's record is left out: reusing one run's settings for another policy is what it is for.
     """
-    if data is None or _is_run_record(data):
+    from socialnav.train.config import is_run_record
+
+    if data is None or is_run_record(data):
         return None
     named = data.get("policy")
     return str(named) if isinstance(named, str) and named in learned_policy_names() else None

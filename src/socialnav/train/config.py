@@ -218,13 +218,21 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
     return load_settings_file(TrainSettings, path, overrides)
 
 
+def is_run_record(data: dict[str, Any]) -> bool:
+    """Whether a config mapping is a run directory's ``config.yaml`` (the trainer's record of a run).
+
+    It records the policy, the preset and the world (``value_policy`` or ``ppo_policy``) beside its
+    ``train`` settings.
+    """
+    return "value_policy" in data or "ppo_policy" in data
+
+
 def settings_of(data: dict[str, Any]) -> dict[str, Any]:
     """The training settings of a config file: itself, or a run's record's ``train`` section.
 
-    A run directory's ``config.yaml`` (what a refused resume points to) records the policy, the preset
-    and the world beside its ``train`` settings; ``--config`` takes such a file as its settings.
+    ``--config`` takes a run's ``config.yaml`` (what a refused resume points to) as its settings.
     """
-    record = isinstance(data.get("train"), dict) and ("value_policy" in data or "ppo_policy" in data)
+    record = isinstance(data.get("train"), dict) and is_run_record(data)
     return dict(data["train"]) if record else data
 
 
