@@ -40,11 +40,7 @@ def add_metrics_parser(sub: Any) -> None:
                     "long, else csv/parquet")
     me.add_argument("--ego", help="score agent ID (or 'all': every non-robot agent in turn) as the robot, "
                     "from its observed start to its observed end ('human as robot')")
-    me.add_argument("--columns", help="csv/parquet column mapping FIELD=COLUMN,... with FIELD in: "
-                    + ", ".join(FIELDS))
-    me.add_argument("--robot", help="csv/parquet: id of the robot (default: the agent with role 'robot')")
-    me.add_argument("--radius", type=float, help="radius of every agent when the file has none [m] "
-                    "(default 0.3, with a note)")
+    add_layout_arguments(me)
     me.add_argument("--dt", type=float, help="time step to score at [s] (default: the data's median step)")
     me.add_argument("--resample", action="store_true",
                     help="long format: interpolate irregular timestamps (other formats always do, with a "
@@ -56,10 +52,6 @@ def add_metrics_parser(sub: Any) -> None:
                     help=f"eth-ucy: frame numbers per second (default {ETH_UCY_FPS:g}: 10 frames = 0.4 s)")
     me.add_argument("--max-speed", type=float, default=MAX_SPEED,
                     help=f"reject faster steps as implausible [m/s] (default {MAX_SPEED:g}; 'inf' disables)")
-    me.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m",
-                    help="csv/parquet: of positions, radii, goals, and speeds (per second; default m)")
-    me.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], default="s",
-                    help="csv/parquet: of the time column (default s)")
     me.add_argument("--goal-tolerance", type=float,
                     help="a 'success' ending farther than this from its goal is reported [m] (default: "
                     "the robot's radius)")
@@ -72,6 +64,32 @@ def add_metrics_parser(sub: Any) -> None:
     me.add_argument("--json", action="store_true", help="print one JSON object")
     me.add_argument("--quiet", action="store_true", help="print no notes (warnings and errors still show)")
     me.set_defaults(run=cmd_metrics)
+
+
+def add_layout_arguments(parser: Any) -> None:
+    """Add how a log of another layout is read: ``--columns``, ``--robot``, ``--radius`` and the units.
+
+    ``socialnav metrics`` and ``socialnav render`` share them (:func:`layout_from_args` reads them), so
+    that a log is read the same way by both.
+
+    Args:
+        parser: The subcommand's parser.
+    """
+    parser.add_argument("--columns", help="csv/parquet column mapping FIELD=COLUMN,... with FIELD in: "
+                        + ", ".join(FIELDS))
+    parser.add_argument("--robot", help="csv/parquet: id of the robot (default: the agent with role 'robot')")
+    parser.add_argument("--radius", type=float, help="radius of every agent when the file has none [m] "
+                        "(default 0.3, with a note)")
+    parser.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m",
+                        help="csv/parquet: of positions, radii, goals, and speeds (per second; default m)")
+    parser.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], default="s",
+                        help="csv/parquet: of the time column (default s)")
+
+
+def layout_from_args(args: argparse.Namespace) -> dict[str, Any]:
+    """The keywords of :func:`socialnav.logs.load_trajectories` that :func:`add_layout_arguments` gave."""
+    return {"columns": args.columns, "robot": args.robot, "radius": args.radius,
+            "length_unit": args.length_unit, "time_unit": args.time_unit}
 
 
 def add_map_arguments(parser: Any, map_help: str) -> None:
@@ -142,10 +160,8 @@ def cmd_metrics(args: argparse.Namespace) -> int:
             trajs = []
             for path in args.file:
                 loaded = load_trajectories(
-                    path, format=args.format, ego=args.ego, columns=args.columns, robot=args.robot,
-                    radius=args.radius, dt=args.dt, resample=args.resample, max_gap=args.max_gap,
-                    fps=args.fps, max_speed=args.max_speed, length_unit=args.length_unit,
-                    time_unit=args.time_unit,
+                    path, format=args.format, ego=args.ego, dt=args.dt, resample=args.resample,
+                    max_gap=args.max_gap, fps=args.fps, max_speed=args.max_speed, **layout_from_args(args),
                 )
                 if not loaded:
                     raise ValueError(f"{path}: no episodes (the file has a header but no rows)")

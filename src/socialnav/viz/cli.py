@@ -10,7 +10,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from socialnav.logs.command import add_map_arguments, map_from_args
+from socialnav.logs.command import add_layout_arguments, add_map_arguments, layout_from_args, map_from_args
 
 FORMATS = ("png", "svg", "gif", "mp4", "html")
 
@@ -50,12 +50,8 @@ def add_viz_parsers(sub: argparse._SubParsersAction) -> None:
     rd.add_argument("--tau", type=float, default=1.0, help="M_II horizon of the overlay [s] (default 1)")
     rd.add_argument("--resample", action="store_true", help="files: resample irregular timestamps")
     # A robot log in another layout is read as `socialnav metrics` reads it (docs/real_world_logs.md).
-    rd.add_argument("--columns", help="a log's column mapping FIELD=COLUMN,... (as socialnav metrics)")
-    rd.add_argument("--robot", help="a log's robot id (default: the agent with role 'robot')")
+    add_layout_arguments(rd)
     rd.add_argument("--ego", help="draw agent ID of a pedestrian log as the robot")
-    rd.add_argument("--radius", type=float, help="a log's agent radius when it has none [m] (default 0.3)")
-    rd.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], default="s", help="a log's time unit")
-    rd.add_argument("--length-unit", choices=["m", "cm", "mm"], default="m", help="a log's length unit")
     add_map_arguments(
         rd,
         "draw the walls of this map file (YAML or SVG, docs/walls_maps.md) instead of "
@@ -174,8 +170,7 @@ def _run_render(args: argparse.Namespace) -> int:
     if args.out and suffix not in ("", fmt):
         raise ValueError(f"--out {args.out} does not end in .{fmt} (the --format)")
     smap = map_from_args(args)
-    log = {"columns": args.columns, "robot": args.robot, "ego": args.ego, "radius": args.radius,
-           "time_unit": args.time_unit, "length_unit": args.length_unit}
+    log = {**layout_from_args(args), "ego": args.ego}
     with warnings.catch_warnings(record=True) as caught:  # said as `socialnav metrics` says them
         warnings.simplefilter("always")
         traj, default_dir = load_source(args.source, args.episode, args.resample, **log)
