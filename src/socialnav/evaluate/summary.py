@@ -96,10 +96,15 @@ def summarize_group(
         side = summarize_side_preference([r.get("side", "unlabelled") for r in rows], scenario)
         out.update({f"m6_{k}": v for k, v in side.items()})
     elif passing_side(scenario):  # a one-human encounter among the multi-human cells (Francis (a), (j))
-        cases = ["failed" if r.get("outcome") != "success" else side_case_of_row(r) for r in rows]
+        cases = [encounter_side_case(r) for r in rows]
         out.update({f"m6_{k}": v for k, v in summarize_side_preference(cases, scenario).items()})
         out["single_human"] = False  # a Table II scenario with a side reading, not a sweep
     return out
+
+
+def encounter_side_case(row: dict[str, Any]) -> str:
+    """The M_VI case of a one-human encounter's episode row: ``failed`` unless it succeeded."""
+    return "failed" if row.get("outcome") != "success" else side_case_of_row(row)
 
 
 @functools.lru_cache(maxsize=256)

@@ -35,13 +35,11 @@ def _side_case(row: dict[str, Any]) -> str | None:
     """A row's M_VI case: its ``side`` (single-human sweeps), computed for a one-human encounter."""
     if row.get("side") is not None:
         return str(row["side"])
-    from socialnav.evaluate.summary import passing_side
+    from socialnav.evaluate.summary import encounter_side_case, passing_side
 
     if row.get("visibility") != "invisible" or not passing_side(str(row.get("scenario"))):
         return None
-    from socialnav.metrics import side_case_of_row
-
-    return "failed" if row.get("outcome") != "success" else side_case_of_row(row)
+    return encounter_side_case(row)
 
 
 def metric_key(rows: Sequence[dict[str, Any]], prefix: str) -> str | None:
