@@ -31,7 +31,10 @@ def arrivals(run_dir: Path) -> tuple[int, int]:
     for path in sorted(run_dir.glob("trajectories/**/*.parquet")):
         for tr in read_trajectories(path):
             for h in range(1, tr.n_agents):
-                d = np.linalg.norm(tr.positions[:, h] - tr.goals[h], axis=-1)[tr.presence[:, h]]
+                seen = tr.positions[:, h][tr.presence[:, h]]
+                if tr.continuation is not None:  # after the robot's arrival, up to the cap
+                    seen = np.concatenate([seen, tr.continuation[:, h]])
+                d = np.linalg.norm(seen - tr.goals[h], axis=-1)
                 total += 1
                 reached += bool((d <= tr.radii[h] + 1e-9).any())
     return total, reached
