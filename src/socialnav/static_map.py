@@ -11,7 +11,9 @@ Geometry conventions (see ``docs/walls_maps.md``):
 - k >= 3 is a closed, simple (not self-intersecting) polygon; its interior is solid. Vertices are
   stored counter-clockwise: clockwise input is reversed on construction, since RVO2's obstacle
   algorithm relies on the orientation to tell convex from non-convex vertices;
-- an empty map (no polygons) is the open floor of the original protocol.
+- an empty map (no polygons) is the open floor of the original protocol;
+- every coordinate is finite and at most :data:`MAX_COORDINATE` (1e6 m, 1000 km) in magnitude, so
+  that squared distances and cross products between vertices stay finite and precise in float64.
 """
 
 from __future__ import annotations
@@ -22,7 +24,13 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MapError", "MapStack", "StaticMap"]
+__all__ = ["MAX_COORDINATE", "MapError", "MapStack", "StaticMap"]
+
+#: The largest magnitude [m] of a map coordinate. A map wider than 1000 km means nothing to a pedestrian
+#: simulator; a bound this size keeps every squared distance and cross product the geometry forms
+#: (at most ~1e13 m^2) finite, with float64 rounding errors far below a micrometre, where coordinates
+#: near 1e308 overflowed to inf/NaN and made every distance to the walls NaN.
+MAX_COORDINATE = 1e6
 
 
 class MapError(ValueError):
@@ -62,6 +70,10 @@ def _check_polygon(v: np.ndarray, index: int) -> np.ndarray:
     if not np.isfinite(v).all():
         bad = int(np.argwhere(~np.isfinite(v))[0][0])
         raise MapError(f"polygon {index}: vertex {bad} is not finite: {v[bad].tolist()}")
+    if np.abs(v).max() > MAX_COORDINATE:
+        bad, axis = (int(i) for i in np.argwhere(np.abs(v) > MAX_COORDINATE)[0])
+        raise MapError(f"polygon {index}: vertex {bad} is out of range: {'xy'[axis]} = {v[bad, axis]:g} (map "
+                       f"coordinates are limited to |x|, |y| <= {MAX_COORDINATE:,.0f} m): {v[bad].tolist()}")
     k = v.shape[0]
     edges = np.linalg.norm(np.roll(v, -1, axis=0) - v, axis=1)
     n_edges = 1 if k == 2 else k

@@ -30,8 +30,9 @@ class ReplayResult:
         episode_id: The episode replayed.
         stored: Its trajectory as stored in the result directory.
         replayed: Its trajectory simulated again.
-        identical: Whether every compared array is bit-identical.
-        max_abs_diff: The largest absolute difference over every compared array (inf when shapes differ).
+        identical: Whether every compared array and the static map are bit-identical.
+        max_abs_diff: The largest absolute difference over every compared array and the map's vertices
+            (inf when shapes differ, or one of them has a map and the other none).
         differences: One line per field that differs.
     """
     episode_id: str
@@ -200,7 +201,7 @@ def replay_episode(results_dir: str | Path, episode_id: str) -> ReplayResult:
 
 
 def compare(episode_id: str, stored: Trajectory, replayed: Trajectory) -> ReplayResult:
-    """Bitwise comparison of every array, the outcome and the human-overlap count."""
+    """Bitwise comparison of every array, the static map, the outcome and the human-overlap count."""
     diffs: list[str] = []
     worst = 0.0
     if stored.dt != replayed.dt:
@@ -224,4 +225,41 @@ def compare(episode_id: str, stored: Trajectory, replayed: Trajectory) -> Replay
             diffs.append(f"{name}: max |difference| {d[at]:.3g} at index {tuple(int(i) for i in at)}")
         if x.size:
             worst = max(worst, float(np.max(np.abs(x - y))))
+    line, diff = _compare_maps(stored.static_map, replayed.static_map)
+    if line:
+        diffs.append(line)
+    worst = max(worst, diff)
     return ReplayResult(episode_id, stored, replayed, not diffs, worst, diffs)
+
+
+def _compare_maps(stored: Any, replayed: Any) -> tuple[str | None, float]:
+    """The static maps compared bit for bit, as the arrays are.
+
+    Returns:
+        A line naming the map and what differs (None when identical), and the largest absolute vertex
+        difference (inf when one has a map and the other none, or the polygons do not match up).
+    """
+
+    def describe(smap: Any) -> str:
+        return "no map (open floor)" if not smap else f"{len(smap)} polygon(s), {smap.n_vertices} vertices"
+
+    if not stored and not replayed:  # None and an empty map are both the open floor
+        return None, 0.0
+    if not stored or not replayed or len(stored) != len(replayed):
+        return f"static_map: stored {describe(stored)}, replayed {describe(replayed)}", float("inf")
+    for p, (a, b) in enumerate(zip(stored.polygons, replayed.polygons, strict=True)):
+        if a.shape != b.shape:
+            return (f"static_map: polygon {p}: stored {a.shape[0]} vertices, replayed {b.shape[0]}",
+                    float("inf"))
+    worst, first = 0.0, None
+    for p, (a, b) in enumerate(zip(stored.polygons, replayed.polygons, strict=True)):
+        if not np.array_equal(a, b):
+            d = np.abs(a - b)
+            at = np.unravel_index(int(np.argmax(d)), d.shape)
+            if first is None:
+                first = (f"static_map: polygon {p}, vertex {int(at[0])}: stored {a[at[0]].tolist()}, "
+                         f"replayed {b[at[0]].tolist()}")
+            worst = max(worst, float(d[at]))
+    if first is None:
+        return None, 0.0
+    return f"{first} (max |difference| {worst:.3g} over the map)", worst

@@ -71,7 +71,7 @@ class TrajectoryTable:
                 raise TrajectoryFormatError(str(err)) from None
             raw = (table.schema.metadata or {}).get(METADATA_KEY)
             if raw is not None:
-                meta = json.loads(raw.decode())
+                meta = _file_metadata(path, raw)
                 meta_settings = meta.get("settings", {})
         else:
             import pyarrow.csv as pcsv
@@ -227,6 +227,36 @@ class TrajectoryTable:
         bad = np.flatnonzero(~np.isfinite(arr))
         if bad.size:
             raise self.fail(name, int(bad[0]), f"value is {arr[bad[0]]} (missing or not finite)")
+
+
+def _file_metadata(path: Path, raw: bytes) -> dict[str, Any]:
+    """The Parquet file metadata under :data:`METADATA_KEY`, checked.
+
+    It is a JSON object whose ``settings`` and ``episode_maps`` are objects and whose ``maps`` is a list.
+
+    Raises:
+        TrajectoryFormatError: Naming the file and saying its metadata is damaged (cut, or not JSON).
+    """
+    key = METADATA_KEY.decode()
+
+    def damaged(why: str) -> TrajectoryFormatError:
+        return TrajectoryFormatError(f"{path}: the file's metadata (Parquet key {key!r}: the episodes' "
+                                     f"settings and maps) is damaged: {why}")
+
+    try:
+        meta = json.loads(raw.decode())
+    except UnicodeDecodeError as exc:
+        raise damaged(f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except json.JSONDecodeError as exc:
+        cut = " (cut short?)" if exc.pos >= len(exc.doc.rstrip()) else ""
+        raise damaged(f"not valid JSON{cut}: {exc.msg} at character {exc.pos} of {len(exc.doc)}") from None
+    if not isinstance(meta, dict):
+        raise damaged(f"expected a JSON object, got {type(meta).__name__}")
+    for field, kind in (("settings", dict), ("maps", list), ("episode_maps", dict)):
+        if field in meta and not isinstance(meta[field], kind):
+            raise damaged(f"field {field!r}: expected a JSON {'object' if kind is dict else 'array'}, got "
+                          f"{type(meta[field]).__name__}")
+    return meta
 
 
 def _first_not_numeric(col: Any) -> int | None:
