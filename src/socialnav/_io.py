@@ -238,7 +238,90 @@ def file_sha256(path: str | Path) -> str:
     return digest.hexdigest()
 
 
+# --------------------------------------------------------------------------------------- messages
+def short_repr(value: Any, limit: int = 80, *, json_style: bool = False) -> str:
+    """``repr(value)`` for a message, cut to ``limit`` characters (ending ``...``) where longer.
+
+    Only the first ``limit`` or so characters are ever rendered: a value read from a file may hold
+    millions of items (or one integer of a million digits), and building its whole repr to keep 80
+    characters of it would take as long and as much memory as the value itself.
+
+    Args:
+        value: Any value; lists, tuples, sets and mappings are walked, anything else is ``repr``'d
+            (strings and bytes after cutting them to ``limit``).
+        limit: The most characters returned (at least 4).
+        json_style: Write ``null``, ``true``, ``false`` and ``"text"``, as ``json.dumps`` does.
+
+    Returns:
+        The text, at most ``limit`` characters.
+    """
+    parts: list[str] = []
+    used = 0
+
+    class Full(Exception):
+        pass
+
+    def put(text: str) -> None:
+        nonlocal used
+        parts.append(text)
+        used += len(text)
+        if used > limit:
+            raise Full
+
+    def items(open_: str, close: str, values: Any, single: str = "") -> None:
+        put(open_)
+        n = 0
+        for n, item in enumerate(values, 1):
+            if n > 1:
+                put(", ")
+            walk(item)
+        put(single if n == 1 else "")
+        put(close)
+
+    def walk(v: Any) -> None:
+        if isinstance(v, str | bytes):
+            cut = v[: limit + 1]
+            put(json.dumps(cut) if json_style and isinstance(cut, str) else repr(cut))
+        elif json_style and (v is None or isinstance(v, bool | float)):
+            put(json.dumps(v))
+        elif isinstance(v, int) and not isinstance(v, bool) and v.bit_length() > 4 * limit:
+            put(f"<an integer of {int(v.bit_length() * 0.30103) + 1} digits>")  # repr: over the limit
+        elif isinstance(v, dict):
+            put("{")
+            for n, (key, item) in enumerate(v.items()):
+                if n:
+                    put(", ")
+                walk(str(key) if json_style else key)
+                put(": ")
+                walk(item)
+            put("}")
+        elif isinstance(v, list) or (json_style and isinstance(v, tuple)):
+            items("[", "]", v)
+        elif type(v) is tuple:
+            items("(", ")", v, single=",")
+        elif type(v) in (set, frozenset) and v:
+            items("{" if type(v) is set else "frozenset({", "}" if type(v) is set else "})", v)
+        else:
+            put(repr(v))
+
+    try:
+        walk(value)
+    except Full:
+        return "".join(parts)[: max(limit - 3, 1)] + "..."
+    return "".join(parts)
+
+
 # ------------------------------------------------------------------------------------------- YAML
+#: The most values (scalars, lists, mappings) a YAML document may expand to, an alias (``*name``)
+#: counted with everything its anchor holds each time it is used. A preset or sweep holds hundreds, a
+#: map of 100 000 two-point walls 700 000 (7 a wall); ten nested anchors of ten aliases each ("billion
+#: laughs") expand a few hundred bytes to 10^10 values, which every later walk over them (validation,
+#: copies, messages) would visit.
+YAML_MAX_NODES = 1_000_000
+#: The deepest nesting of lists and mappings (aliases followed) in a YAML document, and of elements in
+#: an SVG map: the readers walk them recursively, and no settings or map file nests more than ten.
+MAX_NESTING_DEPTH = 100
+
 _STRICT_LOADER: Any = None
 
 
@@ -249,41 +332,111 @@ def load_yaml(text: str) -> Any:
     file with a block pasted twice (two ``walls:``, two ``world:``) would silently lose the first.
     Every user YAML (and JSON) file is read through this.
 
+    The document is refused before any value is built where it nests deeper than
+    :data:`MAX_NESTING_DEPTH` or expands, its aliases followed, to more than :data:`YAML_MAX_NODES`
+    values, or where an alias refers to a list or mapping that holds it (an endless value): the check
+    costs one count per node of the document as written, however far the aliases would expand it.
+
     Raises:
-        yaml.YAMLError: Not valid YAML, or a repeated key (the message names it and both lines).
+        yaml.YAMLError: Not valid YAML, a repeated key (the message names it and both lines), a value
+            that cannot be built (e.g. an integer of more than 4300 digits), or a document over the
+            limits above (the message names the limit and the line).
     """
     import yaml
 
     global _STRICT_LOADER
     if _STRICT_LOADER is None:
-
-        class StrictLoader(yaml.SafeLoader):
-            pass
-
-        def construct_mapping(loader: Any, node: Any, deep: bool = False) -> Any:
-            seen: dict[Any, int] = {}
-            for key_node, _ in node.value:
-                if key_node.tag == "tag:yaml.org,2002:merge":  # `<<: *base`: keys given here override it
-                    continue
-                key = loader.construct_object(key_node, deep=True)
-                try:
-                    first = seen.get(key)
-                except TypeError:  # an unhashable key: PyYAML refuses it below, in its own words
-                    continue
-                line = key_node.start_mark.line + 1
-                if first is not None:
-                    where = f"line {line}" if first == line else f"lines {first} and {line}"
-                    raise yaml.constructor.ConstructorError(
-                        None, None, f"key {key!r} is given twice ({where}); only one can hold",
-                        key_node.start_mark)
-                seen[key] = line
-            return yaml.SafeLoader.construct_mapping(loader, node, deep)
-
-        StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
-        # YAML 1.1 reads 1e-2 (no dot) as text; every number a user writes so is meant as a number
-        StrictLoader.add_implicit_resolver(
-            "tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
-            list("-+0123456789"),
-        )
-        _STRICT_LOADER = StrictLoader
+        _STRICT_LOADER = _strict_loader(yaml)
     return yaml.load(text, Loader=_STRICT_LOADER)  # noqa: S506  (a SafeLoader subclass)
+
+
+def _strict_loader(yaml: Any) -> Any:
+    """The SafeLoader subclass of :func:`load_yaml` (built on first use: PyYAML is imported lazily)."""
+    from yaml.composer import ComposerError
+    from yaml.constructor import ConstructorError
+    from yaml.events import AliasEvent
+
+    class StrictLoader(yaml.SafeLoader):
+        def compose_document(self) -> Any:
+            # per node of the document: (values it expands to, nesting depth), aliases followed
+            self.expanded: dict[int, tuple[int, int]] = {}
+            self.depth = 0
+            return super().compose_document()
+
+        def compose_node(self, parent: Any, index: Any) -> Any:
+            if self.check_event(AliasEvent):
+                event = self.peek_event()
+                target = self.anchors.get(event.anchor)
+                if target is not None and id(target) not in self.expanded:  # an anchor still open
+                    raise ComposerError(
+                        None, None, f"the alias *{event.anchor} refers to a list or mapping that holds it "
+                        "(an endless value)", event.start_mark)
+                return super().compose_node(parent, index)
+            self.depth += 1
+            if self.depth > MAX_NESTING_DEPTH:
+                raise ComposerError(
+                    None, None, f"nested too deep: more than {MAX_NESTING_DEPTH} levels of lists and "
+                    "mappings", self.peek_event().start_mark)
+            try:
+                node = super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
+            self._count(node)
+            return node
+
+        def _count(self, node: Any) -> None:
+            """Records what ``node`` expands to; its children (aliases: their anchors) are counted."""
+            if isinstance(node, yaml.MappingNode):
+                children = [child for pair in node.value for child in pair]
+            elif isinstance(node, yaml.SequenceNode):
+                children = node.value
+            else:
+                children = []
+            counts = [self.expanded[id(child)] for child in children]
+            nodes = 1 + sum(n for n, _ in counts)
+            depth = 1 + max((d for _, d in counts), default=0)
+            if depth > MAX_NESTING_DEPTH:
+                raise ComposerError(
+                    None, None, f"nested too deep: more than {MAX_NESTING_DEPTH} levels of lists and "
+                    "mappings once its aliases are followed", node.start_mark)
+            if nodes > YAML_MAX_NODES:
+                raise ComposerError(
+                    None, None, f"the document expands to more than {YAML_MAX_NODES:,} values (each "
+                    "*alias counts everything its &anchor holds, each time it is used; a few hundred bytes "
+                    "of nested anchors can stand for billions), the limit for a settings or map file",
+                    node.start_mark)
+            self.expanded[id(node)] = (nodes, depth)
+
+        def construct_object(self, node: Any, deep: bool = False) -> Any:
+            try:
+                return super().construct_object(node, deep)
+            except ValueError as err:  # e.g. an integer of more than 4300 digits, a date 2024-13-01
+                raise ConstructorError(None, None, f"cannot read the value: {_one_line(err).split(';')[0]}",
+                                       node.start_mark) from None
+
+    def construct_mapping(loader: Any, node: Any, deep: bool = False) -> Any:
+        seen: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":  # `<<: *base`: keys given here override it
+                continue
+            key = loader.construct_object(key_node, deep=True)
+            try:
+                first = seen.get(key)
+            except TypeError:  # an unhashable key: PyYAML refuses it below, in its own words
+                continue
+            line = key_node.start_mark.line + 1
+            if first is not None:
+                where = f"line {line}" if first == line else f"lines {first} and {line}"
+                raise ConstructorError(
+                    None, None, f"key {short_repr(key)} is given twice ({where}); only one can hold",
+                    key_node.start_mark)
+            seen[key] = line
+        return yaml.SafeLoader.construct_mapping(loader, node, deep)
+
+    StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, construct_mapping)
+    # YAML 1.1 reads 1e-2 (no dot) as text; every number a user writes so is meant as a number
+    StrictLoader.add_implicit_resolver(
+        "tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+        list("-+0123456789"),
+    )
+    return StrictLoader

@@ -45,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from socialnav._io import load_yaml
+from socialnav._io import MAX_NESTING_DEPTH, load_yaml, short_repr
 from socialnav.static_map import MapError, StaticMap
 
 __all__ = ["MAP_SUFFIXES", "MapFileError", "load_map", "map_from_svg", "map_from_yaml", "save_map"]
@@ -204,8 +204,7 @@ def _is_number(v: Any) -> bool:
 
 
 def _short(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 80 else text[:77] + "..."
+    return short_repr(value, 80)
 
 
 def _build(polys: list[np.ndarray], names: list[str], source: str) -> StaticMap:
@@ -385,8 +384,12 @@ def _hidden(elem: Any) -> bool:
     return any(item == "display:none" for item in style.split(";"))
 
 
-def _collect(elem: Any, transform: np.ndarray, inside: bool, drawing: _Drawing, source: str) -> None:
+def _collect(elem: Any, transform: np.ndarray, inside: bool, drawing: _Drawing, source: str,
+             depth: int = 1) -> None:
     tag = _tag(elem)
+    if depth > MAX_NESTING_DEPTH:  # walked recursively: refused before Python's recursion limit
+        raise MapFileError(f"{source}: {_describe(elem)}: nested too deep: more than {MAX_NESTING_DEPTH} "
+                           "levels of elements")
     if tag in _NOT_DRAWN or _hidden(elem):
         return
     here = transform @ _parse_transform(elem.get("transform", ""), tag, source)
@@ -398,7 +401,7 @@ def _collect(elem: Any, transform: np.ndarray, inside: bool, drawing: _Drawing, 
     elif tag in _MARKERS or tag in _UNSUPPORTED:
         drawing.others.append((elem, flag))
     for child in elem:
-        _collect(child, here, flag, drawing, source)
+        _collect(child, here, flag, drawing, source, depth + 1)
     if own:
         drawing.labelled.append((elem, len(drawing.shapes) > n_shapes))
 

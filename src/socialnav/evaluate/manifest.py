@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from socialnav import __version__
-from socialnav._io import atomic_write_json, file_sha256, remove_orphan_temporaries
+from socialnav._io import atomic_write_json, file_sha256, remove_orphan_temporaries, short_repr
 from socialnav.evaluate.chunks import (
     Chunk,
     ResumeMismatchError,
@@ -328,5 +328,4 @@ def _is_cells(old: Any, new: Any) -> bool:
 
 
 def _short(value: Any) -> str:
-    text = json.dumps(value)
-    return text if len(text) <= 60 else text[:57] + "..."
+    return short_repr(value, 60, json_style=True)

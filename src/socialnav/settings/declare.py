@@ -7,6 +7,7 @@ import typing
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar, TypeVar
 
+from socialnav._io import short_repr
 from socialnav.settings.errors import ConfigError, field_error
 from socialnav.settings.loading import from_dict
 from socialnav.settings.validation import check_rule, constraint_text, rules_of, type_hints, type_name
@@ -133,7 +134,7 @@ class Settings:
             ConfigError: Always.
         """
         value = getattr(self, name) if value is dataclasses.MISSING else value
-        detail = f"{requirement}, got {value!r}" if got else requirement
+        detail = f"{requirement}, got {short_repr(value)}" if got else requirement
         raise field_error(self.setting_owner(), name, detail)
 
     @classmethod

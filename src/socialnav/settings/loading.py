@@ -15,6 +15,7 @@ import typing
 from collections.abc import Mapping
 from typing import Any, TypeVar
 
+from socialnav._io import short_repr
 from socialnav.settings.errors import ConfigError
 from socialnav.settings.validation import type_hints, type_name
 
@@ -44,12 +45,13 @@ def from_dict(cls: type[T], data: Mapping[str, Any] | None, path: str = "") -> T
     data = dict(data or {})
     fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
     where = f"{path}." if path else ""
-    unknown = sorted(set(data) - set(fields))
+    unknown = sorted(set(data) - set(fields), key=str)  # keys may be numbers too (YAML `1: x`)
     if unknown:
         named = []
         for key in unknown:
-            close = difflib.get_close_matches(str(key), list(fields), n=1, cutoff=0.6)
-            named.append(where + str(key) + (f" (did you mean {where}{close[0]}?)" if close else ""))
+            text = key if isinstance(key, str) and len(key) <= 80 else short_repr(key, 80)
+            close = difflib.get_close_matches(text, list(fields), n=1, cutoff=0.6)
+            named.append(where + text + (f" (did you mean {where}{close[0]}?)" if close else ""))
         raise ConfigError(f"unknown setting(s) {', '.join(named)}; valid: {', '.join(sorted(fields))}")
     hints = type_hints(cls)
     kwargs: dict[str, Any] = {}
@@ -88,7 +90,7 @@ def check(condition: bool, field: str, value: Any, requirement: str) -> None:
         ConfigError: ``condition`` is false.
     """
     if not condition:
-        raise ConfigError(f"{field} {requirement}, got {value!r}")
+        raise ConfigError(f"{field} {requirement}, got {short_repr(value)}")
 
 
 def _coerce(value: Any, hint: Any, path: str) -> Any:
@@ -109,23 +111,23 @@ def _coerce(value: Any, hint: Any, path: str) -> Any:
         return list(value)
     if hint is float and isinstance(value, int) and not isinstance(value, bool):
         if abs(value) > 1e300:
-            raise ConfigError(f"{path} must be a finite number, got {value!r}")
+            raise ConfigError(f"{path} must be a finite number, got {short_repr(value)}")
         return float(value)
     if hint is float and isinstance(value, str):
         # PyYAML reads 1e-3 and 1.0e9 as strings: accept exponent forms, and refuse other text,
         # quoted numbers included ("1.5"), as an int field refuses "20".
         if not _EXPONENT_FORM.fullmatch(value.strip()):
             hint_text = " (write the number without quotes)" if _is_number(value) else ""
-            raise ConfigError(f"{path} must be a number, got the text {value!r}{hint_text}")
+            raise ConfigError(f"{path} must be a number, got the text {short_repr(value)}{hint_text}")
         value = float(value)
     if hint is float and isinstance(value, float) and not math.isfinite(value):
         raise ConfigError(f"{path} must be a finite number, got {value!r}")
     if hint is int and isinstance(value, str) and _is_number(value):
         raise ConfigError(
-            f"{path} must be an integer, got the text {value!r} (write the number without quotes)"
+            f"{path} must be an integer, got the text {short_repr(value)} (write the number without quotes)"
         )
     if hint in (float, int, str, bool) and not isinstance(value, hint):
-        raise ConfigError(f"{path} must be of type {hint.__name__}, got {value!r}")
+        raise ConfigError(f"{path} must be of type {hint.__name__}, got {short_repr(value)}")
     if hint is int and isinstance(value, bool):
         raise ConfigError(f"{path} must be an integer, got {value!r}")
     if origin in (typing.Union, types.UnionType) and value is not None:
@@ -160,5 +162,4 @@ def _is_number(text: str) -> bool:
 
 
 def _kind(value: Any) -> str:
-    text = repr(value)
-    return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
+    return f"{type(value).__name__} {short_repr(value, 40)}"

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from socialnav._io import short_repr
 from socialnav.settings.errors import ConfigError, field_error
 
 __all__ = ["Rule", "check_rule", "constraint_text", "rules_of", "type_hints", "type_name", "validate_value"]
@@ -149,7 +150,7 @@ def rules_of(cls: Any) -> tuple[Rule, ...]:
 
 
 def _refuse(owner: str, rule: Rule, detail: str, given: Any, type_error: bool = False) -> ConfigError:
-    return field_error(owner, rule.name, f"{detail}, got {given!r}", type_error=type_error)
+    return field_error(owner, rule.name, f"{detail}, got {short_repr(given)}", type_error=type_error)
 
 
 def check_rule(owner: str, r: Rule, value: Any) -> Any:

@@ -236,6 +236,10 @@ def settings_of(data: dict[str, Any]) -> dict[str, Any]:
     return dict(data["train"]) if record else data
 
 
+#: The command-line option of a top-level setting whose name differs from it (``socialnav train``).
+_OPTION_OF = {"n_envs": "--collection-batch", "total_env_steps": "--env-steps"}
+
+
 def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[str, Any]) -> T:
     """Settings of class ``cls`` from a YAML file, with top-level ``overrides`` applied after it.
 
@@ -271,7 +275,8 @@ def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[st
         # a value from the command line is the command line's error, not the file's
         given = [k for k, v in overrides.items() if v is not None and str(err).startswith(f"{k} ")]
         if given:
-            raise ConfigError(f"--{given[0].replace('_', '-')}: {err}") from None
+            option = _OPTION_OF.get(given[0], "--" + given[0].replace("_", "-"))
+            raise ConfigError(f"{option}: {err}") from None
         raise ConfigError(f"{path}: {err}" if path is not None else str(err)) from None
 
 

@@ -16,6 +16,12 @@ from typing import Any, ClassVar
 from socialnav.settings import Settings, setting
 from socialnav.train.config import DEVICES, load_settings_file
 
+#: The most environments a PPO run steps in lockstep (docs/ppo.md, "Settings"): 128 times the default.
+#: One update holds every environment's rollout and its activations, about 1.7 MB per environment at the
+#: repository's widths (30-step rollouts, 5 humans), so this is ~28 GB; a larger value is a typo (an
+#: extra zero or three), refused with the file's name instead of an out-of-memory error minutes later.
+MAX_N_ENVS = 16_384
+
 #: PPO-setting keys that may change between a run and its resumption (everything else must match).
 PPO_RESUMABLE_CHANGES = ("device", "threads", "checkpoint_every", "log_every", "total_env_steps")
 
@@ -67,7 +73,9 @@ class PPOSettings(Settings):
     """
 
     policy: str = setting("crowdnav_pp", "PPO policy to train: crowdnav_pp or ppo_mlp (train --policy)")
-    n_envs: int = setting(128, "environments stepped in lockstep (split over the training mix)", ge=1)
+    n_envs: int = setting(
+        128, "environments stepped in lockstep (split over the training mix)", ge=1, le=MAX_N_ENVS
+    )
     rollout_steps: int = setting(30, "steps per environment per update (CrowdNav++: 30)", ge=1)
     total_env_steps: int = setting(
         10_000_000, "training budget [robot steps, summed over environments; at least one update]", gt=0
