@@ -1,8 +1,10 @@
-"""Fixed-seed tiny trainings and the digests of what they write, for the bit-identity test.
+"""Fixed-seed tiny trainings, the digests of what they write and their numeric summaries.
 
-``tests/data/train_bit_identical.json`` holds the digests of runs made by the trainer as it was before
-it was rewritten as phases (issue #31); ``tests/train/test_trainer_bit_identical.py`` reruns the same
-trainings and compares. A digest covers a checkpoint's tensors and records (network, predictor,
+``tests/data/train_bit_identical.json`` holds, for each run, the digests of the files the trainer
+wrote before it was rewritten as phases, and a numeric summary of the same files;
+``tests/train/test_trainer_bit_identical.py`` reruns the same trainings and compares: the digests on
+the machine and kernels that recorded them (``environment``), the summaries within ``TOLERANCE``
+everywhere. A digest covers a checkpoint's tensors and records (network, predictor,
 target network, optimizer state, generator states, counters, validations, the worlds in flight), not
 its bytes: ``torch.save`` output is not byte-stable. Wall-clock fields (``wall_time``,
 ``env_steps_per_s``) and the package versions are left out; so is the settings record (``config``),
@@ -21,6 +23,8 @@ import argparse
 import csv
 import hashlib
 import json
+import math
+import os
 import platform
 import sys
 from collections.abc import Callable
@@ -193,9 +197,158 @@ def run_digests(out: Path) -> dict[str, str]:
     return found
 
 
-def environment() -> dict[str, str]:
-    """What the digests depend on besides the code: torch's version and the machine's architecture."""
-    return {"torch": torch.__version__.split("+")[0], "machine": platform.machine()}
+#: Variables that select PyTorch's CPU kernels (ATen's vector ISA, MKL's code path, oneDNN's ISA): each
+#: changes how a sum is rounded, so a digest holds only under the values it was made with.
+KERNEL_VARIABLES = ("ATEN_CPU_CAPABILITY", "MKL_CBWR", "MKL_ENABLE_INSTRUCTIONS", "ONEDNN_MAX_CPU_ISA")
+
+
+def cpu_model() -> str:
+    """The CPU's vendor and model name as /proc/cpuinfo gives them (the machine's name elsewhere)."""
+    fields: dict[str, str] = {}
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                fields.setdefault(key.strip(), value.strip())
+                if not line.strip():
+                    break
+    except OSError:
+        return platform.processor() or "unknown"
+    return f"{fields.get('vendor_id', '?')} {fields.get('model name', '?')}"
+
+
+def environment() -> dict[str, Any]:
+    """What the digests depend on besides the code: torch, the CPU and the kernels torch picks on it.
+
+    MKL and ATen choose their kernels by CPU (the vendor, the model's ISA), and the rounding of a
+    float sum follows the kernel: a run on an Intel Xeon gives other digests than the same run on an
+    AMD EPYC, and so does one with ``ATEN_CPU_CAPABILITY=avx2`` on the same machine.
+    """
+    return {
+        "torch": torch.__version__.split("+")[0],
+        "machine": platform.machine(),
+        "cpu": cpu_model(),
+        "cpu_capability": torch.backends.cpu.get_cpu_capability(),
+        "kernel_variables": {k: os.environ[k] for k in KERNEL_VARIABLES if k in os.environ},
+    }
+
+
+# --- the numeric summary, compared within a tolerance on any machine -------------------------------
+
+#: Relative tolerance of the summaries. Forcing other kernels on the recording machine
+#: (ATEN_CPU_CAPABILITY=avx2, MKL_CBWR=COMPATIBLE, ONEDNN_MAX_CPU_ISA=SSE41, alone and together) moved the
+#: tiny runs' values by at most 1e-4 of their scale (a PPO loss column; tensors 1e-5 of their norm): 1e-3
+#: leaves ten times that for another CPU, while a real change (another draw order, loss, schedule or
+#: counter) moves values by far more, or an exact field.
+TOLERANCE = 1e-3
+
+
+def summarize_value(value: Any, prefix: str, out: dict[str, Any]) -> None:
+    """Flattens a checkpoint's content into ``out``: per float tensor [numel, sum, L2 norm], per other
+    tensor its digest, scalars as they are; wall-clock and owned-elsewhere keys are left out."""
+    if isinstance(value, torch.Tensor):
+        t = value.detach().cpu()
+        if t.dtype.is_floating_point:
+            d = t.double()
+            out[prefix] = ["float", t.numel(), float(d.sum()), float(d.norm())] if t.numel() else ["float", 0]
+        else:
+            h = hashlib.sha256()
+            _canonical(t, h.update)
+            out[prefix] = ["exact", h.hexdigest()]
+    elif isinstance(value, dict):
+        for key in sorted(value, key=str):
+            if key not in SKIPPED_KEYS:
+                summarize_value(value[key], f"{prefix}/{key}", out)
+    elif isinstance(value, (list, tuple)):
+        for i, item in enumerate(value):
+            summarize_value(item, f"{prefix}[{i}]", out)
+    elif isinstance(value, float):
+        out[prefix] = ["scalar", value if math.isfinite(value) else repr(value)]
+    else:
+        out[prefix] = ["exact", value if isinstance(value, (int, str, bool, type(None))) else repr(value)]
+
+
+def run_summary(out: Path) -> dict[str, Any]:
+    """The numeric summary of a finished run directory: its checkpoints flattened, its curves.
+
+    Args:
+        out: the run directory.
+
+    Returns:
+        Flattened key → entry for the checkpoints; ``curves.csv`` → its rows without wall-clock columns.
+    """
+    summary: dict[str, Any] = {}
+    for name in CHECKPOINTS:
+        if (out / name).exists():
+            summarize_value(torch.load(out / name, map_location="cpu", weights_only=True), name, summary)
+    with open(out / "curves.csv", newline="") as f:
+        summary["curves.csv"] = [
+            {k: v for k, v in r.items() if k not in SKIPPED_KEYS} for r in csv.DictReader(f)
+        ]
+    return summary
+
+
+def _number(text: str) -> float | None:
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def _close(a: float, b: float, scale: float) -> bool:
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    return abs(a - b) <= TOLERANCE * scale + 1e-9
+
+
+def compare_summaries(expected: dict[str, Any], actual: dict[str, Any]) -> list[str]:
+    """Where ``actual`` leaves ``expected`` beyond rounding, one line each (empty when it does not).
+
+    Integers, strings, random-generator states and other integer tensors must be equal; a float
+    tensor's sum and norm must agree within ``TOLERANCE`` of its norm (times sqrt(numel) for the
+    sum, whose terms may cancel); a float scalar within ``TOLERANCE`` of its size; a curves column
+    within ``TOLERANCE`` of the column's largest magnitude.
+    """
+    problems = []
+    if expected.keys() != actual.keys():
+        return [f"keys differ: missing {sorted(expected.keys() - actual.keys())[:5]}, "
+                f"new {sorted(actual.keys() - expected.keys())[:5]}"]
+    for key in sorted(expected):
+        if key == "curves.csv":
+            problems += _compare_curves(expected[key], actual[key])
+            continue
+        e, a = expected[key], actual[key]
+        if e[0] != a[0] or e[0] == "exact" or len(e) != len(a):
+            if e != a:
+                problems.append(f"{key}: {a}, expected {e}")
+        elif e[0] == "float" and len(e) == 4:
+            norm = max(abs(e[3]), abs(a[3]))
+            if e[1] != a[1] or not _close(e[2], a[2], norm * math.sqrt(e[1])) or not _close(e[3], a[3], norm):
+                problems.append(f"{key}: [numel, sum, norm] {a[1:]}, expected {e[1:]}")
+        elif e[0] == "scalar":
+            ev, av = (float(x) for x in (e[1], a[1]))
+            if not _close(ev, av, max(abs(ev), abs(av))):
+                problems.append(f"{key}: {av!r}, expected {ev!r}")
+    return problems
+
+
+def _compare_curves(expected: list[dict[str, str]], actual: list[dict[str, str]]) -> list[str]:
+    if len(expected) != len(actual) or (expected and expected[0].keys() != actual[0].keys()):
+        return [f"curves.csv: {len(actual)} rows of {list(actual[0]) if actual else []}, expected "
+                f"{len(expected)} rows of {list(expected[0]) if expected else []}"]
+    problems = []
+    for column in expected[0] if expected else []:
+        values = [(_number(e[column]), _number(a[column])) for e, a in zip(expected, actual, strict=True)]
+        finite = [abs(v) for pair in values for v in pair if v is not None and math.isfinite(v)]
+        scale = max(finite, default=0.0)
+        for row, ((ev, av), e, a) in enumerate(zip(values, expected, actual, strict=True)):
+            if ev is None or av is None:
+                same = e[column] == a[column]
+            else:
+                same = _close(ev, av, scale)
+            if not same:
+                problems.append(f"curves.csv row {row} {column}: {a[column]!r}, expected {e[column]!r}")
+    return problems
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -205,14 +358,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--write", action="store_true", help=f"write {DIGESTS}")
     args = parser.parse_args(argv)
-    digests: dict[str, Any] = {"environment": environment(), "runs": {}}
+    digests: dict[str, Any] = {"environment": environment(), "runs": {}, "summaries": {}}
     with tempfile.TemporaryDirectory() as tmp:
-        for policy in VALUE_POLICIES:
-            train_value(policy, Path(tmp) / policy)
+        for policy in VALUE_POLICIES + PPO_POLICIES:
+            train = train_value if policy in VALUE_POLICIES else train_ppo_tiny
+            train(policy, Path(tmp) / policy)
             digests["runs"][policy] = run_digests(Path(tmp) / policy)
-        for policy in PPO_POLICIES:
-            train_ppo_tiny(policy, Path(tmp) / policy)
-            digests["runs"][policy] = run_digests(Path(tmp) / policy)
+            digests["summaries"][policy] = run_summary(Path(tmp) / policy)
     text = json.dumps(digests, indent=1, sort_keys=True) + "\n"
     if args.write:
         DIGESTS.write_text(text)

@@ -3,7 +3,10 @@
 A fingerprint is what a checkpoint does on a fixed small set of test episodes of its own preset
 (``EPISODES`` per scenario, invisible robot): per episode the outcome, the number of steps and a
 few metrics. ``tests/evaluate/checkpoint_expectations.json`` stores them; the test recomputes them and
-compares outcomes and steps exactly and metrics to ``TOLERANCE``. After a deliberate change (a new or
+compares outcomes and steps exactly and metrics to ``TOLERANCE``, which holds on any x86-64 CPU: the
+networks' float32 sums are rounded by whichever kernels PyTorch picks on the CPU (MKL and ATen dispatch
+by vendor and ISA), and those last bits reach the continuous metrics, never an outcome or a step count
+on the fingerprinted episodes. After a deliberate change (a new or
 retrained checkpoint), regenerate the file with ``python tools/update_checkpoint_expectations.py``.
 """
 
@@ -21,7 +24,12 @@ METRICS = (
     "m2_projected_path.duration_s@tau=1,anchor=rear",
     "m4_jerk.mean_sq",
 )
-TOLERANCE = {"rel": 1e-6, "abs": 1e-9}
+#: An Intel Xeon moved ``m4_jerk.mean_sq`` by 2.6e-6 of its value against the AMD EPYC that recorded the
+#: expectations (37.297584 against 37.297486); other kernels forced on the EPYC (MKL_CBWR=COMPATIBLE,
+#: ATEN_CPU_CAPABILITY, ONEDNN_MAX_CPU_ISA) by at most 4.2e-6 (jerk), 6e-7 (clearance), 2.4e-7 (path
+#: length). 1e-4 leaves 20 times that; a changed policy or simulator changes outcomes, steps or metrics
+#: by far more.
+TOLERANCE = {"rel": 1e-4, "abs": 1e-6}
 
 
 def fingerprint(entry: Any) -> list[dict[str, Any]]:
