@@ -18,6 +18,8 @@ from __future__ import annotations
 import dataclasses
 import enum
 import os
+import pickle
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -171,6 +173,19 @@ def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any
             raise CheckpointError(f"checkpoint {path} is damaged or truncated (reading it failed: "
                                   f"{_one_line(err)})") from None
         raise CheckpointError(f"checkpoint {path} cannot be read: {_one_line(err)}") from None
+    except pickle.UnpicklingError as err:
+        if _saved_by_sb3(path):
+            raise CheckpointError(
+                f"checkpoint {path} is a Stable-Baselines3 model: evaluate it with --policy sb3:{path}"
+            ) from None
+        # weights_only refused an object that is not a tensor or plain value; torch's own message advises
+        # weights_only=False, which would run whatever the file names: never repeat that advice.
+        refused = re.search(r"unsupported GLOBAL (\S+)", _one_line(err, limit=2000), re.IGNORECASE)
+        what = f"the object {refused.group(1)}" if refused else "objects other than tensors and plain values"
+        raise CheckpointError(
+            f"checkpoint {path} is refused: it holds {what}, and socialnav loads only tensors and plain "
+            "values from a checkpoint (an object could run code when read); it was not written by socialnav"
+        ) from None
     except Exception as err:  # unpickling a damaged or foreign file fails in many ways
         hint = ""
         if _saved_by_sb3(path):
