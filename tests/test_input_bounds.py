@@ -23,11 +23,10 @@ import yaml
 import socialnav._io as io
 from socialnav._io import MAX_NESTING_DEPTH, YAML_MAX_NODES, load_yaml, short_repr
 from socialnav.cli import TRACEBACK_ENV, main
-from socialnav.config import ConfigError
 from socialnav.evaluate.manifest import describe_differences
 from socialnav.map_files import MapFileError, load_map
 from socialnav.presets import Preset, load_preset
-from socialnav.settings import from_dict
+from socialnav.settings import ConfigError, from_dict
 from socialnav.sweep.spec import load_sweep
 from socialnav.train.config import TrainSettings, load_train_settings, shipped_train_configs
 from socialnav.train.ppo_config import MAX_N_ENVS, PPOSettings, load_ppo_settings

@@ -127,9 +127,9 @@ def test_the_table_carries_units_and_constraints():
 
 def test_a_presets_scenario_and_policy_typos_are_named_with_the_file(tmp_path, capsys):
     from socialnav.cli import main
-    from socialnav.config import ConfigError
     from socialnav.policies.loading import check_preset_policies
     from socialnav.presets import load_preset
+    from socialnav.settings import ConfigError
 
     bad = tmp_path / "p1.yaml"
     bad.write_text("name: t\nevaluation:\n  multi_human: [circle_crosing]\n")
@@ -157,8 +157,8 @@ def test_a_presets_scenario_and_policy_typos_are_named_with_the_file(tmp_path, c
 
 
 def test_an_empty_preset_file_is_refused(tmp_path):
-    from socialnav.config import ConfigError
     from socialnav.presets import load_preset
+    from socialnav.settings import ConfigError
 
     empty = tmp_path / "my.yaml"
     empty.write_text("# only a comment\n")

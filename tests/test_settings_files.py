@@ -7,8 +7,8 @@ from importlib import resources
 import pytest
 import yaml
 
-from socialnav.config import ConfigError
 from socialnav.presets import load_preset
+from socialnav.settings import ConfigError
 from socialnav.train.config import load_train_settings
 
 

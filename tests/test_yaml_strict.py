@@ -8,9 +8,9 @@ import pytest
 import yaml
 
 from socialnav._io import load_yaml
-from socialnav.config import ConfigError
 from socialnav.map_files import MapFileError, load_map
 from socialnav.presets import load_preset
+from socialnav.settings import ConfigError
 from socialnav.sweep.spec import load_sweep
 from socialnav.train.config import load_train_settings
 

@@ -5,7 +5,6 @@ import shutil
 import pytest
 
 import socialnav.policies.loading as loading
-from socialnav.config import ConfigError
 from socialnav.evaluate.multi import default_specs
 from socialnav.policies.loading import (
     checkpoint_dir,
@@ -14,6 +13,7 @@ from socialnav.policies.loading import (
     shipped_checkpoints,
     unindexed_checkpoint_files,
 )
+from socialnav.settings import ConfigError
 
 
 def test_index_and_directory_agree():

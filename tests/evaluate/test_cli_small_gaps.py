@@ -108,9 +108,9 @@ def test_only_tables_with_rows_are_printed(tmp_path, capsys):
 
 
 def test_single_human_scenarios_say_what_a_small_or_visible_run_leaves_out(tmp_path):
-    from socialnav.config import ConfigError
     from socialnav.evaluate.plan import plan_cells
     from socialnav.presets import load_preset
+    from socialnav.settings import ConfigError
 
     preset = load_preset("wang2022")
     with pytest.warns(UserWarning, match=r"passing: 10 of its 20 lateral offsets \(episodes 0-9: -0.60 to "

@@ -20,11 +20,11 @@ from socialnav._io import (
     read_parquet_verified,
 )
 from socialnav.cli import main
-from socialnav.config import ConfigError
 from socialnav.evaluate.manifest import describe_differences
 from socialnav.evaluate.runner import ResumeMismatchError, run_protocol
 from socialnav.policies import make_policy
 from socialnav.presets import load_preset
+from socialnav.settings import ConfigError
 from socialnav.sim.settings import MAX_STEPS, MAX_THREADS, WorldSettings
 
 KW = dict(scenarios=["circle_crossing"], episodes=3, progress=False, workers=0)

@@ -130,7 +130,7 @@ def test_a_registered_record_reaches_list_train_and_labels(isolated_registries, 
 
 
 def test_a_record_requiring_one_information_refuses_another(isolated_registries):
-    from socialnav.config import ConfigError
+    from socialnav.settings import ConfigError
     from socialnav.train.config import TrainSettings
 
     register_learned_policy(dummy_spec(required_information="oracle", defaults={"information": "oracle"}))

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from socialnav.config import ConfigError
+from socialnav.settings import ConfigError
 from socialnav.sim.obstacle_points import ObstaclePoints, append_obstacle_agents, outline_points
 from socialnav.static_map import StaticMap
 

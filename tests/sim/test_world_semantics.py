@@ -7,7 +7,7 @@ import pytest
 from _worldkit import hand_world, place
 
 from socialnav import _core
-from socialnav.config import ConfigError
+from socialnav.settings import ConfigError
 from socialnav.sim.settings import WorldSettings
 
 
@@ -251,7 +251,7 @@ def test_invalid_settings_name_the_field(field, value, message):
 
 
 def test_unknown_nested_setting_is_named():
-    from socialnav.config import from_dict
+    from socialnav.settings import from_dict
     with pytest.raises(ConfigError, match=r"orca\.horizon.*valid: max_neighbors, neighbor_dist"):
         from_dict(WorldSettings, {"orca": {"horizon": 3}})
     with pytest.raises(ConfigError, match=r"orca.max_neighbors must be in \[0, 64\]"):

@@ -9,9 +9,9 @@ from hypothesis import strategies as st
 from tests.sim._walls import human_clearances, pillars_and_walls, walled_world, with_map
 
 from socialnav import _core
-from socialnav.config import ConfigError
 from socialnav.policies import make_policy
 from socialnav.scenarios import make_scenario
+from socialnav.settings import ConfigError
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
 from socialnav.static_map import StaticMap

@@ -17,10 +17,10 @@ import pytest
 import yaml
 
 from socialnav.cli import main
-from socialnav.config import ConfigError
 from socialnav.evaluate.runner import run_protocol
 from socialnav.policies.loading import build_policy
 from socialnav.presets import load_preset
+from socialnav.settings import ConfigError
 from socialnav.sweep.driver import run_sweep
 from socialnav.sweep.executors import LocalExecutor
 from socialnav.sweep.spec import load_sweep, parse_sweep

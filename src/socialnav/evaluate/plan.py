@@ -7,10 +7,10 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from socialnav.config import ConfigError
 from socialnav.presets import Preset
 from socialnav.scenarios import Scenario, get_scenario, make_scenario
 from socialnav.scenarios.seeds import SPLIT_SIZE
+from socialnav.settings import ConfigError
 from socialnav.sim.settings import WorldSettings
 
 #: Episodes per cell at most (a run of this size takes days; larger is a typo).

@@ -161,11 +161,11 @@ def replay_episode(results_dir: str | Path, episode_id: str) -> ReplayResult:
     Raises:
         ResultsError: Not a result directory, unknown episode, or a policy that cannot be rebuilt.
     """
-    from socialnav.config import ConfigError, from_dict
     from socialnav.evaluate.execution import episode_id as make_id
     from socialnav.evaluate.execution import simulate_chunk
     from socialnav.evaluate.plan import Cell, _is_single_human, preset_for_scenarios
     from socialnav.presets import Preset
+    from socialnav.settings import ConfigError, from_dict
 
     root = Path(results_dir)
     manifest = load_manifest(root)

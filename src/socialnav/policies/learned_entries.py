@@ -333,8 +333,8 @@ def _ppo_obstacle_encoding(settings: dict[str, Any], model: Any, where: str) -> 
 
     An MLP reads a fixed number of point slots (``obstacle_slots``), which must be the encoding's count.
     """
-    from socialnav.config import ConfigError
     from socialnav.policies.learned.checkpoint import CheckpointError
+    from socialnav.settings import ConfigError
     from socialnav.sim.obstacle_points import ObstaclePoints
 
     raw = settings.get("obstacle_encoding")

@@ -15,11 +15,11 @@ from pathlib import Path
 from typing import Any
 
 from socialnav._io import load_yaml
-from socialnav.config import ConfigError
 from socialnav.policies.base import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
 from socialnav.policies.learned_catalog import VALUE_INFORMATION, canonical_name, get_learned_spec
 from socialnav.policies.native import NativePolicy
 from socialnav.presets import Preset
+from socialnav.settings import ConfigError
 
 INDEX_FILE = "index.yaml"
 VARIANTS = ("protocol", "original")

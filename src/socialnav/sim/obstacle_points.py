@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.config import check
+from socialnav.settings import check
 from socialnav.static_map import StaticMap
 
 __all__ = ["ObstaclePoints", "outline_points", "append_obstacle_agents"]
@@ -66,7 +66,7 @@ class ObstaclePoints:
     @classmethod
     def from_dict(cls, data: Any) -> ObstaclePoints:
         """The encoding a checkpoint or a settings file records (``kind`` must be ``outline_points``)."""
-        from socialnav.config import from_dict
+        from socialnav.settings import from_dict
 
         if isinstance(data, ObstaclePoints):
             return data

@@ -111,7 +111,7 @@ class World:
                 type (the argument is named).
         """
         if isinstance(settings, dict):
-            from socialnav.config import from_dict
+            from socialnav.settings import from_dict
 
             settings = from_dict(WorldSettings, settings, "world")
         elif not isinstance(settings, WorldSettings):
