@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from socialnav.scenarios.random import EpisodeRandom, salt_hash
+from socialnav.scenarios.episode_random import EpisodeRandom, salt_hash
 
 
 def _ks_uniform(u: np.ndarray) -> float:
@@ -87,7 +87,7 @@ def test_salts_keys_seeds_differ() -> None:
 
 def test_salt_hash_stable_across_processes() -> None:
     """Python's str hash is salted per process; ours must not be."""
-    code = "from socialnav.scenarios.random import salt_hash; print(salt_hash('circle_crossing'))"
+    code = "from socialnav.scenarios.episode_random import salt_hash; print(salt_hash('circle_crossing'))"
     out = {
         subprocess.run(
             [sys.executable, "-c", code],

@@ -41,7 +41,7 @@ from socialnav.scenarios.registry import (
 #: Public names whose module loads on first use (see ``lazy_exports``).
 _EXPORTS = {
     "CircleCrossing": "socialnav.scenarios.circle",
-    "EpisodeRandom": "socialnav.scenarios.random",
+    "EpisodeRandom": "socialnav.scenarios.episode_random",
     "Crossing": "socialnav.scenarios.single",
     "Overtaking": "socialnav.scenarios.single",
     "Passing": "socialnav.scenarios.single",
@@ -81,7 +81,7 @@ __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load lazily
     from socialnav.scenarios.circle import CircleCrossing
-    from socialnav.scenarios.random import EpisodeRandom
+    from socialnav.scenarios.episode_random import EpisodeRandom
     from socialnav.scenarios.single import Crossing, Overtaking, Passing
     from socialnav.scenarios.square import (
         ParallelTraffic,

@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from socialnav.scenarios.random import EpisodeRandom
+from socialnav.scenarios.episode_random import EpisodeRandom
 
 __all__ = ["ScenarioGenerationError", "rejection_sample"]
 

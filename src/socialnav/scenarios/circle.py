@@ -15,7 +15,7 @@ import numpy as np
 
 from socialnav.scenarios._placement import rejection_sample
 from socialnav.scenarios.base import STREAM_START, HumanArrays, Scenario, param
-from socialnav.scenarios.random import EpisodeRandom
+from socialnav.scenarios.episode_random import EpisodeRandom
 from socialnav.scenarios.registry import register_scenario
 
 __all__ = ["CircleCrossing"]

@@ -22,7 +22,7 @@ import numpy as np
 
 from socialnav.scenarios._placement import rejection_sample
 from socialnav.scenarios.base import STREAM_START, HumanArrays, param
-from socialnav.scenarios.random import EpisodeRandom
+from socialnav.scenarios.episode_random import EpisodeRandom
 from socialnav.scenarios.registry import register_scenario
 from socialnav.scenarios.walls import STREAM_OBSTACLES, Flow, WalledScenario, box, polyline
 from socialnav.static_map import StaticMap

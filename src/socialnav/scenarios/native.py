@@ -15,7 +15,7 @@ import numpy as np
 
 from socialnav.scenarios._placement import ScenarioGenerationError, failure_message
 from socialnav.scenarios.base import HumanArrays
-from socialnav.scenarios.random import _GOLDEN, _fmix_int, salt_hash
+from socialnav.scenarios.episode_random import _GOLDEN, _fmix_int, salt_hash
 
 if TYPE_CHECKING:
     from socialnav.scenarios.base import Scenario

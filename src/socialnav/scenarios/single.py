@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from socialnav.scenarios.base import STREAM_JITTER, HumanArrays, Scenario, param
-from socialnav.scenarios.random import EpisodeRandom
+from socialnav.scenarios.episode_random import EpisodeRandom
 from socialnav.scenarios.registry import register_scenario
 
 __all__ = ["Crossing", "Overtaking", "Passing"]

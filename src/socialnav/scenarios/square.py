@@ -25,7 +25,7 @@ from socialnav.scenarios.base import (
     Scenario,
     param,
 )
-from socialnav.scenarios.random import EpisodeRandom
+from socialnav.scenarios.episode_random import EpisodeRandom
 from socialnav.scenarios.registry import register_scenario
 
 __all__ = ["ParallelTraffic", "PerpendicularTraffic", "RandomPlacement", "SquareCrossing"]

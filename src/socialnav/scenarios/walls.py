@@ -23,7 +23,7 @@ import numpy as np
 
 from socialnav.scenarios._placement import rejection_sample
 from socialnav.scenarios.base import STREAM_GOAL, STREAM_START, HumanArrays, Scenario
-from socialnav.scenarios.random import EpisodeRandom
+from socialnav.scenarios.episode_random import EpisodeRandom
 from socialnav.static_map import MapStack, StaticMap
 
 __all__ = ["Flow", "WalledScenario", "box", "polyline"]
