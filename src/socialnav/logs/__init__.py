@@ -7,18 +7,10 @@
 NumPy-only at import; ``pyarrow`` is imported when a table is read. See ``docs/real_world_logs.md``.
 """
 
+from socialnav.logs.loading import FORMATS, DataWarning, detect_format, load_trajectories
 from socialnav.logs.readers import DEFAULT_RADIUS, ETH_UCY_FPS, FIELDS, MAX_SPEED, read_eth_ucy, read_table
 from socialnav.logs.scene import Scene, SceneError, scene_from_tracks
-from socialnav.logs.scoring import (
-    FORMATS,
-    DataWarning,
-    LogScores,
-    detect_format,
-    load_trajectories,
-    outcome_problems,
-    score_file,
-    score_trajectories,
-)
+from socialnav.logs.scoring import LogScores, outcome_problems, score_file, score_trajectories
 
 __all__ = [
     "DEFAULT_RADIUS",

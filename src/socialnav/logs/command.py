@@ -14,8 +14,8 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from socialnav._io import json_safe
+from socialnav.logs.loading import FORMATS
 from socialnav.logs.readers import ETH_UCY_FPS, FIELDS, MAX_SPEED
-from socialnav.logs.scoring import FORMATS
 
 if TYPE_CHECKING:
     from socialnav.static_map import StaticMap
@@ -146,7 +146,8 @@ def cmd_metrics(args: argparse.Namespace) -> int:
     """
     import warnings
 
-    from socialnav.logs.scoring import DataWarning, load_trajectories, score_trajectories
+    from socialnav.logs.loading import DataWarning, load_trajectories
+    from socialnav.logs.scoring import score_trajectories
 
     notes: list[str] = []
     problems: list[str] = []

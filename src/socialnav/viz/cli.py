@@ -105,7 +105,7 @@ def load_source(source: str | Path, episode: str | None, resample: bool = False,
         return load_episode(path, episode), path / "renders"
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such result directory or trajectory file")
-    from socialnav.logs.scoring import detect_format
+    from socialnav.logs.loading import detect_format
 
     given = {k: v for k, v in log.items() if v is not None and (k, v) not in (("time_unit", "s"),
                                                                               ("length_unit", "m"))}
@@ -130,7 +130,7 @@ def load_source(source: str | Path, episode: str | None, resample: bool = False,
 
 
 def _one_log_episode(path: Path, episode: str | None, resample: bool, **log: Any):
-    from socialnav.logs.scoring import load_trajectories
+    from socialnav.logs.loading import load_trajectories
 
     if str(log.get("ego", "")).lower() == "all":
         raise ValueError("--ego all: render draws one episode; give one agent id")
