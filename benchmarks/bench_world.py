@@ -42,11 +42,11 @@ import time
 
 import numpy as np
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.policies import make_policy
 from socialnav.scenarios import make_scenario
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
-from socialnav.static_map import StaticMap
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _machine import add_record_arguments, cpu_model, emit, run_record  # noqa: E402  (benchmarks/ is not a package)

@@ -24,7 +24,7 @@ import socialnav._io as io
 from socialnav._io import MAX_NESTING_DEPTH, YAML_MAX_NODES, load_yaml, short_repr
 from socialnav.cli import TRACEBACK_ENV, main
 from socialnav.evaluate.manifest import describe_differences
-from socialnav.map_files import MapFileError, load_map
+from socialnav.maps.files import MapFileError, load_map
 from socialnav.presets import Preset, load_preset
 from socialnav.settings import ConfigError, from_dict
 from socialnav.sweep.spec import load_sweep
@@ -221,10 +221,10 @@ def test_a_setting_given_a_huge_value_gets_a_short_message_at_once() -> None:
 
 
 def test_a_map_field_of_a_huge_value_gets_a_short_message_at_once() -> None:
-    from socialnav.map_files import _short
+    from socialnav.maps.parsing import short
 
     with quickly_and_small():
-        assert len(_short(HUGE)) == 80
+        assert len(short(HUGE)) == 80
 
 
 def test_a_manifest_difference_of_a_huge_value_is_short_at_once() -> None:

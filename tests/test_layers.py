@@ -18,7 +18,7 @@ LAYERS: list[dict[str, tuple[str, ...]]] = [
     {"io": ("socialnav._io", "socialnav._runtime", "socialnav._progress", "socialnav._core",
             "socialnav.plugins", "socialnav.config", "socialnav.settings"),
      "data": ("socialnav.checkpoints", "socialnav.configs")},
-    {"static_map": ("socialnav.static_map", "socialnav.map_files")},
+    {"maps": ("socialnav.maps",)},
     {"scenarios": ("socialnav.scenarios",)},
     {"trajectory": ("socialnav.trajectory", "socialnav.trajectory_io")},
     {"metrics": ("socialnav.metrics",)},

@@ -1,4 +1,4 @@
-"""Map files: YAML and the SVG subset (socialnav.map_files), and their errors."""
+"""Map files: YAML and the SVG subset (socialnav.maps), and their errors."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from socialnav.map_files import MapFileError, load_map, map_from_svg, save_map
-from socialnav.static_map import MapError, StaticMap
+from socialnav.maps.files import MapFileError, load_map, map_from_svg, save_map
+from socialnav.maps.static_map import MapError, StaticMap
 
 YAML_MAP = """\
 name: test corridor

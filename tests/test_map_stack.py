@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from socialnav.static_map import MapStack, StaticMap
+from socialnav.maps.static_map import MapStack, StaticMap
 
 
 def _square(cx: float, cy: float, half: float, turn: float) -> np.ndarray:

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ["sim", "evaluate", "train", "sweep", "metrics", "policies", "logs"]
+PACKAGES = ["sim", "evaluate", "train", "sweep", "metrics", "policies", "logs", "maps"]
 #: What each package exports, at least (what the README and docs use).
 EXPECTED = {
     "sim": {"World", "WorldSettings", "Observation", "SocialNavEnv", "SocialNavVectorEnv", "orca_step",
@@ -24,6 +24,7 @@ EXPECTED = {
     "policies": {"make_policy", "build_policy", "list_policies", "LearnedPolicySpec",
                  "register_learned_policy"},
     "logs": {"score_file", "load_trajectories"},
+    "maps": {"StaticMap", "MapError", "load_map", "save_map", "MapFileError", "MAX_COORDINATE"},
 }
 
 
@@ -57,7 +58,7 @@ def test_the_light_apis_load_without_torch_and_no_module_before_use():
 
 
 def test_readme_and_docs_import_the_public_apis():
-    private = re.compile(r"from socialnav\.(sim|evaluate|train|sweep|metrics|logs)\.\w+ import")
+    private = re.compile(r"from socialnav\.(sim|evaluate|train|sweep|metrics|logs|maps)\.\w+ import")
     for path in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
         for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
             assert not private.search(line), f"{path.name}:{number} imports a module, not the API: {line}"

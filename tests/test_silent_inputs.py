@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from socialnav.cli import TRACEBACK_ENV, main
-from socialnav.map_files import MapFileError, load_map
-from socialnav.static_map import MapError, StaticMap
+from socialnav.maps.files import MapFileError, load_map
+from socialnav.maps.static_map import MapError, StaticMap
 from socialnav.trajectory import Trajectory, TrajectoryFormatError, read_trajectories, write_trajectories
 
 SQUARE = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
@@ -58,7 +58,7 @@ def test_static_map_refuses_coordinates_beyond_the_bound(value: float, axis: str
 
 
 def test_coordinates_at_the_bound_are_kept_and_their_distances_are_finite() -> None:
-    far = 1e6  # socialnav.static_map.MAX_COORDINATE
+    far = 1e6  # socialnav.maps.static_map.MAX_COORDINATE
     smap = StaticMap.from_polygons([[[-far, -far], [far, -far], [far, far]], [[-far, far], [far, far]]])
     with warnings.catch_warnings():
         warnings.simplefilter("error")

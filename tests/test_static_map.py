@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from socialnav.static_map import MapError, StaticMap
+from socialnav.maps.static_map import MapError, StaticMap
 
 
 def test_clockwise_square_is_stored_counter_clockwise():
@@ -58,7 +58,7 @@ def test_from_dict_names_the_keys_it_does_not_know(data, found):
 
 def test_a_file_name_given_as_polygons_points_to_load_map():
     with pytest.raises(MapError, match=r"StaticMap takes polygons, not a file \('walls.yaml'\): read a map "
-                       r"file with socialnav.map_files.load_map"):
+                       r"file with socialnav.maps.load_map"):
         StaticMap("walls.yaml")
 
 

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from socialnav.static_map import StaticMap
+from socialnav.maps.static_map import StaticMap
 from socialnav.trajectory import Trajectory, TrajectoryFormatError, read_trajectories, write_trajectories
 
 DATA = Path(__file__).parent / "data"

@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 from socialnav._io import load_yaml
-from socialnav.map_files import MapFileError, load_map
+from socialnav.maps.files import MapFileError, load_map
 from socialnav.presets import load_preset
 from socialnav.settings import ConfigError
 from socialnav.sweep.spec import load_sweep

@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 python -m mypy --no-incremental \
   -p socialnav._io -p socialnav._runtime -p socialnav.settings -p socialnav.policies.learned_catalog \
   -m socialnav -m socialnav.sim -m socialnav.evaluate -m socialnav.train -m socialnav.sweep \
-  -m socialnav.metrics -m socialnav.policies -m socialnav.logs -m socialnav.scenarios \
+  -m socialnav.metrics -m socialnav.policies -m socialnav.logs -m socialnav.scenarios -m socialnav.maps \
   -m socialnav.sim.world -m socialnav.sim.world_config -m socialnav.sim.slot_maps \
   -m socialnav.sim.step_result -m socialnav.sim.episode_stream -m socialnav.sim.env \
   -m socialnav.sim.orca_solver -m socialnav.sim.pool -m socialnav.sim.recorder -m socialnav.sim.observation \

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.static_map import StaticMap
+from socialnav.maps.static_map import StaticMap
 
 __all__ = [
     "OUTCOMES",
@@ -108,7 +108,7 @@ class Trajectory:
             must be present at every sample. All-True masks are stored as None.
         arrival_times: Known time [s since sample 0] at which each agent reached its goal, shape (A,),
             NaN where unknown (M_III then detects arrival from the positions), or None.
-        static_map: The episode's obstacles (:class:`~socialnav.static_map.StaticMap`), or None for
+        static_map: The episode's obstacles (:class:`~socialnav.maps.static_map.StaticMap`), or None for
             an open floor. An empty map is stored as None.
     """
 

@@ -14,6 +14,7 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.policies.learned import save_checkpoint
 from socialnav.policies.learned.attn_graph import AttnGraphNet, observation_tensors
 from socialnav.policies.learned.checkpoint import CheckpointError
@@ -23,7 +24,6 @@ from socialnav.policies.learned_entries import PresetMismatchError, load_ppo_pol
 from socialnav.presets import load_preset
 from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.obstacle_points import ObstaclePoints
-from socialnav.static_map import StaticMap
 from socialnav.train.ppo_worlds import ppo_policy_config
 
 from .helpers import SMALL_ATTN_GRAPH as SMALL

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 import torch
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.policies.learned import ValuePolicy, build
 from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.obstacle_points import ObstaclePoints
-from socialnav.static_map import StaticMap
 
 from .helpers import NETWORKS, random_scene
 

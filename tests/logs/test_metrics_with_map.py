@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from socialnav.cli import main
-from socialnav.static_map import StaticMap
+from socialnav.maps.static_map import StaticMap
 from socialnav.trajectory import Trajectory, write_trajectories
 from tests._env import subprocess_env
 

@@ -9,9 +9,9 @@ import pytest
 
 from socialnav.evaluate.report import table2
 from socialnav.evaluate.summary import summarize_group
+from socialnav.maps.static_map import StaticMap
 from socialnav.metrics import metric_key, score_episode
 from socialnav.metrics.obstacles import min_obstacle_clearance, obstacle_proximity, wall_collision
-from socialnav.static_map import StaticMap
 from socialnav.trajectory import Trajectory
 
 WALL = StaticMap.from_polygons([[[-5.0, 1.0], [5.0, 1.0]]])  # a wall segment along y = 1

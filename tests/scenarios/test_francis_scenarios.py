@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from socialnav.evaluate.plan import cell_scenario, plan_cells
+from socialnav.maps.static_map import StaticMap
 from socialnav.presets import load_preset
 from socialnav.scenarios import EpisodeBatch, ScenarioGenerationError, list_scenarios, make_scenario
 from socialnav.scenarios.francis import FRANCIS_SCENARIOS
-from socialnav.static_map import StaticMap
 
 N = 100  # episodes per check
 

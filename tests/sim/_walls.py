@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.scenarios import make_scenario
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
-from socialnav.static_map import StaticMap
 
 
 def with_map(scenario, static_map: StaticMap | None):

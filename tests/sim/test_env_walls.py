@@ -6,11 +6,11 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 from tests.sim._walls import pillars_and_walls
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.scenarios import make_scenario
 from socialnav.sim.env import SocialNavEnv, SocialNavVectorEnv
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
-from socialnav.static_map import StaticMap
 
 ACROSS = StaticMap(([[-2.0, 0.0], [2.0, 0.0]],))  # across the robot's straight route (0, -4) -> (0, 4)
 
@@ -124,7 +124,7 @@ def test_every_francis2023_scenario_makes_an_env_with_the_evaluations_crowd():
 
 
 def test_static_map_may_be_a_map_file(tmp_path):
-    from socialnav.map_files import save_map
+    from socialnav.maps.files import save_map
 
     path = tmp_path / "across.yaml"
     save_map(path, ACROSS)

@@ -7,9 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.settings import ConfigError
 from socialnav.sim.obstacle_points import ObstaclePoints, append_obstacle_agents, outline_points
-from socialnav.static_map import StaticMap
 
 WALL = [[0.0, 0.0], [1.2, 0.0]]  # 1.2 m: cut into ceil(1.2 / 0.5) = 3 parts of 0.4 m
 SQUARE = [[2.0, 2.0], [3.0, 2.0], [3.0, 3.0], [2.0, 3.0]]  # 1 m edges: 2 parts of 0.5 m each

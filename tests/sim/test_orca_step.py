@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from tests.sim._walls import pillars_and_walls, walled_world
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.sim import orca_step
-from socialnav.static_map import StaticMap
 
 
 def test_orca_step_is_the_solver_of_the_worlds_orca_humans():

@@ -26,8 +26,8 @@ from tests.reference.navground_orca_walls import (
 from tests.reference.python_orca import orca_lines
 
 from socialnav import _core
+from socialnav.maps.static_map import StaticMap
 from socialnav.sim import orca_step
-from socialnav.static_map import StaticMap
 
 LAYOUTS = 400
 

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from socialnav import _core
-from socialnav.static_map import StaticMap
+from socialnav.maps.static_map import StaticMap
 
 coord = st.floats(-4.0, 4.0, allow_nan=False, allow_infinity=False)
 point = st.tuples(coord, coord)

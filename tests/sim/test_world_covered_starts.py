@@ -12,12 +12,12 @@ import dataclasses
 import numpy as np
 import pytest
 
+from socialnav.maps.static_map import MapError, StaticMap
 from socialnav.scenarios import make_scenario
 from socialnav.scenarios.circle import CircleCrossing
 from socialnav.sim.episode_stream import EpisodeStream
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
-from socialnav.static_map import MapError, StaticMap
 
 BLOCK_EAST = StaticMap(([[3.0, -5.0], [6.0, -5.0], [6.0, 5.0], [3.0, 5.0]],))  # over the circle's east side
 

@@ -9,12 +9,12 @@ from hypothesis import strategies as st
 from tests.sim._walls import human_clearances, pillars_and_walls, walled_world, with_map
 
 from socialnav import _core
+from socialnav.maps.static_map import StaticMap
 from socialnav.policies import make_policy
 from socialnav.scenarios import make_scenario
 from socialnav.settings import ConfigError
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
-from socialnav.static_map import StaticMap
 
 WALL_X = StaticMap(([[0.0, -3.0], [0.0, 3.0]],))  # a thin wall across the robot's path
 

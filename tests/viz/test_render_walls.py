@@ -14,7 +14,7 @@ pytest.importorskip("PIL")
 from PIL import Image  # noqa: E402
 
 from socialnav.cli import main  # noqa: E402
-from socialnav.static_map import StaticMap  # noqa: E402
+from socialnav.maps.static_map import StaticMap  # noqa: E402
 from socialnav.trajectory import Trajectory, write_trajectories  # noqa: E402
 from socialnav.viz.draw import WALL_EDGE, WALL_FACE, FrameRenderer, plot_trajectory  # noqa: E402
 from socialnav.viz.geometry import WALL_CONTEXT, scene_bounds  # noqa: E402

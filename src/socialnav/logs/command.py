@@ -18,7 +18,7 @@ from socialnav.logs.loading import FORMATS
 from socialnav.logs.readers import ETH_UCY_FPS, FIELDS, MAX_SPEED
 
 if TYPE_CHECKING:
-    from socialnav.static_map import StaticMap
+    from socialnav.maps.static_map import StaticMap
 
 EXIT_WARNINGS = 1
 EXIT_ERROR = 2
@@ -121,9 +121,9 @@ def map_from_args(args: argparse.Namespace) -> StaticMap | None:
 
     Raises:
         ValueError: ``--map-scale`` without ``--map``, or not a finite number > 0; a
-            :class:`~socialnav.map_files.MapFileError` for the map file itself.
+            :class:`~socialnav.maps.files.MapFileError` for the map file itself.
     """
-    from socialnav.map_files import load_map
+    from socialnav.maps.files import load_map
 
     scale = args.map_scale
     if scale is not None and not (math.isfinite(scale) and scale > 0):

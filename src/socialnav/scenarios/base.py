@@ -19,12 +19,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.scenarios._params import ParamSpec, param
 from socialnav.scenarios.episode_batch import EpisodeBatch, HumanArrays
 from socialnav.scenarios.episode_random import EpisodeRandom
 from socialnav.scenarios.seeds import SPLIT_BASES, SPLIT_SIZE, as_indices, episode_seeds
 from socialnav.settings import Settings
-from socialnav.static_map import StaticMap
 
 __all__ = [
     "SPLIT_BASES",

@@ -13,7 +13,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from socialnav.static_map import MapStack, StaticMap
+from socialnav.maps.static_map import MapStack, StaticMap
 
 __all__ = ["EpisodeBatch", "HumanArrays"]
 

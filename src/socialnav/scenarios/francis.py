@@ -20,12 +20,12 @@ from typing import ClassVar
 
 import numpy as np
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.scenarios._placement import rejection_sample
 from socialnav.scenarios.base import STREAM_START, HumanArrays, param
 from socialnav.scenarios.episode_random import EpisodeRandom
 from socialnav.scenarios.registry import register_scenario
 from socialnav.scenarios.walls import STREAM_OBSTACLES, Flow, WalledScenario, box, polyline
-from socialnav.static_map import StaticMap
 
 __all__ = [
     "BlindCorner", "CircleCrossingObstacles", "EnteringRoom", "ExitingRoom", "FrontalApproach",

@@ -2,7 +2,7 @@
 
 The layout, the placement of agents clear of the walls, and the geometry helpers that build the layouts.
 
-A walled scenario declares its layout (a :class:`~socialnav.static_map.StaticMap`, fixed by the
+A walled scenario declares its layout (a :class:`~socialnav.maps.static_map.StaticMap`, fixed by the
 settings, or drawn per episode), the robot's start and goal, and per human a *flow*: a box its start
 is drawn from and how its goal follows. Placement is CrowdSim's rejection rule extended by the
 walls: a start is redrawn while it lies closer than ``r + r_other + discomfort_dist`` to the robot's
@@ -21,10 +21,10 @@ from typing import ClassVar
 
 import numpy as np
 
+from socialnav.maps.static_map import MapStack, StaticMap
 from socialnav.scenarios._placement import rejection_sample
 from socialnav.scenarios.base import STREAM_GOAL, STREAM_START, HumanArrays, Scenario
 from socialnav.scenarios.episode_random import EpisodeRandom
-from socialnav.static_map import MapStack, StaticMap
 
 __all__ = ["Flow", "WalledScenario", "box", "polyline"]
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from socialnav.static_map import MapError, StaticMap
+from socialnav.maps.static_map import MapError, StaticMap
 
 
 def first_covered(

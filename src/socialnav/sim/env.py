@@ -35,6 +35,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from socialnav.config import from_dict
+from socialnav.maps.static_map import StaticMap
 from socialnav.scenarios import make_scenario
 from socialnav.scenarios.base import SPLIT_SIZE
 from socialnav.sim.actions import discrete_actions
@@ -43,7 +44,6 @@ from socialnav.sim.episode_order import EpisodeOrder
 from socialnav.sim.observation import Observation
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import EpisodeStream, StepResult, World, walls_win_message
-from socialnav.static_map import StaticMap
 
 OUTCOME_CODES = {"running": 0, "success": 1, "collision": 2, "timeout": 3}
 
@@ -113,7 +113,7 @@ class _EnvConfig:
         if isinstance(static_map, dict):
             static_map = StaticMap.from_dict(static_map)
         elif isinstance(static_map, str | os.PathLike):
-            from socialnav.map_files import load_map
+            from socialnav.maps.files import load_map
 
             static_map = load_map(os.fspath(static_map))
         if static_map is not None and not isinstance(static_map, StaticMap):
@@ -243,7 +243,7 @@ class SocialNavEnv(gym.Env):
         render_mode: None, "rgb_array" (``render()`` returns the frame) or "human" (a window, where
             a display exists); drawn by socialnav.viz (needs the ``viz`` extra).
         static_map: One map for every episode: a StaticMap, its dict form or a map file (YAML or
-            SVG, :func:`socialnav.map_files.load_map`). A scenario with walls of its own keeps its maps.
+            SVG, :func:`socialnav.maps.files.load_map`). A scenario with walls of its own keeps its maps.
         max_obstacle_edges: Edges in the observation's ``obstacles`` (zero-padded); default: the
             most an episode's map can have (the map's, or the walled scenario's bound).
     """

@@ -59,8 +59,8 @@ import numpy as np
 from gymnasium import spaces
 
 from socialnav.config import check
+from socialnav.maps.static_map import StaticMap
 from socialnav.sim.obstacle_points import ObstaclePoints
-from socialnav.static_map import StaticMap
 
 FRAMES = ("world", "robot")
 DTYPES = ("float32", "float64")
@@ -204,7 +204,7 @@ class ObservationTransform:
     ) -> dict[str, np.ndarray]:
         """``robot`` (B, 9), ``humans`` (B, N, 5), ``mask`` (B, N) -> the learner's (B, …) arrays.
 
-        ``maps``: each episode's :class:`~socialnav.static_map.StaticMap` or None, (B,); None: the
+        ``maps``: each episode's :class:`~socialnav.maps.static_map.StaticMap` or None, (B,); None: the
         transform's own ``static_map`` for every episode (only read with ``obstacle_points`` > 0).
         """
         robot = np.asarray(robot, dtype=np.float64)

@@ -8,7 +8,7 @@ from functools import cached_property
 
 import numpy as np
 
-from socialnav.static_map import StaticMap
+from socialnav.maps.static_map import StaticMap
 
 ROBOT_PX, ROBOT_PY, ROBOT_VX, ROBOT_VY, ROBOT_RADIUS, ROBOT_GX, ROBOT_GY, ROBOT_VPREF, ROBOT_THETA = range(9)
 HUMAN_PX, HUMAN_PY, HUMAN_VX, HUMAN_VY, HUMAN_RADIUS = range(5)
@@ -21,7 +21,7 @@ class ObstacleArrays:
     """The static maps of B episodes, flat for the native policies (``None`` rows are open floors).
 
     Attributes:
-        maps: (B,) the episodes' :class:`~socialnav.static_map.StaticMap` or None.
+        maps: (B,) the episodes' :class:`~socialnav.maps.static_map.StaticMap` or None.
         vertices: (V, 2) every polygon's vertices [m], episode after episode.
         polygon_offsets: (P + 1,) int64; polygon p is
             ``vertices[polygon_offsets[p]:polygon_offsets[p + 1]]``.

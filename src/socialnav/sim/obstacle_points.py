@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from socialnav.maps.static_map import StaticMap
 from socialnav.settings import check
-from socialnav.static_map import StaticMap
 
 __all__ = ["ObstaclePoints", "outline_points", "append_obstacle_agents"]
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from socialnav import _core
-from socialnav.static_map import StaticMap
+from socialnav.maps.static_map import StaticMap
 
 __all__ = ["orca_step"]
 

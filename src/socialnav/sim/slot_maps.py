@@ -13,9 +13,9 @@ from collections.abc import Iterable
 import numpy as np
 
 from socialnav import _core
+from socialnav.maps.static_map import StaticMap
 from socialnav.sim.observation import ObstacleArrays
 from socialnav.sim.world_config import check_map_size
-from socialnav.static_map import StaticMap
 
 
 class SlotMaps:

@@ -20,6 +20,7 @@ import warnings
 import numpy as np
 
 from socialnav import _core
+from socialnav.maps.static_map import MapError, StaticMap
 from socialnav.scenarios import EpisodeBatch, Scenario, episode_seeds
 from socialnav.scenarios.native import native_config, raise_on_failure
 from socialnav.sim.covered_starts import covered_message, raise_first_covered
@@ -39,7 +40,6 @@ from socialnav.sim.world_config import (
     world_bytes,
     world_config,
 )
-from socialnav.static_map import MapError, StaticMap
 
 __all__ = [
     "MAX_WORLD_BYTES",
@@ -80,7 +80,7 @@ class World:
         static_map: One static map for every episode of this world (e.g. a built-in scenario among
             walls), in place of the scenario's own ``static_map`` attribute.
 
-    Static obstacles: each episode's map (a :class:`~socialnav.static_map.StaticMap`, or None for an
+    Static obstacles: each episode's map (a :class:`~socialnav.maps.static_map.StaticMap`, or None for an
     open floor) comes with the episode: from the episode batch's ``static_maps`` (one per episode)
     when the scenario generates them, else the world's ``static_map`` argument, else the scenario's
     ``static_map`` attribute (one map for all its episodes), else none.

@@ -345,7 +345,7 @@ def _episode_map(tab: TrajectoryTable, rows: np.ndarray, key: Any) -> Any:
 
     From the Parquet metadata, else the ``static_map`` column (JSON on one row of the episode).
     """
-    from socialnav.static_map import MapError, StaticMap
+    from socialnav.maps.static_map import MapError, StaticMap
 
     ref = tab.meta_episode_maps.get(str(key))
     if ref is not None:

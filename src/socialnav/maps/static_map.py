@@ -114,7 +114,7 @@ class StaticMap:
     def __post_init__(self) -> None:
         if isinstance(self.polygons, str | bytes) or hasattr(self.polygons, "__fspath__"):
             raise MapError(f"StaticMap takes polygons, not a file ({self.polygons!r}): read a map file with "
-                           "socialnav.map_files.load_map")
+                           "socialnav.maps.load_map")
         if isinstance(self.polygons, dict):
             keys = sorted(map(str, self.polygons))
             raise MapError("StaticMap takes a sequence of polygons, not a dict: StaticMap.from_dict reads "

@@ -1,19 +1,4 @@
-"""Map files: a :class:`~socialnav.static_map.StaticMap` from YAML (or JSON) or from an SVG drawing.
-
-YAML (``.yaml``, ``.yml``, ``.json``), lengths in ``units`` (default metres)::
-
-    units: m            # m, cm or mm
-    polygons:           # solid polygons (k >= 3 vertices, either orientation) or 2-vertex wall segments
-      - [[-5, 1], [5, 1], [5, 1.2], [-5, 1.2]]
-    walls:              # polylines: each consecutive pair of points is one wall segment
-      - [[-5, -1], [5, -1]]
-    rectangles:         # axis-aligned solid boxes: lower-left corner and size
-      - {x: -0.5, y: -0.3, width: 1.0, height: 0.6}
-
-``StaticMap.to_dict()`` output (``{"polygons": ...}``) is a valid file. Any other top-level key (apart
-from ``name`` and ``description``, free text) is an error, so that a misspelt key never silently
-drops walls. A polygon may repeat its first vertex at the end (as GIS tools write rings): the repeat
-is dropped, since polygons close implicitly.
+"""The SVG map format: a :class:`~socialnav.maps.static_map.StaticMap` from an SVG drawing.
 
 SVG (``.svg``), the subset drawn by hand or by Inkscape (robot_sf's maps are an example): elements
 ``rect``, ``polygon``, ``polyline``, ``line`` and ``path`` with the commands M/m, L/l, H/h, V/v and
@@ -30,9 +15,7 @@ times the scale, metres per unit: the ``scale`` argument, else the root's ``data
 else 1. The SVG y axis points down; the map flips it (world y = −scale·y) so that the drawing keeps
 its orientation.
 
-A file that yields no obstacle at all is refused (an open floor needs no map file). Every error is a
-:class:`MapFileError` (a :class:`~socialnav.static_map.MapError`, hence a ``ValueError``) naming the
-file, the field or element, and the value.
+A drawing that yields no obstacle at all is refused (an open floor needs no map file).
 """
 
 from __future__ import annotations
@@ -40,185 +23,16 @@ from __future__ import annotations
 import math
 import re
 import warnings
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from socialnav._io import MAX_NESTING_DEPTH, load_yaml, short_repr
-from socialnav.static_map import MapError, StaticMap
+from socialnav._io import MAX_NESTING_DEPTH
+from socialnav.maps.parsing import NUMBER, MapFileError, build_map, open_ring, short
+from socialnav.maps.static_map import StaticMap
 
-__all__ = ["MAP_SUFFIXES", "MapFileError", "load_map", "map_from_svg", "map_from_yaml", "save_map"]
+__all__ = ["map_from_svg"]
 
-MAP_SUFFIXES = (".yaml", ".yml", ".json", ".svg")
-_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
-_YAML_KEYS = ("units", "polygons", "walls", "rectangles", "name", "description")
-
-
-class MapFileError(MapError):
-    """A map file cannot be read; the message starts with the file's path."""
-
-
-def load_map(path: str | Path, *, scale: float | None = None) -> StaticMap:
-    """Read a map file, choosing the format by its suffix.
-
-    Args:
-        path: ``.yaml``/``.yml``/``.json`` or ``.svg`` file.
-        scale: SVG only: metres per SVG user unit (default: the root's ``data-scale``, else 1).
-
-    Raises:
-        MapFileError: Missing file, unknown suffix, unparsable text or an invalid polygon.
-    """
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix not in MAP_SUFFIXES:
-        raise MapFileError(
-            f"{path}: unsupported map file suffix {path.suffix!r}; use one of {', '.join(MAP_SUFFIXES)}"
-        )
-    if not path.is_file():
-        raise MapFileError(f"{path}: no such map file")
-    try:
-        text = path.read_text()
-    except UnicodeDecodeError:
-        raise MapFileError(f"{path}: not a text file") from None
-    if suffix == ".svg":
-        return map_from_svg(text, source=str(path), scale=scale)
-    if scale is not None:
-        raise MapFileError(f"{path}: scale applies to SVG maps only (YAML maps state their 'units')")
-    return map_from_yaml(text, source=str(path))
-
-
-def save_map(path: str | Path, smap: StaticMap) -> None:
-    """Write ``smap`` as a YAML map file (atomically) that :func:`load_map` reads back exactly."""
-    from socialnav._io import atomic_write_text
-
-    path = Path(path)
-    if path.suffix.lower() not in (".yaml", ".yml"):
-        raise MapFileError(f"{path}: save_map writes YAML; use a .yaml or .yml suffix")
-    if not smap:
-        # load_map refuses a file without obstacles: do not write one it cannot read back
-        raise MapFileError(f"{path}: the map has no obstacles; an open floor needs no map file")
-    import yaml
-
-    # PyYAML writes floats as their shortest repr: the map round-trips bit for bit
-    text = yaml.safe_dump({"units": "m", **smap.to_dict()}, default_flow_style=None, sort_keys=False)
-    atomic_write_text(path, text)
-
-
-# ------------------------------------------------------------------------------------------- YAML
-def map_from_yaml(text: str, *, source: str = "<map>") -> StaticMap:
-    """Parse the YAML map format of this module's docstring; errors name ``source``."""
-    import yaml
-
-    try:
-        data = load_yaml(text)
-    except yaml.YAMLError as err:
-        raise MapFileError(f"{source}: not valid YAML: {' '.join(str(err).split())}") from None
-    if not isinstance(data, dict):
-        raise MapFileError(f"{source}: expected a mapping with 'polygons', 'walls' or 'rectangles', "
-                           f"got {type(data).__name__}")
-    unknown = [k for k in data if k not in _YAML_KEYS]
-    if unknown:
-        raise MapFileError(f"{source}: unknown field {unknown[0]!r} (value {_short(data[unknown[0]])}); "
-                           f"valid fields: {', '.join(_YAML_KEYS)}")
-    units = data.get("units", "m")
-    if units not in _UNITS:
-        raise MapFileError(f"{source}: field 'units': {units!r} is not one of {', '.join(_UNITS)}")
-    factor = _UNITS[units]
-    polys: list[np.ndarray] = []
-    names: list[str] = []
-    for i, item in enumerate(_list(data, "polygons", source)):
-        polys.append(_open_ring(_points(item, f"polygons[{i}]", source, at_least=2)) * factor)
-        names.append(f"polygons[{i}]")
-    for i, item in enumerate(_list(data, "walls", source)):
-        pts = _points(item, f"walls[{i}]", source, at_least=2) * factor
-        for j in range(len(pts) - 1):
-            polys.append(pts[j : j + 2])
-            names.append(f"walls[{i}] segment {j}")
-    for i, item in enumerate(_list(data, "rectangles", source)):
-        polys.append(_rectangle(item, f"rectangles[{i}]", source) * factor)
-        names.append(f"rectangles[{i}]")
-    if not polys:
-        raise MapFileError(
-            f"{source}: no obstacles: 'polygons', 'walls' and 'rectangles' are missing or "
-            "empty (an open floor needs no map file)"
-        )
-    return _build(polys, names, source)
-
-
-def _list(data: dict[str, Any], key: str, source: str) -> list[Any]:
-    value = data.get(key)
-    if value is None:
-        return []
-    if not isinstance(value, list):
-        raise MapFileError(f"{source}: field '{key}': expected a list, got {_short(value)}")
-    return value
-
-
-def _points(item: Any, field: str, source: str, at_least: int) -> np.ndarray:
-    if isinstance(item, list):
-        item = [[_number(c) for c in p] if isinstance(p, list) else p for p in item]
-    ok = isinstance(item, list) and all(
-        isinstance(p, list) and len(p) == 2 and all(_is_number(c) for c in p) for p in item)
-    if not ok:
-        raise MapFileError(
-            f"{source}: field '{field}': expected a list of [x, y] number pairs, got {_short(item)}"
-        )
-    if len(item) < at_least:
-        raise MapFileError(f"{source}: field '{field}': needs at least {at_least} points, got {len(item)}")
-    return np.array(item, dtype=np.float64)
-
-
-def _rectangle(item: Any, field: str, source: str) -> np.ndarray:
-    keys = ("x", "y", "width", "height")
-    if isinstance(item, dict):
-        item = {k: _number(v) for k, v in item.items()}
-    if not isinstance(item, dict) or set(item) != set(keys) or not all(_is_number(item[k]) for k in keys):
-        raise MapFileError(
-            f"{source}: field '{field}': expected {{x, y, width, height}} numbers, got {_short(item)}"
-        )
-    x, y, w, h = (float(item[k]) for k in keys)
-    if not (w > 0 and h > 0):
-        raise MapFileError(f"{source}: field '{field}': width and height must be > 0, got {w} x {h}")
-    return np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]])
-
-
-def _open_ring(pts: np.ndarray) -> np.ndarray:
-    """The polygon without a closing vertex that repeats the first (rings as GIS tools write them).
-
-    Polygons close implicitly, so the repeat would be a zero-length edge; three points are left as
-    they are (dropping one would turn the polygon into a segment).
-    """
-    return pts[:-1] if len(pts) >= 4 and np.array_equal(pts[0], pts[-1]) else pts
-
-
-def _number(v: Any) -> Any:
-    """YAML 1.1 reads 1e-7 (no dot) as text: such text is taken as the number it spells."""
-    if isinstance(v, str) and re.fullmatch(_NUMBER, v.strip()):
-        return float(v)
-    return v
-
-
-def _is_number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
-def _short(value: Any) -> str:
-    return short_repr(value, 80)
-
-
-def _build(polys: list[np.ndarray], names: list[str], source: str) -> StaticMap:
-    """The map, with a failing polygon named by where it came from in the file."""
-    for poly, name in zip(polys, names, strict=True):
-        try:
-            StaticMap((poly,))
-        except MapError as err:
-            message = str(err).removeprefix("polygon 0: ")
-            raise MapFileError(f"{source}: {name}: {message}") from None
-    return StaticMap(tuple(polys))
-
-
-# -------------------------------------------------------------------------------------------- SVG
 _SVG_NS = "{http://www.w3.org/2000/svg}"
 _LABEL = "{http://www.inkscape.org/namespaces/inkscape}label"
 _XLINK_HREF = "{http://www.w3.org/1999/xlink}href"
@@ -247,7 +61,6 @@ _UNSUPPORTED = {
     "image": "a raster picture cannot be turned into obstacles: draw the walls as shapes",
     "foreignObject": "its content cannot be turned into obstacles",
 }
-_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _TRANSFORM = r"(\w+)\s*\(([^)]*)\)"
 # metres per unit of the lengths a root's width may be given in (CSS absolute units)
 _PAGE_UNITS = {"mm": 1e-3, "cm": 1e-2, "q": 2.5e-4, "in": 0.0254, "pt": 0.0254 / 72, "pc": 0.0254 / 6}
@@ -267,7 +80,7 @@ def map_from_svg(text: str, *, source: str = "<svg>", scale: float | None = None
         if root.get("data-scale") is None:
             _warn_page_size(root, source)
         raw = root.get("data-scale", "1")
-        scale = float(raw) if re.fullmatch(_NUMBER, raw.strip()) else math.nan
+        scale = float(raw) if re.fullmatch(NUMBER, raw.strip()) else math.nan
         if not scale > 0:
             raise MapFileError(f"{source}: attribute 'data-scale' of <svg>: {raw!r} is not a number > 0")
     if not (math.isfinite(scale) and scale > 0):
@@ -319,7 +132,7 @@ def map_from_svg(text: str, *, source: str = "<svg>", scale: float | None = None
             f"{source}: no obstacles: the drawing has no {', '.join(_SHAPES)} element"
             f"{skipped}; an open floor needs no map file"
         )
-    return _build(polys, names, source)
+    return build_map(polys, names, source)
 
 
 class _Drawing:
@@ -360,7 +173,7 @@ def _warn_page_size(root: Any, source: str) -> None:
     the map reads it as one metre.
     """
     width, box = root.get("width", ""), root.get("viewBox", "").replace(",", " ").split()
-    match = re.fullmatch(rf"\s*({_NUMBER})\s*([a-zA-Z]+)\s*", width)
+    match = re.fullmatch(rf"\s*({NUMBER})\s*([a-zA-Z]+)\s*", width)
     if not match or match.group(2).lower() not in _PAGE_UNITS or len(box) != 4:
         return
     try:
@@ -408,15 +221,15 @@ def _collect(elem: Any, transform: np.ndarray, inside: bool, drawing: _Drawing, 
 
 def _parse_transform(text: str, tag: str, source: str) -> np.ndarray:
     if re.sub(_TRANSFORM, " ", text).replace(",", " ").strip():
-        raise MapFileError(f"{source}: <{tag}> attribute 'transform': cannot parse {_short(text)}")
+        raise MapFileError(f"{source}: <{tag}> attribute 'transform': cannot parse {short(text)}")
     m = np.eye(3)
     for name, args in re.findall(_TRANSFORM, text):
-        if re.sub(_NUMBER, " ", args).replace(",", " ").strip():
+        if re.sub(NUMBER, " ", args).replace(",", " ").strip():
             raise MapFileError(
                 f"{source}: <{tag}> attribute 'transform': {name}({args.strip()}): "
                 f"{args.strip()!r} is not a list of numbers"
             )
-        v = [float(x) for x in re.findall(_NUMBER, args)]
+        v = [float(x) for x in re.findall(NUMBER, args)]
         if name == "translate" and len(v) in (1, 2):
             t = np.array([[1, 0, v[0]], [0, 1, v[1] if len(v) == 2 else 0.0], [0, 0, 1]])
         elif name == "scale" and len(v) in (1, 2):
@@ -442,8 +255,8 @@ def _numbers(elem: Any, attr: str, name: str, source: str) -> list[float]:
     raw = elem.get(attr)
     if raw is None:
         raise MapFileError(f"{source}: {name}: attribute {attr!r} missing")
-    nums = re.findall(_NUMBER, raw)
-    rest = re.sub(_NUMBER, " ", raw).replace(",", " ").strip()
+    nums = re.findall(NUMBER, raw)
+    rest = re.sub(NUMBER, " ", raw).replace(",", " ").strip()
     if rest:
         raise MapFileError(f"{source}: {name}: attribute {attr!r}: {raw!r} is not a list of numbers")
     return [float(x) for x in nums]
@@ -456,7 +269,7 @@ def _length(elem: Any, attr: str, name: str, source: str, default: float | None 
             raise MapFileError(f"{source}: {name}: attribute {attr!r} missing")
         return default
     text = raw.strip().removesuffix("px")
-    if re.fullmatch(_NUMBER, text):
+    if re.fullmatch(NUMBER, text):
         return float(text)
     if text.lower().lstrip("+-") in ("nan", "inf", "infinity"):
         why = "is not a finite number"
@@ -485,15 +298,15 @@ def _shape_points(elem: Any, name: str, source: str) -> list[tuple[np.ndarray, b
                 f"got {len(v)} numbers"
             )
         pts = np.array(v).reshape(-1, 2)
-        return [(_open_ring(pts), True)] if tag == "polygon" else [(pts, False)]
+        return [(open_ring(pts), True)] if tag == "polygon" else [(pts, False)]
     return _path_points(elem.get("d", ""), name, source)
 
 
 def _path_points(d: str, name: str, source: str) -> list[tuple[np.ndarray, bool]]:
-    tokens = re.findall(r"[A-Za-z]|" + _NUMBER, d)
-    leftover = re.sub(r"[A-Za-z]|" + _NUMBER, " ", d).replace(",", " ").strip()
+    tokens = re.findall(r"[A-Za-z]|" + NUMBER, d)
+    leftover = re.sub(r"[A-Za-z]|" + NUMBER, " ", d).replace(",", " ").strip()
     if leftover or not tokens:
-        raise MapFileError(f"{source}: {name}: attribute 'd': cannot parse {_short(d)}")
+        raise MapFileError(f"{source}: {name}: attribute 'd': cannot parse {short(d)}")
     out: list[tuple[np.ndarray, bool]] = []
     current: list[list[float]] = []
     pos = np.zeros(2)
