@@ -2,8 +2,8 @@
 
 import pytest
 
-import socialnav.policies.base as policy_base
 import socialnav.policies.learned_catalog as learned_catalog
+import socialnav.policies.registry as policy_registry
 
 
 @pytest.fixture()
@@ -11,5 +11,5 @@ def isolated_registries(monkeypatch):
     """Policy and learned-policy registrations made by a test are undone after it."""
     monkeypatch.setattr(learned_catalog, "_SPECS", dict(learned_catalog._SPECS))
     monkeypatch.setattr(learned_catalog, "_ALIASES", dict(learned_catalog._ALIASES))
-    policy_base._load_builtin()
-    monkeypatch.setattr(policy_base, "_REGISTRY", dict(policy_base._REGISTRY))
+    policy_registry._load_builtin()
+    monkeypatch.setattr(policy_registry, "_REGISTRY", dict(policy_registry._REGISTRY))

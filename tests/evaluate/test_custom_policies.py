@@ -373,7 +373,7 @@ def test_a_policys_information_and_record_are_checked_before_the_run(tmp_path, c
         def describe(self):
             return {**super().describe(), "gain": float("nan")}
 
-    from socialnav.policies.base import policy_record
+    from socialnav.policies.registry import policy_record
 
     with pytest.raises(ValueError, match=r"describe\(\)\['gain'\] is nan; results record no NaN"):
         policy_record(NotANumber())

@@ -10,7 +10,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from socialnav.evaluate.plan import Cell
-from socialnav.policies.base import get_policy_entry
+from socialnav.policies.registry import get_policy_entry
 from socialnav.sim.settings import WorldSettings
 from socialnav.sweep import tasks
 from socialnav.sweep.tasks import build_job_policy, evaluate_chunk, job_preset

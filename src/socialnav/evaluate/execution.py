@@ -29,7 +29,7 @@ from socialnav._runtime import forkserver_pool, main_module_reruns_call, worker_
 from socialnav.evaluate.chunks import Chunk, trajectory_path, write_chunk
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings
 from socialnav.metrics import score_episode, side_case_of_row
-from socialnav.policies.base import Policy, PolicyError
+from socialnav.policies.registry import Policy, PolicyError
 from socialnav.presets import Preset
 from socialnav.sim.world import World, check_world_size
 from socialnav.trajectory import Trajectory

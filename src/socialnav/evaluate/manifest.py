@@ -27,7 +27,7 @@ from socialnav.evaluate.chunks import (
     refuse_foreign_chunks,
 )
 from socialnav.evaluate.plan import Cell
-from socialnav.policies.base import RECORDED_ONLY, Policy, policy_record
+from socialnav.policies.registry import RECORDED_ONLY, Policy, policy_record
 from socialnav.presets import Preset
 
 

@@ -65,8 +65,8 @@ class MultiResult:
 
 def default_specs(preset_name: str, learned: bool = True) -> list[PolicySpec]:
     """Every shipped checkpoint for ``preset_name`` (index order) and the native policies."""
-    from socialnav.policies.base import list_policies
     from socialnav.policies.loading import default_label, describe_checkpoint, shipped_checkpoints
+    from socialnav.policies.registry import list_policies
 
     specs = []
     if learned:

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from socialnav.evaluate.results import ResultsError, find_episode, load_episode, load_manifest
-from socialnav.policies.base import RECORDED_ONLY, policy_record
+from socialnav.policies.registry import RECORDED_ONLY, policy_record
 from socialnav.trajectory import Trajectory
 
 _ARRAYS = ("positions", "velocities", "radii", "v_pref", "goals", "min_clearance", "continuation")
@@ -45,8 +45,8 @@ class ReplayResult:
 
 def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     """The policy a manifest describes, built as `socialnav evaluate` built it."""
-    from socialnav.policies.base import SB3_PREFIX, get_policy_entry
     from socialnav.policies.loading import build_policy
+    from socialnav.policies.registry import SB3_PREFIX, get_policy_entry
 
     desc = dict(manifest.get("policy") or {})
     name = desc.get("policy")

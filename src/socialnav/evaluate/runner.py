@@ -40,7 +40,7 @@ from socialnav.evaluate.manifest import manifest_stamp, protocol_manifest, refus
 from socialnav.evaluate.plan import Cell, multi_human_scenarios, plan_cells
 from socialnav.evaluate.report import mismatch_caveats, render_reports, write_reports
 from socialnav.evaluate.summary import summarize_episodes
-from socialnav.policies.base import Policy, missing_policy_members
+from socialnav.policies.registry import Policy, missing_policy_members
 from socialnav.presets import Preset
 
 __all__ = ["ProtocolResult", "ResumeMismatchError", "conclude_chunks", "run_protocol"]

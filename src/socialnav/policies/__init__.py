@@ -18,7 +18,14 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from socialnav._runtime import lazy_exports
-from socialnav.policies.base import (
+from socialnav.policies.learned_catalog import (
+    LearnedPolicySpec,
+    get_learned_spec,
+    learned_policy_names,
+    learned_policy_specs,
+    register_learned_policy,
+)
+from socialnav.policies.registry import (
     RECORDED_ONLY,
     Policy,
     PolicyError,
@@ -26,13 +33,6 @@ from socialnav.policies.base import (
     list_policies,
     make_policy,
     register_policy,
-)
-from socialnav.policies.learned_catalog import (
-    LearnedPolicySpec,
-    get_learned_spec,
-    learned_policy_names,
-    learned_policy_specs,
-    register_learned_policy,
 )
 
 #: Public names whose module loads on first use (see ``lazy_exports``).

@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.policies.base import is_registered, register_policy
 from socialnav.policies.learned_catalog import learned_policy_specs
+from socialnav.policies.registry import is_registered, register_policy
 from socialnav.sim.observation import Observation, check_observation
 
 

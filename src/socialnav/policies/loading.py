@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any
 
 from socialnav._io import load_yaml
-from socialnav.policies.base import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
 from socialnav.policies.learned_catalog import VALUE_INFORMATION, canonical_name, get_learned_spec
 from socialnav.policies.native import NativePolicy
+from socialnav.policies.registry import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
 from socialnav.presets import Preset
 from socialnav.settings import ConfigError
 
@@ -327,7 +327,7 @@ def unindexed_checkpoint_files() -> list[str]:
 
 
 def _entry_from_name(filename: str) -> ShippedCheckpoint | None:
-    from socialnav.policies.base import list_policies
+    from socialnav.policies.registry import list_policies
 
     stem = filename[:-3]
     for entry in sorted(list_policies(), key=lambda e: -len(e.name)):

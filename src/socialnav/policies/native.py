@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from socialnav import _core
-from socialnav.policies.base import register_policy
+from socialnav.policies.registry import register_policy
 from socialnav.sim.observation import Observation, check_observation
 from socialnav.sim.pool import shared_pool
 from socialnav.sim.settings import OrcaSettings, SocialForceSettings, WorldSettings

@@ -41,7 +41,7 @@ from typing import Any
 from socialnav._io import load_yaml
 from socialnav.settings import ConfigError, Settings, setting
 from socialnav.sim.settings import HUMAN_MODELS
-from socialnav.train.config import DEVICES, INFORMATION
+from socialnav.train.value.settings import DEVICES, INFORMATION
 
 KINDS = ("evaluate", "train")
 EXECUTORS = ("local", "ray")
@@ -338,11 +338,11 @@ def _check_train_job(entry: Any, params: dict[str, Any], where: str, base: Path 
         params["config"] = _path_or_name(params["config"], base)
     try:
         if trainer == "ppo":
-            from socialnav.train.ppo_config import load_ppo_settings
+            from socialnav.train.ppo.settings import load_ppo_settings
 
             load_ppo_settings(params.get("config") or "ppo", policy=str(params["policy"]))
         elif params.get("config") is not None:
-            from socialnav.train.config import load_train_settings
+            from socialnav.train.value.settings import load_train_settings
 
             load_train_settings(params["config"])
     except ConfigError as err:
@@ -351,7 +351,7 @@ def _check_train_job(entry: Any, params: dict[str, Any], where: str, base: Path 
 
 def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None) -> None:
     """What the settings classes cannot check without running: policies, presets, scenarios, files."""
-    from socialnav.policies.base import get_policy_entry
+    from socialnav.policies.registry import get_policy_entry
     from socialnav.presets import load_preset
     from socialnav.scenarios import get_scenario
 
@@ -407,8 +407,8 @@ def _check_policy_args(where: str, name: str, entry: Any, params: dict[str, Any]
 
     A device is checked where the job runs (a Ray worker may have the GPU the driver lacks).
     """
-    from socialnav.policies.base import SB3_PREFIX
     from socialnav.policies.loading import check_policy_parameters
+    from socialnav.policies.registry import SB3_PREFIX
 
     args = dict(params.get("policy_args") or {})
     if not args or name.startswith(SB3_PREFIX) or ":" in name:
