@@ -41,7 +41,7 @@ from typing import Any
 from socialnav._io import load_yaml
 from socialnav.settings import ConfigError, Settings, setting
 from socialnav.sim.settings import HUMAN_MODELS
-from socialnav.train.value.settings import DEVICES, INFORMATION
+from socialnav.train.config import DEVICES, INFORMATION
 
 KINDS = ("evaluate", "train")
 EXECUTORS = ("local", "ray")
@@ -338,11 +338,11 @@ def _check_train_job(entry: Any, params: dict[str, Any], where: str, base: Path 
         params["config"] = _path_or_name(params["config"], base)
     try:
         if trainer == "ppo":
-            from socialnav.train.ppo.settings import load_ppo_settings
+            from socialnav.train.ppo_config import load_ppo_settings
 
             load_ppo_settings(params.get("config") or "ppo", policy=str(params["policy"]))
         elif params.get("config") is not None:
-            from socialnav.train.value.settings import load_train_settings
+            from socialnav.train.config import load_train_settings
 
             load_train_settings(params["config"])
     except ConfigError as err:

@@ -200,8 +200,8 @@ def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int
 
     if get_learned_spec(str(params["policy"])).trainer == "ppo":
         return _train_ppo_job(params, out_dir, threads, log)
-    from socialnav.train.value.settings import resolve_train_settings
-    from socialnav.train.value.trainer import train
+    from socialnav.train.config import resolve_train_settings
+    from socialnav.train.trainer import train
 
     t0 = time.perf_counter()
     settings = resolve_train_settings(
@@ -225,8 +225,8 @@ def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int
 def _train_ppo_job(params: dict[str, Any], out_dir: str, threads: int,
                    log: Callable[[str], None]) -> dict[str, Any]:
     """A PPO training job (crowdnav_pp, ppo_mlp), as ``socialnav train`` runs it (docs/ppo.md)."""
-    from socialnav.train.ppo.algorithm import train_ppo
-    from socialnav.train.ppo.settings import load_ppo_settings
+    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo_config import load_ppo_settings
 
     t0 = time.perf_counter()
     settings = load_ppo_settings(
