@@ -64,7 +64,7 @@ def test_numbers_in_scientific_notation_are_numbers(tmp_path: Path, capsys) -> N
     # YAML 1.1 reads 1e-2 (no dot) as text; a quoted one stays text
     assert load_yaml("a: 1e-2\nb: -2E+3\nc: 1.5e-3\nd: '1e-2'\ne: e5\n") == {
         "a": 0.01, "b": -2000.0, "c": 0.0015, "d": "1e-2", "e": "e5"}
-    from socialnav.cli import parse_policy_args
+    from socialnav.evaluate.cli import parse_policy_args
 
     assert parse_policy_args(["safety_space=1e-2"]) == {"safety_space": 0.01}
     preset = tmp_path / "p.yaml"

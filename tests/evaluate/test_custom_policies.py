@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from tests._env import subprocess_env
 
-from socialnav.cli import main, parse_policy_args
+from socialnav.cli import main
+from socialnav.evaluate.cli import parse_policy_args
 from socialnav.policies import make_policy
 
 ROOT = Path(__file__).resolve().parents[2]
