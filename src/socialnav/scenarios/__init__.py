@@ -8,10 +8,11 @@ Example:
 
 The built-in scenarios are `circle_crossing`, `random`, `parallel_traffic`,
 `perpendicular_traffic`, `square_crossing`, `passing`, `overtaking` and `crossing`, and the
-scenarios with walls after Francis et al. (`socialnav.scenarios.francis`). Importing this package
-imports none of their modules: the registry loads them the first time it is asked for a scenario
-(see `socialnav.scenarios.registry`), and each scenario class below loads its module on first
-access. Third-party scenarios plug in through the entry-point group ``socialnav.scenarios``.
+scenarios with walls after Francis et al. (`socialnav.scenarios.francis`; the pillars drawn per
+episode: `socialnav.scenarios.circle_pillars`). Importing this package imports none of their
+modules: the registry loads them the first time it is asked for a scenario (see
+`socialnav.scenarios.registry`), and each scenario class below loads its module on first access.
+Third-party scenarios plug in through the entry-point group ``socialnav.scenarios``.
 """
 
 from __future__ import annotations

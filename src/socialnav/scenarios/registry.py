@@ -43,6 +43,7 @@ ENTRY_POINT_GROUP = "socialnav.scenarios"
 #: The modules whose import registers the built-in scenarios (docs/scenarios.md lists them).
 BUILTIN_MODULES = (
     "socialnav.scenarios.circle",
+    "socialnav.scenarios.circle_pillars",
     "socialnav.scenarios.francis",
     "socialnav.scenarios.single",
     "socialnav.scenarios.square",

@@ -1,4 +1,4 @@
-"""Shared machinery of the scenarios with walls (`socialnav.scenarios.francis`).
+"""Shared machinery of the scenarios with walls (`socialnav.scenarios.francis`, `circle_pillars`).
 
 The layout, the placement of agents clear of the walls, and the geometry helpers that build the layouts.
 
