@@ -135,8 +135,8 @@ def render_reports(
 def table_notes(preset: Preset) -> list[str]:
     """Caveats that apply to a whole table, stated once under it instead of once per episode.
 
-    Today: M_V is 0 by construction when the robot's v_pref ≤ v_th (``wang2022``: 1.5 m/s = v_th),
-    the spec's warning, which used to be raised on every episode.
+    The caveat: M_V is 0 by construction when the robot's v_pref ≤ v_th (``wang2022``: 1.5 m/s = v_th),
+    the metric's warning, said once under the table rather than for every episode.
     """
     v_th = float(get_metric("m5_walking_speed").parameters["v_th"])
     note = walking_speed_note(preset.robot.v_pref, v_th)

@@ -28,8 +28,8 @@ __all__ = ["MAX_COORDINATE", "MapError", "MapStack", "StaticMap"]
 
 #: The largest magnitude [m] of a map coordinate. A map wider than 1000 km means nothing to a pedestrian
 #: simulator; a bound this size keeps every squared distance and cross product the geometry forms
-#: (at most ~1e13 m^2) finite, with float64 rounding errors far below a micrometre, where coordinates
-#: near 1e308 overflowed to inf/NaN and made every distance to the walls NaN.
+#: (at most ~1e13 m^2) finite, with float64 rounding errors far below a micrometre; coordinates near
+#: 1e308 would overflow to inf/NaN and make every distance to the walls NaN.
 MAX_COORDINATE = 1e6
 
 

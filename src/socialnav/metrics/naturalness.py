@@ -77,7 +77,7 @@ JERK_DIFFERENCES = ("forward", "central", "commanded")
   velocity), j_k = Δ²u_k / dt^(q−1), k = 0..N−2.
 
 q is the ``dt_power`` parameter: 3 is the dimensionally correct jerk [m/s³]; 2 is the variant with one
-power of dt fewer that a reader of the paper could also have used (values dt² times today's M_IV)."""
+power of dt fewer that a reader of the paper could also have used (values dt² times the q = 3 M_IV)."""
 
 
 def jerk_variant(positions: np.ndarray, velocities: np.ndarray | None, dt: float,

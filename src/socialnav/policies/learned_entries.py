@@ -324,7 +324,7 @@ def _factory(name: str):
 
 #: What a PPO checkpoint's ``ppo_policy`` holds (the world the actor was trained for).
 PPO_POLICY_KEYS = ("kinematics", "rotation_limit", "dt", "reward")
-#: What it may hold besides: the obstacle encoding of a network trained among walls (absent before).
+#: What it may hold besides: the obstacle encoding of a network trained among walls (absent otherwise).
 PPO_POLICY_OPTIONAL_KEYS = ("obstacle_encoding",)
 
 
@@ -363,7 +363,7 @@ def load_ppo_policy(
 
     It takes mean actions unless ``deterministic`` is False. A checkpoint trained among walls records
     its obstacle encoding (``config.ppo_policy.obstacle_encoding``), which the policy rebuilds; one
-    without the key reads no obstacles, as before.
+    without the key reads no obstacles.
 
     Raises:
         CheckpointError: unreadable, another policy, or malformed ``config.ppo_policy``.

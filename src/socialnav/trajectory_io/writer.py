@@ -76,7 +76,7 @@ def _columns(
 
     They are built for all episodes at once: per-row values come from gathers over per-episode and
     per-agent arrays, so the cost per episode is a few array views, not a dozen allocations (the
-    ``wang2022`` protocol writes 4060 episodes; issue #32).
+    ``wang2022`` protocol writes 4060 episodes per run).
     """
     import pyarrow as pa
 
@@ -172,7 +172,7 @@ def _columns(
         arrays["settings"] = first_rows(settings_json)
     if not np.all(np.isnan(arrival)):
         arrays["arrival_t"] = floats(arrival)
-    if with_text_columns and any(map_json):  # open floor everywhere: files stay as before maps
+    if with_text_columns and any(map_json):  # open floor everywhere: no map column (readers without maps)
         arrays["static_map"] = first_rows(map_json)
     return arrays
 
