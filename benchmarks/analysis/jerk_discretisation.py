@@ -25,7 +25,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from motion_decomposition import episode_motion, successful_multi_human  # noqa: E402
 
-from socialnav.evaluate.files import atomic_write_json  # noqa: E402
+from socialnav._io import atomic_write_json  # noqa: E402
 from socialnav.metrics.naturalness import JERK_DIFFERENCES, squared_jerk  # noqa: E402
 
 VARIANTS = [(d, q) for q in (3, 2) for d in JERK_DIFFERENCES]

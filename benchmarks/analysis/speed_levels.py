@@ -23,7 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from motion_decomposition import successful_multi_human  # noqa: E402
 
-from socialnav.evaluate.files import atomic_write_json  # noqa: E402
+from socialnav._io import atomic_write_json  # noqa: E402
 
 TOLERANCE = 1e-3  # [m/s]
 
