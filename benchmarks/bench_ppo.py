@@ -75,7 +75,7 @@ def _single_env_factory():
     import gymnasium as gym
 
     import socialnav  # noqa: F401  (registers the ids)
-    from socialnav.sim.learner_wrappers import LearnerObservation
+    from socialnav.envs.learner_wrappers import LearnerObservation
 
     env = gym.make("socialnav/CircleCrossing-v0", scenario_params=SCENARIO["scenario_params"], world=_world())
     return LearnerObservation(env)

@@ -7,7 +7,7 @@ import sys
 def test_metrics_simulator_and_protocol_do_not_import_torch():
     code = (
         "import sys\n"
-        "import socialnav.metrics, socialnav.trajectory, socialnav.sim.world, socialnav.sim.env\n"
+        "import socialnav.metrics, socialnav.trajectory, socialnav.sim.world, socialnav.envs.single\n"
         "import socialnav.evaluate.runner, socialnav.policies, socialnav.cli\n"
         "socialnav.policies.list_policies()\n"
         "assert 'torch' not in sys.modules, 'torch was imported'\n"

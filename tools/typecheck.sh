@@ -13,6 +13,7 @@ python -m mypy --no-incremental \
   -m socialnav -m socialnav.sim -m socialnav.evaluate -m socialnav.train -m socialnav.sweep \
   -m socialnav.metrics -m socialnav.policies -m socialnav.logs -m socialnav.scenarios -m socialnav.maps \
   -m socialnav.sim.world -m socialnav.sim.world_config -m socialnav.sim.slot_maps \
-  -m socialnav.sim.step_result -m socialnav.sim.episode_stream -m socialnav.sim.env \
+  -m socialnav.sim.step_result -m socialnav.sim.episode_stream -m socialnav.envs.single \
+  -m socialnav.envs.vector -m socialnav.envs.config \
   -m socialnav.sim.orca_solver -m socialnav.sim.pool -m socialnav.sim.recorder -m socialnav.sim.observation \
   -m socialnav.scenarios.native -m socialnav.policies.native -m socialnav.policies.learned.native_scoring

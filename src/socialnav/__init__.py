@@ -9,12 +9,12 @@ Gymnasium's import (about 0.1 s beyond NumPy's).
 # The one place the version is set: pyproject.toml reads it (CHANGELOG.md lists what each release changed).
 __version__ = "0.2.0"
 
-from socialnav.sim import registration as _registration  # noqa: E402,F401  (registers the env ids)
-from socialnav.sim.env_render import register_viewer as _register_viewer  # noqa: E402
+from socialnav.envs import registration as _registration  # noqa: E402,F401  (registers the env ids)
+from socialnav.envs.render import register_viewer as _register_viewer  # noqa: E402
 
 
 def _env_viewer(size_px: tuple[int, int]):
-    # The package root wires the viz layer into the simulator's env: sim never imports viz.
+    # The package root wires the viz layer into the envs: envs never import viz.
     from socialnav.viz.env_render import EnvViewer
 
     return EnvViewer(size_px)

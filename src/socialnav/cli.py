@@ -242,7 +242,7 @@ def cmd_preset_list(args: argparse.Namespace) -> int:
 
 
 def cmd_list(args: argparse.Namespace) -> int:
-    """``socialnav list``: print the registered policies, metrics, scenarios, presets and checkpoints.
+    """``socialnav list``: registered policies, metrics, scenarios, observation parts, presets, checkpoints.
 
     Args:
         args: The parsed command line.
@@ -250,12 +250,13 @@ def cmd_list(args: argparse.Namespace) -> int:
     Returns:
         The exit status.
     """
+    from socialnav.envs.registration import ENV_IDS
     from socialnav.metrics import list_metrics
     from socialnav.policies import list_policies
     from socialnav.policies.loading import list_shipped_checkpoints
     from socialnav.presets import shipped_presets
     from socialnav.scenarios import list_scenarios
-    from socialnav.sim.registration import ENV_IDS
+    from socialnav.sim.parts import list_observation_parts
     from socialnav.sim.settings import HUMAN_MODELS
 
     data = {
@@ -282,6 +283,12 @@ def cmd_list(args: argparse.Namespace) -> int:
                 "outputs": dict(m.outputs),
             }
             for m in list_metrics()
+        ],
+        "observations": [
+            {"name": part.name, "description": part.description, "frames": list(part.frames()),
+             "columns": {key: {frame: list(names) for frame, names in per_frame.items()}
+                         for key, per_frame in part.columns.items()}}
+            for part in list_observation_parts()
         ],
         "presets": shipped_presets(),
         "gym_ids": {env_id: kwargs["scenario"] for env_id, kwargs in ENV_IDS.items()},
@@ -311,6 +318,11 @@ def cmd_list(args: argparse.Namespace) -> int:
     for m in data["metrics"]:
         params = ", ".join(f"{k}={v}" for k, v in m["parameters"].items())
         print(f"  {m['name']} [{m['unit']}, {m['direction']} is better]" + (f" ({params})" if params else ""))
+    print("Observation parts (ObservationSettings.parts, the envs' observation_parts; docs/extending.md):")
+    for o in data["observations"]:
+        widths = ", ".join(f"{key} {'/'.join(f'{len(c)} ({f})' for f, c in cols.items())}"
+                           for key, cols in o["columns"].items())
+        print(f"  {o['name']}: {o['description']}" + (f" [{widths}]" if widths else ""))
     print("Presets: " + ", ".join(data["presets"]))
     print("Gymnasium ids (gym.make / gym.make_vec; docs/simulator.md):")
     for env_id, scenario in data["gym_ids"].items():

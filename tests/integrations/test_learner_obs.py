@@ -12,9 +12,9 @@ from hypothesis import strategies as st
 
 import socialnav  # noqa: F401  (registers the ids)
 from socialnav.config import ConfigError
-from socialnav.sim.env import SocialNavVectorEnv
+from socialnav.envs.learner_wrappers import LearnerObservation, LearnerObservationVector
+from socialnav.envs.vector import SocialNavVectorEnv
 from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
-from socialnav.sim.learner_wrappers import LearnerObservation, LearnerObservationVector
 
 # robot at (1, 1) heading +y, velocity (0, 0.5), radius 0.3, goal (1, 4), v_pref 1.5
 ROBOT = np.array([[1.0, 1.0, 0.0, 0.5, 0.3, 1.0, 4.0, 1.5, math.pi / 2]])

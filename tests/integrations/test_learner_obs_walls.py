@@ -7,10 +7,10 @@ import pytest
 
 import socialnav  # noqa: F401  (registers the ids)
 from socialnav.config import ConfigError
+from socialnav.envs.learner_wrappers import LearnerObservation, LearnerObservationVector
+from socialnav.envs.vector import SocialNavVectorEnv
 from socialnav.maps.static_map import StaticMap
-from socialnav.sim.env import SocialNavVectorEnv
 from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
-from socialnav.sim.learner_wrappers import LearnerObservation, LearnerObservationVector
 
 WALL = StaticMap(([[-1.0, 1.0], [1.0, 1.0]],))  # points every 0.5 m: x = -1, -0.5, 0, 0.5, 1 at y = 1
 MAP = {"polygons": [[[-2.0, 0.5], [2.0, 0.5]], [[-0.4, -2.4], [0.4, -2.4], [0.4, -1.6], [-0.4, -1.6]]]}

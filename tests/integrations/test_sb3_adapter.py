@@ -15,9 +15,9 @@ from stable_baselines3.common.env_checker import check_env  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor  # noqa: E402
 
 import socialnav  # noqa: E402,F401
+from socialnav.envs.learner_wrappers import LearnerObservation  # noqa: E402
 from socialnav.integrations.sb3 import SocialNavVecEnv, find_training_record  # noqa: E402
 from socialnav.sim.learner_obs import ObservationSettings  # noqa: E402
-from socialnav.sim.learner_wrappers import LearnerObservation  # noqa: E402
 
 SHORT = {"scenario_params": {"n_humans": 3}, "world": {"time_limit": 4.0}}
 

@@ -6,9 +6,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 from tests.sim._walls import pillars_and_walls
 
+from socialnav.envs.single import SocialNavEnv
+from socialnav.envs.vector import SocialNavVectorEnv
 from socialnav.maps.static_map import StaticMap
 from socialnav.scenarios import make_scenario
-from socialnav.sim.env import SocialNavEnv, SocialNavVectorEnv
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
 

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-import socialnav.sim.registration  # noqa: F401  (registers the ids)
-from socialnav.sim.env import SocialNavEnv, SocialNavVectorEnv
+import socialnav.envs.registration  # noqa: F401  (registers the ids)
+from socialnav.envs.single import SocialNavEnv
+from socialnav.envs.vector import SocialNavVectorEnv
 
 
 @pytest.mark.parametrize("kwargs", [{}, {"action_set": "discrete"}, {"world": {"kinematics": "unicycle"}}])

@@ -10,8 +10,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import socialnav  # noqa: F401  (registers the ids)
-from socialnav.sim.episode_order import SEED_STRIDE, EpisodeOrder
-from socialnav.sim.registration import ENV_IDS
+from socialnav.envs.episode_order import SEED_STRIDE, EpisodeOrder
+from socialnav.envs.registration import ENV_IDS
 
 STRAIGHT = np.array([0.0, 1.0])
 
@@ -260,7 +260,7 @@ def test_discrete_actions_must_be_integer_indices_and_vector_actions_one_per_env
 
 
 def test_check_env_passes_on_the_learner_wrapper_given_a_dict():
-    from socialnav.sim.learner_wrappers import LearnerObservation
+    from socialnav.envs.learner_wrappers import LearnerObservation
 
     env = LearnerObservation(gym.make("socialnav/Passing-v0"), {"frame": "robot"})
     check_env(env, skip_render_check=True)

@@ -314,7 +314,7 @@ def test_ppo_training_curves_figure_and_report(tmp_path):
 def test_env_rgb_array_rendering():
     import gymnasium as gym
 
-    import socialnav.sim.registration  # noqa: F401
+    import socialnav.envs.registration  # noqa: F401
 
     env = gym.make("socialnav/CircleCrossing-v0", render_mode="rgb_array")
     env.reset(seed=3)
@@ -332,7 +332,7 @@ def test_env_rgb_array_rendering():
 def test_env_rendering_draws_the_episodes_walls():
     import gymnasium as gym
 
-    import socialnav.sim.registration  # noqa: F401
+    import socialnav.envs.registration  # noqa: F401
     from socialnav.scenarios import make_scenario
     from socialnav.trajectory import Trajectory
 
@@ -352,7 +352,7 @@ def test_env_rendering_draws_the_episodes_walls():
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="displays are detected by DISPLAY on Linux")
 def test_env_human_mode_without_display_is_a_clear_error(monkeypatch):
-    from socialnav.sim.env import SocialNavEnv
+    from socialnav.envs.single import SocialNavEnv
 
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)

@@ -32,10 +32,11 @@ except ImportError as err:  # the optional extra is missing: say which one
         f"socialnav.integrations.sb3 needs stable-baselines3: pip install 'socialnav[sb3]' ({err})"
     ) from None
 
-from socialnav.sim.env import SocialNavVectorEnv
+from socialnav.envs.learner_wrappers import make_transform, observation_maps, training_record
+from socialnav.envs.registration import ENV_IDS
+from socialnav.envs.vector import SocialNavVectorEnv
 from socialnav.sim.learner_obs import ObservationSettings
-from socialnav.sim.learner_wrappers import make_transform, observation_maps, training_record
-from socialnav.sim.registration import ENV_IDS
+from socialnav.sim.observation import ROBOT_DIM
 
 #: Attribute of an SB3 model under which :func:`save_model` stores the training record (SB3 saves
 #: a model's plain attributes in the zip's ``data`` JSON and restores them on load).
@@ -43,7 +44,7 @@ RECORD_ATTRIBUTE = "socialnav_record"
 
 
 class SocialNavVecEnv(VecEnv):
-    """SB3 ``VecEnv`` over :class:`~socialnav.sim.env.SocialNavVectorEnv`.
+    """SB3 ``VecEnv`` over :class:`~socialnav.envs.vector.SocialNavVectorEnv`.
 
     Args:
         env: A registered id (``"socialnav/CircleCrossing-v0"`` …), a scenario name, or a built
@@ -81,7 +82,7 @@ class SocialNavVecEnv(VecEnv):
             self.venv = SocialNavVectorEnv(num_envs, **env_kwargs)
         self._cfg = self.venv._cfg
         self.transform = make_transform(self._cfg, observation)
-        self._robot = np.zeros((self.venv.num_envs, 9))
+        self._robot = np.zeros((self.venv.num_envs, ROBOT_DIM))
         self._actions: np.ndarray | None = None
         super().__init__(self.venv.num_envs, self.transform.single_space(), self.venv.single_action_space)
 
@@ -236,7 +237,8 @@ def find_training_record(env: Any) -> dict[str, Any]:
     """The training record of the env a model was trained on.
 
     The env is a SocialNavVecEnv (through any SB3 wrappers such as VecMonitor or VecNormalize), or SB3's
-    Dummy/SubprocVecEnv of single envs wrapped in :class:`~socialnav.sim.learner_wrappers.LearnerObservation`.
+    Dummy/SubprocVecEnv of single envs wrapped in
+    :class:`~socialnav.envs.learner_wrappers.LearnerObservation`.
     """
     while isinstance(env, VecEnvWrapper):
         env = env.venv
@@ -249,7 +251,7 @@ def find_training_record(env: Any) -> dict[str, Any]:
             pass
     raise ValueError(
         f"cannot tell how {type(env).__name__} converts observations: train on SocialNavVecEnv, or on "
-        "single envs wrapped in socialnav.sim.learner_wrappers.LearnerObservation"
+        "single envs wrapped in socialnav.envs.learner_wrappers.LearnerObservation"
     )
 
 

@@ -27,6 +27,7 @@ be rebuilt refuses the model before anything is unpickled; the weights (``*.pth`
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import importlib
 import io
@@ -39,15 +40,17 @@ from typing import Any, TypeGuard
 
 import numpy as np
 
+from socialnav.envs.learner_wrappers import RECORD_FORMAT
 from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
-from socialnav.sim.learner_wrappers import RECORD_FORMAT
 from socialnav.sim.observation import Observation
 
 PREFIX = "sb3:"
 ALGORITHM_MODULES = ("stable_baselines3", "sb3_contrib")
 #: ``--policy-arg`` keys: the algorithm, the torch device, and observation settings, which must
 #: repeat the model's record (a way to state what is expected).
-PARAMETERS = {"algo": None, "device": "cpu", **{k: None for k in ObservationSettings().to_dict()}}
+PARAMETERS = {
+    "algo": None, "device": "cpu", **{f.name: None for f in dataclasses.fields(ObservationSettings)}
+}
 
 
 class SB3ModelError(ValueError):
@@ -386,7 +389,7 @@ def _show_declared(declared: Any) -> str:
 
 def _record_spaces(path: Path, saved: dict[str, Any], record: dict[str, Any]) -> tuple[Any, Any]:
     """The observation and action spaces the record describes, checked against the file's declared ones."""
-    from socialnav.sim.env import observation_and_action_spaces
+    from socialnav.envs.config import observation_and_action_spaces
     from socialnav.sim.settings import WorldSettings
 
     settings = ObservationSettings.from_dict(record["observation"])
@@ -417,7 +420,7 @@ def _infer_record(path: Path, saved: dict[str, Any], preset: Any) -> tuple[dict[
     The raw env's spaces under ``preset`` are built for each human count the file's declared observation
     space names; the one it declares exactly is taken.
     """
-    from socialnav.sim.env import observation_and_action_spaces
+    from socialnav.envs.config import observation_and_action_spaces
 
     world, v_pref = preset.world, float(preset.robot.v_pref)
     declared = saved.get("observation_space")
@@ -614,14 +617,14 @@ def _load_model(path: Path, algorithm: Any, data: bytes, objects: dict[str, Any]
 
 def _check(path: Path, model: Any, record: dict[str, Any], preset: Any, asked: dict[str, Any]) -> list[str]:
     """Refuses hard mismatches (both sides named); returns the allowable ones (dt, walls it cannot see)."""
+    from socialnav.envs.config import observation_and_action_spaces
     from socialnav.policies.learned_entries import walled_scenarios
-    from socialnav.sim.env import observation_and_action_spaces
 
     world = preset.world
     where = f"preset {preset.name!r}"
-    settings = ObservationSettings.from_dict(record["observation"]).to_dict()
+    settings = dataclasses.asdict(ObservationSettings.from_dict(record["observation"]))
     for key, value in asked.items():
-        if key in settings and value != settings[key]:
+        if key in settings and (tuple(value) if key == "parts" else value) != settings[key]:
             raise SB3ModelError(
                 f"{path}: observation setting {key} = {settings[key]!r} in the model file, {value!r} asked; "
                 "a model only understands the observation it was trained on"

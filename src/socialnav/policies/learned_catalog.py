@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
+from socialnav.sim.parts.base import NETWORK_PARTS
+
 #: What a value-based policy's lookahead may assume of the humans' next states (no PyTorch needed to
 #: check it: a preset's settings are checked where PyTorch may be missing).
 VALUE_INFORMATION: tuple[str, ...] = ("constant_velocity", "oracle", "learned")
@@ -71,6 +73,10 @@ class LearnedPolicySpec:
             trained with (mp_rgl plans with the predictor it trains, so it needs ``learned``).
         one_human_training: trained with one human per episode when the training setting
             ``cadrl_one_human`` is on (CADRL's authors' setting).
+        observation_parts: what it observes, by name: the observation parts its network's input
+            builder composes (:mod:`socialnav.sim.parts`), ``robot`` (the state the lookahead
+            propagates) then the sets of agents the network reads like humans, in order (default
+            ``robot``, ``humans``, ``obstacle_points``).
         network_kwargs: PPO only (required there): ``network_kwargs(settings, n_humans)``, the
             network constructor's keyword arguments from the run's PPO settings
             (``socialnav.train.PPOSettings``) and the training mix's human slots; to train among
@@ -90,9 +96,14 @@ class LearnedPolicySpec:
     defaults: Mapping[str, Any] = field(default_factory=dict)
     required_information: str | None = None
     one_human_training: bool = False
+    observation_parts: tuple[str, ...] = NETWORK_PARTS
     network_kwargs: Callable[..., dict[str, Any]] | None = None
 
     def __post_init__(self) -> None:
+        parts = self.observation_parts
+        if not (isinstance(parts, tuple) and all(isinstance(p, str) for p in parts) and "robot" in parts):
+            raise ValueError(f"learned policy {self.name!r}: observation_parts must be a tuple of "
+                             f"observation part names holding 'robot', got {parts!r}")
         if self.trainer not in TRAINERS:
             raise ValueError(
                 f"learned policy {self.name!r}: trainer {self.trainer!r} must be one of {TRAINERS}"

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.policies.learned_catalog import learned_policy_specs
+from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_specs
 from socialnav.policies.registry import is_registered, register_policy
 from socialnav.sim.observation import Observation, check_observation
 
@@ -281,6 +281,7 @@ def load_learned_policy(
             reward_params=RewardParams(**reward),
             device=device,
             predictor=ckpt.predictor,
+            observation_parts=get_learned_spec(name).observation_parts,
             scorer=scorer,
             **settings,
         )
@@ -392,6 +393,7 @@ def load_ppo_policy(
         name, ckpt.model, kinematics=settings["kinematics"], rotation_limit=settings["rotation_limit"],
         dt=settings["dt"], device=device, deterministic=deterministic, checkpoint=Path(checkpoint),
         preset_mismatch=mismatch, obstacle_encoding=encoding,
+        observation_parts=get_learned_spec(name).observation_parts,
     )
 
 

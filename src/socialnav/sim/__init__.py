@@ -1,4 +1,7 @@
-"""The batched simulator: the world, its settings, observations, actions, and the Gymnasium envs.
+"""The batched simulator: the world, its settings, observations and their named parts, actions.
+
+It also gives the Gymnasium envs' public names (``SocialNavEnv``, ``SocialNavVectorEnv``, ``ENV_IDS``,
+``LearnerObservation``, ...), which live two layers up, in :mod:`socialnav.envs`; they load only when used.
 
 Example::
 
@@ -32,14 +35,18 @@ _EXPORTS = {
     "Observation": "socialnav.sim.observation",
     "discrete_actions": "socialnav.sim.actions",
     "orca_step": "socialnav.sim.orca_solver",
-    "SocialNavEnv": "socialnav.sim.env",
-    "SocialNavVectorEnv": "socialnav.sim.env",
-    "ENV_IDS": "socialnav.sim.registration",
     "ObservationSettings": "socialnav.sim.learner_obs",
     "ObservationTransform": "socialnav.sim.learner_obs",
-    "LearnerObservation": "socialnav.sim.learner_wrappers",
-    "LearnerObservationVector": "socialnav.sim.learner_wrappers",
-    "register_viewer": "socialnav.sim.env_render",
+    "ObservationPart": "socialnav.sim.parts.base",
+    "register_observation_part": "socialnav.sim.parts.registry",
+    "list_observation_parts": "socialnav.sim.parts.registry",
+    # the Gymnasium envs (socialnav.envs, two layers up): their public path is this package's
+    "SocialNavEnv": "socialnav.envs.single",
+    "SocialNavVectorEnv": "socialnav.envs.vector",
+    "ENV_IDS": "socialnav.envs.registration",
+    "LearnerObservation": "socialnav.envs.learner_wrappers",
+    "LearnerObservationVector": "socialnav.envs.learner_wrappers",
+    "register_viewer": "socialnav.envs.render",
 }
 __all__ = [
     "World",
@@ -59,6 +66,9 @@ __all__ = [
     "ENV_IDS",
     "ObservationSettings",
     "ObservationTransform",
+    "ObservationPart",
+    "register_observation_part",
+    "list_observation_parts",
     "LearnerObservation",
     "LearnerObservationVector",
     "register_viewer",
@@ -67,14 +77,17 @@ __all__ = [
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load lazily
+    from socialnav.envs.learner_wrappers import LearnerObservation, LearnerObservationVector
+    from socialnav.envs.registration import ENV_IDS
+    from socialnav.envs.render import register_viewer
+    from socialnav.envs.single import SocialNavEnv
+    from socialnav.envs.vector import SocialNavVectorEnv
     from socialnav.sim.actions import discrete_actions
-    from socialnav.sim.env import SocialNavEnv, SocialNavVectorEnv
-    from socialnav.sim.env_render import register_viewer
     from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
-    from socialnav.sim.learner_wrappers import LearnerObservation, LearnerObservationVector
     from socialnav.sim.observation import Observation
     from socialnav.sim.orca_solver import orca_step
-    from socialnav.sim.registration import ENV_IDS
+    from socialnav.sim.parts.base import ObservationPart
+    from socialnav.sim.parts.registry import list_observation_parts, register_observation_part
     from socialnav.sim.settings import (
         HUMAN_MODELS,
         OrcaSettings,

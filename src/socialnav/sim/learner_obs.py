@@ -1,7 +1,8 @@
 """Observations a learner can use.
 
 One transformation shared by the single env, the vector env, the SB3 adapter and the ``sb3:`` evaluation
-policy (docs/train_your_own.md).
+policy (docs/train_your_own.md): the composition of the named observation parts its settings list
+(``parts``; :mod:`socialnav.sim.parts`), each computed by its part, in the layout the settings give.
 
 The raw observation (:mod:`socialnav.sim.observation`) is world-frame float64 with the scenario's own
 human count. :class:`ObservationSettings` names what a learner usually wants instead:
@@ -46,6 +47,10 @@ both       obstacle_point_mask  (P,) int8, 1 for a real point
 =========  ===================  ===========================================================
 
 in units of ``length_scale``, dtype ``dtype``.
+
+Parts (``parts``): the named observation parts, in order; the default ``("robot", "humans",
+"obstacle_points")`` gives the keys above. A part registered from outside the package
+(:func:`socialnav.sim.register_observation_part`) adds its own keys where it is listed (docs/extending.md).
 """
 
 from __future__ import annotations
@@ -56,24 +61,28 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 
 from socialnav.config import check
 from socialnav.maps.static_map import StaticMap
+from socialnav.sim.observation import HUMAN_COLUMNS, ROBOT_COLUMNS
 from socialnav.sim.obstacle_points import ObstaclePoints
+from socialnav.sim.parts.base import FRAMES, PartContext, PartInput
+from socialnav.sim.parts.builtin import OBSTACLE_COLUMNS
+from socialnav.sim.parts.composition import ObservationComposition, check_part_names
 
-FRAMES = ("world", "robot")
+__all__ = [
+    "DEFAULT_PARTS",
+    "FRAMES",
+    "HUMAN_COLUMNS",
+    "OBSTACLE_COLUMNS",
+    "ROBOT_COLUMNS",
+    "ObservationSettings",
+    "ObservationTransform",
+]
+
 DTYPES = ("float32", "float64")
-ROBOT_COLUMNS = {
-    "world": ("px", "py", "vx", "vy", "radius", "gx", "gy", "v_pref", "theta"),
-    "robot": ("dg", "v_pref", "theta", "radius", "vx", "vy"),
-}
-HUMAN_COLUMNS = {
-    "world": ("px", "py", "vx", "vy", "radius"),
-    "robot": ("px", "py", "vx", "vy", "radius", "da", "radius_sum"),
-}
-OBSTACLE_COLUMNS = {"world": ("px", "py"), "robot": ("px", "py", "distance")}
-_BOUND = 1e6  # the raw env's Box bound, kept for every layout
+#: A learner's observation parts unless its settings name others (the keys of every model saved so far).
+DEFAULT_PARTS: tuple[str, ...] = ("robot", "humans", "obstacle_points")
 
 
 @dataclass(frozen=True)
@@ -81,7 +90,9 @@ class ObservationSettings:
     """How raw observations are turned into a learner's (see the module docstring).
 
     ``max_humans=None`` means the env's own human count; the adapters resolve it when built, and the
-    resolved number is what a saved model records.
+    resolved number is what a saved model records. ``parts`` names the observation parts, in order
+    (:mod:`socialnav.sim.parts`); :meth:`to_dict` leaves it out where it is the default, so that the
+    records of models saved before parts existed are unchanged.
     """
 
     frame: str = "world"
@@ -92,6 +103,7 @@ class ObservationSettings:
     obstacle_points: int = 0  # P; 0: no obstacle keys (the layout of open-floor models)
     obstacle_spacing: float = 0.5  # [m]
     obstacle_range: float = 4.0  # [m]
+    parts: tuple[str, ...] = DEFAULT_PARTS
 
     def __post_init__(self) -> None:
         check(self.frame in FRAMES, "observation.frame", self.frame, f"must be one of {', '.join(FRAMES)}")
@@ -117,6 +129,7 @@ class ObservationSettings:
             self.obstacle_points,
             "must be an integer >= 0",
         )
+        object.__setattr__(self, "parts", check_part_names(self.parts, "observation.parts", check))
 
     @property
     def obstacle_encoding(self) -> ObstaclePoints | None:
@@ -127,9 +140,26 @@ class ObservationSettings:
             self.obstacle_points, float(self.obstacle_spacing), float(self.obstacle_range), 0.0
         )
 
+    def context(self, human_slots: int, kinematics: str) -> PartContext:
+        """The parts' layout under these settings with ``human_slots`` human slots."""
+        return PartContext(
+            frame=self.frame,
+            length_scale=self.length_scale,
+            speed_scale=self.speed_scale,
+            dtype=self.dtype,
+            human_slots=int(human_slots),
+            kinematics=kinematics,
+            obstacle_points=self.obstacle_encoding,
+        )
+
     def to_dict(self) -> dict[str, Any]:
-        """The settings as a plain dict (stored in the training record)."""
-        return dataclasses.asdict(self)
+        """The settings as a plain dict (the training record's; ``parts`` only where not the default)."""
+        out = dataclasses.asdict(self)
+        if self.parts == DEFAULT_PARTS:
+            del out["parts"]
+        else:
+            out["parts"] = list(self.parts)
+        return out
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> ObservationSettings:
@@ -145,6 +175,8 @@ class ObservationSettings:
 
 class ObservationTransform:
     """Raw batched arrays -> the learner's dict (and, for ``frame="robot"``, actions back to the world).
+
+    The dict is the composition of the settings' parts (:class:`~socialnav.sim.parts.ObservationComposition`).
 
     Args:
         settings: The transformation.
@@ -178,26 +210,18 @@ class ObservationTransform:
         )
         self.dtype = np.dtype(settings.dtype)
         self.static_map = static_map or None
+        self.composition = ObservationComposition(
+            settings.parts, settings.context(int(settings.max_humans), kinematics)
+        )
 
     @property
     def max_humans(self) -> int:
         """The human slots of the transformed observation."""
         return int(self.settings.max_humans)
 
-    def single_space(self) -> spaces.Dict:
-        """The space of one episode's transformed observation."""
-        k, frame = self.max_humans, self.settings.frame
-        entries = {
-            "robot": spaces.Box(-_BOUND, _BOUND, shape=(len(ROBOT_COLUMNS[frame]),), dtype=self.dtype),
-            "humans": spaces.Box(-_BOUND, _BOUND, shape=(k, len(HUMAN_COLUMNS[frame])), dtype=self.dtype),
-            "human_mask": spaces.MultiBinary(k),
-        }
-        p = self.settings.obstacle_points
-        if p:
-            shape = (p, len(OBSTACLE_COLUMNS[frame]))
-            entries["obstacle_points"] = spaces.Box(-_BOUND, _BOUND, shape=shape, dtype=self.dtype)
-            entries["obstacle_point_mask"] = spaces.MultiBinary(p)
-        return spaces.Dict(entries)
+    def single_space(self) -> Any:
+        """The space of one episode's transformed observation (a ``gymnasium.spaces.Dict``)."""
+        return self.composition.single_space()
 
     def __call__(
         self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray, maps: Any = None
@@ -205,54 +229,9 @@ class ObservationTransform:
         """``robot`` (B, 9), ``humans`` (B, N, 5), ``mask`` (B, N) -> the learner's (B, …) arrays.
 
         ``maps``: each episode's :class:`~socialnav.maps.static_map.StaticMap` or None, (B,); None: the
-        transform's own ``static_map`` for every episode (only read with ``obstacle_points`` > 0).
+        transform's own ``static_map`` for every episode (read by parts that need the walls).
         """
-        robot = np.asarray(robot, dtype=np.float64)
-        humans, mask = _fixed_count(
-            robot, np.asarray(humans, np.float64), np.asarray(mask, bool), self.max_humans
-        )
-        s = self.settings
-        if s.frame == "world":
-            r = robot.copy()
-            r[:, [0, 1, 4, 5, 6]] /= s.length_scale
-            r[:, [2, 3, 7]] /= s.speed_scale
-            h = humans.copy()
-            h[..., [0, 1, 4]] /= s.length_scale
-            h[..., [2, 3]] /= s.speed_scale
-        else:
-            r, h = _robot_frame(robot, humans, self.kinematics)
-            r[:, [0, 3]] /= s.length_scale
-            r[:, [1, 4, 5]] /= s.speed_scale
-            h[..., [0, 1, 4, 5, 6]] /= s.length_scale
-            h[..., [2, 3]] /= s.speed_scale
-        h[~mask] = 0.0
-        out = {
-            "robot": r.astype(self.dtype),
-            "humans": h.astype(self.dtype),
-            "human_mask": mask.astype(np.int8),
-        }
-        encoding = s.obstacle_encoding
-        if encoding is not None:
-            if maps is None:
-                maps = [self.static_map] * robot.shape[0]
-            points, point_mask = encoding.nearest(robot[:, :2], maps)
-            out["obstacle_points"] = self._points(robot, points, point_mask).astype(self.dtype)
-            out["obstacle_point_mask"] = point_mask.astype(np.int8)
-        return out
-
-    def _points(self, robot: np.ndarray, points: np.ndarray, mask: np.ndarray) -> np.ndarray:
-        """(B, P, 2|3) obstacle points in the learner's frame and units, zero where padded."""
-        if self.settings.frame == "world":
-            out = points.copy()
-        else:
-            dx = points[..., 0] - robot[:, None, 0]
-            dy = points[..., 1] - robot[:, None, 1]
-            rot = np.arctan2(robot[:, 6] - robot[:, 1], robot[:, 5] - robot[:, 0])
-            c, s = np.cos(rot)[:, None], np.sin(rot)[:, None]
-            out = np.stack([dx * c + dy * s, dy * c - dx * s, np.hypot(dx, dy)], axis=-1)
-        out /= self.settings.length_scale
-        out[~mask] = 0.0
-        return out
+        return self.composition(PartInput.from_arrays(robot, humans, mask, maps, self.static_map))
 
     def actions_to_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
         """The simulator's actions for ``actions`` chosen on the observation of raw ``robot`` (B, 9).
@@ -276,63 +255,9 @@ class ObservationTransform:
         return np.stack([a[:, 0] * c + a[:, 1] * s, a[:, 1] * c - a[:, 0] * s], axis=1)
 
 
-def _fixed_count(robot: np.ndarray, humans: np.ndarray, mask: np.ndarray, k: int):
-    """(B, K, 5) humans and (B, K) mask: real humans first in slot order, the nearest k where more."""
-    b, n = mask.shape
-    keep = mask
-    if mask.sum(axis=1).max(initial=0) > k:
-        dist = np.where(
-            mask, np.hypot(humans[..., 0] - robot[:, None, 0], humans[..., 1] - robot[:, None, 1]), np.inf
-        )
-        rank = np.argsort(np.argsort(dist, axis=1, kind="stable"), axis=1, kind="stable")
-        keep = mask & (rank < k)
-    order = np.argsort(~keep, axis=1, kind="stable")[:, : min(n, k)]  # kept slots first, in slot order
-    out = np.zeros((b, k, humans.shape[2]))
-    out_mask = np.zeros((b, k), dtype=bool)
-    rows = np.arange(b)[:, None]
-    out[:, : order.shape[1]] = humans[rows, order]
-    out_mask[:, : order.shape[1]] = keep[rows, order]
-    return out, out_mask
-
-
-def _robot_frame(robot: np.ndarray, humans: np.ndarray, kinematics: str):
-    """CrowdNav's rotate (socialnav.policies.learned.state.rotate) in NumPy, split into robot/humans."""
-    dx, dy = robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1]
-    rot = np.arctan2(dy, dx)
-    c, s = np.cos(rot), np.sin(rot)
-    theta = robot[:, 8] - rot if kinematics == "unicycle" else np.zeros_like(rot)
-    r = np.stack(
-        [
-            np.hypot(dx, dy),
-            robot[:, 7],
-            theta,
-            robot[:, 4],
-            robot[:, 2] * c + robot[:, 3] * s,
-            robot[:, 3] * c - robot[:, 2] * s,
-        ],
-        axis=1,
-    )
-    hx = humans[..., 0] - robot[:, None, 0]
-    hy = humans[..., 1] - robot[:, None, 1]
-    c, s = c[:, None], s[:, None]
-    h = np.stack(
-        [
-            hx * c + hy * s,
-            hy * c - hx * s,
-            humans[..., 2] * c + humans[..., 3] * s,
-            humans[..., 3] * c - humans[..., 2] * s,
-            humans[..., 4],
-            np.hypot(hx, hy),
-            humans[..., 4] + robot[:, None, 4],
-        ],
-        axis=-1,
-    )
-    return r, h
-
-
 def _actions_and_goal_heading(actions: np.ndarray, robot: np.ndarray) -> tuple[np.ndarray, ...]:
     """(B, 2) actions and the cosine and sine of each robot's heading towards its goal."""
     a = np.asarray(actions, dtype=np.float64).reshape(-1, 2)
-    robot = np.asarray(robot, dtype=np.float64).reshape(-1, 9)
+    robot = np.asarray(robot, dtype=np.float64).reshape(-1, len(ROBOT_COLUMNS["world"]))
     rot = np.arctan2(robot[:, 6] - robot[:, 1], robot[:, 5] - robot[:, 0])
     return a, np.cos(rot), np.sin(rot)

@@ -10,10 +10,25 @@ import numpy as np
 
 from socialnav.maps.static_map import StaticMap
 
-ROBOT_PX, ROBOT_PY, ROBOT_VX, ROBOT_VY, ROBOT_RADIUS, ROBOT_GX, ROBOT_GY, ROBOT_VPREF, ROBOT_THETA = range(9)
-HUMAN_PX, HUMAN_PY, HUMAN_VX, HUMAN_VY, HUMAN_RADIUS = range(5)
-ROBOT_DIM = 9
-HUMAN_DIM = 5
+#: The one definition of the robot's and the humans' feature columns, hence of their widths. ``world``:
+#: the world's state rows (``Observation.robot`` (B, 9), ``Observation.humans`` (B, N, 5), what the
+#: networks' lookahead propagates); ``robot``: CrowdNav's agent-centric frame (x-axis from the robot
+#: towards its goal; the learner observations' ``frame="robot"``, and the value networks' joint state is
+#: the robot part (6) followed by one human's part (7)). The observation parts (socialnav.sim.parts),
+#: the learner observations, the Gymnasium envs and the networks all read these.
+ROBOT_COLUMNS: dict[str, tuple[str, ...]] = {
+    "world": ("px", "py", "vx", "vy", "radius", "gx", "gy", "v_pref", "theta"),
+    "robot": ("dg", "v_pref", "theta", "radius", "vx", "vy"),
+}
+HUMAN_COLUMNS: dict[str, tuple[str, ...]] = {
+    "world": ("px", "py", "vx", "vy", "radius"),
+    "robot": ("px", "py", "vx", "vy", "radius", "da", "radius_sum"),
+}
+ROBOT_DIM = len(ROBOT_COLUMNS["world"])
+HUMAN_DIM = len(HUMAN_COLUMNS["world"])
+(ROBOT_PX, ROBOT_PY, ROBOT_VX, ROBOT_VY, ROBOT_RADIUS, ROBOT_GX, ROBOT_GY, ROBOT_VPREF,
+ ROBOT_THETA) = range(ROBOT_DIM)
+HUMAN_PX, HUMAN_PY, HUMAN_VX, HUMAN_VY, HUMAN_RADIUS = range(HUMAN_DIM)
 
 
 @dataclass(frozen=True, eq=False)
@@ -182,8 +197,10 @@ def check_observation(observation: Observation, name: str, kinematics: str | Non
         raise ValueError(f"policy {name!r} was trained for a {kinematics} robot; the observation is of a "
                          f"{observation.kinematics!r} one (its actions would be read as the other kind's)")
     b, robot, humans = observation.batch_size, observation.robot, observation.humans
-    if robot.shape != (b, 9) or humans.ndim != 3 or humans.shape[0] != b or humans.shape[2] != 5:
-        raise ValueError(f"policy {name!r}: observation robot must be (B, 9) and humans (B, N, 5), got "
+    if (robot.shape != (b, ROBOT_DIM) or humans.ndim != 3 or humans.shape[0] != b
+            or humans.shape[2] != HUMAN_DIM):
+        raise ValueError(f"policy {name!r}: observation robot must be (B, {ROBOT_DIM}) and humans "
+                         f"(B, N, {HUMAN_DIM}), got "
                          f"{robot.shape} and {humans.shape}")
     if observation.human_mask.shape != humans.shape[:2]:
         raise ValueError(f"policy {name!r}: observation human_mask must be {humans.shape[:2]}, got "

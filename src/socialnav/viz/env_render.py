@@ -3,7 +3,7 @@
 A frame is the same drawing as an episode animation's (viz.draw.FrameRenderer) of the episode so far;
 ``human`` mode shows it in a matplotlib window.
 
-Registered with :func:`socialnav.sim.env_render.register_viewer` by the package root, so that the
+Registered with :func:`socialnav.envs.render.register_viewer` by the package root, so that the
 simulator never imports this package (docs/internals.md, "Layers").
 """
 

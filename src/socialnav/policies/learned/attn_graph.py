@@ -42,6 +42,7 @@ the trainer updates them after each update with that rollout's observations (:me
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -49,6 +50,7 @@ import torch
 from torch import nn
 
 from socialnav.policies.learned.lookahead_inputs import encode_observation
+from socialnav.sim.parts.base import NETWORK_PARTS
 
 __all__ = [
     "AttnGraphNet",
@@ -90,7 +92,8 @@ def human_features(
 
 
 def observation_tensors(
-    obs, dt: float, steps: int, device: torch.device | str = "cpu", obstacle_encoding: Any = None
+    obs, dt: float, steps: int, device: torch.device | str = "cpu", obstacle_encoding: Any = None,
+    parts: Sequence[str] = NETWORK_PARTS,
 ):
     """(robot features, human features, mask) float32 tensors of an Observation.
 
@@ -106,11 +109,13 @@ def observation_tensors(
         steps: predicted steps per human.
         device: where the tensors go.
         obstacle_encoding: the encoding of the obstacles, or None (the network reads none).
+        parts: the network's observation parts (its record's ``observation_parts``): the robot's state,
+            then the sets of agents it reads as humans, in order.
 
     Returns:
         Robot features (B, 9), human features (B, N [+ K], 2(1 + steps)) and the mask (B, N [+ K]).
     """
-    obs = encode_observation(obs, obstacle_encoding)
+    obs = encode_observation(obs, obstacle_encoding, parts)
     robot = torch.as_tensor(obs.robot, dtype=torch.float64)
     humans = torch.as_tensor(obs.humans, dtype=torch.float64)
     mask = torch.as_tensor(obs.human_mask, dtype=torch.bool)

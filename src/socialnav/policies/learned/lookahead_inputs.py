@@ -6,6 +6,9 @@ keys (a Gymnasium dict observation), as NumPy arrays or torch tensors. This modu
 form: the robot (B, 9), human (B, N, 5) and mask (B, N) tensors on the policy's device, the step
 ``dt``, and the number of trailing slots that are obstacle points (``static_slots``).
 
+The agents are the composition of the network's observation parts (``LearnedPolicySpec.observation_parts``,
+by default :data:`~socialnav.sim.parts.NETWORK_PARTS`: the robot, the humans, the obstacle points), each
+part's agents computed by the part (:meth:`~socialnav.sim.parts.ObservationPart.agents`), in part order.
 Obstacles (:mod:`socialnav.sim.obstacle_points`): with an obstacle encoding, the nearest points of the
 episode's obstacle outlines are appended after the human slots as standing agents, so the networks read
 them like humans. An open floor gives the encoding's K slots, all padded.
@@ -14,16 +17,20 @@ them like humans. An open floor gives the encoding's K slots, all padded.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+import functools
+from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 import torch
 
-from socialnav.sim.obstacle_points import ObstaclePoints, append_obstacle_agents
+from socialnav.sim.obstacle_points import ObstaclePoints
+from socialnav.sim.parts.base import NETWORK_PARTS, PartContext, PartInput
+from socialnav.sim.parts.composition import ObservationComposition
 
 __all__ = [
     "LookaheadInputs",
+    "network_composition",
     "encode_observation",
     "encode_state_arrays",
     "lookahead_inputs",
@@ -65,50 +72,82 @@ def static_slots(obs: Any) -> int:
     return int(value or 0)
 
 
+@functools.lru_cache(maxsize=64)
+def network_composition(
+    encoding: ObstaclePoints | None, parts: Sequence[str] = NETWORK_PARTS
+) -> ObservationComposition:
+    """The networks' composition of ``parts``: the robot's state and sets of agents, ``encoding``'s points.
+
+    Raises:
+        ValueError: ``parts`` lacks ``robot``, or names a part that is not a set of agents.
+    """
+    parts = tuple(parts)
+    if "robot" not in parts:
+        raise ValueError(f"observation parts {list(parts)} of a network lack 'robot' (its state is what the "
+                         "lookahead propagates)")
+    composition = ObservationComposition(parts, PartContext.for_networks(encoding))
+    other = [p.name for p in composition.parts if p.name != "robot" and not p.is_agent_set]
+    if other:
+        raise ValueError(f"observation part(s) {', '.join(other)} of a network are not sets of agents: the "
+                         "value and PPO networks read the robot's state and sets of agents only")
+    return composition
+
+
 def encode_state_arrays(
-    robot: np.ndarray, humans: np.ndarray, mask: np.ndarray, maps: Any, encoding: ObstaclePoints | None
+    robot: np.ndarray, humans: np.ndarray, mask: np.ndarray, maps: Any, encoding: ObstaclePoints | None,
+    parts: Sequence[str] = NETWORK_PARTS,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Raw state arrays with the obstacle points of ``maps`` appended.
+    """Raw state arrays as the network's agents: the humans, then the other parts' (the points of ``maps``).
 
     Args:
         robot: (B, 9) robot states.
         humans: (B, N, 5) human states.
         mask: (B, N) real humans.
         maps: (B,) StaticMap or None each (None: open floors).
-        encoding: The policy's obstacle encoding; None returns ``humans`` and ``mask`` unchanged.
+        encoding: The policy's obstacle encoding; None (with the default parts) returns ``humans`` and
+            ``mask`` unchanged.
+        parts: The network's observation parts (:func:`network_composition`).
 
     Returns:
-        Humans (B, N + K, 5) and mask (B, N + K).
+        Agents (B, N + K, 5) and their mask (B, N + K).
     """
-    if encoding is None:
+    parts = tuple(parts)
+    if encoding is None and parts == NETWORK_PARTS:
         return humans, mask
-    return append_obstacle_agents(robot, humans, mask, maps, encoding)
+    data = PartInput(np.asarray(robot, dtype=np.float64), humans, mask, maps)
+    agents, agent_mask, _ = network_composition(encoding, parts).agent_sets(data)
+    return agents, agent_mask
 
 
-def encode_observation(obs: Any, encoding: ObstaclePoints | None) -> Any:
-    """``obs`` with the obstacle encoding's point slots appended and ``static_slots`` set.
+def encode_observation(
+    obs: Any, encoding: ObstaclePoints | None, parts: Sequence[str] = NETWORK_PARTS
+) -> Any:
+    """``obs`` with the network's agents (the humans, then the obstacle points) and ``static_slots`` set.
 
-    Without an encoding ``obs`` itself is returned; so is an observation already encoded, or one given
-    as a mapping (a mapping carries its points already, if any).
+    Without an encoding (and with the default parts) ``obs`` itself is returned; so is an observation
+    already encoded, or one given as a mapping (a mapping carries its points already, if any).
 
     Args:
         obs: An :class:`~socialnav.sim.observation.Observation` (a dataclass).
         encoding: The policy's obstacle encoding, or None.
+        parts: The network's observation parts (:func:`network_composition`).
 
     Returns:
         The encoded observation (a copy), or ``obs``.
     """
-    if encoding is None or isinstance(obs, Mapping) or static_slots(obs):
+    parts = tuple(parts)
+    if (encoding is None and parts == NETWORK_PARTS) or isinstance(obs, Mapping) or static_slots(obs):
         return obs
     walls = getattr(obs, "obstacles", None)
-    humans, mask = encode_state_arrays(
-        obs.robot, obs.humans, obs.human_mask, None if walls is None else walls.maps, encoding
-    )
+    data = PartInput(np.asarray(obs.robot, dtype=np.float64), obs.humans, obs.human_mask,
+                     None if walls is None else walls.maps, walls, observation=obs)
+    humans, mask, static = network_composition(encoding, parts).agent_sets(data)
+    if humans is obs.humans and not static:
+        return obs
     nxt = obs.next_humans
-    if nxt is not None:  # the oracle's next humans, with the points where they are now
+    if nxt is not None:  # the oracle's next humans, with the other agents where they are now
         nxt = np.concatenate([nxt, humans[:, nxt.shape[1]:]], axis=1)
-    return dataclasses.replace(obs, humans=humans, human_mask=mask, next_humans=nxt,
-                               static_slots=encoding.count)
+    return dataclasses.replace(obs, humans=humans, human_mask=mask, next_humans=nxt, static_slots=static)
 
 
 def to_tensor(x: Any, device: torch.device, dtype: torch.dtype = torch.float64) -> torch.Tensor:

@@ -12,6 +12,7 @@ in the observation; on an open floor its point slots are all masked.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +22,7 @@ import torch
 from socialnav.policies.learned.attn_graph import observation_tensors, squash_actions
 from socialnav.sim.observation import Observation
 from socialnav.sim.obstacle_points import ObstaclePoints
+from socialnav.sim.parts.base import NETWORK_PARTS
 
 
 class RecurrentActorPolicy:
@@ -35,6 +37,8 @@ class RecurrentActorPolicy:
         obstacle_encoding: the obstacle points the network reads
             (:class:`~socialnav.sim.obstacle_points.ObstaclePoints` or its dict), or None for a
             network trained without walls.
+        observation_parts: the named observation parts the network reads (its record's
+            ``observation_parts``).
     """
 
     def __init__(
@@ -51,6 +55,7 @@ class RecurrentActorPolicy:
         checkpoint: Path | None = None,
         preset_mismatch: list[str] | None = None,
         obstacle_encoding: ObstaclePoints | dict | None = None,
+        observation_parts: Sequence[str] = NETWORK_PARTS,
     ) -> None:
         self.name = name
         self.network = network
@@ -66,6 +71,7 @@ class RecurrentActorPolicy:
         self.obstacle_encoding = (
             None if obstacle_encoding is None else ObstaclePoints.from_dict(obstacle_encoding)
         )
+        self.observation_parts = tuple(observation_parts)
         self._h: torch.Tensor | None = None
 
     def reset(self) -> None:
@@ -88,7 +94,8 @@ class RecurrentActorPolicy:
             self._h = net.initial_state(b, self.device)
         start = torch.as_tensor(observation.time == 0.0, device=self.device)
         robot, humans, mask = observation_tensors(
-            observation, self.dt, net.prediction_steps, self.device, self.obstacle_encoding
+            observation, self.dt, net.prediction_steps, self.device, self.obstacle_encoding,
+            self.observation_parts,
         )
         mean, _, self._h = net.step(robot, humans, mask, self._h, start)
         raw = mean

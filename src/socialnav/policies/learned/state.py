@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import torch
 
 from socialnav.policies.learned.actions import Kinematics
+from socialnav.sim.observation import HUMAN_COLUMNS, HUMAN_DIM, ROBOT_COLUMNS, ROBOT_DIM
 
 __all__ = [
     "ROBOT_DIM",
@@ -35,10 +36,10 @@ __all__ = [
     "occupancy_map",
 ]
 
-ROBOT_DIM = 9
-HUMAN_DIM = 5
-SELF_DIM = 6  # robot part of the joint state
-JOINT_DIM = 13  # robot part (6) + human part (7)
+# The widths are socialnav.sim.observation's column tables (one definition): the state rows are the world
+# frame's columns, the joint state the robot frame's robot columns followed by one human's.
+SELF_DIM = len(ROBOT_COLUMNS["robot"])  # robot part of the joint state (6)
+JOINT_DIM = SELF_DIM + len(HUMAN_COLUMNS["robot"])  # robot part (6) + human part (7)
 OM_DIM = 48  # 4 x 4 cells x 3 channels (default occupancy map)
 
 

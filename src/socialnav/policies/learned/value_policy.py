@@ -46,6 +46,7 @@ lookahead. Every level is batched over episodes and actions (B·w^level·K state
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -56,6 +57,7 @@ from socialnav.policies.learned.lookahead_inputs import (
     encode_observation,
     encode_state_arrays,
     lookahead_inputs,
+    network_composition,
 )
 from socialnav.policies.learned.lookahead_reward import REWARD_RULES, lookahead_reward
 from socialnav.policies.learned.native_scoring import (
@@ -74,6 +76,7 @@ from socialnav.policies.learned.state import (
 )
 from socialnav.policies.learned_catalog import VALUE_INFORMATION
 from socialnav.sim.obstacle_points import ObstaclePoints
+from socialnav.sim.parts.base import NETWORK_PARTS
 
 __all__ = ["ValuePolicy", "Information"]
 
@@ -108,6 +111,9 @@ class ValuePolicy:
         obstacle_encoding: how the observation's obstacles reach the network
             (:class:`~socialnav.sim.obstacle_points.ObstaclePoints` or its dict); None: the network
             does not see obstacles (every checkpoint trained without walls).
+        observation_parts: the named observation parts the network reads (its record's
+            ``observation_parts``): the robot's state, then sets of agents read like humans
+            (:func:`~socialnav.policies.learned.lookahead_inputs.network_composition`).
     """
 
     def __init__(
@@ -129,6 +135,7 @@ class ValuePolicy:
         reward_rule: str = "end",
         scorer: str = "torch",
         obstacle_encoding: ObstaclePoints | dict | None = None,
+        observation_parts: Sequence[str] = NETWORK_PARTS,
     ) -> None:
         if kinematics not in ("holonomic", "unicycle"):
             raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic' or 'unicycle'")
@@ -156,6 +163,8 @@ class ValuePolicy:
         self.obstacle_encoding = (
             None if obstacle_encoding is None else ObstaclePoints.from_dict(obstacle_encoding)
         )
+        self.observation_parts = tuple(observation_parts)
+        network_composition(self.obstacle_encoding, self.observation_parts)  # refuses parts it cannot read
         self.predictor = predictor
         self.planning_depth = int(planning_depth)
         self.planning_width = int(planning_width)
@@ -214,7 +223,7 @@ class ValuePolicy:
         An observation already encoded, or given as a mapping, is returned as it is
         (:func:`~socialnav.policies.learned.lookahead_inputs.encode_observation`).
         """
-        return encode_observation(obs, self.obstacle_encoding)
+        return encode_observation(obs, self.obstacle_encoding, self.observation_parts)
 
     def encode_arrays(self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray,
                       maps: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -223,7 +232,7 @@ class ValuePolicy:
         Robot (B, 9), humans (B, N, 5) and mask (B, N); ``maps`` is (B,) StaticMap or None each (None: open
         floors); see :meth:`encode`. Unchanged when this policy has no encoding.
         """
-        return encode_state_arrays(robot, humans, mask, maps, self.obstacle_encoding)
+        return encode_state_arrays(robot, humans, mask, maps, self.obstacle_encoding, self.observation_parts)
 
     def predict_humans(
         self,

@@ -1,4 +1,4 @@
-"""Gymnasium wrappers applying :class:`~socialnav.sim.learner_obs.ObservationSettings`.
+"""Gymnasium wrappers applying :class:`~socialnav.sim.learner_obs.ObservationSettings`: the learner's parts.
 
 They wrap the single env and the native vector env, converting exactly as the SB3 adapter does
 (docs/train_your_own.md).

@@ -3,7 +3,7 @@
 An env's stream of positions 0, 1, 2, … maps to episode indices: ``reset(seed=s)`` plays episodes
 ``s·SEED_STRIDE, s·SEED_STRIDE+1, …`` of an endless split, or a permutation of a finite split drawn
 from s (a new one each time round); ``reset(options={"index": k})`` plays k, k+1, … (see
-:mod:`socialnav.sim.env`).
+:mod:`socialnav.envs.single`).
 """
 
 from __future__ import annotations

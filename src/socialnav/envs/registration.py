@@ -11,7 +11,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from socialnav.sim.env_render import RENDER_MODES
+from socialnav.envs.render import RENDER_MODES
 
 #: The protocol's scenarios (and CrowdNav's square crossing); ``Passing``, ``Overtaking`` and
 #: ``Crossing`` are the single-human side-preference sweeps (finite: their episodes cycle).
@@ -28,14 +28,14 @@ ENV_IDS = {
 
 
 def make_env(**kwargs: Any) -> gym.Env:
-    """``gym.make``'s entry point: a :class:`~socialnav.sim.env.SocialNavEnv`.
+    """``gym.make``'s entry point: a :class:`~socialnav.envs.single.SocialNavEnv`.
 
     Its ``metadata`` lists every render mode, so that ``gym.make(..., render_mode="human")`` reaches
     the env, which explains what is missing (a display, matplotlib), instead of Gymnasium wrapping an
     ``rgb_array`` env in its pygame window (and failing with "pygame is not installed"). The env's
     own ``metadata`` lists ``human`` only where a display exists, so the env checker tries no window.
     """
-    from socialnav.sim.env import SocialNavEnv
+    from socialnav.envs.single import SocialNavEnv
 
     return SocialNavEnv(**kwargs)
 
@@ -50,8 +50,8 @@ def register_envs() -> None:
             continue
         gym.register(
             id=env_id,
-            entry_point="socialnav.sim.registration:make_env",
-            vector_entry_point="socialnav.sim.env:SocialNavVectorEnv",
+            entry_point="socialnav.envs.registration:make_env",
+            vector_entry_point="socialnav.envs.vector:SocialNavVectorEnv",
             kwargs=kwargs,
         )
 

@@ -1,0 +1,225 @@
+"""The built-in observation parts: ``robot``, ``humans``, ``obstacle_points`` and ``obstacle_edges``.
+
+Each computes its arrays from the world's state (:class:`~socialnav.sim.parts.base.PartInput`) in the
+layout of a :class:`~socialnav.sim.parts.base.PartContext`; the columns are those of
+:data:`~socialnav.sim.observation.ROBOT_COLUMNS` and :data:`~socialnav.sim.observation.HUMAN_COLUMNS`
+(docs/internals.md, "Observation"). Layouts (K human slots, P obstacle points, E edges):
+
+================  =====================  ===================================================
+part              key                    world frame / robot frame
+================  =====================  ===================================================
+robot             robot                  (9,) world columns / (6,) dg, v_pref, theta', radius, vx', vy'
+humans            humans                 (K, 5) / (K, 7) px', py', vx', vy', radius, da, radius_sum
+humans            human_mask             (K,) int8, 1 for a real human
+obstacle_points   obstacle_points        (P, 2) px, py / (P, 3) px', py', distance to the robot
+obstacle_points   obstacle_point_mask    (P,) int8, 1 for a real point
+obstacle_edges    obstacles              (E, 4) x1, y1, x2, y2 (world frame only; the raw env's)
+obstacle_edges    obstacle_mask          (E,) int8, 1 for a real edge
+================  =====================  ===================================================
+
+Lengths are in units of ``length_scale``, speeds of ``speed_scale``, angles in radians; rot is the robot's
+heading towards its goal. In the raw env's layout (``PartContext.raw``) ``robot`` and ``humans`` are the
+world's arrays as they are (slot order, the scenario's own human count).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from socialnav.sim.observation import HUMAN_COLUMNS, ROBOT_COLUMNS
+from socialnav.sim.parts.base import BOUND, ObservationPart, PartContext, PartInput
+from socialnav.sim.parts.registry import register_observation_part
+
+#: The obstacle points' columns (:mod:`socialnav.sim.obstacle_points`; as agents they take the humans').
+OBSTACLE_COLUMNS = {"world": ("px", "py"), "robot": ("px", "py", "distance")}
+#: The obstacle edges' columns (world frame).
+EDGE_COLUMNS = {"world": ("x1", "y1", "x2", "y2")}
+
+
+def _mask_space(n: int) -> Any:
+    from gymnasium import spaces
+
+    # Gymnasium has no MultiBinary(0): a crowd-free scenario's empty mask is an empty Box
+    return spaces.MultiBinary(n) if n else spaces.Box(0, 1, (0,), np.int8)
+
+
+@register_observation_part
+class RobotPart(ObservationPart):
+    """The robot's state and goal: position, velocity, radius, goal, preferred speed, heading."""
+
+    name = "robot"
+    description = "the robot's state and goal (world: 9 columns; robot frame: 6)"
+    columns = {"robot": ROBOT_COLUMNS}
+
+    def compute(self, data: PartInput, ctx: PartContext) -> dict[str, np.ndarray]:
+        """(B, 9) world rows or (B, 6) robot-frame rows, scaled, in the context's dtype."""
+        robot = data.robot
+        if ctx.raw:
+            return {"robot": robot}
+        robot = np.asarray(robot, dtype=np.float64)
+        if ctx.frame == "world":
+            r = robot.copy()
+            r[:, [0, 1, 4, 5, 6]] /= ctx.length_scale
+            r[:, [2, 3, 7]] /= ctx.speed_scale
+        else:
+            rot, c, s = data.goal_frame
+            dx, dy = robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1]
+            theta = robot[:, 8] - rot if ctx.kinematics == "unicycle" else np.zeros_like(rot)
+            r = np.stack(
+                [
+                    np.hypot(dx, dy),
+                    robot[:, 7],
+                    theta,
+                    robot[:, 4],
+                    robot[:, 2] * c + robot[:, 3] * s,
+                    robot[:, 3] * c - robot[:, 2] * s,
+                ],
+                axis=1,
+            )
+            r[:, [0, 3]] /= ctx.length_scale
+            r[:, [1, 4, 5]] /= ctx.speed_scale
+        return {"robot": r.astype(ctx.np_dtype)}
+
+
+@register_observation_part
+class HumansPart(ObservationPart):
+    """The humans: K slots of human rows with their mask (the nearest K real humans, real ones first)."""
+
+    name = "humans"
+    description = "the humans, K slots with a mask (world: 5 columns each; robot frame: 7)"
+    columns = {"humans": HUMAN_COLUMNS}
+
+    def spaces(self, ctx: PartContext) -> dict[str, Any]:
+        """``humans`` (K, width) and ``human_mask`` (K,)."""
+        from gymnasium import spaces
+
+        k = ctx.human_slots
+        return {
+            "humans": spaces.Box(-BOUND, BOUND, shape=(k, self.width("humans", ctx.frame)),
+                                 dtype=ctx.np_dtype),
+            "human_mask": _mask_space(k),
+        }
+
+    def compute(self, data: PartInput, ctx: PartContext) -> dict[str, np.ndarray]:
+        """(B, K, 5|7) rows, zero where padded, and the (B, K) int8 mask."""
+        if ctx.raw:
+            return {"humans": data.humans, "human_mask": data.human_mask.astype(np.int8)}
+        humans, mask = data.fixed_humans(ctx.human_slots)
+        if ctx.frame == "world":
+            h = humans.copy()
+            h[..., [0, 1, 4]] /= ctx.length_scale
+            h[..., [2, 3]] /= ctx.speed_scale
+        else:
+            robot = data.robot
+            _, c, s = data.goal_frame
+            c, s = c[:, None], s[:, None]
+            hx = humans[..., 0] - robot[:, None, 0]
+            hy = humans[..., 1] - robot[:, None, 1]
+            h = np.stack(
+                [
+                    hx * c + hy * s,
+                    hy * c - hx * s,
+                    humans[..., 2] * c + humans[..., 3] * s,
+                    humans[..., 3] * c - humans[..., 2] * s,
+                    humans[..., 4],
+                    np.hypot(hx, hy),
+                    humans[..., 4] + robot[:, None, 4],
+                ],
+                axis=-1,
+            )
+            h[..., [0, 1, 4, 5, 6]] /= ctx.length_scale
+            h[..., [2, 3]] /= ctx.speed_scale
+        h[~mask] = 0.0
+        return {"humans": h.astype(ctx.np_dtype), "human_mask": mask.astype(np.int8)}
+
+    def agents(self, data: PartInput, ctx: PartContext) -> tuple[np.ndarray, np.ndarray]:
+        """The human slots as they are: (B, N, 5) float64 rows and (B, N) bool mask."""
+        return np.asarray(data.humans, dtype=np.float64), np.asarray(data.human_mask, dtype=bool)
+
+
+@register_observation_part
+class ObstaclePointsPart(ObservationPart):
+    """The obstacle outlines' points nearest the robot (:mod:`socialnav.sim.obstacle_points`)."""
+
+    name = "obstacle_points"
+    description = ("the P obstacle-outline points nearest the robot, with a mask (world: px, py; robot "
+                   "frame: px, py, distance); the networks read them as standing agents")
+    columns = {"obstacle_points": OBSTACLE_COLUMNS}
+    static = True
+
+    def spaces(self, ctx: PartContext) -> dict[str, Any]:
+        """``obstacle_points`` (P, width) and ``obstacle_point_mask`` (P,); none without an encoding."""
+        from gymnasium import spaces
+
+        encoding = ctx.obstacle_points
+        if encoding is None:
+            return {}
+        p = encoding.count
+        shape = (p, self.width("obstacle_points", ctx.frame))
+        return {
+            "obstacle_points": spaces.Box(-BOUND, BOUND, shape=shape, dtype=ctx.np_dtype),
+            "obstacle_point_mask": spaces.MultiBinary(p),
+        }
+
+    def compute(self, data: PartInput, ctx: PartContext) -> dict[str, np.ndarray]:
+        """(B, P, 2|3) points, zero where padded, and the (B, P) int8 mask."""
+        encoding = ctx.obstacle_points
+        if encoding is None:
+            return {}
+        robot = np.asarray(data.robot, dtype=np.float64)
+        points, mask = encoding.nearest(robot[:, :2], data.maps)
+        if ctx.frame == "world":
+            out = points.copy()
+        else:
+            dx = points[..., 0] - robot[:, None, 0]
+            dy = points[..., 1] - robot[:, None, 1]
+            _, c, s = data.goal_frame
+            c, s = c[:, None], s[:, None]
+            out = np.stack([dx * c + dy * s, dy * c - dx * s, np.hypot(dx, dy)], axis=-1)
+        out /= ctx.length_scale
+        out[~mask] = 0.0
+        return {"obstacle_points": out.astype(ctx.np_dtype), "obstacle_point_mask": mask.astype(np.int8)}
+
+    def agents(self, data: PartInput, ctx: PartContext) -> tuple[np.ndarray, np.ndarray] | None:
+        """The points as standing agents (px, py, 0, 0, radius): (B, P, 5) and the (B, P) mask."""
+        encoding = ctx.obstacle_points
+        if encoding is None:
+            return None
+        return encoding.agents(np.asarray(data.robot, dtype=np.float64)[:, :2], data.maps)
+
+
+@register_observation_part
+class ObstacleEdgesPart(ObservationPart):
+    """The episode's obstacle edges, zero-padded (the raw Gymnasium env's ``obstacles``)."""
+
+    name = "obstacle_edges"
+    description = "the episode's obstacle edges (E, 4) with a mask, world frame (the raw env's walls)"
+    columns = {"obstacles": EDGE_COLUMNS}
+
+    def spaces(self, ctx: PartContext) -> dict[str, Any]:
+        """``obstacles`` (E, 4) and ``obstacle_mask`` (E,); none where E = 0."""
+        from gymnasium import spaces
+
+        e = ctx.max_edges
+        if not e:
+            return {}
+        return {
+            "obstacles": spaces.Box(-BOUND, BOUND, shape=(e, 4), dtype=ctx.np_dtype),
+            "obstacle_mask": spaces.MultiBinary(e),
+        }
+
+    def compute(self, data: PartInput, ctx: PartContext) -> dict[str, np.ndarray]:
+        """(B, E, 4) edges and the (B, E) int8 mask (zeros on an open floor)."""
+        e = ctx.max_edges
+        if not e:
+            return {}
+        walls = data.obstacles
+        if walls is None:
+            b = data.batch_size
+            return {"obstacles": np.zeros((b, e, 4), dtype=ctx.np_dtype),
+                    "obstacle_mask": np.zeros((b, e), dtype=np.int8)}
+        edges, mask = walls.padded_edges(e)
+        edges = edges / ctx.length_scale if ctx.length_scale != 1.0 else edges.copy()
+        return {"obstacles": edges.astype(ctx.np_dtype, copy=False), "obstacle_mask": mask.astype(np.int8)}
