@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import threading
 from typing import Any
 
@@ -18,6 +19,8 @@ __all__ = [
 
 #: Entry point group of observation parts from other packages.
 ENTRY_POINT_GROUP = "socialnav.observations"
+#: The modules defining the built-in parts (each registers its parts when imported, on the first lookup).
+BUILTIN_MODULES = ("socialnav.sim.parts.builtin",)
 
 
 class UnknownObservationPartError(KeyError, ValueError):
@@ -58,6 +61,7 @@ def register_observation_part(part: Any = None, *, replace: bool = False) -> Any
         raise TypeError(
             f"an observation part must derive from socialnav.sim.parts.ObservationPart, got {part!r}"
         )
+    _load_builtins()  # built-ins first: a part registered from outside cannot take a built-in's name
     name = instance.name
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"observation part {part!r}: name must be an identifier, got {name!r}")
@@ -82,7 +86,8 @@ def _load_builtins() -> None:
     with _LOCK:
         if not _builtins_loaded:
             _builtins_loaded = True
-            import socialnav.sim.parts.builtin  # noqa: F401  (registers the built-in parts)
+            for module in BUILTIN_MODULES:
+                importlib.import_module(module)
 
 
 def _load_plugins() -> None:
