@@ -4,12 +4,16 @@
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
 
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "behaviour.hpp"
+#include "behaviours/builtin_params.hpp"
 #include "orca.hpp"
 #include "robot_policies.hpp"
 #include "sarl_scorer.hpp"
@@ -59,6 +63,65 @@ bool observation_buffers(nb::object arrays, const char* name, size_t rows, int h
   return true;
 }
 
+// Values of behaviour `name`'s parameters from Python: None (the defaults), a dict of some of them by
+// name (the others keep their defaults; an undeclared name is refused) or a sequence of all of them in
+// declared order. Checked against the declaration (ValueError naming the parameter).
+socialnav::ParamValues behaviour_values(const std::string& name, nb::handle given) {
+  const socialnav::BehaviourInfo& info = socialnav::human_behaviour(name);
+  std::vector<double> values;
+  if (nb::isinstance<nb::dict>(given)) {
+    for (const socialnav::BehaviourParam& p : info.params) values.push_back(p.default_value);
+    for (auto [key, value] : nb::borrow<nb::dict>(given)) {
+      const std::string k = nb::cast<std::string>(key);
+      size_t at = 0;
+      while (at < info.params.size() && info.params[at].name != k) ++at;
+      if (at == info.params.size()) {
+        std::string names;
+        for (const socialnav::BehaviourParam& p : info.params) names += (names.empty() ? "" : ", ") + p.name;
+        throw std::invalid_argument(name + " declares no parameter '" + k + "'; declared: " + names);
+      }
+      values[at] = nb::cast<double>(value);
+    }
+  } else if (!given.is_none()) {
+    values = nb::cast<std::vector<double>>(given);
+  }
+  return socialnav::ParamValues(info.name, info.params, values);
+}
+
+// A declared number as Python reads it best: an int when whole (bounds 0 and 64 print as such), None for NaN.
+nb::object declared_number(double x, bool integer) {
+  if (std::isnan(x)) return nb::none();
+  if (integer || (x == std::floor(x) && std::abs(x) < 9007199254740992.0)) return nb::int_(static_cast<int64_t>(x));
+  return nb::float_(x);
+}
+
+nb::list behaviour_descriptors() {
+  nb::list out;
+  for (const socialnav::BehaviourInfo* info : socialnav::human_behaviours()) {
+    nb::list params;
+    for (const socialnav::BehaviourParam& p : info->params) {
+      nb::dict d;
+      d["name"] = p.name;
+      d["default"] = p.integer ? nb::object(nb::int_(static_cast<int64_t>(p.default_value)))
+                               : nb::object(nb::float_(p.default_value));
+      d["type"] = p.integer ? "int" : "float";
+      d["unit"] = p.unit;
+      d["description"] = p.description;
+      d["gt"] = declared_number(p.gt, p.integer);
+      d["ge"] = declared_number(p.ge, p.integer);
+      d["lt"] = declared_number(p.lt, p.integer);
+      d["le"] = declared_number(p.le, p.integer);
+      params.append(d);
+    }
+    nb::dict entry;
+    entry["name"] = info->name;
+    entry["description"] = info->description;
+    entry["parameters"] = params;
+    out.append(entry);
+  }
+  return out;
+}
+
 // A built-in scenario generates into a world only with one human slot per human.
 void check_fits(const socialnav::ScenarioConfig& scenario, const socialnav::WorldConfig& world) {
   if (scenario.n_humans != world.agents - 1)
@@ -69,6 +132,7 @@ void check_fits(const socialnav::ScenarioConfig& scenario, const socialnav::Worl
 // Keeps the arrays alive for as long as the world points into them.
 struct PyWorld {
   nb::list keep_alive;
+  nb::object given_velocity;  // the array of give_human_velocities
   std::unique_ptr<socialnav::World> world;
 };
 
@@ -154,24 +218,10 @@ PreparedBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>&
 NB_MODULE(_core, m) {
   m.doc() = "socialnav native core: ORCA, social force and the batched crowd world.";
 
-  nb::class_<socialnav::OrcaParams>(m, "OrcaParams")
-      .def(nb::init<>())
-      .def_rw("neighbor_dist", &socialnav::OrcaParams::neighbor_dist)
-      .def_rw("max_neighbors", &socialnav::OrcaParams::max_neighbors)
-      .def_rw("time_horizon", &socialnav::OrcaParams::time_horizon)
-      .def_rw("time_horizon_obst", &socialnav::OrcaParams::time_horizon_obst);
-
-  nb::class_<socialnav::SocialForceParams>(m, "SocialForceParams")
-      .def(nb::init<>())
-      .def_rw("relaxation_time", &socialnav::SocialForceParams::relaxation_time)
-      .def_rw("v0", &socialnav::SocialForceParams::v0)
-      .def_rw("sigma", &socialnav::SocialForceParams::sigma)
-      .def_rw("step_time", &socialnav::SocialForceParams::step_time)
-      .def_rw("fov_half_angle", &socialnav::SocialForceParams::fov_half_angle)
-      .def_rw("outside_fov_weight", &socialnav::SocialForceParams::outside_fov_weight)
-      .def_rw("max_speed_factor", &socialnav::SocialForceParams::max_speed_factor)
-      .def_rw("wall_u0", &socialnav::SocialForceParams::wall_u0)
-      .def_rw("wall_r", &socialnav::SocialForceParams::wall_r);
+  m.def("human_behaviours", &behaviour_descriptors,
+        "The registered pedestrian behaviours in listing order: dicts of name, description and parameters "
+        "(dicts of name, default, type 'float' or 'int', unit, description and the bounds gt, ge, lt, le, None "
+        "where unbounded), as each behaviour declares them (cpp/behaviours/).");
 
   using C = socialnav::WorldConfig;
   nb::class_<C>(m, "WorldConfig")
@@ -180,7 +230,8 @@ NB_MODULE(_core, m) {
       .def_rw("agents", &C::agents)
       .def_rw("dt", &C::dt)
       .def_rw("time_limit", &C::time_limit)
-      .def_rw("human_model", &C::human_model)
+      .def_rw("human_behaviour", &C::human_behaviour)
+      .def_rw("human_params", &C::human_params)
       .def_rw("robot_visible", &C::robot_visible)
       .def_rw("kinematics", &C::kinematics)
       .def_rw("rotation_limit", &C::rotation_limit)
@@ -189,10 +240,6 @@ NB_MODULE(_core, m) {
       .def_rw("success_reward", &C::success_reward)
       .def_rw("collision_penalty", &C::collision_penalty)
       .def_rw("discomfort_penalty_factor", &C::discomfort_penalty_factor)
-      .def_rw("orca", &C::orca)
-      .def_rw("orca_radius_margin", &C::orca_radius_margin)
-      .def_rw("human_safety_space", &C::human_safety_space)
-      .def_rw("social_force", &C::social_force)
       .def_rw("continue_after_success", &C::continue_after_success)
       .def_rw("continuation_cap", &C::continuation_cap)
       .def_rw("history_len", &C::history_len)
@@ -210,9 +257,6 @@ NB_MODULE(_core, m) {
   m.attr("COLLISION_NONE") = static_cast<int>(socialnav::kNoCollision);
   m.attr("COLLISION_HUMAN") = static_cast<int>(socialnav::kHumanCollision);
   m.attr("COLLISION_OBSTACLE") = static_cast<int>(socialnav::kObstacleCollision);
-  m.attr("HUMAN_ORCA") = static_cast<int>(socialnav::kHumanOrca);
-  m.attr("HUMAN_SOCIAL_FORCE") = static_cast<int>(socialnav::kHumanSocialForce);
-  m.attr("HUMAN_LINEAR") = static_cast<int>(socialnav::kHumanLinear);
   m.attr("HOLONOMIC") = static_cast<int>(socialnav::kHolonomic);
   m.attr("UNICYCLE") = static_cast<int>(socialnav::kUnicycle);
 
@@ -348,6 +392,20 @@ NB_MODULE(_core, m) {
           "afterwards; final_observation: the same with one row per ended slot (slot order), their "
           "observation before the refill; both written in the same pass.")
       .def(
+          "give_human_velocities",
+          [](PyWorld& self, nb::object velocity) {
+            const auto& c = self.world->config();
+            if (!self.world->takes_given_velocities())
+              throw std::invalid_argument("this world's humans follow the native behaviour '" + c.human_behaviour +
+                                          "'");
+            double* v = optional_checked<double>(velocity, "velocity", static_cast<size_t>(c.batch) * c.agents * 2);
+            self.world->give_human_velocities(v);
+            self.given_velocity = velocity;  // kept alive while the world reads it
+          },
+          "velocity"_a.none(),
+          "For a world built with human_behaviour '': the array (B, A, 2) the humans' velocities of each step "
+          "(and preview) are read from; the caller writes it before each call (None: none given).")
+      .def(
           "preview_humans",
           [](PyWorld& self, Array<double> out) {
             const auto& c = self.world->config();
@@ -478,9 +536,8 @@ NB_MODULE(_core, m) {
   m.def(
       "robot_actions",
       [](const std::string& policy, Array<double> robot, Array<double> humans, Array<bool> mask, Array<bool> active,
-         int kinematics, double rotation_limit, double dt, const socialnav::OrcaParams& orca, double radius_margin,
-         double safety_space, const socialnav::SocialForceParams& social_force, socialnav::ThreadPool& pool,
-         Array<double> out, nb::object obstacles) {
+         int kinematics, double rotation_limit, double dt, nb::object orca, double safety_space,
+         nb::object social_force, socialnav::ThreadPool& pool, Array<double> out, nb::object obstacles) {
         if (robot.ndim() != 2 || robot.shape(1) != 9) throw std::invalid_argument("robot must be (B, 9)");
         const size_t B = robot.shape(0);
         if (humans.ndim() != 3 || humans.shape(0) != B || humans.shape(2) != 5)
@@ -504,24 +561,19 @@ NB_MODULE(_core, m) {
                                         " episodes, the observation has " + std::to_string(B));
           wall_view = walls.view();
         }
-        if (policy == "linear") {
-          socialnav::linear_robot_actions(obs, format, dt, o);
-        } else if (policy == "orca") {
-          nb::gil_scoped_release release;
-          socialnav::orca_robot_actions(obs, format, orca, radius_margin, safety_space, dt, pool, o, wall_view);
-        } else if (policy == "social_force") {
-          nb::gil_scoped_release release;
-          socialnav::social_force_robot_actions(obs, format, social_force, dt, pool, o, wall_view);
-        } else {
-          throw std::invalid_argument("unknown native robot policy '" + policy +
-                                      "'; valid: linear, orca, social_force");
-        }
+        const socialnav::OrcaValues orca_values = socialnav::orca_values(behaviour_values("orca", orca));
+        const socialnav::SocialForceParams sf_values =
+            socialnav::social_force_values(behaviour_values("social_force", social_force));
+        nb::gil_scoped_release release;
+        socialnav::robot_actions(policy, obs, format, dt, orca_values, safety_space, sf_values, pool, o, wall_view);
       },
-      "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a, "orca"_a,
-      "radius_margin"_a, "safety_space"_a, "social_force"_a, "pool"_a, "out"_a.noconvert(),
+      "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a,
+      "orca"_a.none(), "safety_space"_a, "social_force"_a.none(), "pool"_a, "out"_a.noconvert(),
       "obstacles"_a.none() = nb::none(),
-      "Batched actions of a native robot policy, written into out (B, 2). obstacles: None or the B episodes' "
-      "static maps as PreparedObstacleBatch.");
+      "Batched actions of a native robot policy ('linear', 'orca' or 'social_force'), written into out (B, 2). "
+      "orca, social_force: the humans' behaviour parameters of that name (a dict by name, the values in "
+      "declared order, or None for the defaults); safety_space [m]: the ORCA robot's own inflation. obstacles: "
+      "None or the B episodes' static maps as PreparedObstacleBatch.");
 
   using SC = socialnav::ScenarioConfig;
   nb::class_<SC>(m, "ScenarioConfig")
@@ -608,8 +660,9 @@ NB_MODULE(_core, m) {
   m.def(
       "social_force_velocity",
       [](Array<double> position, Array<double> velocity, Array<double> desired_velocity, double max_speed,
-         Array<double> other_positions, Array<double> other_velocities, const socialnav::SocialForceParams& params,
-         double dt) {
+         Array<double> other_positions, Array<double> other_velocities, nb::object params_given, double dt) {
+        const socialnav::SocialForceParams params =
+            socialnav::social_force_values(behaviour_values("social_force", params_given));
         const size_t n = other_positions.size() / 2;
         std::vector<socialnav::SocialForceOther> others(n);
         for (size_t k = 0; k < n; ++k)
@@ -621,22 +674,22 @@ NB_MODULE(_core, m) {
         return nb::make_tuple(v.x, v.y);
       },
       "position"_a, "velocity"_a, "desired_velocity"_a, "max_speed"_a, "other_positions"_a, "other_velocities"_a,
-      "params"_a, "dt"_a = 0.25);
+      "params"_a.none() = nb::none(), "dt"_a = 0.25,
+      "New velocity of one agent under the social force model (params: the social_force behaviour's, a dict by "
+      "name or None for the defaults).");
 
   m.def(
       "orca_step",
       [](Array<double> positions, Array<double> velocities, Array<double> pref_velocities, Array<double> radii,
-         Array<double> max_speeds, const socialnav::OrcaParams& params, double time_step,
-         Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets, Array<double> out) {
+         Array<double> max_speeds, nb::object params_given, double time_step, Array<double> obstacle_vertices,
+         Array<int64_t> obstacle_offsets, Array<double> out) {
+        const socialnav::OrcaParams params = socialnav::orca_values(behaviour_values("orca", params_given)).solver;
         const size_t n = radii.size();
         checked(positions, "positions", 2 * n);
         checked(velocities, "velocities", 2 * n);
         checked(pref_velocities, "pref_velocities", 2 * n);
         checked(max_speeds, "max_speeds", n);
         double* o = checked(out, "out", 2 * n);
-        if (params.max_neighbors < 0 || params.max_neighbors > socialnav::kMaxOrcaNeighbors)
-          throw std::invalid_argument("max_neighbors must be in [0, " + std::to_string(socialnav::kMaxOrcaNeighbors) +
-                                      "], got " + std::to_string(params.max_neighbors));
         const int P = polygon_count(obstacle_vertices, obstacle_offsets);
         const socialnav::PreparedObstacles walls =
             socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
@@ -671,22 +724,26 @@ NB_MODULE(_core, m) {
           o[2 * i + 1] = nv.y;
         }
       },
-      "positions"_a, "velocities"_a, "pref_velocities"_a, "radii"_a, "max_speeds"_a, "params"_a, "time_step"_a,
+      "positions"_a, "velocities"_a, "pref_velocities"_a, "radii"_a, "max_speeds"_a, "params"_a.none(), "time_step"_a,
       "obstacle_vertices"_a, "obstacle_offsets"_a, "out"_a.noconvert(),
       "New velocities (n, 2) of n agents after one ORCA step with static obstacles (RVO2's computeNeighbors "
-      "and computeNewVelocity for every agent; positions are not advanced).");
+      "and computeNewVelocity for every agent; positions are not advanced). params: the orca behaviour's (a dict "
+      "by name, e.g. neighbor_dist, max_neighbors, time_horizon, time_horizon_obst; None: the defaults); radii "
+      "are used as given.");
 
   m.def(
       "social_force_wall_force",
       [](Array<double> position, Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets,
-         const socialnav::SocialForceParams& params) {
+         nb::object params_given) {
+        const socialnav::SocialForceParams params =
+            socialnav::social_force_values(behaviour_values("social_force", params_given));
         const int P = polygon_count(obstacle_vertices, obstacle_offsets);
         const socialnav::PreparedObstacles walls =
             socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
         const Vec2 f = socialnav::social_force_wall_repulsion(vec(position), walls.view(), params);
         return nb::make_tuple(f.x, f.y);
       },
-      "position"_a, "obstacle_vertices"_a, "obstacle_offsets"_a, "params"_a,
+      "position"_a, "obstacle_vertices"_a, "obstacle_offsets"_a, "params"_a.none() = nb::none(),
       "Helbing & Molnar's wall repulsion on an agent at position (sum over the obstacles).");
 
   m.def(

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 namespace socialnav {
@@ -99,6 +100,19 @@ void social_force_robot_actions(const ObservationView& obs, const ActionFormat& 
                    out + 2 * b);
     }
   });
+}
+
+void robot_actions(const std::string& policy, const ObservationView& obs, const ActionFormat& format, double dt,
+                   const OrcaValues& orca, double safety_space, const SocialForceParams& social_force, ThreadPool& pool,
+                   double* out, const ObstacleBatchView& obstacles) {
+  if (policy == "linear")
+    linear_robot_actions(obs, format, dt, out);
+  else if (policy == "orca")
+    orca_robot_actions(obs, format, orca.solver, orca.radius_margin, safety_space, dt, pool, out, obstacles);
+  else if (policy == "social_force")
+    social_force_robot_actions(obs, format, social_force, dt, pool, out, obstacles);
+  else
+    throw std::invalid_argument("unknown native robot policy '" + policy + "'; valid: linear, orca, social_force");
 }
 
 }  // namespace socialnav

@@ -4,7 +4,9 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
+#include "behaviours/builtin_params.hpp"
 #include "obstacles.hpp"
 #include "orca.hpp"
 #include "social_force.hpp"
@@ -40,5 +42,12 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
 void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format, const SocialForceParams& params,
                                 double dt, ThreadPool& pool, double* out,
                                 const ObstacleBatchView& obstacles = ObstacleBatchView{});
+
+// The native robot policy named `policy` ("linear", "orca" or "social_force"; std::invalid_argument
+// otherwise): the ORCA one configured as the ORCA humans are (orca: that behaviour's values) with the
+// robot's own safety_space [m], the social-force one with the humans' social-force parameters.
+void robot_actions(const std::string& policy, const ObservationView& obs, const ActionFormat& format, double dt,
+                   const OrcaValues& orca, double safety_space, const SocialForceParams& social_force, ThreadPool& pool,
+                   double* out, const ObstacleBatchView& obstacles = ObstacleBatchView{});
 
 }  // namespace socialnav

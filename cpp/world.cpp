@@ -35,13 +35,13 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
   if (config.batch < 1) throw std::invalid_argument("batch must be >= 1, got " + std::to_string(config.batch));
   if (config.agents < 1) throw std::invalid_argument("agents must be >= 1");
   if (!(config.dt > 0.0)) throw std::invalid_argument("dt must be > 0");
-  if (config.orca.max_neighbors < 0 || config.orca.max_neighbors > kMaxOrcaNeighbors)
-    throw std::invalid_argument("orca max_neighbors must be in [0, " + std::to_string(kMaxOrcaNeighbors) + "]");
   const int threads = std::max(1, config.threads);
+  if (!config.human_behaviour.empty())  // checks the name and the parameters
+    behaviour_ = make_human_behaviour(config.human_behaviour, config.human_params, threads, config.agents);
+  else if (!config.human_params.empty())
+    throw std::invalid_argument("human_params given without a human_behaviour");
   new_velocity_.assign(static_cast<size_t>(config.batch) * config.agents * 2, 0.0);
-  orca_scratch_.resize(threads);
-  neighbor_scratch_.assign(threads, std::vector<OrcaNeighbor>(config.agents));
-  sf_scratch_.assign(threads, std::vector<SocialForceOther>(config.agents));
+  preferred_.assign(threads, std::vector<Vec2>(config.agents));
   if (pool && pool->size() != threads)
     throw std::invalid_argument("the pool has " + std::to_string(pool->size()) + " threads, the world " +
                                 std::to_string(threads));
@@ -106,52 +106,37 @@ void World::record(int b, int sample) {
 
 void World::human_velocities(int b, int worker) {
   const int A = config_.agents;
-  const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
-  const double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
-  const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
-  const double* radius = buf_.radius + static_cast<size_t>(b) * A;
-  const double* v_pref = buf_.v_pref + static_cast<size_t>(b) * A;
-  const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
-  double* out = new_velocity_.data() + static_cast<size_t>(b) * A * 2;
-  const int first_other = config_.robot_visible ? 0 : 1;
-  const ObstacleView walls = obstacles(b);
-
-  for (int i = 1; i < A; ++i) {
-    if (!mask[i]) continue;
-    const Vec2 p = load(pos + 2 * i);
-    const Vec2 g = load(goal + 2 * i);
-    Vec2 v_new;
-    if (config_.human_model == kHumanOrca) {
-      OrcaScratch& scratch = orca_scratch_[worker];
-      std::vector<OrcaNeighbor>& nb = neighbor_scratch_[worker];
-      scratch.begin(config_.orca.neighbor_dist);
-      for (int j = first_other; j < A; ++j) {
-        if (j == i || !mask[j]) continue;
-        scratch.offer(j, abs_sq(load(pos + 2 * j) - p), config_.orca.max_neighbors);
-      }
-      const double margin = config_.orca_radius_margin + config_.human_safety_space;
-      for (int k = 0; k < scratch.count; ++k) {
-        const int j = scratch.index[k];
-        nb[k] = OrcaNeighbor{load(pos + 2 * j), load(vel + 2 * j), radius[j] + margin};
-      }
-      const OrcaAgent self{p, load(vel + 2 * i), radius[i] + margin, v_pref[i], crowdsim_pref_velocity(p, g)};
-      v_new = orca_new_velocity(self, walls, config_.orca.time_horizon_obst, nb.data(), scratch.count,
-                                config_.orca.time_horizon, config_.dt, scratch);
-    } else if (config_.human_model == kHumanSocialForce) {
-      std::vector<SocialForceOther>& others = sf_scratch_[worker];
-      int n = 0;
-      for (int j = first_other; j < A; ++j) {
-        if (j == i || !mask[j]) continue;
-        others[n++] = SocialForceOther{load(pos + 2 * j), load(vel + 2 * j)};
-      }
-      const SocialForceAgent self{p, load(vel + 2 * i), social_force_desired_velocity(p, g, v_pref[i]),
-                                  config_.social_force.max_speed_factor * v_pref[i]};
-      v_new = social_force_new_velocity(self, others.data(), n, config_.social_force, config_.dt, walls);
-    } else {
-      v_new = straight_to_goal_velocity(p, g, v_pref[i], config_.dt);
+  const size_t row = static_cast<size_t>(b) * A;
+  const uint8_t* mask = buf_.mask + row;
+  double* out = new_velocity_.data() + row * 2;
+  if (!behaviour_) {  // a behaviour outside the core gave them
+    const double* given = given_velocity_ + row * 2;
+    for (int i = 1; i < A; ++i) {
+      if (!mask[i]) continue;
+      out[2 * i] = given[2 * i];
+      out[2 * i + 1] = given[2 * i + 1];
     }
-    store(out + 2 * i, v_new);
+    return;
   }
+  SlotView slot;
+  slot.agents = A;
+  slot.position = buf_.position + row * 2;
+  slot.velocity = buf_.velocity + row * 2;
+  slot.goal = buf_.goal + row * 2;
+  slot.radius = buf_.radius + row;
+  slot.v_pref = buf_.v_pref + row;
+  slot.mask = mask;
+  slot.robot_visible = config_.robot_visible;
+  slot.obstacles = obstacles(b);
+  slot.dt = config_.dt;
+  // Where each human wants to go (its goal), then how it avoids the others (behaviour.hpp).
+  Vec2* preferred = preferred_[worker].data();
+  for (int i = 1; i < A; ++i)
+    if (mask[i])
+      preferred[i] =
+          behaviour_->preferred_velocity(slot.at(slot.position, i), slot.at(slot.goal, i), slot.v_pref[i], slot.dt);
+  slot.preferred = preferred;
+  behaviour_->velocities(slot, worker, out);
 }
 
 void World::step_episode(int b, const double* actions, int worker) {
@@ -316,6 +301,7 @@ void World::step_episode(int b, const double* actions, int worker) {
 }
 
 void World::preview_humans(double* out) {
+  require_human_velocities();
   const int A = config_.agents;
   const int N = A - 1;
   pool_->parallel_for(config_.batch, [&](int begin, int end, int worker) {
@@ -467,8 +453,14 @@ void World::load_generated(const ScenarioConfig& scenario, const int64_t* slots,
   });
 }
 
+void World::require_human_velocities() const {
+  if (!behaviour_ && !given_velocity_)
+    throw std::invalid_argument("this world's human velocities come from its caller: give_human_velocities first");
+}
+
 int World::step(const double* actions, const StepOutputs* out) {
   const int B = config_.batch;
+  require_human_velocities();
   for (int b = 0; b < B; ++b) {
     if (buf_.status[b] != kRunning) continue;
     if (!std::isfinite(actions[2 * b]) || !std::isfinite(actions[2 * b + 1]))

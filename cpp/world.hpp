@@ -8,12 +8,12 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
+#include "behaviour.hpp"
 #include "obstacles.hpp"
-#include "orca.hpp"
 #include "scenario_gen.hpp"
-#include "social_force.hpp"
 #include "thread_pool.hpp"
 
 namespace socialnav {
@@ -30,7 +30,6 @@ enum Status : int8_t {
 // Why a collision ended an episode (collision_kind buffers).
 enum CollisionKind : int8_t { kNoCollision = 0, kHumanCollision = 1, kObstacleCollision = 2 };
 
-enum HumanModel : int { kHumanOrca = 0, kHumanSocialForce = 1, kHumanLinear = 2 };
 enum Kinematics : int { kHolonomic = 0, kUnicycle = 1 };
 
 struct WorldConfig {
@@ -38,7 +37,10 @@ struct WorldConfig {
   int agents = 0;  // 1 robot + N human slots
   double dt = 0.25;
   double time_limit = 25.0;
-  int human_model = kHumanOrca;
+  // The humans' registered behaviour (behaviour.hpp) and its parameter values in declared order
+  // (empty: its defaults); "" for velocities the caller gives every step (World::give_human_velocities).
+  std::string human_behaviour = "orca";
+  std::vector<double> human_params;
   bool robot_visible = false;
   int kinematics = kHolonomic;
   double rotation_limit = 0.7853981633974483;  // |d theta| per step for the unicycle [rad]
@@ -47,10 +49,6 @@ struct WorldConfig {
   double success_reward = 1.0;
   double collision_penalty = -0.25;
   double discomfort_penalty_factor = 0.5;
-  OrcaParams orca;
-  double orca_radius_margin = 0.01;  // CrowdSim adds 1 cm to every radius in ORCA
-  double human_safety_space = 0.0;
-  SocialForceParams social_force;
   bool continue_after_success = false;
   double continuation_cap = 100.0;  // [s] since the start of the episode
   int history_len = 0;              // samples recorded per episode; 0 disables recording
@@ -127,6 +125,12 @@ class World {
     return map ? map->view() : ObstacleView{};
   }
 
+  // With human_behaviour "": the humans' velocities (B, A, 2) of the next step (or preview), written by
+  // the caller before each call (a behaviour written in Python); entries of robots and empty slots are
+  // not read. The array must outlive the world or the next call.
+  void give_human_velocities(const double* velocity) { given_velocity_ = velocity; }
+  bool takes_given_velocities() const { return !behaviour_; }
+
   // The humans' exact next states (B, N, 5: px, py, vx, vy, radius) without advancing anything:
   // the "oracle" information some policies are given. Human motion depends on the robot only
   // through its current state (when visible), never on the robot's next action.
@@ -159,6 +163,7 @@ class World {
  private:
   void step_episode(int b, const double* actions, int worker);
   void human_velocities(int b, int worker);
+  void require_human_velocities() const;
   void record(int b, int sample);
   struct GenerationScratch {
     std::vector<double> start, goal, radius, v_pref;
@@ -168,11 +173,11 @@ class World {
 
   WorldConfig config_;
   WorldBuffers buf_;
-  std::vector<double> new_velocity_;  // (B, A, 2) scratch
-  std::vector<OrcaScratch> orca_scratch_;
-  std::vector<std::vector<OrcaNeighbor>> neighbor_scratch_;
-  std::vector<std::vector<SocialForceOther>> sf_scratch_;
-  std::unique_ptr<ThreadPool> own_pool_;  // when no pool was given
+  std::vector<double> new_velocity_;           // (B, A, 2) scratch
+  std::unique_ptr<HumanBehaviour> behaviour_;  // null: the caller gives the velocities
+  const double* given_velocity_ = nullptr;     // (B, A, 2), see give_human_velocities
+  std::vector<std::vector<Vec2>> preferred_;   // (threads, A) the humans' preferred velocities
+  std::unique_ptr<ThreadPool> own_pool_;       // when no pool was given
   ThreadPool* pool_;
   std::vector<int64_t> refill_slots_;           // refill_done's finished slots, (B,) reserved
   std::vector<int> done_rank_;                  // (B,) rank among the finished slots (where done)

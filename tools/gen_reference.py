@@ -9,6 +9,8 @@
   parameter tables of the one settings system (``Settings.parameters()``: type, default, unit,
   constraint, meaning), the same rows ``socialnav list`` prints for the scenarios.
 - metric_registry.md: the registered metrics with their units, directions, parameters and outputs.
+- behaviours.md: the built-in pedestrian behaviours (``world.human_model``) and their parameters, read from
+  the declarations each native behaviour registers in the core (cpp/behaviours/; ``socialnav list``).
 
 tests/test_docs_site.py runs ``--check``; run this script after changing a command, a setting or a metric.
 """
@@ -227,7 +229,37 @@ def metric_registry_page() -> str:
     return HEADER + "\n".join(lines).rstrip() + "\n"
 
 
-PAGES = {"cli.md": cli_page, "settings.md": settings_page, "metric_registry.md": metric_registry_page}
+# -- pedestrian behaviours ------------------------------------------------------------------------
+def behaviours_page() -> str:
+    from socialnav.sim.behaviours import list_human_behaviours
+
+    lines = [
+        "# Pedestrian behaviours",
+        "",
+        "How the humans move (`world.human_model`): the built-in behaviours and their parameters, as each",
+        "declares them once in the core (`cpp/behaviours/`); `socialnav list` prints the same, with any",
+        "behaviour registered from outside socialnav. The parameters of `orca` and `social_force` are the",
+        "sections `world.orca` and `world.social_force`; another behaviour's are `world.human_params`.",
+        "[Extending socialnav](../extending.md#a-pedestrian-behaviour) shows how to add one.",
+        "",
+    ]
+    for info in list_human_behaviours():
+        if not info.native:  # a plugin installed on this machine is not socialnav's
+            continue
+        lines += [f"## `{info.name}`", "", cell(info.description) + ".", ""]
+        rows = info.describe()["parameters"]
+        if not rows:
+            lines += ["No parameters.", ""]
+            continue
+        lines += ["| parameter | type | default | unit | constraint | meaning |", "|---|---|---|---|---|---|"]
+        lines += [f"| `{p['name']}` | {p['type']} | {_default_text(p['default'])} | {cell(p['unit'])} | "
+                  f"{cell(p['constraint'])} | {cell(p['doc'])} |" for p in rows]
+        lines.append("")
+    return HEADER + "\n".join(lines).rstrip() + "\n"
+
+
+PAGES = {"cli.md": cli_page, "settings.md": settings_page, "metric_registry.md": metric_registry_page,
+         "behaviours.md": behaviours_page}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -2,95 +2,17 @@
 # ruff: noqa
 """socialnav native core: ORCA, social force and the batched crowd world."""
 
+from collections.abc import Sequence
 from typing import Annotated, overload
 
 import numpy
 from numpy.typing import NDArray
 
 
-class OrcaParams:
-    def __init__(self) -> None: ...
-
-    @property
-    def neighbor_dist(self) -> float: ...
-
-    @neighbor_dist.setter
-    def neighbor_dist(self, arg: float, /) -> None: ...
-
-    @property
-    def max_neighbors(self) -> int: ...
-
-    @max_neighbors.setter
-    def max_neighbors(self, arg: int, /) -> None: ...
-
-    @property
-    def time_horizon(self) -> float: ...
-
-    @time_horizon.setter
-    def time_horizon(self, arg: float, /) -> None: ...
-
-    @property
-    def time_horizon_obst(self) -> float: ...
-
-    @time_horizon_obst.setter
-    def time_horizon_obst(self, arg: float, /) -> None: ...
-
-class SocialForceParams:
-    def __init__(self) -> None: ...
-
-    @property
-    def relaxation_time(self) -> float: ...
-
-    @relaxation_time.setter
-    def relaxation_time(self, arg: float, /) -> None: ...
-
-    @property
-    def v0(self) -> float: ...
-
-    @v0.setter
-    def v0(self, arg: float, /) -> None: ...
-
-    @property
-    def sigma(self) -> float: ...
-
-    @sigma.setter
-    def sigma(self, arg: float, /) -> None: ...
-
-    @property
-    def step_time(self) -> float: ...
-
-    @step_time.setter
-    def step_time(self, arg: float, /) -> None: ...
-
-    @property
-    def fov_half_angle(self) -> float: ...
-
-    @fov_half_angle.setter
-    def fov_half_angle(self, arg: float, /) -> None: ...
-
-    @property
-    def outside_fov_weight(self) -> float: ...
-
-    @outside_fov_weight.setter
-    def outside_fov_weight(self, arg: float, /) -> None: ...
-
-    @property
-    def max_speed_factor(self) -> float: ...
-
-    @max_speed_factor.setter
-    def max_speed_factor(self, arg: float, /) -> None: ...
-
-    @property
-    def wall_u0(self) -> float: ...
-
-    @wall_u0.setter
-    def wall_u0(self, arg: float, /) -> None: ...
-
-    @property
-    def wall_r(self) -> float: ...
-
-    @wall_r.setter
-    def wall_r(self, arg: float, /) -> None: ...
+def human_behaviours() -> list:
+    """
+    The registered pedestrian behaviours in listing order: dicts of name, description and parameters (dicts of name, default, type 'float' or 'int', unit, description and the bounds gt, ge, lt, le, None where unbounded), as each behaviour declares them (cpp/behaviours/).
+    """
 
 class WorldConfig:
     def __init__(self) -> None: ...
@@ -120,10 +42,16 @@ class WorldConfig:
     def time_limit(self, arg: float, /) -> None: ...
 
     @property
-    def human_model(self) -> int: ...
+    def human_behaviour(self) -> str: ...
 
-    @human_model.setter
-    def human_model(self, arg: int, /) -> None: ...
+    @human_behaviour.setter
+    def human_behaviour(self, arg: str, /) -> None: ...
+
+    @property
+    def human_params(self) -> list[float]: ...
+
+    @human_params.setter
+    def human_params(self, arg: Sequence[float], /) -> None: ...
 
     @property
     def robot_visible(self) -> bool: ...
@@ -172,30 +100,6 @@ class WorldConfig:
 
     @discomfort_penalty_factor.setter
     def discomfort_penalty_factor(self, arg: float, /) -> None: ...
-
-    @property
-    def orca(self) -> OrcaParams: ...
-
-    @orca.setter
-    def orca(self, arg: OrcaParams, /) -> None: ...
-
-    @property
-    def orca_radius_margin(self) -> float: ...
-
-    @orca_radius_margin.setter
-    def orca_radius_margin(self, arg: float, /) -> None: ...
-
-    @property
-    def human_safety_space(self) -> float: ...
-
-    @human_safety_space.setter
-    def human_safety_space(self, arg: float, /) -> None: ...
-
-    @property
-    def social_force(self) -> SocialForceParams: ...
-
-    @social_force.setter
-    def social_force(self, arg: SocialForceParams, /) -> None: ...
 
     @property
     def continue_after_success(self) -> bool: ...
@@ -257,12 +161,6 @@ COLLISION_HUMAN: int = 1
 
 COLLISION_OBSTACLE: int = 2
 
-HUMAN_ORCA: int = 0
-
-HUMAN_SOCIAL_FORCE: int = 1
-
-HUMAN_LINEAR: int = 2
-
 HOLONOMIC: int = 0
 
 UNICYCLE: int = 1
@@ -288,6 +186,11 @@ class World:
     def refill_done(self, scenario: ScenarioConfig, indices: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], seeds: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], episode_index: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], episode_seed: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], failure: Annotated[NDArray[numpy.int32], dict(order='C', device='cpu')], observation: object | None = None, final_observation: object | None = None) -> int:
         """
         Refills the slots whose episode ended in the last step, in slot order, with the episodes indices (seeds: theirs) of a built-in scenario; ended slots beyond them go idle. failure (B,) holds the codes of the first refilled ones; returns how many failed. observation: (robot, humans, human_mask, active, time) arrays of B rows for observe's result afterwards; final_observation: the same with one row per ended slot (slot order), their observation before the refill; both written in the same pass.
+        """
+
+    def give_human_velocities(self, velocity: object | None) -> None:
+        """
+        For a world built with human_behaviour '': the array (B, A, 2) the humans' velocities of each step (and preview) are read from; the caller writes it before each call (None: none given).
         """
 
     def preview_humans(self, out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
@@ -343,9 +246,9 @@ class SarlScorer:
     def values(self, joint: Annotated[NDArray[numpy.float32], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float32], dict(order='C', device='cpu')], pool: ThreadPool, states_per_tile: int = 32) -> None:
         """SARL values of M joint states, written into out (M,)."""
 
-def robot_actions(policy: str, robot: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], humans: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], active: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], kinematics: int, rotation_limit: float, dt: float, orca: OrcaParams, radius_margin: float, safety_space: float, social_force: SocialForceParams, pool: ThreadPool, out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacles: object | None = None) -> None:
+def robot_actions(policy: str, robot: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], humans: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], active: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], kinematics: int, rotation_limit: float, dt: float, orca: object | None, safety_space: float, social_force: object | None, pool: ThreadPool, out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacles: object | None = None) -> None:
     """
-    Batched actions of a native robot policy, written into out (B, 2). obstacles: None or the B episodes' static maps as PreparedObstacleBatch.
+    Batched actions of a native robot policy ('linear', 'orca' or 'social_force'), written into out (B, 2). orca, social_force: the humans' behaviour parameters of that name (a dict by name, the values in declared order, or None for the defaults); safety_space [m]: the ORCA robot's own inflation. obstacles: None or the B episodes' static maps as PreparedObstacleBatch.
     """
 
 class ScenarioConfig:
@@ -487,14 +390,17 @@ def generate_humans(config: ScenarioConfig, seeds: Annotated[NDArray[numpy.int64
 def orca_velocity(position: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], velocity: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, max_speed: float, pref_velocity: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], neighbor_positions: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], neighbor_velocities: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], neighbor_radii: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], time_horizon: float = 5.0, time_step: float = 0.25, neighbor_dist: float = 10.0, max_neighbors: int = 10) -> tuple:
     """New velocity of one agent under ORCA (RVO2 semantics, no obstacles)."""
 
-def social_force_velocity(position: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], velocity: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], desired_velocity: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], max_speed: float, other_positions: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], other_velocities: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], params: SocialForceParams, dt: float = 0.25) -> tuple: ...
-
-def orca_step(positions: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], velocities: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], pref_velocities: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radii: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], max_speeds: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], params: OrcaParams, time_step: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
+def social_force_velocity(position: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], velocity: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], desired_velocity: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], max_speed: float, other_positions: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], other_velocities: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], params: object | None = None, dt: float = 0.25) -> tuple:
     """
-    New velocities (n, 2) of n agents after one ORCA step with static obstacles (RVO2's computeNeighbors and computeNewVelocity for every agent; positions are not advanced).
+    New velocity of one agent under the social force model (params: the social_force behaviour's, a dict by name or None for the defaults).
     """
 
-def social_force_wall_force(position: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], params: SocialForceParams) -> tuple:
+def orca_step(positions: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], velocities: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], pref_velocities: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radii: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], max_speeds: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], params: object | None, time_step: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
+    """
+    New velocities (n, 2) of n agents after one ORCA step with static obstacles (RVO2's computeNeighbors and computeNewVelocity for every agent; positions are not advanced). params: the orca behaviour's (a dict by name, e.g. neighbor_dist, max_neighbors, time_horizon, time_horizon_obst; None: the defaults); radii are used as given.
+    """
+
+def social_force_wall_force(position: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], params: object | None = None) -> tuple:
     """
     Helbing & Molnar's wall repulsion on an agent at position (sum over the obstacles).
     """

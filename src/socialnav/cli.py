@@ -256,8 +256,8 @@ def cmd_list(args: argparse.Namespace) -> int:
     from socialnav.policies.loading import list_shipped_checkpoints
     from socialnav.presets import shipped_presets
     from socialnav.scenarios import list_scenarios
+    from socialnav.sim.behaviours import list_human_behaviours
     from socialnav.sim.parts import list_observation_parts
-    from socialnav.sim.settings import HUMAN_MODELS
 
     data = {
         "scenarios": {
@@ -272,7 +272,8 @@ def cmd_list(args: argparse.Namespace) -> int:
             {"name": p.name, "description": p.description, "learned": p.learned, "parameters": p.parameters}
             for p in list_policies()
         ],
-        "human_models": list(HUMAN_MODELS),
+        "human_models": [b.name for b in list_human_behaviours()],
+        "pedestrian_behaviours": [b.describe() for b in list_human_behaviours()],
         "metrics": [
             {
                 "name": m.name,
@@ -313,7 +314,12 @@ def cmd_list(args: argparse.Namespace) -> int:
             f"  {p['name']}{' (learned)' if p['learned'] else ''}: {p['description']}"
             + (f" [{extra}]" if extra else "")
         )
-    print("Human models: " + ", ".join(data["human_models"]))
+    print("Pedestrian behaviours (world.human_model; parameter=default unit (constraint); "
+          "docs/extending.md):")
+    for b in data["pedestrian_behaviours"]:
+        params = ", ".join(_parameter_text(p) for p in b["parameters"])
+        print(f"  {b['name']}{'' if b['native'] else ' (Python)'}: {b['description']}"
+              + (f" [{params}]" if params else ""))
     print("Metrics:")
     for m in data["metrics"]:
         params = ", ".join(f"{k}={v}" for k, v in m["parameters"].items())

@@ -273,7 +273,7 @@ def test_orca_and_social_force_robots_avoid_the_walls_the_linear_robot_hits(poli
 # -- social force ---------------------------------------------------------------------------------
 def test_social_force_wall_repulsion_matches_helbing_molnar_by_hand():
     """U0 = 10 m^2/s^2, R = 0.2 m: |F| = U0/R exp(-d/R) along the normal from the closest point."""
-    params = _core.SocialForceParams()
+    params = None  # the social_force behaviour's defaults
     walls = StaticMap(([[1.0, -5.0], [1.0, 5.0]], [[-3.0, 2.0], [-1.0, 2.0], [-1.0, 3.0], [-3.0, 3.0]]))
     vertices, offsets = walls.to_flat()
     p = np.array([0.4, 1.0])

@@ -36,8 +36,8 @@ class NativePolicy:
         self,
         kind: str,
         safety_space: float = 0.0,
-        orca: OrcaSettings | None = None,
-        social_force: SocialForceSettings | None = None,
+        orca: OrcaSettings | None = None,  # type: ignore[valid-type]
+        social_force: SocialForceSettings | None = None,  # type: ignore[valid-type]
         threads: int = 0,
     ):
         if safety_space < 0:
@@ -55,6 +55,7 @@ class NativePolicy:
 
     def _configure(self, settings: WorldSettings) -> None:
         self._orca_settings = settings.orca
+        # The humans' ORCA and social-force parameter values, in their behaviours' declared order.
         self._orca = orca_params(settings)
         self._social_force = social_force_params(settings)
         self.rotation_limit = float(settings.rotation_limit)
@@ -88,7 +89,6 @@ class NativePolicy:
             self.rotation_limit,
             observation.dt,
             self._orca,
-            self._orca_settings.radius_margin,
             self.safety_space,
             self._social_force,
             self._pool,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import typing
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, ClassVar, TypeVar
 
 from socialnav._io import short_repr
@@ -26,10 +26,11 @@ def setting(
     ge: float | None = None,
     lt: float | None = None,
     le: float | None = None,
-    choices: tuple[Any, ...] | None = None,
+    choices: Sequence[Any] | None = None,
     check: Callable[[Any], bool] | None = None,
     requirement: str = "",
     default_factory: Callable[[], Any] | Any = dataclasses.MISSING,
+    record_default: bool = True,
 ) -> Any:
     """Declares one setting: a dataclass field carrying its description, unit and constraint.
 
@@ -42,10 +43,14 @@ def setting(
         ge: The value must be >= ge.
         lt: The value must be < lt.
         le: The value must be <= le.
-        choices: The allowed values (string options).
+        choices: The allowed values (string options; a live sequence, such as the registered
+            pedestrian behaviours' names, is read at each check).
         check: A predicate the value must satisfy besides the bounds (None values skip it).
         requirement: What ``check`` requires, as the error says it (``must be ...``).
         default_factory: Builds the default (nested sections).
+        record_default: False: `Settings.to_dict` leaves the field out while it holds its default, so
+            that the records (run manifests, checkpoints) of settings that leave it alone are the ones
+            made before it existed, fingerprints included.
 
     Returns:
         A ``dataclasses.field``.
@@ -53,7 +58,7 @@ def setting(
     if (check is None) != (not requirement):
         raise TypeError("setting(): give check= and requirement= together")
     meta = {"doc": doc, "unit": unit, "gt": gt, "ge": ge, "lt": lt, "le": le, "choices": choices,
-            "check": check, "requirement": requirement}
+            "check": check, "requirement": requirement, "record_default": record_default}
     if default_factory is not dataclasses.MISSING:
         return dataclasses.field(default_factory=default_factory, metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
@@ -78,7 +83,7 @@ class SettingSpec:
     type: str
     doc: str
     unit: str = ""
-    choices: tuple[Any, ...] | None = None
+    choices: Sequence[Any] | None = None
     constraint: str = ""
 
     @property
@@ -161,13 +166,30 @@ class Settings:
             raise type(err)(f"{source}: {err}") from None
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-dict form (JSON/YAML serialisable, nested sections as dicts, in field order)."""
-        return dataclasses.asdict(self)  # type: ignore[call-overload]
+        """Plain-dict form (JSON/YAML serialisable, nested sections as dicts, in field order).
+
+        ``dataclasses.asdict``, less the fields declared with ``record_default=False`` that hold their
+        default (in nested sections too).
+        """
+        return _drop_unrecorded(self, dataclasses.asdict(self))  # type: ignore[call-overload]
 
     @classmethod
     def parameters(cls) -> tuple[SettingSpec, ...]:
         """The parameter table, nested sections flattened after a section row (see `parameter_table`)."""
         return tuple(parameter_table(cls))
+
+
+def _drop_unrecorded(obj: Any, data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` (``asdict(obj)``) less the fields of ``obj`` that are not recorded at their default."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if not f.metadata.get("record_default", True):
+            default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
+            if value == default:
+                del data[f.name]
+        elif dataclasses.is_dataclass(value) and isinstance(data.get(f.name), dict):
+            _drop_unrecorded(value, data[f.name])
+    return data
 
 
 def parameter_table(cls: type, prefix: str = "") -> list[SettingSpec]:

@@ -73,8 +73,9 @@ def from_dict(cls: type[T], data: Mapping[str, Any] | None, path: str = "") -> T
 
 
 def to_dict(obj: Any) -> dict[str, Any]:
-    """Plain-dict form of a settings dataclass (JSON/YAML serialisable)."""
-    return dataclasses.asdict(obj)
+    """Plain-dict form of a settings dataclass (JSON/YAML serialisable; a Settings' own ``to_dict``)."""
+    own = getattr(obj, "to_dict", None)
+    return own() if callable(own) else dataclasses.asdict(obj)
 
 
 def check(condition: bool, field: str, value: Any, requirement: str) -> None:

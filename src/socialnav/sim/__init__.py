@@ -32,6 +32,10 @@ _EXPORTS = {
     "SocialForceSettings": "socialnav.sim.settings",
     "RewardSettings": "socialnav.sim.settings",
     "HUMAN_MODELS": "socialnav.sim.settings",
+    "HumanBehaviour": "socialnav.sim.behaviours",
+    "HumanState": "socialnav.sim.behaviours",
+    "register_human_behaviour": "socialnav.sim.behaviours",
+    "list_human_behaviours": "socialnav.sim.behaviours",
     "Observation": "socialnav.sim.observation",
     "discrete_actions": "socialnav.sim.actions",
     "orca_step": "socialnav.sim.orca_solver",
@@ -58,6 +62,10 @@ __all__ = [
     "SocialForceSettings",
     "RewardSettings",
     "HUMAN_MODELS",
+    "HumanBehaviour",
+    "HumanState",
+    "register_human_behaviour",
+    "list_human_behaviours",
     "Observation",
     "discrete_actions",
     "orca_step",
@@ -83,6 +91,12 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load
     from socialnav.envs.single import SocialNavEnv
     from socialnav.envs.vector import SocialNavVectorEnv
     from socialnav.sim.actions import discrete_actions
+    from socialnav.sim.behaviours import (
+        HumanBehaviour,
+        HumanState,
+        list_human_behaviours,
+        register_human_behaviour,
+    )
     from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
     from socialnav.sim.observation import Observation
     from socialnav.sim.orca_solver import orca_step

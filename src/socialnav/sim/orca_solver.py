@@ -95,11 +95,9 @@ def orca_step(
         vertices, offsets = static_map.to_flat()
     else:
         vertices, offsets = np.zeros((0, 2)), np.zeros(1, dtype=np.int64)
-    params = _core.OrcaParams()
-    params.neighbor_dist = float(neighbor_dist)
-    params.max_neighbors = int(max_neighbors)
-    params.time_horizon = float(time_horizon)
-    params.time_horizon_obst = float(time_horizon_obst)
+    # The ORCA behaviour's parameters by name (the others keep their defaults; radii are used as given).
+    params = {"neighbor_dist": float(neighbor_dist), "max_neighbors": int(max_neighbors),
+              "time_horizon": float(time_horizon), "time_horizon_obst": float(time_horizon_obst)}
     out = np.zeros((n, 2))
     _core.orca_step(
         positions, velocities, pref_velocities, radii, max_speeds, params, float(time_step),

@@ -7,14 +7,17 @@ previous velocities, no human-human overlap count).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 from socialnav.settings import Settings, setting
+from socialnav.settings.validation import type_hints
+from socialnav.sim.behaviours import HUMAN_MODELS, human_behaviour, native_settings
 
-HUMAN_MODELS = ("orca", "social_force", "linear")
 ORCA_MODES = ("centralized", "decentralized")
 VISIBILITIES = ("invisible", "visible")
 KINEMATICS = ("holonomic", "unicycle")
@@ -27,39 +30,12 @@ MIN_DT = 1e-4  # [s]
 MAX_OBSTACLE_VERTICES = 100_000  # the largest bound max_obstacle_vertices may be set to
 
 
-@dataclass(frozen=True)
-class OrcaSettings(Settings):
-    """ORCA parameters CrowdSim passes to RVO2 (van den Berg et al., 2011)."""
-
-    section: ClassVar[str] = "orca"
-
-    neighbor_dist: float = setting(10.0, "agents farther than this are ignored", unit="m", gt=0)
-    max_neighbors: int = setting(10, "nearest agents considered", ge=0, le=64)
-    time_horizon: float = setting(5.0, "time horizon of the velocity obstacles of agents", unit="s", gt=0)
-    time_horizon_obst: float = setting(
-        5.0, "time horizon for static obstacles (CrowdSim's timeHorizonObst)", unit="s", gt=0
-    )
-    radius_margin: float = setting(0.01, "CrowdSim inflates every radius by 1 cm", unit="m", ge=0)
-    safety_space: float = setting(0.0, "extra inflation used by the humans", unit="m", ge=0)
-
-
-@dataclass(frozen=True)
-class SocialForceSettings(Settings):
-    """Helbing & Molnár (1995) parameters (their published values)."""
-
-    section: ClassVar[str] = "social_force"
-
-    relaxation_time: float = setting(0.5, "tau: relaxation time towards the desired velocity", unit="s", gt=0)
-    v0: float = setting(2.1, "V0: repulsion strength", unit="m^2/s^2", ge=0)
-    sigma: float = setting(0.3, "repulsion range", unit="m", gt=0)
-    step_time: float = setting(2.0, "delta t for the other's step", unit="s", gt=0)
-    fov_half_angle: float = setting(100.0, "phi: half angle of the field of view", unit="deg")
-    outside_fov_weight: float = setting(0.5, "c: weight of forces from outside the field of view", ge=0, le=1)
-    max_speed_factor: float = setting(1.3, "v_max / v_desired", gt=0)
-    wall_u0: float = setting(
-        10.0, "U0: wall repulsion strength (Helbing & Molnár 1995)", unit="m^2/s^2", ge=0
-    )
-    wall_r: float = setting(0.2, "R: wall repulsion range (Helbing & Molnár 1995)", unit="m", gt=0)
+#: The native behaviours' parameter sections, built from their declarations in the core
+#: (cpp/behaviours/; socialnav.sim.behaviours): ORCA (van den Berg et al., 2011) as CrowdSim passes it to
+#: RVO2, and Helbing & Molnár's (1995) social force with their published values.
+#: (Type checkers see them as variables: annotations naming them are marked ``type: ignore[valid-type]``.)
+OrcaSettings = native_settings("orca")
+SocialForceSettings = native_settings("social_force")
 
 
 @dataclass(frozen=True)
@@ -92,7 +68,10 @@ class WorldSettings(Settings):
     dt: float = setting(0.25, "time step", unit="s", gt=0, check=lambda dt: dt >= MIN_DT,
                         requirement=f"must be >= {MIN_DT} s")
     time_limit: float = setting(25.0, "episode time limit (a timeout after it)", unit="s", gt=0)
-    human_model: str = setting("orca", "how the humans move", choices=HUMAN_MODELS)
+    human_model: str = setting(
+        "orca", "how the humans move: a registered pedestrian behaviour (socialnav list)",
+        choices=HUMAN_MODELS,
+    )
     orca_mode: str = setting(
         "centralized", "ORCA humans solved in one simulator (CrowdSim) or each alone", choices=ORCA_MODES
     )
@@ -104,8 +83,13 @@ class WorldSettings(Settings):
                                     gt=0, le=math.pi)
     crowdsim_compat: bool = setting(False, "restore CrowdSim's quirks (docs/simulator.md)")
     reward: RewardSettings = setting(default_factory=RewardSettings)
-    orca: OrcaSettings = setting(default_factory=OrcaSettings)
-    social_force: SocialForceSettings = setting(default_factory=SocialForceSettings)
+    orca: OrcaSettings = setting(default_factory=OrcaSettings)  # type: ignore[valid-type]
+    social_force: SocialForceSettings = setting(default_factory=SocialForceSettings)  # type: ignore[valid-type]
+    human_params: dict[str, Any] | None = setting(
+        None, "parameters of a human_model without a section of its own here (one registered outside "
+        "socialnav): a mapping of some of them, the rest default; left out of records while None",
+        record_default=False,
+    )
     continue_after_success: bool = setting(
         False, "keep simulating the humans after the robot arrives (M_III)"
     )
@@ -122,11 +106,16 @@ class WorldSettings(Settings):
     )
 
     def cross_check(self) -> None:
-        """Refuses episodes longer than `MAX_STEPS` samples (before anything is allocated).
+        """Resolves ``human_params``; refuses episodes longer than `MAX_STEPS` samples.
+
+        Both before anything is allocated.
 
         Raises:
-            ConfigError: naming time_limit or continuation_cap, whichever makes the episode long.
+            ConfigError: naming human_params (a parameter of the behaviour, or parameters given to one
+                whose parameters live elsewhere), or time_limit or continuation_cap, whichever makes the
+                episode long.
         """
+        self._resolve_human_params()
         steps = self.history_length() - 2
         if steps > MAX_STEPS:
             by_cap = self.continue_after_success and self.continuation_cap > self.time_limit
@@ -138,6 +127,42 @@ class WorldSettings(Settings):
                 f"{MAX_STEPS} allowed (raise dt or lower {name})",
                 got=False,
             )
+
+    def _resolve_human_params(self) -> None:
+        """Stores ``human_params`` as every parameter of ``human_model`` (None where it has a section)."""
+        info = human_behaviour(self.human_model)
+        given = self.human_params
+        names = [p.name for p in info.parameters.parameters()]
+        if self.human_model in self._sections() or not names:
+            if given:
+                where = f"world.{self.human_model}" if names else "nowhere: it has none"
+                self.refuse("human_params", f"must be empty for human_model {self.human_model!r} (its "
+                            f"parameters are set in {where})")
+            object.__setattr__(self, "human_params", None)
+            return
+        if given is not None and not isinstance(given, Mapping):
+            self.refuse("human_params", f"must be a mapping of the parameters of {self.human_model!r} "
+                        f"({', '.join(names)})")
+        values = info.parameters.from_dict(given, section="human_params")
+        object.__setattr__(self, "human_params", values.to_dict())
+
+    @classmethod
+    def _sections(cls) -> frozenset[str]:
+        """The behaviours whose parameters are a section of their own: a field named after them."""
+        hints = type_hints(cls)
+        return frozenset(f.name for f in dataclasses.fields(cls)
+                         if f.name in HUMAN_MODELS and hints[f.name] is human_behaviour(f.name).parameters)
+
+    def human_parameters(self) -> Settings:
+        """The parameters of ``human_model``: its section, or ``human_params`` as its settings class.
+
+        Returns:
+            An instance of the behaviour's settings class (for a Python behaviour: the behaviour itself).
+        """
+        cls = human_behaviour(self.human_model).parameters
+        if self.human_model in self._sections():
+            return getattr(self, self.human_model)
+        return cls(**(self.human_params or {}))
 
     @property
     def resolved_threads(self) -> int:

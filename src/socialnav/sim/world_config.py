@@ -1,15 +1,18 @@
 """The native world's configuration: WorldSettings translated for the core, and the World's size bounds.
 
 :class:`~socialnav.sim.world.World` builds its ``_core.WorldConfig`` here; the native robot policies
-(:mod:`socialnav.policies.native`) share the ORCA and social-force parameter translation, so that a
-robot steered by ORCA and the humans simulated by it read the same settings.
+(:mod:`socialnav.policies.native`) pass the same ORCA and social-force parameter values, so that a
+robot steered by ORCA and the humans simulated by it read the same settings. A behaviour's values
+travel as one list in its declared order (cpp/behaviours/), whatever the behaviour.
 """
 
 from __future__ import annotations
 
-import numpy as np
+import dataclasses
 
 from socialnav import _core
+from socialnav.settings import Settings
+from socialnav.sim.behaviours import human_behaviour
 from socialnav.sim.settings import WorldSettings
 
 #: Memory one World may allocate for its state and recorded histories (docs/simulator.md, "Bounds").
@@ -17,13 +20,6 @@ MAX_WORLD_BYTES = 4 * 2**30
 #: Native bytes per obstacle vertex and slot, for the memory check: the worst case, a different map in
 #: every slot (slots with equal maps share one prepared copy).
 OBSTACLE_VERTEX_BYTES = 128
-
-#: The core's code of each human motion model (``WorldSettings.human_model``).
-HUMAN_MODEL_IDS = {
-    "orca": _core.HUMAN_ORCA,
-    "social_force": _core.HUMAN_SOCIAL_FORCE,
-    "linear": _core.HUMAN_LINEAR,
-}
 
 
 def world_bytes(settings: WorldSettings, batch_size: int, n_agents: int, record: bool = True) -> int:
@@ -101,7 +97,10 @@ def world_config(
     c = _core.WorldConfig()
     c.batch, c.agents, c.history_len, c.threads = batch_size, n_agents, history_len, s.resolved_threads
     c.dt, c.time_limit = s.dt, s.time_limit
-    c.human_model = HUMAN_MODEL_IDS[s.human_model]
+    if human_behaviour(s.human_model).native:
+        c.human_behaviour, c.human_params = s.human_model, parameter_values(s.human_parameters())
+    else:  # a behaviour written in Python: the World gives the velocities (sim/python_humans.py)
+        c.human_behaviour, c.human_params = "", []
     c.robot_visible = s.visibility == "visible"
     c.kinematics = _core.HOLONOMIC if s.kinematics == "holonomic" else _core.UNICYCLE
     c.rotation_limit = s.rotation_limit
@@ -110,10 +109,6 @@ def world_config(
     c.success_reward = s.reward.success_reward
     c.collision_penalty = s.reward.collision_penalty
     c.discomfort_penalty_factor = s.reward.discomfort_penalty_factor
-    c.orca = orca_params(s)
-    c.orca_radius_margin = s.orca.radius_margin
-    c.human_safety_space = s.orca.safety_space
-    c.social_force = social_force_params(s)
     c.continue_after_success = s.continue_after_success
     c.continuation_cap = s.continuation_cap
     c.max_obstacle_vertices = s.max_obstacle_vertices
@@ -122,36 +117,38 @@ def world_config(
     return c
 
 
-def orca_params(settings: WorldSettings) -> _core.OrcaParams:
-    """The core's ORCA parameters from ``settings.orca``.
+def parameter_values(parameters: Settings) -> list[float]:
+    """A behaviour's parameter values in declared order, as the core takes them.
+
+    Args:
+        parameters: An instance of the behaviour's settings class (``settings.orca``, ...).
+
+    Returns:
+        Its fields' values as floats, in field order (the order of the behaviour's declaration).
+    """
+    return [float(v) for v in dataclasses.astuple(parameters)]  # type: ignore[call-overload]
+
+
+def orca_params(settings: WorldSettings) -> list[float]:
+    """The ORCA parameter values of ``settings.orca``, as the core's ORCA robot policy takes them.
 
     Args:
         settings: Simulator semantics.
 
     Returns:
-        The ``_core.OrcaParams`` (neighbour distance [m] and count, time horizons [s]).
+        The ``orca`` behaviour's values in declared order (neighbour distance [m] and count, time
+        horizons [s], radius margin and safety space [m]).
     """
-    p = _core.OrcaParams()
-    p.neighbor_dist = settings.orca.neighbor_dist
-    p.max_neighbors = settings.orca.max_neighbors
-    p.time_horizon = settings.orca.time_horizon
-    p.time_horizon_obst = settings.orca.time_horizon_obst
-    return p
+    return parameter_values(settings.orca)
 
 
-def social_force_params(settings: WorldSettings) -> _core.SocialForceParams:
-    """The core's social-force parameters from ``settings.social_force``.
+def social_force_params(settings: WorldSettings) -> list[float]:
+    """The social-force parameter values of ``settings.social_force``, as the core takes them.
 
     Args:
-        settings: Simulator semantics (the field of view is given in degrees there).
+        settings: Simulator semantics (the field of view in degrees: the core converts it).
 
     Returns:
-        The ``_core.SocialForceParams``, the field of view's half angle in radians.
+        The ``social_force`` behaviour's values in declared order.
     """
-    sf = settings.social_force
-    p = _core.SocialForceParams()
-    p.relaxation_time, p.v0, p.sigma, p.step_time = sf.relaxation_time, sf.v0, sf.sigma, sf.step_time
-    p.fov_half_angle = float(np.deg2rad(sf.fov_half_angle))
-    p.outside_fov_weight, p.max_speed_factor = sf.outside_fov_weight, sf.max_speed_factor
-    p.wall_u0, p.wall_r = sf.wall_u0, sf.wall_r
-    return p
+    return parameter_values(settings.social_force)

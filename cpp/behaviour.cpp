@@ -1,0 +1,94 @@
+#include "behaviour.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace socialnav {
+
+namespace {
+
+// Function-local statics: filled by the registrars whatever the order the files' statics run in.
+std::vector<std::unique_ptr<BehaviourInfo>>& registry() {  // stable addresses: callers keep pointers
+  static std::vector<std::unique_ptr<BehaviourInfo>> entries;
+  return entries;
+}
+
+std::string& duplicate() {  // the first name registered twice, "" if none
+  static std::string name;
+  return name;
+}
+
+std::string number(double x) {
+  std::ostringstream s;
+  s << x;
+  return s.str();
+}
+
+}  // namespace
+
+ParamValues::ParamValues(const std::string& behaviour, const std::vector<BehaviourParam>& params,
+                         const std::vector<double>& values)
+    : params_(&params), behaviour_(behaviour) {
+  if (values.empty()) {
+    for (const BehaviourParam& p : params) values_.push_back(p.default_value);
+    return;
+  }
+  if (values.size() != params.size())
+    throw std::invalid_argument(behaviour + ": expected " + std::to_string(params.size()) + " parameter values, got " +
+                                std::to_string(values.size()));
+  for (size_t k = 0; k < params.size(); ++k) {
+    const BehaviourParam& p = params[k];
+    const double v = values[k];
+    const std::string what = behaviour + "." + p.name;
+    if (!std::isfinite(v)) throw std::invalid_argument(what + " must be finite, got " + number(v));
+    if (p.integer && std::floor(v) != v) throw std::invalid_argument(what + " must be an integer, got " + number(v));
+    const std::string got = ", got " + number(v);
+    if (!std::isnan(p.gt) && !(v > p.gt)) throw std::invalid_argument(what + " must be > " + number(p.gt) + got);
+    if (!std::isnan(p.ge) && !(v >= p.ge)) throw std::invalid_argument(what + " must be >= " + number(p.ge) + got);
+    if (!std::isnan(p.lt) && !(v < p.lt)) throw std::invalid_argument(what + " must be < " + number(p.lt) + got);
+    if (!std::isnan(p.le) && !(v <= p.le)) throw std::invalid_argument(what + " must be <= " + number(p.le) + got);
+  }
+  values_ = values;
+}
+
+double ParamValues::get(const std::string& name) const {
+  for (size_t k = 0; k < params_->size(); ++k)
+    if ((*params_)[k].name == name) return values_[k];
+  throw std::logic_error(behaviour_ + " declares no parameter '" + name + "'");
+}
+
+std::vector<const BehaviourInfo*> human_behaviours() {
+  if (!duplicate().empty()) throw std::logic_error("two pedestrian behaviours are registered as '" + duplicate() + "'");
+  std::vector<const BehaviourInfo*> out;
+  for (const auto& info : registry()) out.push_back(info.get());
+  std::sort(out.begin(), out.end(), [](const BehaviourInfo* a, const BehaviourInfo* b) {
+    return a->order != b->order ? a->order < b->order : a->name < b->name;
+  });
+  return out;
+}
+
+const BehaviourInfo& human_behaviour(const std::string& name) {
+  std::string names;
+  for (const BehaviourInfo* info : human_behaviours()) {
+    if (info->name == name) return *info;
+    names += (names.empty() ? "" : ", ") + info->name;
+  }
+  throw std::invalid_argument("unknown pedestrian behaviour '" + name + "'; registered: " + names);
+}
+
+std::unique_ptr<HumanBehaviour> make_human_behaviour(const std::string& name, const std::vector<double>& values,
+                                                     int threads, int agents) {
+  const BehaviourInfo& info = human_behaviour(name);
+  const ParamValues params(info.name, info.params, values);
+  return info.make(BehaviourSetup{params, std::max(1, threads), agents});
+}
+
+BehaviourRegistrar::BehaviourRegistrar(BehaviourInfo info) {
+  for (const auto& other : registry())
+    if (other->name == info.name && duplicate().empty()) duplicate() = info.name;
+  registry().push_back(std::make_unique<BehaviourInfo>(std::move(info)));
+}
+
+}  // namespace socialnav
