@@ -77,7 +77,7 @@ class PartContext:
         """The networks' layout: the world's rows, the obstacle points as agents of ``obstacle_points``."""
         return cls("world", 1.0, 1.0, "float64", 0, "holonomic", obstacle_points, 0, True)
 
-    @property
+    @cached_property
     def np_dtype(self) -> np.dtype:
         """The feature arrays' NumPy dtype."""
         return np.dtype(self.dtype)

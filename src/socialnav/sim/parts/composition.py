@@ -44,6 +44,9 @@ class ObservationComposition:
                         f"observation parts {owner[key]!r} and {part.name!r} both give key {key!r}"
                     )
                 owner[key] = part.name
+        #: The parts that give keys in this layout (one without keys, such as obstacle_points without
+        #: an encoding, is not asked to compute anything).
+        self.active = tuple(p for p in self.parts if p.name in owner.values())
 
     def spaces(self) -> dict[str, Any]:
         """One episode's keys (in part order) and their Gymnasium spaces."""
@@ -63,8 +66,9 @@ class ObservationComposition:
     def __call__(self, data: PartInput) -> dict[str, np.ndarray]:
         """Every part's (B, …) arrays of ``data``, one dict."""
         out: dict[str, np.ndarray] = {}
-        for part in self.parts:
-            out.update(part.compute(data, self.context))
+        ctx = self.context
+        for part in self.active:
+            out.update(part.compute(data, ctx))
         return out
 
     def agent_sets(self, data: PartInput) -> tuple[np.ndarray, np.ndarray, int]:
