@@ -34,9 +34,9 @@ import time
 import numpy as np
 
 from socialnav.presets import load_preset
-from socialnav.train.envs import MultiWorld, mix_human_slots
-from socialnav.train.ppo import train_ppo
-from socialnav.train.ppo_config import NetworkSettings, load_ppo_settings
+from socialnav.train.ppo.algorithm import train_ppo
+from socialnav.train.ppo.settings import NetworkSettings, load_ppo_settings
+from socialnav.train.worlds import MultiWorld, mix_human_slots
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _machine import add_record_arguments, cpu_model, emit, run_record  # noqa: E402  (benchmarks/ is not a package)

@@ -41,12 +41,13 @@ from pathlib import Path
 import torch
 
 from socialnav.policies.learned import ValuePolicy, build
-from socialnav.train.common import AdamSteps, make_optimizer
-from socialnav.train.config import load_train_settings
-from socialnav.train.fused_step import FusedTDStep
-from socialnav.train.memory import ReplayMemory
-from socialnav.train.rl import replay_td_loss
-from socialnav.train.trainer import resolve_device, train
+from socialnav.train.optim import AdamSteps, make_optimizer
+from socialnav.train.run_directory import resolve_device
+from socialnav.train.value.fused_step import FusedTDStep
+from socialnav.train.value.memory import ReplayMemory
+from socialnav.train.value.rl import replay_td_loss
+from socialnav.train.value.settings import load_train_settings
+from socialnav.train.value.trainer import train
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _machine import add_record_arguments, emit, run_record  # noqa: E402  (benchmarks/ is not a package)

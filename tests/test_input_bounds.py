@@ -28,8 +28,9 @@ from socialnav.maps.files import MapFileError, load_map
 from socialnav.presets import Preset, load_preset
 from socialnav.settings import ConfigError, from_dict
 from socialnav.sweep.spec import load_sweep
-from socialnav.train.config import TrainSettings, load_train_settings, shipped_train_configs
-from socialnav.train.ppo_config import MAX_N_ENVS, PPOSettings, load_ppo_settings
+from socialnav.train.ppo.settings import MAX_N_ENVS, PPOSettings, load_ppo_settings
+from socialnav.train.settings_files import shipped_train_configs
+from socialnav.train.value.settings import TrainSettings, load_train_settings
 
 SECONDS = 5.0  # each refusal must come well within this (before the fixes: 22 s to minutes)
 PEAK_BYTES = 64 * 2**20  # and allocate little (before: 1 to 2.2 GB)

@@ -9,7 +9,7 @@ import yaml
 
 from socialnav.presets import load_preset
 from socialnav.settings import ConfigError
-from socialnav.train.config import load_train_settings
+from socialnav.train.value.settings import load_train_settings
 
 
 def _wang2022_with(tmp_path, section: str, key: str, value):

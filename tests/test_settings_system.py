@@ -30,8 +30,8 @@ from socialnav.settings import (
 )
 from socialnav.sim.settings import OrcaSettings, RewardSettings, SocialForceSettings, WorldSettings
 from socialnav.sweep.spec import EvaluateJobSettings, SweepSettings, TrainJobSettings
-from socialnav.train.config import ImitationSettings, RLSettings, TrainSettings
-from socialnav.train.ppo_config import NetworkSettings, PPOSettings
+from socialnav.train.ppo.settings import NetworkSettings, PPOSettings
+from socialnav.train.value.settings import ImitationSettings, RLSettings, TrainSettings
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from socialnav.maps.files import MapFileError, load_map
 from socialnav.presets import load_preset
 from socialnav.settings import ConfigError
 from socialnav.sweep.spec import load_sweep
-from socialnav.train.config import load_train_settings
+from socialnav.train.value.settings import load_train_settings
 
 
 def test_plain_yaml_reads_as_safe_load_does() -> None:

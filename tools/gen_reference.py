@@ -135,8 +135,8 @@ def settings_page() -> str:
     from socialnav.scenarios import list_scenarios
     from socialnav.sim.settings import WorldSettings
     from socialnav.sweep.spec import EvaluateJobSettings, SweepSettings, TrainJobSettings
-    from socialnav.train.config import TrainSettings
-    from socialnav.train.ppo_config import PPOSettings
+    from socialnav.train.ppo.settings import PPOSettings
+    from socialnav.train.value.settings import TrainSettings
 
     lines = [
         "# Settings reference",

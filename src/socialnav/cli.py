@@ -258,7 +258,9 @@ def cmd_list(args: argparse.Namespace) -> int:
     from socialnav.scenarios import list_scenarios
     from socialnav.sim.behaviours import list_human_behaviours
     from socialnav.sim.parts import list_observation_parts
+    from socialnav.train.registry import list_trainers
 
+    trainers = list_trainers()  # first: a trainer's plugin may register the learned policies it trains
     data = {
         "scenarios": {
             name: [
@@ -272,6 +274,7 @@ def cmd_list(args: argparse.Namespace) -> int:
             {"name": p.name, "description": p.description, "learned": p.learned, "parameters": p.parameters}
             for p in list_policies()
         ],
+        "trainers": [t.describe() for t in trainers],
         "human_models": [b.name for b in list_human_behaviours()],
         "pedestrian_behaviours": [b.describe() for b in list_human_behaviours()],
         "metrics": [
@@ -314,6 +317,11 @@ def cmd_list(args: argparse.Namespace) -> int:
             f"  {p['name']}{' (learned)' if p['learned'] else ''}: {p['description']}"
             + (f" [{extra}]" if extra else "")
         )
+    print("Trainers (socialnav train --policy P trains P with its trainer; docs/extending.md):")
+    for t in data["trainers"]:
+        print(f"  {t['name']}: {t['description']} [policies: {', '.join(t['policies']) or 'none'}; "
+              f"settings {t['settings']}, default config {t['default_config'] or 'none'}, "
+              f"writes {', '.join(t['checkpoints'])}]")
     print("Pedestrian behaviours (world.human_model; parameter=default unit (constraint); "
           "docs/extending.md):")
     for b in data["pedestrian_behaviours"]:

@@ -59,7 +59,7 @@ def main() -> None:
     import socialnav.cli  # noqa: F401
     import socialnav.evaluate.runner  # noqa: F401
     import socialnav.policies.learned  # noqa: F401
-    import socialnav.train.trainer  # noqa: F401
+    import socialnav.train.value.trainer  # noqa: F401
 
     codes = [run_case(case) for case in cases]
     with open(sys.argv[2], "w") as f:

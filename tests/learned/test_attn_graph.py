@@ -164,7 +164,7 @@ def test_checkpoint_round_trip_through_the_policy_registry(tmp_path):
     from socialnav.policies.learned_entries import PresetMismatchError
     from socialnav.policies.loading import build_policy
     from socialnav.presets import load_preset
-    from socialnav.train.ppo_worlds import ppo_policy_config
+    from socialnav.train.worlds import ppo_policy_config
 
     preset = load_preset("wang2022")
     net = _net(prediction_steps=3)

@@ -57,8 +57,8 @@ def test_sequence_equals_steps():
 def test_ppo_trains_the_mlp_and_the_registry_loads_it(tmp_path):
     from socialnav.policies.loading import build_policy
     from socialnav.presets import load_preset
-    from socialnav.train.ppo import train_ppo
-    from socialnav.train.ppo_config import PPOSettings
+    from socialnav.train.ppo.algorithm import train_ppo
+    from socialnav.train.ppo.settings import PPOSettings
 
     s = PPOSettings(
         policy="ppo_mlp",

@@ -24,7 +24,7 @@ from socialnav.policies.learned_entries import PresetMismatchError, load_ppo_pol
 from socialnav.presets import load_preset
 from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.obstacle_points import ObstaclePoints
-from socialnav.train.ppo_worlds import ppo_policy_config
+from socialnav.train.worlds import ppo_policy_config
 
 from .helpers import SMALL_ATTN_GRAPH as SMALL
 

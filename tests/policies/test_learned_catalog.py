@@ -79,7 +79,8 @@ def test_every_shipped_record_names_an_importable_network():
 @pytest.mark.parametrize(
     ("changes", "message"),
     [
-        ({"trainer": "sac"}, "trainer 'sac' must be one of"),
+        ({"trainer": "sac"}, "trainer 'sac' is not a built-in trainer (value, ppo): give checkpoint_kind"),
+        ({"checkpoint_kind": "q_values"}, "checkpoint_kind 'q_values' must be one of"),
         ({"defaults": {"planning_dept": 2}}, "unknown default(s) ['planning_dept']"),
         ({"trainer": "ppo"}, "lookahead defaults apply to value-based policies only"),
         ({"required_information": "learned"}, "required_information 'learned' must also be its default"),
@@ -102,8 +103,8 @@ def test_a_registered_record_reaches_list_train_and_labels(isolated_registries, 
     from socialnav.cli import main
     from socialnav.policies.loading import default_label, default_paper_row
     from socialnav.presets import load_preset
-    from socialnav.train.config import TrainSettings
-    from socialnav.train.envs import training_n_humans
+    from socialnav.train.value.settings import TrainSettings
+    from socialnav.train.worlds import training_n_humans
 
     register_learned_policy(dummy_spec())
     assert main(["list", "--json"]) == 0
@@ -131,7 +132,7 @@ def test_a_registered_record_reaches_list_train_and_labels(isolated_registries, 
 
 def test_a_record_requiring_one_information_refuses_another(isolated_registries):
     from socialnav.settings import ConfigError
-    from socialnav.train.config import TrainSettings
+    from socialnav.train.value.settings import TrainSettings
 
     register_learned_policy(dummy_spec(required_information="oracle", defaults={"information": "oracle"}))
     assert TrainSettings().resolved("dummy_attention").information == "oracle"

@@ -613,12 +613,13 @@ def test_jobs_of_several_presets_say_so_in_the_combined_summary(tmp_path):
 def test_a_training_jobs_lines_name_the_job_or_are_silenced(tmp_path, capsys, monkeypatch, label, said):
     from types import SimpleNamespace
 
-    import socialnav.train.trainer as trainer
+    import socialnav.train.value.trainer as trainer
     from socialnav.sweep.tasks import train_job
 
-    def fake_train(policy, preset, out, settings, progress, log):  # the trainer's log, not its work
+    def fake_train(policy, preset, out, settings, progress, stop_after, log):  # the trainer's log, not its work
         log("after imitation: 0.5")
-        return SimpleNamespace(best_checkpoint=out, episodes=0, gradient_steps=0, best_val={}, resumed=False)
+        return SimpleNamespace(out_dir=out, best_checkpoint=out, episodes=0, gradient_steps=0, best_val={},
+                               wall_time=0.0, resumed=False)
 
     monkeypatch.setattr(trainer, "train", fake_train)
     train_job(None, {"policy": "sarl", "preset": "wang2022"}, str(tmp_path), 1, label)

@@ -91,8 +91,8 @@ def train_value(policy: str, out: Path, stop_after: int | None = None) -> None:
         out: run directory (resumed when it holds last.pt).
         stop_after: RL episodes after which this call stops, as if killed.
     """
-    from socialnav.train.config import load_train_settings
-    from socialnav.train.trainer import train
+    from socialnav.train.value.settings import load_train_settings
+    from socialnav.train.value.trainer import train
 
     out.mkdir(parents=True, exist_ok=True)
     settings_file = out.parent / f"{out.name}-settings.yaml"
@@ -116,8 +116,8 @@ def train_ppo_tiny(policy: str, out: Path, stop_after: int | None = None) -> Non
         out: run directory (resumed when it holds last.pt).
         stop_after: updates after which this call stops, as if killed.
     """
-    from socialnav.train.ppo import train_ppo
-    from socialnav.train.ppo_config import NetworkSettings, PPOSettings
+    from socialnav.train.ppo.algorithm import train_ppo
+    from socialnav.train.ppo.settings import NetworkSettings, PPOSettings
 
     network = NetworkSettings(
         robot_embed=16, human_hidden=8, attn_size=16, attn_heads=2, human_out=16, rh_attention=8,

@@ -6,9 +6,9 @@ import pytest
 import torch
 
 from socialnav.policies.learned import ValuePolicy, build
-from socialnav.train.common import AdamSteps, load_optimizer_state, make_optimizer, optimizer_state
-from socialnav.train.memory import ReplayMemory
-from socialnav.train.rl import replay_td_loss
+from socialnav.train.optim import AdamSteps, load_optimizer_state, make_optimizer, optimizer_state
+from socialnav.train.value.memory import ReplayMemory
+from socialnav.train.value.rl import replay_td_loss
 
 
 def _train(name: str, fast: bool, steps: int = 25, resume_at: int | None = None):

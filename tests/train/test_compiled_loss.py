@@ -8,11 +8,10 @@ import torch
 
 from socialnav.cli import build_parser
 from socialnav.policies.learned import ValuePolicy, build, load_checkpoint
-from socialnav.train.common import resume_diff
-from socialnav.train.config import ConfigError, TrainSettings, load_train_settings
-from socialnav.train.memory import ReplayMemory
-from socialnav.train.rl import replay_td_loss
-from socialnav.train.trainer import train
+from socialnav.train.value.memory import ReplayMemory
+from socialnav.train.value.rl import replay_td_loss
+from socialnav.train.value.settings import ConfigError, TrainSettings, load_train_settings, resume_diff
+from socialnav.train.value.trainer import train
 
 from .test_trainer import TINY
 
@@ -101,7 +100,7 @@ def test_cli_compile_flag():
 def test_compiled_imitation_fit_matches_eager():
     import numpy as np
 
-    from socialnav.train.imitation import Demonstrations, fit_values
+    from socialnav.train.value.imitation import Demonstrations, fit_values
 
     rng = np.random.default_rng(0)
     m, n = 250, 4  # 250 = 2 full minibatches of 100 and a last one of 50: two graph shapes

@@ -5,7 +5,8 @@ import json
 import pytest
 
 from socialnav.config import ConfigError
-from socialnav.train.config import TrainSettings, derive_seeds, load_train_settings
+from socialnav.train.run_directory import derive_seeds
+from socialnav.train.value.settings import TrainSettings, load_train_settings
 
 
 def test_defaults_follow_the_spec():
@@ -63,7 +64,7 @@ def test_mp_rgl_refuses_to_train_without_its_predictor_and_oracle_refuses_planni
 
 
 def test_resume_accepts_runs_saved_before_the_planning_settings_existed():
-    from socialnav.train.config import resume_diff
+    from socialnav.train.value.settings import resume_diff
 
     current = {
         "train": {
@@ -140,7 +141,7 @@ def test_a_seed_from_the_command_line_is_bounded_and_named_as_the_options():
 def test_a_run_directory_of_another_policy_is_named_as_such(tmp_path):
     from socialnav.config import ConfigError
     from socialnav.policies.learned import build, save_checkpoint
-    from socialnav.train.common import load_resume_checkpoint
+    from socialnav.train.run_directory import load_resume_checkpoint
 
     save_checkpoint(tmp_path / "last.pt", "sarl", build("sarl"), {}, {})
     with pytest.raises(ConfigError, match=rf"{tmp_path} holds a training run of another policy \("
@@ -155,7 +156,7 @@ def test_a_runs_own_config_file_is_a_training_config(tmp_path):
     import yaml
 
     from socialnav.train.cli import _config_trainer, _read_config
-    from socialnav.train.ppo_config import PPOSettings, load_ppo_settings
+    from socialnav.train.ppo.settings import PPOSettings, load_ppo_settings
 
     settings = load_train_settings("smoke", seed=7)
     record = {"value_policy": {"dt": 0.25}, "policy": "sarl", "preset": {"name": "wang2022"},
@@ -172,7 +173,7 @@ def test_a_runs_own_config_file_is_a_training_config(tmp_path):
 
 
 def test_resuming_under_an_alias_of_the_runs_policy_is_no_difference():
-    from socialnav.train.config import resume_diff
+    from socialnav.train.value.settings import resume_diff
 
     saved = {"policy": "ga3c_cadrl", "train": {"policy": "ga3c_cadrl", "seed": 0}}
     assert resume_diff(saved, {"policy": "lstm_rl", "train": {"policy": "lstm_rl", "seed": 0}}) == []

@@ -9,10 +9,10 @@ import pytest
 import torch
 
 from socialnav.policies.learned import ValuePolicy, build
-from socialnav.train.common import load_optimizer_state, make_optimizer, optimizer_state
-from socialnav.train.fused_step import FusedTDStep
-from socialnav.train.memory import ReplayMemory
-from socialnav.train.rl import td_loss
+from socialnav.train.optim import load_optimizer_state, make_optimizer, optimizer_state
+from socialnav.train.value.fused_step import FusedTDStep
+from socialnav.train.value.memory import ReplayMemory
+from socialnav.train.value.rl import td_loss
 
 N_HUMANS, K, BATCH = 4, 500, 100
 GAMMA, DT = 0.9, 0.25

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from socialnav.train.memory import ReplayMemory
+from socialnav.train.value.memory import ReplayMemory
 
 
 def _batch(k, n=2, start=0):

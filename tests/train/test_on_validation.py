@@ -3,8 +3,8 @@ True stops the run there with ``last.pt`` written, so that the same call resumes
 
 import torch
 
-from socialnav.train.config import load_train_settings
-from socialnav.train.trainer import train
+from socialnav.train.value.settings import load_train_settings
+from socialnav.train.value.trainer import train
 
 from .test_trainer import TINY
 

@@ -13,8 +13,8 @@ import torch
 import yaml
 
 from socialnav.config import ConfigError
-from socialnav.train.ppo_config import NetworkSettings, PPOSettings, load_ppo_settings
-from socialnav.train.ppo_objective import gae, gaussian_entropy, gaussian_log_prob, ppo_loss
+from socialnav.train.ppo.algorithm import gae, gaussian_entropy, gaussian_log_prob, ppo_loss
+from socialnav.train.ppo.settings import NetworkSettings, PPOSettings, load_ppo_settings
 from tests.learned.helpers import SMALL_ATTN_GRAPH
 
 SMALL = NetworkSettings(**SMALL_ATTN_GRAPH)
@@ -121,7 +121,7 @@ def empty_preset(tmp_path):
 
 
 def test_ppo_learns_to_reach_the_goal_without_humans(tmp_path, empty_preset):
-    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo.algorithm import train_ppo
 
     s = PPOSettings(
         n_envs=32,
@@ -153,7 +153,7 @@ def _curve_rows(path):
 
 
 def test_a_resumed_budget_may_not_fall_below_the_updates_done_and_an_extension_says_its_lr(tmp_path):
-    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo.algorithm import train_ppo
 
     s = _tiny(n_envs=4, rollout_steps=4, total_env_steps=4 * 4 * 3, epochs=1, minibatches=1,
               checkpoint_every=1)
@@ -175,16 +175,16 @@ def test_a_resumed_budget_may_not_fall_below_the_updates_done_and_an_extension_s
 def test_a_run_killed_before_its_first_checkpoint_is_not_overwritten_by_another(tmp_path):
     import shutil
 
-    from socialnav.train.config import load_train_settings
-    from socialnav.train.ppo import train_ppo
-    from socialnav.train.trainer import train
+    from socialnav.train.ppo.algorithm import train_ppo
+    from socialnav.train.value.settings import load_train_settings
+    from socialnav.train.value.trainer import train
 
     s = _tiny(n_envs=4, rollout_steps=4, total_env_steps=4 * 4, epochs=1, minibatches=1)
     train_ppo("wang2022", tmp_path / "done", s, progress=False, log=lambda _: None)
     killed = tmp_path / "killed"  # what a run killed before its first last.pt leaves: its record
     killed.mkdir()
     shutil.copy(tmp_path / "done" / "config.json", killed / "config.json")
-    other = rf"{killed} holds a run with other settings \(policy: 'crowdnav_pp' -> 'sarl'"
+    other = rf"{killed} holds a run of the 'ppo' trainer \(policy 'crowdnav_pp'\), and 'sarl' trains with the"
     with pytest.raises(ValueError, match=other):
         train("sarl", "wang2022", killed, load_train_settings("smoke"), progress=False, log=lambda _: None)
     with pytest.raises(ValueError, match=r"train.seed: 0 -> 1"):
@@ -195,7 +195,7 @@ def test_a_run_killed_before_its_first_checkpoint_is_not_overwritten_by_another(
 
 def test_resumed_run_equals_an_uninterrupted_one_bit_for_bit(tmp_path):
     from socialnav.policies.learned import load_checkpoint
-    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo.algorithm import train_ppo
 
     # 5 humans, 30 s episodes: the stop falls in the middle of episodes, whose state is restored.
     s = _tiny(n_envs=8, rollout_steps=8, total_env_steps=8 * 8 * 6, epochs=2, minibatches=2,
@@ -225,7 +225,7 @@ def test_resumed_run_equals_an_uninterrupted_one_bit_for_bit(tmp_path):
 
 
 def test_resume_with_other_settings_is_refused(tmp_path):
-    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo.algorithm import train_ppo
 
     s = _tiny(n_envs=4, rollout_steps=4, total_env_steps=32, epochs=1, minibatches=1)
     train_ppo("wang2022", tmp_path / "run", s, progress=False, stop_after=1, log=lambda _: None)
@@ -236,7 +236,7 @@ def test_resume_with_other_settings_is_refused(tmp_path):
 def test_first_gradient_step_starts_from_the_collecting_policy(tmp_path):
     """The rollout is re-evaluated with the network (and observation statistics) that collected it:
     with one epoch of one minibatch, the only gradient step sees probability ratios of 1."""
-    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo.algorithm import train_ppo
 
     s = _tiny(n_envs=8, rollout_steps=6, total_env_steps=8 * 6 * 2, epochs=1, minibatches=1)
     result = train_ppo("wang2022", tmp_path / "run", s, progress=False, log=lambda _: None)
@@ -247,7 +247,7 @@ def test_first_gradient_step_starts_from_the_collecting_policy(tmp_path):
 
 
 def test_value_trainer_refuses_the_ppo_policy(tmp_path):
-    from socialnav.train.trainer import train
+    from socialnav.train.value.trainer import train
 
     with pytest.raises(ValueError, match="PPO"):
         train("crowdnav_pp", "wang2022", tmp_path / "x")
@@ -303,7 +303,8 @@ def test_cli_refuses_value_based_options_for_ppo(tmp_path, capsys):
     from socialnav.cli import main
 
     assert main(["train", "--policy", "crowdnav_pp", "--rl-episodes", "5", "--out", str(tmp_path / "r")]) == 2
-    assert "--rl-episodes: not a setting of PPO training" in capsys.readouterr().err
+    said = capsys.readouterr().err
+    assert "--rl-episodes: not a setting of the PPO trainer of 'crowdnav_pp' (docs/ppo.md)" in said
     assert not (tmp_path / "r").exists()
     assert main(["train", "--policy", "sarl", "--env-steps", "5", "--out", str(tmp_path / "r")]) == 2
     assert "--env-steps" in capsys.readouterr().err
@@ -343,7 +344,7 @@ def test_cuda_device_is_refused_clearly_without_a_gpu(tmp_path, capsys):
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a GPU")
 def test_ppo_trains_on_cuda(tmp_path):
-    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo.algorithm import train_ppo
 
     s = dataclasses.replace(load_ppo_settings("ppo_smoke"), device="cuda")
     result = train_ppo("wang2022", tmp_path / "run", s, progress=False, log=lambda _: None)
@@ -358,7 +359,7 @@ def test_ppo_trains_on_cuda(tmp_path):
      "--config ppo_smoke: a PPO config, and sarl trains with the value-based trainer (its shipped configs: "
      "smoke)"),
     (["--policy", "crowdnav_pp", "--config", "smoke"],
-     "--config smoke: a value-based training config, and crowdnav_pp trains with the PPO trainer"),
+     "--config smoke: a value-based config, and crowdnav_pp trains with the PPO trainer"),
     (["--policy", "crowdnav_pp", "--config", "ppo_smoke", "--env-steps", "0"],
      "--env-steps must be >= 1, got 0"),
     (["--policy", "crowdnav_pp", "--config", "ppo_smoke", "--collection-batch", "-3"],

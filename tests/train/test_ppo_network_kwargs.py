@@ -7,7 +7,7 @@ import dataclasses
 import pytest
 
 import socialnav.policies.learned_catalog as catalog
-from socialnav.train.ppo_config import NetworkSettings, PPOSettings
+from socialnav.train.ppo.settings import NetworkSettings, PPOSettings
 
 SMALL = NetworkSettings(
     prediction_steps=3, robot_embed=16, human_hidden=8, attn_size=16, attn_heads=2, human_out=16,
@@ -46,7 +46,7 @@ def test_a_ppo_record_without_network_kwargs_and_a_value_record_with_them_are_re
 
 def test_a_registered_ppo_record_builds_the_network_it_declares(tmp_path, isolated_registries):
     from socialnav.policies.learned import load_checkpoint
-    from socialnav.train.ppo import train_ppo
+    from socialnav.train.ppo.algorithm import train_ppo
 
     def narrow_mlp(settings, n_humans):  # a record's own arguments: a 6-wide MLP over 2 humans
         return {**catalog.mlp_actor_critic_kwargs(settings, n_humans), "hidden": 6, "max_humans": 2}

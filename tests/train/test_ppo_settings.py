@@ -8,7 +8,7 @@ import dataclasses
 import pytest
 
 from socialnav.settings import ConfigError, ConfigTypeError
-from socialnav.train.ppo_config import NetworkSettings, PPOSettings, load_ppo_settings
+from socialnav.train.ppo.settings import NetworkSettings, PPOSettings, load_ppo_settings
 
 
 @pytest.mark.parametrize(

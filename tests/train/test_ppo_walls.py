@@ -21,13 +21,12 @@ from socialnav.policies.learned import load_checkpoint
 from socialnav.policies.learned.attn_graph import observation_tensors
 from socialnav.presets import load_preset
 from socialnav.sim.obstacle_points import ObstaclePoints
-from socialnav.train.envs import MultiWorld
-from socialnav.train.ppo import train_ppo
-from socialnav.train.ppo_config import load_ppo_settings
-from socialnav.train.ppo_rollout import collect_rollout
-from socialnav.train.ppo_run import setup_ppo_run
-from socialnav.train.ppo_state import initial_state
-from socialnav.train.ppo_worlds import ppo_policy_config, step_worlds
+from socialnav.train.ppo.algorithm import collect_rollout, train_ppo
+from socialnav.train.ppo.run import setup_ppo_run
+from socialnav.train.ppo.settings import load_ppo_settings
+from socialnav.train.ppo.state import initial_state
+from socialnav.train.ppo.worlds import step_worlds
+from socialnav.train.worlds import MultiWorld, ppo_policy_config
 from tests.train.bit_identical_runs import run_digests
 from tests.train.walled_preset import write_walled_preset
 

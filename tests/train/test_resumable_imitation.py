@@ -7,11 +7,12 @@ import pytest
 import torch
 import yaml
 
-import socialnav.train.imitation_phase as imitation_phase
+import socialnav.train.value.imitation_phase as imitation_phase
 from socialnav.config import ConfigError
 from socialnav.policies.learned import load_checkpoint
-from socialnav.train.config import load_train_settings, shipped_train_configs
-from socialnav.train.trainer import train
+from socialnav.train.settings_files import shipped_train_configs
+from socialnav.train.value.settings import load_train_settings
+from socialnav.train.value.trainer import train
 
 SETTINGS = """\
 collection_batch: 8
@@ -58,8 +59,8 @@ def _interrupt_fit_after(monkeypatch, epochs: int, collected: list):
     saved before its bar ticks), as a kill at that moment would."""
     real = imitation_phase.progress_bar
 
-    def progress(total, initial, desc, enabled):
-        bar = real(total, initial, desc, False)
+    def progress(total, initial, *, desc, enabled):
+        bar = real(total, initial, desc=desc, enabled=False)
         if "imitation: fit" in desc:
             update = bar.update
 
@@ -92,7 +93,7 @@ def test_interrupted_imitation_resumes_at_the_next_epoch_with_the_same_result(
 
     monkeypatch.undo()
     lines: list[str] = []
-    import socialnav.train.imitation as imitation
+    import socialnav.train.value.imitation as imitation
 
     def no_collection(*a, **k):
         raise AssertionError("the demonstrations were collected again")

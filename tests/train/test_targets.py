@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import torch
 
-from socialnav.train.config import RLSettings
-from socialnav.train.imitation import mc_returns
-from socialnav.train.rl import epsilon_at, td_loss, td_targets
+from socialnav.train.value.imitation import mc_returns
+from socialnav.train.value.rl import epsilon_at, td_loss, td_targets
+from socialnav.train.value.settings import RLSettings
 
 
 def test_mc_returns_hand_computed():
@@ -58,7 +58,7 @@ class _Policy:
 
 
 def test_td_loss_uses_target_network_and_masks_terminals():
-    from socialnav.train.memory import Transitions
+    from socialnav.train.value.memory import Transitions
 
     def state(dg):
         r = torch.zeros(1, 9)
@@ -99,8 +99,8 @@ def test_rgl_repo_rule_drops_last_transitions_and_timeouts_and_fixes_targets():
     timed-out one, and each stored transition with r + γ̄·V_target(s') computed when it is stored."""
     from types import SimpleNamespace
 
-    from socialnav.train.memory import ReplayMemory
-    from socialnav.train.rl import RGLRepoEpisodes
+    from socialnav.train.value.memory import ReplayMemory
+    from socialnav.train.value.rl import RGLRepoEpisodes
 
     def robot_row(dg):
         r = np.zeros(9)
@@ -153,8 +153,8 @@ def test_rgl_repo_final_rule_stores_the_same_transitions_and_recomputes_targets(
     that moment (the repository's final trainer), so a new target network changes the loss."""
     from types import SimpleNamespace
 
-    from socialnav.train.memory import ReplayMemory
-    from socialnav.train.rl import RGLRepoEpisodes
+    from socialnav.train.value.memory import ReplayMemory
+    from socialnav.train.value.rl import RGLRepoEpisodes
 
     def robot_row(dg):
         r = np.zeros(9)

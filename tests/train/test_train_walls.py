@@ -15,9 +15,9 @@ from socialnav.cli import main
 from socialnav.policies.learned import load_checkpoint
 from socialnav.presets import load_preset
 from socialnav.sim.obstacle_points import ObstaclePoints
-from socialnav.train.config import load_train_settings
-from socialnav.train.envs import MultiWorld
-from socialnav.train.trainer import train
+from socialnav.train.value.settings import load_train_settings
+from socialnav.train.value.trainer import train
+from socialnav.train.worlds import MultiWorld
 from tests.train.walled_preset import write_walled_preset
 
 TINY = """\
@@ -89,7 +89,7 @@ def test_replay_states_carry_each_episodes_own_points(walls_preset):
     """The stored next state of a slot that finished and was refilled has the points of the map it
     finished on (here: the same scenario map, checked against the encoding computed by hand)."""
     from socialnav.policies.learned import ValuePolicy, build
-    from socialnav.train.rl import encoded_step
+    from socialnav.train.value.rl import encoded_step
 
     pol = ValuePolicy(build("rgl"), obstacle_encoding=ObstaclePoints().to_dict())
     world = MultiWorld(load_preset(walls_preset), 4, 3, "train", 0)
@@ -110,8 +110,8 @@ def test_replay_states_carry_each_episodes_own_points(walls_preset):
 def test_ppo_trains_on_the_walled_mix_with_its_fixed_crowds(tmp_path, walls_preset):
     """The PPO trainer steps the same mix: a crowd of 3 beside a preset count of 2 gets 3 slots, and
     the scenarios that do not fix their crowd keep the preset's 2."""
-    from socialnav.train.ppo import train_ppo
-    from socialnav.train.ppo_config import load_ppo_settings
+    from socialnav.train.ppo.algorithm import train_ppo
+    from socialnav.train.ppo.settings import load_ppo_settings
 
     data = yaml.safe_load(open(walls_preset))
     data["training"]["n_humans"] = 2

@@ -8,12 +8,12 @@ import json
 import pytest
 import torch
 
-import socialnav.train.value_rl_phase as rl_phase
+import socialnav.train.value.rl_phase as rl_phase
 from socialnav.cli import main
 from socialnav.policies.learned import load_checkpoint
-from socialnav.train.config import load_train_settings
-from socialnav.train.rl import TrainingDiverged
-from socialnav.train.trainer import train
+from socialnav.train.optim import TrainingDiverged
+from socialnav.train.value.settings import load_train_settings
+from socialnav.train.value.trainer import train
 
 TINY = """\
 collection_batch: 8

@@ -98,7 +98,7 @@ def test_interrupted_imitation_ends_as_the_uninterrupted_one(trained, tmp_path, 
     """Killed after the first of two imitation epochs and resumed: the same il.pt as the uninterrupted
     run of this machine (the RL phase's replay memory is not saved, so only the imitation's result is
     compared after a restart)."""
-    import socialnav.train.imitation as imitation
+    import socialnav.train.value.imitation as imitation
 
     uninterrupted = run_digests(trained("sarl"))["il.pt"]
     real = imitation.fit_values

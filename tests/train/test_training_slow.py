@@ -7,10 +7,11 @@ import torch
 
 from socialnav.policies.learned import ValuePolicy, build
 from socialnav.presets import load_preset
-from socialnav.train.config import TrainSettings, derive_seeds
-from socialnav.train.envs import MultiWorld
-from socialnav.train.rl import validate
-from socialnav.train.trainer import train
+from socialnav.train.episodes import validate
+from socialnav.train.run_directory import derive_seeds
+from socialnav.train.value.settings import TrainSettings
+from socialnav.train.value.trainer import train
+from socialnav.train.worlds import MultiWorld
 
 
 @pytest.mark.slow

@@ -28,6 +28,7 @@ VALUE_INFORMATION: tuple[str, ...] = ("constant_velocity", "oracle", "learned")
 
 __all__ = [
     "TRAINERS",
+    "CHECKPOINT_KINDS",
     "VALUE_DEFAULTS",
     "LearnedPolicySpec",
     "BUILTIN",
@@ -39,10 +40,17 @@ __all__ = [
     "markdown_table",
 ]
 
-#: How a learned policy is trained: ``value`` (imitation from ORCA, then value-based RL with a
-#: one-step or model-predictive lookahead; train/trainer.py) or ``ppo`` (an actor-critic trained
-#: with PPO; train/ppo.py).
-TRAINERS = ("value", "ppo")
+#: The trainers that ship, and the checkpoint kind each writes: ``value`` (imitation from ORCA, then
+#: value-based RL with a one-step or model-predictive lookahead; train/value/) and ``ppo`` (an
+#: actor-critic trained with PPO; train/ppo/). A record may name any trainer registered with
+#: ``socialnav.train.register_trainer``; training refuses one that is not registered.
+TRAINERS: Mapping[str, str] = MappingProxyType({"value": "value_policy", "ppo": "ppo_policy"})
+#: How a checkpoint acts once loaded, by the record its config holds: ``value_policy`` (a value network
+#: scoring candidate actions through the lookahead, a LearnedPolicy) or ``ppo_policy`` (an actor-critic
+#: acting with its mean action, a RecurrentActorPolicy).
+CHECKPOINT_KINDS = ("value_policy", "ppo_policy")
+#: How docs and tables name the built-in trainers (another trainer is named by its name).
+_TRAINER_LABELS = {"value": "value-based", "ppo": "PPO"}
 
 #: The lookahead a value-based policy gets unless its record says otherwise: constant-velocity
 #: prediction, one step deep and wide, CrowdNav's end-of-step reward estimate.
@@ -61,15 +69,20 @@ class LearnedPolicySpec:
             ``"module.path:attribute"`` so that reading the record does not import torch.
         description: one line shown by ``socialnav list``.
         label: display name in result tables and reports.
-        trainer: ``value`` or ``ppo`` (:data:`TRAINERS`).
+        trainer: the name of the trainer that trains it: ``value`` or ``ppo`` (:data:`TRAINERS`), or one
+            registered with ``socialnav.train.register_trainer``.
         observes: what the network is fed, one phrase (docs table).
         paper: the publication it implements (docs table).
         paper_row: its row in Wang et al. 2022's tables, if it has one.
         aliases: other names of the same network and their ``socialnav list`` descriptions; a
             checkpoint always stores :attr:`name`.
-        defaults: value-based only: overrides of :data:`VALUE_DEFAULTS` (information, planning_depth,
+        checkpoint_kind: how its checkpoints load (:data:`CHECKPOINT_KINDS`); "" takes the built-in
+            trainer's (value: ``value_policy``, ppo: ``ppo_policy``); a record naming another trainer
+            gives it, and it must be what that trainer writes.
+        defaults: value_policy checkpoints only: overrides of :data:`VALUE_DEFAULTS` (information,
+            planning_depth,
             planning_width, reward_rule), used for training and as evaluation parameters.
-        required_information: value-based only: the one information setting the policy can be
+        required_information: value_policy checkpoints only: the one information setting the policy can be
             trained with (mp_rgl plans with the predictor it trains, so it needs ``learned``).
         one_human_training: trained with one human per episode when the training setting
             ``cadrl_one_human`` is on (CADRL's authors' setting).
@@ -77,11 +90,11 @@ class LearnedPolicySpec:
             builder composes (:mod:`socialnav.sim.parts`), ``robot`` (the state the lookahead
             propagates) then the sets of agents the network reads like humans, in order (default
             ``robot``, ``humans``, ``obstacle_points``).
-        network_kwargs: PPO only (required there): ``network_kwargs(settings, n_humans)``, the
-            network constructor's keyword arguments from the run's PPO settings
-            (``socialnav.train.PPOSettings``) and the training mix's human slots; to train among
-            walls it also takes ``obstacle_slots=K``, the obstacle points that follow the human
-            slots (docs/ppo.md).
+        network_kwargs: required by the ``ppo`` trainer, refused with value_policy checkpoints (their
+            networks take no arguments): ``network_kwargs(settings, n_humans)``, the network
+            constructor's keyword arguments from the run's settings (``socialnav.train.PPOSettings``)
+            and the training mix's human slots; to train among walls it also takes
+            ``obstacle_slots=K``, the obstacle points that follow the human slots (docs/ppo.md).
     """
 
     name: str
@@ -98,16 +111,23 @@ class LearnedPolicySpec:
     one_human_training: bool = False
     observation_parts: tuple[str, ...] = NETWORK_PARTS
     network_kwargs: Callable[..., dict[str, Any]] | None = None
+    checkpoint_kind: str = ""
 
     def __post_init__(self) -> None:
         parts = self.observation_parts
         if not (isinstance(parts, tuple) and all(isinstance(p, str) for p in parts) and "robot" in parts):
             raise ValueError(f"learned policy {self.name!r}: observation_parts must be a tuple of "
                              f"observation part names holding 'robot', got {parts!r}")
-        if self.trainer not in TRAINERS:
-            raise ValueError(
-                f"learned policy {self.name!r}: trainer {self.trainer!r} must be one of {TRAINERS}"
-            )
+        if not isinstance(self.trainer, str) or not self.trainer:
+            raise ValueError(f"learned policy {self.name!r}: trainer must name a trainer, got "
+                             f"{self.trainer!r}")
+        if self.checkpoint_kind not in ("", *CHECKPOINT_KINDS):
+            raise ValueError(f"learned policy {self.name!r}: checkpoint_kind {self.checkpoint_kind!r} must "
+                             f"be one of {CHECKPOINT_KINDS}")
+        if not self.checkpoint_kind and self.trainer not in TRAINERS:
+            raise ValueError(f"learned policy {self.name!r}: trainer {self.trainer!r} is not a built-in "
+                             f"trainer ({', '.join(TRAINERS)}): give checkpoint_kind, one of "
+                             f"{CHECKPOINT_KINDS}")
         unknown = sorted(set(self.defaults) - set(VALUE_DEFAULTS))
         if unknown:
             raise ValueError(
@@ -119,15 +139,21 @@ class LearnedPolicySpec:
                 f"learned policy {self.name!r}: required_information {needed!r} must also be its default "
                 f"information (defaults: information {self.value_defaults['information']!r})"
             )
-        if self.trainer == "ppo" and (self.defaults or self.required_information):
+        if self.kind != "value_policy" and (self.defaults or self.required_information):
             raise ValueError(
                 f"learned policy {self.name!r}: lookahead defaults apply to value-based policies only"
             )
-        if (self.trainer == "ppo") != (self.network_kwargs is not None):
+        if (self.trainer == "ppo" and self.network_kwargs is None) or (
+                self.kind == "value_policy" and self.network_kwargs is not None):
             raise ValueError(
                 f"learned policy {self.name!r}: network_kwargs is required for PPO policies and "
-                f"applies to them only (trainer {self.trainer!r})"
+                f"refused for value networks (trainer {self.trainer!r})"
             )
+
+    @property
+    def kind(self) -> str:
+        """How its checkpoints load: ``value_policy`` or ``ppo_policy`` (:data:`CHECKPOINT_KINDS`)."""
+        return self.checkpoint_kind or TRAINERS[self.trainer]
 
     @property
     def value_defaults(self) -> dict[str, Any]:
@@ -136,7 +162,7 @@ class LearnedPolicySpec:
 
     def evaluation_parameters(self) -> dict[str, Any]:
         """The parameters ``socialnav evaluate --policy NAME`` accepts, with their defaults."""
-        if self.trainer == "ppo":
+        if self.kind == "ppo_policy":
             return {"device": "cpu", "deterministic": True}
         d = self.value_defaults
         return {
@@ -355,6 +381,6 @@ def markdown_table() -> str:
     lines = ["| name (registry) | trainer | observes | paper |", "|---|---|---|---|"]
     for spec in learned_policy_specs():
         names = " = ".join(f"`{n}`" for n in (spec.name, *spec.aliases))
-        trainer = "PPO" if spec.trainer == "ppo" else "value-based"
+        trainer = _TRAINER_LABELS.get(spec.trainer, spec.trainer)
         lines.append(f"| {names} | {trainer} | {spec.observes} | {spec.paper} |")
     return "\n".join(lines)

@@ -414,12 +414,12 @@ def _ppo_factory(name: str):
 def register_catalog() -> None:
     """Register every learned policy of the catalog not registered yet.
 
-    Records added after the first call appear on the next one: value-based ones load into a
-    :class:`LearnedPolicy`, PPO ones into a
+    Records added after the first call appear on the next one: those whose checkpoints hold a
+    ``value_policy`` load into a :class:`LearnedPolicy`, those holding a ``ppo_policy`` into a
     :class:`~socialnav.policies.learned.ppo_policy.RecurrentActorPolicy`.
     """
     for spec in learned_policy_specs():
-        factory = _ppo_factory if spec.trainer == "ppo" else _factory
+        factory = _ppo_factory if spec.kind == "ppo_policy" else _factory
         for name, description in ((spec.name, spec.description), *spec.aliases.items()):
             if not is_registered(name):
                 register_policy(

@@ -198,12 +198,15 @@ def _run_training(spec, out, executor, statuses, failures, task_log, say, quiet:
             )
             say(f"{key}: FAILED: {result.message}")
         else:
+            counters = result.get("counters") or {}  # the trainer's own: episodes, updates, ...
             statuses[key] = {
                 "status": "done",
                 "dir": f"train/{job.name}",
-                **{k: result[k] for k in ("episodes", "best_val", "resumed", "seconds")},
+                **counters,
+                **{k: result[k] for k in ("best_val", "resumed", "seconds")},
             }
-            say(f"{key}: done ({result['episodes']} RL episodes, best validation {result['best_val']})")
+            done = ", ".join(f"{value} {name}" for name, value in counters.items())
+            say(f"{key}: done ({done}; best validation {result['best_val']})")
 
 
 def _run_evaluations(

@@ -41,7 +41,8 @@ from typing import Any
 from socialnav._io import load_yaml
 from socialnav.settings import ConfigError, Settings, setting
 from socialnav.sim.settings import HUMAN_MODELS
-from socialnav.train.config import DEVICES, INFORMATION
+from socialnav.train.settings_files import DEVICES
+from socialnav.train.value.settings import INFORMATION
 
 KINDS = ("evaluate", "train")
 EXECUTORS = ("local", "ray")
@@ -106,8 +107,8 @@ class TrainJobSettings(Settings):
     config: str | None = setting(None, "training settings: a YAML file or a shipped config name (smoke)")
     device: str | None = setting(None, "torch device", choices=DEVICES)
     information: str | None = setting(None, "the lookahead's prediction", choices=INFORMATION)
-    rl_episodes: int | None = setting(None, "RL episodes (value-based trainer)", ge=0)
-    env_steps: int | None = setting(None, "environment steps in all (PPO trainer)", ge=1)
+    rl_episodes: int | None = setting(None, "RL episodes (trainers taking --rl-episodes: value-based)", ge=0)
+    env_steps: int | None = setting(None, "environment steps in all (trainers taking --env-steps: PPO)", ge=1)
     collection_batch: int | None = setting(
         None, "episodes stepped in lockstep while collecting (PPO: environments, n_envs)", ge=1
     )
@@ -322,29 +323,23 @@ def _fill(value: Any, context: dict[str, Any], where: str, key: str,
 
 def _check_train_job(entry: Any, params: dict[str, Any], where: str, base: Path | None) -> None:
     """A training job: a learned policy, its trainer's settings (as ``socialnav train`` checks them)."""
-    from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_names
+    from socialnav.policies.learned_catalog import learned_policy_names
+    from socialnav.train.registry import OPTIONS, trainer_for_policy
 
-    if not entry.learned:
+    if not entry.learned or str(params["policy"]) not in learned_policy_names():
         raise ConfigError(f"{where}: policy {params['policy']!r} does not learn; train takes "
                           f"{', '.join(learned_policy_names())}")
-    trainer = get_learned_spec(str(params["policy"])).trainer
-    other = ("information", "rl_episodes") if trainer == "ppo" else ("env_steps",)
-    given = [k for k in other if params.get(k) is not None]
+    try:
+        trainer = trainer_for_policy(str(params["policy"]))
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {err}") from None
+    given = [k for k in OPTIONS if params.get(k) is not None and k not in trainer.options]
     if given:
-        kind = "PPO" if trainer == "ppo" else "value-based"
-        raise ConfigError(f"{where}: {', '.join(given)}: not a setting of the {kind} trainer of "
-                          f"{params['policy']!r} (docs/{'ppo' if trainer == 'ppo' else 'training'}.md)")
+        raise ConfigError(f"{where}: {trainer.refuse_options(given, str(params['policy']), flags=False)}")
     if params.get("config") is not None:
         params["config"] = _path_or_name(params["config"], base)
     try:
-        if trainer == "ppo":
-            from socialnav.train.ppo_config import load_ppo_settings
-
-            load_ppo_settings(params.get("config") or "ppo", policy=str(params["policy"]))
-        elif params.get("config") is not None:
-            from socialnav.train.config import load_train_settings
-
-            load_train_settings(params["config"])
+        trainer.load_settings(params.get("config"), policy=str(params["policy"]))
     except ConfigError as err:
         raise ConfigError(f"{where}: config: {err}") from None
 
@@ -363,6 +358,10 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
     repeated = sorted({s for s in scenarios or () if list(scenarios).count(s) > 1})
     if repeated:
         raise ConfigError(f"{where}: scenarios: {', '.join(repeated)} given more than once")
+    if kind == "train":  # a trainer's plugin may be what registers the policy it trains
+        from socialnav.train.registry import load_trainer_plugins
+
+        load_trainer_plugins()
     try:
         entry = get_policy_entry(str(params["policy"]))
         preset = load_preset(params["preset"])

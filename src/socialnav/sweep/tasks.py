@@ -14,7 +14,6 @@ import socket
 import sys
 import tempfile
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -192,58 +191,29 @@ def train_job(_payload: None, params: dict[str, Any], out_dir: str, threads: int
     ``_payload`` is unused; every task takes one. The trainer's lines go to stderr, each starting with
     ``label`` (the job: several train at once), or nowhere when ``label`` is None (``--quiet``).
     """
-    from socialnav.policies.learned_catalog import get_learned_spec
+    from socialnav.train.registry import OPTIONS, trainer_for_policy
 
     def log(line: str) -> None:
         if label is not None:
             print(f"{label}: {line}", file=sys.stderr, flush=True)
 
-    if get_learned_spec(str(params["policy"])).trainer == "ppo":
-        return _train_ppo_job(params, out_dir, threads, log)
-    from socialnav.train.config import resolve_train_settings
-    from socialnav.train.trainer import train
-
     t0 = time.perf_counter()
-    settings = resolve_train_settings(
-        params.get("config"),
-        **{k: params.get(k) for k in ("seed", "device", "collection_batch", "information", "rl_episodes")},
+    policy = str(params["policy"])
+    trainer = trainer_for_policy(policy)
+    settings = trainer.load_settings(
+        params.get("config"), policy=policy, seed=params.get("seed"), device=params.get("device"),
+        **{k: params.get(k) for k in OPTIONS if k in trainer.options},
     )
     settings = dataclasses.replace(settings, threads=threads)
-    result = train(str(params["policy"]), job_preset(params), out_dir, settings, progress=False, log=log)
-    best = json_safe(result.best_val)  # NaN (no validation yet) as None
+    result = trainer.run(policy, job_preset(params), out_dir, settings, progress=False, log=log)
+    summary = trainer.summary(result)
+    counters = {k: summary[k] for k in trainer.counters}
     return {
-        "best_checkpoint": str(result.best_checkpoint),
-        "episodes": result.episodes,
-        "gradient_steps": result.gradient_steps,
-        "best_val": best,
-        "resumed": result.resumed,
-        "where": where_am_i(),
-        "seconds": round(time.perf_counter() - t0, 3),
-    }
-
-
-def _train_ppo_job(params: dict[str, Any], out_dir: str, threads: int,
-                   log: Callable[[str], None]) -> dict[str, Any]:
-    """A PPO training job (crowdnav_pp, ppo_mlp), as ``socialnav train`` runs it (docs/ppo.md)."""
-    from socialnav.train.ppo import train_ppo
-    from socialnav.train.ppo_config import load_ppo_settings
-
-    t0 = time.perf_counter()
-    settings = load_ppo_settings(
-        params.get("config") or "ppo",  # the shipped default schedule, as the command's
-        seed=params.get("seed"), device=params.get("device"), n_envs=params.get("collection_batch"),
-        total_env_steps=params.get("env_steps"), policy=str(params["policy"]),
-    )
-    settings = dataclasses.replace(settings, threads=threads)
-    result = train_ppo(job_preset(params), out_dir, settings, progress=False, log=log)
-    best = json_safe(result.best_val or {})
-    return {
-        "best_checkpoint": str(result.best_checkpoint),
-        "episodes": result.episodes,
-        "updates": result.updates,
-        "env_steps": result.env_steps,
-        "best_val": best,
-        "resumed": result.resumed,
+        "best_checkpoint": summary["best_checkpoint"],
+        **counters,
+        "counters": counters,
+        "best_val": json_safe(summary["best_val"]),  # NaN (no validation yet) as None
+        "resumed": summary["resumed"],
         "where": where_am_i(),
         "seconds": round(time.perf_counter() - t0, 3),
     }

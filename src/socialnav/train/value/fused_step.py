@@ -1,8 +1,8 @@
 """A whole RL gradient step as one compiled graph (training setting ``compile: true``).
 
 The eager gradient step of these small value networks is mostly host work: ≈ 260 operator calls
-for the forward pass alone, the autograd engine, the optimizer (issue #13, docs/training.md).
-Compiling the loss alone (``train/rl.py: replay_td_loss(compiled=True)``) removes most of the
+for the forward pass alone, the autograd engine, the optimizer (docs/training_speed.md measures it).
+Compiling the loss alone (``train/value/rl.py: replay_td_loss(compiled=True)``) removes most of the
 operator calls, but every step still goes through Dynamo's guards, the autograd engine for the
 backward pass and a separate Adam call. Here the step is traced once into one graph of flat tensors
 — replay-memory gather, agent-centric transforms of s and s′, the target network's forward pass,
@@ -23,7 +23,7 @@ loss alone instead.
 
 On a CUDA device the compiled step is also recorded once as a CUDA graph and replayed for every
 step: the ≈ 30 kernels of a step then cost one launch instead of ≈ 1.8 ms of host work for a
-minibatch of 100 (issue #32, docs/training.md). The graph replays exactly the kernels the compiled
+minibatch of 100 (docs/training_speed.md). The graph replays exactly the kernels the compiled
 step runs, so its results are bit-identical to calling the compiled step (tested on a GPU); the
 recording's warm-up calls run on copies of the state they change, which are then restored, so the
 recording changes no parameter, moment or step counter.
@@ -35,9 +35,9 @@ import torch
 from torch import nn
 from torch.fx.experimental.proxy_tensor import make_fx
 
-from socialnav.train.common import shared_step_counters
-from socialnav.train.memory import ReplayMemory, Transitions
-from socialnav.train.rl import td_targets
+from socialnav.train.optim import shared_step_counters
+from socialnav.train.value.memory import ReplayMemory, Transitions
+from socialnav.train.value.rl import td_targets
 
 _MEMORY_FIELDS = (
     "robot",
@@ -69,7 +69,7 @@ class _Value(nn.Module):
 class FusedTDStep:
     """``step(idx)``: one TD gradient step on memory slots ``idx`` in one compiled graph.
 
-    The loss of ``train/rl.py: td_loss`` and Adam's update of ``optimizer``'s parameters; returns
+    The loss of ``train/value/rl.py: td_loss`` and Adam's update of ``optimizer``'s parameters; returns
     the minibatch loss (before the update; a 0-d tensor, not synchronised).
 
     Build it with :meth:`build`, after the optimizer's state is loaded (a resume).

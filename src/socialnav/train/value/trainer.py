@@ -1,8 +1,8 @@
-"""`socialnav train`: imitation from ORCA, then value-based RL, with checkpoints, curves and resumption.
+"""The value-based trainer: imitation from ORCA, then value-based RL, with checkpoints, curves and resumption.
 
-Run directory layout::
+Run directory (as every trainer's, train/run_directory.py)::
 
-    config.yaml / config.json   resolved settings (policy, preset, training settings, derived seeds)
+    config.yaml / config.json   the run's record (trainer, policy, preset, settings, derived seeds)
     il.pt                       the network after imitation learning
     best.pt                     best validation success so far (ties: fewer collisions, then faster)
     last.pt                     latest state: model + target network + optimizer + counters + RNG
@@ -15,29 +15,26 @@ Every checkpoint is a regular learned-policy checkpoint (``socialnav evaluate --
 any of them); its config holds ``value_policy`` so the evaluator scores actions as the trainer did.
 
 The run reads top to bottom as its phases, each a function over the run (:class:`ValueRun`, built
-once) and its typed state (:class:`TrainState`): setup (train/value_run.py), resume or imitation
-and the first validation (train/value_state.py, train/imitation_phase.py), then the RL loop with its
-validations and checkpoints (train/value_rl_phase.py).
+once) and its typed state (:class:`TrainState`): setup (value/run.py), resume or imitation and the
+first validation (value/state.py, value/imitation_phase.py), then the RL loop with its validations
+and checkpoints (value/rl_phase.py). It is registered as the trainer ``value`` (train/registry.py).
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from socialnav.presets import Preset, load_preset
-from socialnav.train.common import check_config_device, resolve_device
-from socialnav.train.config import TrainSettings, resolve_train_settings
-from socialnav.train.imitation_phase import imitate_then_validate
-from socialnav.train.value_rl_phase import OnValidation, build_learner, run_rl, save_last
-from socialnav.train.value_run import setup_run
-from socialnav.train.value_state import restore_from_record
+from socialnav.presets import Preset
+from socialnav.train.value.imitation_phase import imitate_then_validate
+from socialnav.train.value.rl_phase import OnValidation, build_learner, run_rl, save_last
+from socialnav.train.value.run import setup_run
+from socialnav.train.value.settings import TrainSettings
+from socialnav.train.value.state import restore_from_record
 
-__all__ = ["TrainResult", "train", "train_from_args", "resolve_device"]
+__all__ = ["TrainResult", "train"]
 
 
 @dataclass(frozen=True)
@@ -142,40 +139,3 @@ def train(
             continued,
             not stopped,
         )
-
-
-def train_from_args(args) -> int:
-    """Entry point of ``socialnav train`` for value-based policies (see train/cli.py).
-
-    Args:
-        args: the parsed command line.
-
-    Returns:
-        The exit status (0); the summary is printed as one JSON line.
-    """
-    settings = resolve_train_settings(
-        getattr(args, "config", None),
-        **{key: getattr(args, key, None)
-           for key in ("seed", "device", "collection_batch", "information", "rl_episodes", "compile")},
-    )
-    check_config_device(getattr(args, "config", None), settings.device, getattr(args, "device", None))
-    preset = load_preset(args.preset)
-    out = Path(args.out or f"runs/train/{preset.name}-{args.policy}-s{settings.seed}")
-    result = train(args.policy, preset, out, settings, progress=not getattr(args, "no_progress", False))
-    best = result.best_val
-    print(
-        json.dumps(
-            {
-                "out": str(result.out_dir),
-                "best_checkpoint": str(result.best_checkpoint),
-                "episodes": result.episodes,
-                "gradient_steps": result.gradient_steps,
-                "best_val": {
-                    k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in best.items()
-                },
-                "wall_time_s": round(result.wall_time, 1),
-                "resumed": result.resumed,
-            }
-        )
-    )
-    return 0

@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 import torch
 
-from socialnav.train.common import optimizer_state
-from socialnav.train.ppo_run import PPORun
-from socialnav.train.ppo_worlds import world_snapshot
-from socialnav.train.rl import EpisodeStats
+from socialnav.train.episodes import EpisodeStats
+from socialnav.train.optim import optimizer_state
+from socialnav.train.ppo.run import PPORun
+from socialnav.train.ppo.worlds import world_snapshot
 
 #: PPOState fields saved under the same names in the resume record.
 COUNTERS = ("update", "env_steps", "episodes", "best_val", "last_val")

@@ -5,6 +5,9 @@ every scenario in one call, and splits the actions back. Scenarios whose design 
 person head-on in a hallway, a standing group) keep their own human count, as in evaluation; the
 worlds' human slots are then zero-padded to the largest count (mask False). The episodes' obstacles
 come with the observation (``obstacles``) and with the state after each step (``final_maps``).
+
+Also what a trainer's checkpoints record of the world they were trained in: the reward constants
+(:func:`reward_config`) and an actor checkpoint's ``ppo_policy`` record (:func:`ppo_policy_config`).
 """
 
 from __future__ import annotations
@@ -296,3 +299,45 @@ class MultiWorld:
             walls.extend(stepped)
         cat = [np.concatenate([p[i] for p in parts]) for i in range(7)]
         return MultiStep(*cat, tuple(walls) if any(m is not None for m in walls) else None)
+
+
+def reward_config(world: Any) -> dict[str, float]:
+    """The reward constants a checkpoint records for ``world``.
+
+    The evaluator compares them (policies/learned_entries.py).
+
+    Args:
+        world: a preset's WorldSettings.
+
+    Returns:
+        Success reward, collision penalty, discomfort distance and factor, time step.
+    """
+    return {
+        "success_reward": world.reward.success_reward,
+        "collision_penalty": world.reward.collision_penalty,
+        "discomfort_dist": world.reward.discomfort_dist,
+        "discomfort_penalty_factor": world.reward.discomfort_penalty_factor,
+        "time_step": world.dt,
+    }
+
+
+def ppo_policy_config(preset: Preset) -> dict[str, Any]:
+    """The world the actor is trained for (checked against the preset at evaluation).
+
+    A preset whose training mix has walls adds the obstacle encoding the network reads
+    (:func:`~socialnav.train.worlds.obstacle_encoding_entry`, as for the value-based trainer).
+
+    Args:
+        preset: the preset trained under.
+
+    Returns:
+        Plain data: kinematics, rotation limit, dt, reward constants (and ``obstacle_encoding``).
+    """
+    w = preset.world
+    return {
+        "kinematics": w.kinematics,
+        "rotation_limit": w.rotation_limit,
+        "dt": w.dt,
+        "reward": reward_config(w),
+        **obstacle_encoding_entry(preset),
+    }

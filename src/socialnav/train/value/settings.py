@@ -1,4 +1,4 @@
-"""Training settings: frozen dataclasses loadable from YAML with strict keys (``socialnav.config``).
+"""The value-based trainer's settings: frozen dataclasses loadable from YAML with strict keys.
 
 Defaults follow RGL's configuration (CrowdNav's `train.config`) with one measured deviation:
 ``rl.gradient_steps_per_episode`` (the replay ratio) is 10, not 100. RGL's 100 steps of batch 100
@@ -12,14 +12,12 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar, TypeVar
+from typing import Any, ClassVar
 
-import numpy as np
-import yaml
-
-from socialnav._io import load_yaml
 from socialnav.policies.learned_catalog import VALUE_DEFAULTS, get_learned_spec
-from socialnav.settings import ConfigError, Settings, from_dict, setting
+from socialnav.settings import ConfigError, Settings, setting
+from socialnav.train.run_directory import flat_diff
+from socialnav.train.settings_files import DEVICES, load_settings_file
 
 INFORMATION = ("constant_velocity", "oracle", "learned")
 REWARD_RULES = ("end", "swept")
@@ -44,15 +42,11 @@ ADDED_SETTINGS: dict[str, Any] = {
     "train.rl.td_targets": "recomputed",
     "train.compile": False,
 }
-DEVICES = ("cpu", "cuda", "auto")
 
 #: Train-setting keys that may change between a run and its resumption (everything else must match).
 RESUMABLE_CHANGES = (
     "device", "threads", "compile", "checkpoint_every", "log_every", "rl.episodes", "progress"
 )
-
-
-T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -139,7 +133,7 @@ class TrainSettings(Settings):
         device: "cpu", "cuda" or "auto" (cuda when available).
         threads: torch intra-op threads (0: all cores, at most 8).
         compile: compile the training steps. RL: the whole gradient step as one graph
-            (train/fused_step.py) for networks that trace into one (SARL, OM-SARL, RGL, MP-RGL),
+            (train/value/fused_step.py) for networks that trace into one (SARL, OM-SARL, RGL, MP-RGL),
             the loss alone with ``torch.compile`` for the others (CADRL, LSTM-RL); imitation: the
             value regression's loss. SARL's gradient step ≈ 2.2x faster at 2 threads on the 2-core
             VM, after a compilation at the start of RL (≈ 35 s cold, seconds with Inductor's cache);
@@ -218,132 +212,6 @@ def load_train_settings(path: str | Path | None = None, **overrides: Any) -> Tra
     return load_settings_file(TrainSettings, path, overrides)
 
 
-def is_run_record(data: dict[str, Any]) -> bool:
-    """Whether a config mapping is a run directory's ``config.yaml`` (the trainer's record of a run).
-
-    It records the policy, the preset and the world (``value_policy`` or ``ppo_policy``) beside its
-    ``train`` settings.
-    """
-    return "value_policy" in data or "ppo_policy" in data
-
-
-def settings_of(data: dict[str, Any]) -> dict[str, Any]:
-    """The training settings of a config file: itself, or a run's record's ``train`` section.
-
-    ``--config`` takes a run's ``config.yaml`` (what a refused resume points to) as its settings.
-    """
-    record = isinstance(data.get("train"), dict) and is_run_record(data)
-    return dict(data["train"]) if record else data
-
-
-#: The command-line option of a top-level setting whose name differs from it (``socialnav train``).
-_OPTION_OF = {"n_envs": "--collection-batch", "total_env_steps": "--env-steps"}
-
-
-def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[str, Any]) -> T:
-    """Settings of class ``cls`` from a YAML file, with top-level ``overrides`` applied after it.
-
-    Args:
-        cls: The settings class.
-        path: A YAML file or a shipped config's name; None: the defaults.
-        overrides: Top-level fields (None values ignored).
-
-    Returns:
-        The settings.
-
-    Raises:
-        ConfigError: Naming the file and the field.
-    """
-    data: dict[str, Any] = {}
-    if path is not None:
-        path = _resolve_config(path)
-        if path.is_dir():
-            raise ConfigError(f"training config {path} is a directory, not a YAML file")
-        try:
-            data = load_yaml(path.read_text()) or {}
-        except UnicodeDecodeError:
-            raise ConfigError(f"training config {path} is not a text (YAML) file") from None
-        except yaml.YAMLError as err:
-            raise ConfigError(f"{path}: not valid YAML: {' '.join(str(err).split())}") from None
-        if not isinstance(data, dict):
-            raise ConfigError(f"{path}: expected a mapping of settings, got {type(data).__name__}")
-        data = settings_of(data)
-    data.update({k: v for k, v in overrides.items() if v is not None})
-    try:
-        return from_dict(cls, data)
-    except ConfigError as err:
-        # a value from the command line is the command line's error, not the file's
-        given = [k for k, v in overrides.items() if v is not None and str(err).startswith(f"{k} ")]
-        if given:
-            option = _OPTION_OF.get(given[0], "--" + given[0].replace("_", "-"))
-            raise ConfigError(f"{option}: {err}") from None
-        raise ConfigError(f"{path}: {err}" if path is not None else str(err)) from None
-
-
-def resolve_train_settings(
-    config: str | Path | None = None,
-    *,
-    seed: int | None = None,
-    device: str | None = None,
-    collection_batch: int | None = None,
-    information: str | None = None,
-    rl_episodes: int | None = None,
-    compile: bool | None = None,
-) -> TrainSettings:
-    """The settings of ``socialnav train`` (and of a sweep's training job).
-
-    The config file, then the command-line options that override it (None: not given).
-    """
-    settings = load_train_settings(config, seed=seed, device=device)
-    for key, value in (
-        ("collection_batch", collection_batch), ("information", information), ("compile", compile)
-    ):
-        if value is not None:
-            settings = dataclasses.replace(settings, **{key: value})
-    if rl_episodes is not None:
-        settings = dataclasses.replace(settings, rl=dataclasses.replace(settings.rl, episodes=rl_episodes))
-    return settings
-
-
-def shipped_train_configs() -> list[str]:
-    """Names of the training configs shipped in ``socialnav/configs/train`` (``smoke`` …)."""
-    from importlib import resources
-
-    folder = resources.files("socialnav.configs") / "train"
-    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".yaml"))
-
-
-def _resolve_config(path: str | Path) -> Path:
-    """A YAML path, or the name of a shipped training config (``--config smoke``)."""
-    p = Path(path)
-    if p.exists():
-        return p
-    if p.suffix not in (".yaml", ".yml") and str(path) in shipped_train_configs():
-        from importlib import resources
-
-        return Path(str(resources.files("socialnav.configs") / "train" / f"{path}.yaml"))
-    raise ConfigError(
-        f"training config {p} does not exist (shipped configs: {', '.join(shipped_train_configs())})"
-    )
-
-
-def derive_seeds(seed: int) -> dict[str, int]:
-    """Independent seeds for the parts of a run, derived from the master seed.
-
-    ``scenario_start`` is the first training-episode index (disjoint ranges of 10 M episodes per
-    master seed; validation uses the ``val`` split, indices 0..val_episodes-1, whatever the seed).
-    """
-    exploration, init, sampling = (
-        int(x) for x in np.random.SeedSequence([int(seed), 0x50C1A1]).generate_state(3)
-    )
-    return {
-        "scenario_start": int(seed) * 10_000_000,
-        "exploration": exploration,
-        "init": init,
-        "sampling": sampling,
-    }
-
-
 def resume_diff(saved: dict[str, Any], current: dict[str, Any]) -> list[str]:
     """Dotted keys where a saved run config and the current one differ.
 
@@ -375,15 +243,3 @@ def _lookup(data: Any, dotted: str) -> Any:
             return _MISSING
         data = data[part]
     return data
-
-
-def flat_diff(a: Any, b: Any, prefix: str = "") -> list[str]:
-    """Dotted keys where two nested plain dicts differ."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        out = []
-        for k in sorted(set(a) | set(b)):
-            out += flat_diff(a.get(k), b.get(k), f"{prefix}{k}.")
-        return out
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        a, b = list(a), list(b)
-    return [] if a == b else [prefix.rstrip(".")]

@@ -16,22 +16,22 @@ from typing import Any
 import numpy as np
 import torch
 
-from socialnav.train.common import AdamSteps, better, progress_bar
+from socialnav._progress import progress_bar
 from socialnav.train.curves import validation_columns, window_columns
-from socialnav.train.envs import MultiWorld
-from socialnav.train.fused_step import FusedTDStep
-from socialnav.train.memory import ReplayMemory
-from socialnav.train.rl import (
+from socialnav.train.episodes import better, validate
+from socialnav.train.optim import AdamSteps, TrainingDiverged
+from socialnav.train.value.fused_step import FusedTDStep
+from socialnav.train.value.memory import ReplayMemory
+from socialnav.train.value.rl import (
     RGLRepoEpisodes,
-    TrainingDiverged,
     encoded_step,
     epsilon_at,
     push_step,
     replay_td_loss,
-    validate,
 )
-from socialnav.train.value_run import RL_STREAM_OFFSET, ValueRun
-from socialnav.train.value_state import CurveWindow, TrainState, resume_record
+from socialnav.train.value.run import RL_STREAM_OFFSET, ValueRun
+from socialnav.train.value.state import CurveWindow, TrainState, resume_record
+from socialnav.train.worlds import MultiWorld
 
 #: ``on_validation(episode, validation, wall_time) -> stop``.
 OnValidation = Callable[[int, dict[str, Any], float], bool]
@@ -87,7 +87,7 @@ def build_learner(run: ValueRun, state: TrainState, stack: contextlib.ExitStack)
     fixed_targets = rl.td_targets == "rgl_repo"
     dt = run.preset.world.dt
     # compile: the whole gradient step as one compiled graph where the network traces into one
-    # (train/fused_step.py), else the loss alone compiled
+    # (train/value/fused_step.py), else the loss alone compiled
     fused_step = None
     if settings.compile:
         fused_step, refusal = FusedTDStep.build(
@@ -105,7 +105,7 @@ def build_learner(run: ValueRun, state: TrainState, stack: contextlib.ExitStack)
         memory=memory,
         loss_at=loss_at,
         fused_step=fused_step,
-        # optimizer.step() without its per-call Python, bit-identical (train/common.py: AdamSteps)
+        # optimizer.step() without its per-call Python, bit-identical (train/optim.py: AdamSteps)
         adam=AdamSteps(run.optimizer),
         predictor_adam=None if run.predictor_optimizer is None else AdamSteps(run.predictor_optimizer),
         rgl_repo_episodes=None
@@ -339,7 +339,7 @@ def run_rl(
     """
     rl, policy = run.settings.rl, run.policy
     window = CurveWindow()
-    bar = progress_bar(rl.episodes, int(state.episode), f"{run.policy_name} RL", run.progress)
+    bar = progress_bar(rl.episodes, int(state.episode), desc=f"{run.policy_name} RL", enabled=run.progress)
     episodes_this_call = 0
     obs = policy.encode(learner.world.observe(oracle=run.oracle))  # obstacle points appended, if any
     run.net.eval()

@@ -12,21 +12,14 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 import torch
 
-from socialnav.train.common import compile_loss
-from socialnav.train.config import RLSettings
-from socialnav.train.envs import MultiWorld
-from socialnav.train.memory import ReplayMemory, Transitions
-
-
-class TrainingDiverged(RuntimeError):
-    """The loss became NaN or infinite; training stopped and the last good checkpoint was kept."""
+from socialnav.train.optim import compile_loss
+from socialnav.train.value.memory import ReplayMemory, Transitions
+from socialnav.train.value.settings import RLSettings
 
 
 def epsilon_at(episode: int, rl: RLSettings) -> float:
@@ -122,8 +115,9 @@ def replay_td_loss(
     (rl ``compile: true``): the agent-centric transforms, the target network's forward pass and the
     online forward pass become one graph, and AOTAutograd compiles the backward pass too. A gradient
     step of these small networks is mostly the Python and dispatch cost of ≈ 1 500 small operators
-    (issue #13); compiled, most of it goes. The first call compiles (seconds); later calls reuse the
-    graph as long as the batch size stays the same (``dynamic=False``: one static graph). The
+    (docs/training_speed.md); compiled, most of it goes. The first call compiles (seconds); later
+    calls reuse the graph as long as the batch size stays the same (``dynamic=False``: one static
+    graph). The
     memory's tensors are preallocated, so a push never invalidates the graph. Policies whose value
     has a data-dependent branch (CADRL's crowd-less rows, LSTM-RL's packed sequences) compile into
     several graphs around it and still train.
@@ -133,83 +127,6 @@ def replay_td_loss(
         return td_loss(policy, target_net, memory.take(idx), gamma, dt, fixed_targets)
 
     return compile_loss(loss_at, memory.device) if compiled else loss_at
-
-
-@dataclass
-class EpisodeStats:
-    """Outcomes of finished episodes (success, collision, timeout) and success times."""
-
-    success: int = 0
-    collision: int = 0
-    timeout: int = 0
-    success_time: float = 0.0
-
-    @property
-    def total(self) -> int:
-        """Episodes counted."""
-        return self.success + self.collision + self.timeout
-
-    def rates(self) -> dict[str, float]:
-        """Success, collision and timeout rates, and the mean time of successes (NaN without one)."""
-        n = max(self.total, 1)
-        return {
-            "success": self.success / n,
-            "collision": self.collision / n,
-            "timeout": self.timeout / n,
-            "nav_time": self.success_time / self.success if self.success else math.nan,
-        }
-
-    def add(
-        self,
-        terminated: np.ndarray,
-        truncated: np.ndarray,
-        reward: np.ndarray,
-        time: np.ndarray,
-        success_reward: float,
-    ) -> None:
-        """Counts the episodes that ended in a step.
-
-        Args:
-            terminated: (B,) bool, ended by success or collision.
-            truncated: (B,) bool, ended by the time limit.
-            reward: (B,) the step's rewards (success is the one equal to ``success_reward``).
-            time: (B,) episode time at the end [s].
-            success_reward: the preset's success reward.
-        """
-        succ = terminated & np.isclose(reward, success_reward)
-        self.success += int(succ.sum())
-        self.collision += int((terminated & ~succ).sum())
-        self.timeout += int(truncated.sum())
-        self.success_time += float(time[succ].sum())
-
-
-def validate(policy, world: MultiWorld, oracle: bool, success_reward: float) -> dict[str, float]:
-    """Greedy rollouts of every episode of ``world`` (a finite val stream).
-
-    Args:
-        policy: anything with ``act(obs, next_humans=...) -> (_, actions)``.
-        world: the validation worlds.
-        oracle: show the policy the humans' true next states.
-        success_reward: the preset's success reward.
-
-    Returns:
-        Success, collision and timeout rates, the mean navigation time of successes, episodes.
-    """
-    world.reset()
-    stats = EpisodeStats()
-    encode = getattr(policy, "encode", None)  # a value policy's obstacle points (the PPO actor adds its own)
-    while world.busy:
-        obs = world.observe(oracle=oracle)
-        obs = obs if encode is None else encode(obs)
-        _, actions = policy.act(obs, next_humans=obs.next_humans if oracle else None)
-        actions = np.asarray(actions, dtype=np.float64)
-        actions[~obs.active] = 0.0
-        res = world.step(actions)
-        active = obs.active
-        stats.add(res.terminated & active, res.truncated & active, res.reward, res.final_time, success_reward)
-    out = stats.rates()
-    out["episodes"] = stats.total
-    return out
 
 
 def encoded_step(policy, res):

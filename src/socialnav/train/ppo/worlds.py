@@ -1,8 +1,7 @@
 """The PPO trainer's view of the worlds.
 
 One lockstep step of the whole training mix, the saved state of the episodes in flight (resumption
-mid-episode, bit-identical on CPU), the world a checkpoint records, the goal distance of the reward
-term, and the actor in the shape the validation loop calls.
+mid-episode, bit-identical on CPU) and the goal distance of the reward term.
 """
 
 from __future__ import annotations
@@ -13,11 +12,9 @@ import numpy as np
 import torch
 
 from socialnav.config import ConfigError
-from socialnav.presets import Preset
 from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.world import EpisodeStream
-from socialnav.train.common import reward_config
-from socialnav.train.envs import MultiWorld, obstacle_encoding_entry, pad_humans
+from socialnav.train.worlds import MultiWorld, pad_humans
 
 #: The World arrays that hold an episode's state (saved with last.pt so that a resumed run goes on
 #: with the same episodes in flight).
@@ -138,37 +135,3 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
 def goal_distance(robot: np.ndarray) -> np.ndarray:
     """(B,) distance from the robot to its goal [m] of (B, 9) observation rows."""
     return np.hypot(robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1])
-
-
-def ppo_policy_config(preset: Preset) -> dict[str, Any]:
-    """The world the actor is trained for (checked against the preset at evaluation).
-
-    A preset whose training mix has walls adds the obstacle encoding the network reads
-    (:func:`~socialnav.train.envs.obstacle_encoding_entry`, as for the value-based trainer).
-
-    Args:
-        preset: the preset trained under.
-
-    Returns:
-        Plain data: kinematics, rotation limit, dt, reward constants (and ``obstacle_encoding``).
-    """
-    w = preset.world
-    return {
-        "kinematics": w.kinematics,
-        "rotation_limit": w.rotation_limit,
-        "dt": w.dt,
-        "reward": reward_config(w),
-        **obstacle_encoding_entry(preset),
-    }
-
-
-class GreedyActor:
-    """The deterministic actor as ``rl.validate`` calls it: ``act(obs, next_humans) -> (_, actions)``."""
-
-    def __init__(self, policy) -> None:
-        """Wraps ``policy`` (a RecurrentActorPolicy)."""
-        self.policy = policy
-
-    def act(self, obs, next_humans=None):
-        """``(None, actions)``: the deterministic actions of ``obs`` (``next_humans`` unused)."""
-        return None, self.policy.act(obs)

@@ -14,8 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-ROBOT_DIM = 9
-HUMAN_DIM = 5
+from socialnav.sim.observation import HUMAN_DIM, ROBOT_DIM
 
 
 @dataclass(frozen=True)

@@ -11,17 +11,14 @@ import math
 
 import torch
 
-from socialnav.train.common import (
-    check_same_run,
-    load_optimizer_state,
-    make_optimizer,
-    optimizer_state,
-    progress_bar,
-)
-from socialnav.train.envs import MultiWorld
-from socialnav.train.rl import TrainingDiverged, validate
-from socialnav.train.value_run import ValueRun
-from socialnav.train.value_state import TrainState
+from socialnav._progress import progress_bar
+from socialnav.train.episodes import validate
+from socialnav.train.optim import TrainingDiverged, load_optimizer_state, make_optimizer, optimizer_state
+from socialnav.train.run_directory import check_record
+from socialnav.train.value.run import ValueRun
+from socialnav.train.value.settings import resume_diff
+from socialnav.train.value.state import TrainState
+from socialnav.train.worlds import MultiWorld
 
 
 def imitate_then_validate(run: ValueRun) -> TrainState:
@@ -82,7 +79,7 @@ def run_imitation(run: ValueRun) -> tuple[float, list[float]]:
     """
     from socialnav.policies.learned import load_checkpoint, save_checkpoint
     from socialnav.policies.native import NativePolicy
-    from socialnav.train.imitation import (
+    from socialnav.train.value.imitation import (
         collect_demonstrations,
         fit_values,
         load_demonstrations,
@@ -95,7 +92,7 @@ def run_imitation(run: ValueRun) -> tuple[float, list[float]]:
     il_path, state_path, demos_path = out / "il.pt", out / "il_state.pt", out / "il_demos.npz"
     if il_path.exists():  # imitation finished before the interruption
         ck = load_checkpoint(il_path, name, map_location=device)
-        check_same_run(ck.config, config, out)
+        check_record(ck.config, config, out, resume_diff)
         net.load_state_dict(ck.model.state_dict())
         if run.predictor is not None and ck.predictor is not None:
             run.predictor.load_state_dict(ck.predictor.state_dict())
@@ -105,7 +102,7 @@ def run_imitation(run: ValueRun) -> tuple[float, list[float]]:
     config_json = json.dumps(config, sort_keys=True)
     if demos_path.exists():
         demos, saved = load_demonstrations(demos_path)
-        check_same_run(json.loads(saved), config, out)
+        check_record(json.loads(saved), config, out, resume_diff)
         say(f"imitation: reusing {demos.episodes} teacher episodes from {demos_path}, {len(demos)} states")
     else:
         teacher = NativePolicy(
@@ -113,7 +110,7 @@ def run_imitation(run: ValueRun) -> tuple[float, list[float]]:
         )
         world = MultiWorld(preset, run.n_humans, settings.collection_batch, "train", seeds["scenario_start"])
         world.reset()
-        bar = progress_bar(il.episodes, 0, f"{policy_name} imitation: ORCA demos", run.progress)
+        bar = progress_bar(il.episodes, 0, desc=f"{policy_name} imitation: ORCA demos", enabled=run.progress)
         try:
             demos = collect_demonstrations(
                 world,
@@ -135,13 +132,13 @@ def run_imitation(run: ValueRun) -> tuple[float, list[float]]:
     losses: list[float] = []
     if state_path.exists():
         ck = load_checkpoint(state_path, name, map_location=device)
-        check_same_run(ck.config, config, out)
+        check_record(ck.config, config, out, resume_diff)
         net.load_state_dict(ck.model.state_dict())
         load_optimizer_state(optimizer, ck.extra["optimizer"])
         generator.set_state(ck.extra["generator"])
         losses = list(ck.extra["il_losses"])
         say(f"imitation: resuming at epoch {len(losses)} of {il.epochs}")
-    bar = progress_bar(il.epochs, len(losses), f"{policy_name} imitation: fit", run.progress)
+    bar = progress_bar(il.epochs, len(losses), desc=f"{policy_name} imitation: fit", enabled=run.progress)
 
     def on_epoch(epoch: int, loss: float) -> None:
         losses.append(loss)
@@ -169,7 +166,7 @@ def run_imitation(run: ValueRun) -> tuple[float, list[float]]:
         bar.close()
     predictor_losses: list[float] = []
     if run.predictor is not None and run.predictor_optimizer is not None:
-        from socialnav.train.imitation import fit_predictor
+        from socialnav.train.value.imitation import fit_predictor
 
         predictor_losses = fit_predictor(
             run.predictor,

@@ -7,16 +7,17 @@ the window since the last one.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from socialnav.train.common import better
+import torch
+
 from socialnav.train.curves import validation_columns, window_columns
-from socialnav.train.ppo_objective import explained_variance
-from socialnav.train.ppo_rollout import Rollout
-from socialnav.train.ppo_run import PPORun
-from socialnav.train.ppo_state import PPOState
-from socialnav.train.ppo_worlds import GreedyActor
-from socialnav.train.rl import validate
+from socialnav.train.episodes import GreedyActor, better, validate
+from socialnav.train.ppo.run import PPORun
+from socialnav.train.ppo.state import PPOState
+
+if TYPE_CHECKING:  # the rollout is made by the trainer that imports this module
+    from socialnav.train.ppo.algorithm import Rollout
 
 
 def validate_if_due(run: PPORun, state: PPOState, actor) -> dict[str, Any] | None:
@@ -86,3 +87,9 @@ def write_row_if_due(
     run.curves.write(row)
     bar.set_postfix(succ=f"{rates['success']:.2f}", kl=f"{row['approx_kl']:.3g}", refresh=False)
     state.clear_window()
+
+
+def explained_variance(values: torch.Tensor, returns: torch.Tensor) -> float:
+    """1 − Var(R − V) / Var(R) (NaN when the returns do not vary)."""
+    var = float(returns.var(unbiased=False))
+    return math.nan if var == 0 else 1.0 - float((returns - values).var(unbiased=False)) / var

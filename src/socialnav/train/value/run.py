@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import json
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -21,29 +19,21 @@ from typing import Any
 
 import torch
 
-from socialnav._io import (
-    DirectoryLock,
-    atomic_write_json,
-    atomic_write_text,
-    make_output_dir,
-    remove_orphan_temporaries,
-)
 from socialnav._progress import say_line
 from socialnav.config import ConfigError
-from socialnav.evaluate.manifest import refuse_other_kind
 from socialnav.presets import Preset, load_preset
-from socialnav.train.common import (
-    RunFiles,
-    check_same_run,
-    load_resume_checkpoint,
-    make_optimizer,
-    recorded_config,
-    resolve_device,
-    reward_config,
-)
-from socialnav.train.config import TrainSettings, derive_seeds
 from socialnav.train.curves import Curves
-from socialnav.train.envs import MultiWorld, obstacle_encoding_entry, training_n_humans
+from socialnav.train.optim import make_optimizer
+from socialnav.train.run_directory import (
+    RunFiles,
+    derive_seeds,
+    open_run_directory,
+    run_device,
+    run_record,
+    start_run_files,
+)
+from socialnav.train.value.settings import TrainSettings, resume_diff
+from socialnav.train.worlds import MultiWorld, obstacle_encoding_entry, reward_config, training_n_humans
 
 #: Offset of the RL episode stream after the imitation episodes (same ``scenario_start``), recorded
 #: in the run's config.
@@ -55,7 +45,7 @@ class ValueRun(RunFiles):
     """What every phase of a value-based run reads: built by :func:`setup_run`, never replaced.
 
     The networks, generators and optimizers are mutable objects the phases train in place; the
-    counters that change live in :class:`socialnav.train.value_state.TrainState`.
+    counters that change live in :class:`socialnav.train.value.state.TrainState`.
 
     Attributes:
         policy_name: the name asked for (an alias is kept, e.g. ``ga3c_cadrl``).
@@ -135,7 +125,7 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
     """The keyword arguments the evaluator passes to ValuePolicy (learned_entries.py).
 
     A network trained among walls records the obstacle encoding it saw (docs/walls_learned.md); one
-    trained on open floors records none, as before.
+    trained on open floors records none (its checkpoints load as those of every open-floor run).
 
     Args:
         preset: the preset trained under.
@@ -159,10 +149,6 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
     }
 
 
-def _plain(x: Any) -> Any:
-    return json.loads(json.dumps(x, default=lambda v: list(v) if isinstance(v, tuple) else str(v)))
-
-
 def resolve_policy_settings(policy_name: str, settings: TrainSettings | None) -> TrainSettings:
     """The settings a value-based policy trains with (its record's defaults filled in).
 
@@ -178,10 +164,13 @@ def resolve_policy_settings(policy_name: str, settings: TrainSettings | None) ->
         KeyError: not a learned policy (the known ones are listed).
     """
     from socialnav.policies.learned import LEARNED_POLICIES
-    from socialnav.policies.learned_catalog import canonical_name, learned_policy_names
+    from socialnav.policies.learned_catalog import canonical_name, get_learned_spec
 
-    if policy_name in learned_policy_names("ppo"):
-        raise ValueError(f"{policy_name} is trained with PPO: socialnav.train.ppo.train_ppo (docs/ppo.md)")
+    known = canonical_name(policy_name) in LEARNED_POLICIES
+    trainer = get_learned_spec(policy_name).trainer if known else "value"
+    if trainer != "value":
+        raise ValueError(f"{policy_name} is trained with the {trainer!r} trainer, not the value-based one "
+                         "(socialnav.train.trainer_for_policy; PPO: docs/ppo.md)")
     if canonical_name(policy_name) not in LEARNED_POLICIES:
         raise KeyError(
             f"unknown learned policy {policy_name!r}; known: {', '.join(sorted(LEARNED_POLICIES))}"
@@ -231,27 +220,16 @@ def setup_run(
     settings = resolve_policy_settings(policy_name, settings)
     name = canonical_name(policy_name)
     rl = settings.rl
-    device = resolve_device(settings.device)
-    torch.set_num_threads(settings.threads or max(1, min(os.cpu_count() or 1, 8)))
+    device = run_device(settings)
     seeds = derive_seeds(settings.seed)
     n_humans = training_n_humans(preset, name, settings.cadrl_one_human)
     vp_config = value_policy_config(preset, settings)
-    config = _plain(
-        {
-            "value_policy": vp_config,
-            "policy": policy_name,
-            "preset": preset.to_dict(),
-            "train": settings.to_dict(),
-            "seeds": seeds,
-            "n_humans": n_humans,
-            "rl_stream_offset": RL_STREAM_OFFSET,
-            "kinematics": preset.world.kinematics,
-        }
-    )
+    config = run_record("value", {"value_policy": vp_config}, policy_name, preset, settings, seeds,
+                        n_humans=n_humans, rl_stream_offset=RL_STREAM_OFFSET)
     out = Path(out_dir)
 
     # The initial weights come from their own seeds; the target network's are overwritten (it is
-    # built last, from the global generator, as it always was: the draw order is part of a run).
+    # built last, from the global generator: the draw order is part of a run's identity).
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seeds["init"])
         net = build(name)
@@ -288,21 +266,10 @@ def setup_run(
         preset, n_humans, min(settings.collection_batch, rl.val_episodes), "val", 0, rl.val_episodes
     )
     stack.callback(val_world.close)
-    refuse_other_kind(out, "training")  # an evaluation's or a sweep's directory: not written into
-    make_output_dir(out)
-    stack.enter_context(DirectoryLock(out, "training"))
-    remove_orphan_temporaries(out)
-
-    resumed: dict[str, Any] | None = None
-    last_path = out / "last.pt"
-    if last_path.exists():
-        ck = load_resume_checkpoint(last_path, name, out, map_location=device)
-        resumed = ck.extra.get("resume")
-        if not isinstance(resumed, dict):
-            raise ConfigError(
-                f"{last_path} is not a training state (no 'resume' record); move it away to restart"
-            )
-        check_same_run(ck.config, config, out)
+    found = open_run_directory(out, config, stack, policy=name, diff=resume_diff, map_location=device)
+    resumed, ck = found.resume, found.checkpoint
+    if ck is not None:
+        assert resumed is not None
         # rl.episodes may change on resume (extend a run, or end it earlier), not fall below what is done
         # (lockstep batches may finish a few episodes past the budget: the same budget again is fine)
         saved_budget = int(((ck.config.get("train") or {}).get("rl") or {}).get("episodes", rl.episodes))
@@ -313,21 +280,9 @@ def setup_run(
         if predictor is not None and ck.predictor is not None:
             predictor.load_state_dict(ck.predictor.state_dict())
         say(f"resuming {out} at RL episode {resumed['episode']} ({resumed['gradient_steps']} gradient steps)")
-    else:
-        recorded = recorded_config(out)  # a run killed before its first last.pt: not to be overwritten
-        if recorded is not None:
-            check_same_run(recorded, config, out)
-
-    atomic_write_json(out / "config.json", config)
-    import yaml
-
-    atomic_write_text(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
-    # config.yaml keeps the device as asked (`auto` resumes anywhere); the log says which one ran.
-    say(f"training {name} under preset {preset.name!r} on {device} into {out}")
-    curves = Curves(out / "curves.csv", None if resumed is None else int(resumed["episode"]))
-    stack.callback(curves.close)
-    if curves.dropped:
-        say(f"{out / 'curves.csv'}: {curves.dropped} damaged row(s) left out")
+    curves = start_run_files(out, config, stack, say=say,
+                             banner=f"training {name} under preset {preset.name!r} on {device} into {out}",
+                             resumed_at=None if resumed is None else int(resumed["episode"]))
     return ValueRun(
         policy_name=policy_name,
         name=name,

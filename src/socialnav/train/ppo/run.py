@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import inspect
-import json
 import math
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -21,31 +19,24 @@ from typing import Any
 
 import torch
 
-from socialnav._io import (
-    DirectoryLock,
-    atomic_write_json,
-    atomic_write_text,
-    make_output_dir,
-    remove_orphan_temporaries,
-)
 from socialnav._progress import say_line
 from socialnav.config import ConfigError
-from socialnav.evaluate.manifest import refuse_other_kind
 from socialnav.presets import Preset, load_preset
 from socialnav.sim.obstacle_points import ObstaclePoints
-from socialnav.train.common import (
-    RunFiles,
-    load_optimizer_state,
-    load_resume_checkpoint,
-    recorded_config,
-    refuse_other_settings,
-    resolve_device,
-)
-from socialnav.train.config import derive_seeds, flat_diff
 from socialnav.train.curves import Curves
-from socialnav.train.envs import MultiWorld, mix_human_slots
-from socialnav.train.ppo_config import PPO_RESUMABLE_CHANGES, PPOSettings
-from socialnav.train.ppo_worlds import ppo_policy_config, restore_worlds
+from socialnav.train.optim import load_optimizer_state
+from socialnav.train.ppo.settings import PPO_RESUMABLE_CHANGES, PPOSettings
+from socialnav.train.ppo.worlds import restore_worlds
+from socialnav.train.run_directory import (
+    RunFiles,
+    derive_seeds,
+    flat_diff,
+    open_run_directory,
+    run_device,
+    run_record,
+    start_run_files,
+)
+from socialnav.train.worlds import MultiWorld, mix_human_slots, ppo_policy_config
 
 PPO_STREAM_OFFSET = 5_000_000  # training episodes start here within the seed's range (as the RL stream)
 PPO_CURVE_COLUMNS = (
@@ -81,7 +72,7 @@ class PPORun(RunFiles):
     """What every phase of a PPO run reads: built by :func:`setup_ppo_run`, never replaced.
 
     The network, optimizer, generators and worlds are mutable objects the phases advance in place;
-    the counters and the episodes in flight live in :class:`socialnav.train.ppo_state.PPOState`.
+    the counters and the episodes in flight live in :class:`socialnav.train.ppo.state.PPOState`.
 
     Attributes:
         settings: the PPO settings.
@@ -148,20 +139,6 @@ class PPORun(RunFiles):
         save_checkpoint(path, self.settings.policy, self.net, config=self.config, extra=extra)
 
 
-def _run_record(preset: Preset, s: PPOSettings, seeds: dict[str, int], n_humans: int) -> dict[str, Any]:
-    record = {
-        "ppo_policy": ppo_policy_config(preset),
-        "policy": s.policy,
-        "preset": preset.to_dict(),
-        "train": s.to_dict(),
-        "seeds": seeds,
-        "n_humans": n_humans,
-        "ppo_stream_offset": PPO_STREAM_OFFSET,
-        "kinematics": preset.world.kinematics,
-    }
-    return json.loads(json.dumps(record, default=lambda v: list(v) if isinstance(v, tuple) else str(v)))
-
-
 def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints | None) -> dict[str, Any]:
     """The network's arguments from the policy's record; among walls with the point slots."""
     from socialnav.policies.learned_catalog import get_learned_spec
@@ -179,9 +156,9 @@ def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints |
     return network_kwargs(s, n_humans, obstacle_slots=encoding.count)
 
 
-def _check_resumable(saved: dict[str, Any], config: dict[str, Any], out: Path) -> None:
-    diff = [k for k in flat_diff(saved, config) if not any(k == f"train.{r}" for r in PPO_RESUMABLE_CHANGES)]
-    refuse_other_settings(saved, config, diff, out)
+def resume_diff(saved: dict[str, Any], config: dict[str, Any]) -> list[str]:
+    """Dotted keys where a saved run record and this one differ, less those a resumed run may change."""
+    return [k for k in flat_diff(saved, config) if not any(k == f"train.{r}" for r in PPO_RESUMABLE_CHANGES)]
 
 
 def _check_budget(saved: dict[str, Any], s: PPOSettings, done: int, steps_per_update: int, out: Path,
@@ -243,13 +220,13 @@ def setup_ppo_run(
     started = time.perf_counter()
     say = log or say_line  # above the progress bar, not glued to its line
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset
-    device = resolve_device(s.device)
-    torch.set_num_threads(s.threads or max(1, min(os.cpu_count() or 1, 8)))
+    device = run_device(s)
     seeds = derive_seeds(s.seed)
     # the rollout's human slots: scenarios that fix their own crowd (francis2023) may exceed the preset's
     crowd = int(preset.training.n_humans)
     n_humans = mix_human_slots(preset, crowd)
-    config = _run_record(preset, s, seeds, n_humans)
+    config = run_record("ppo", {"ppo_policy": ppo_policy_config(preset)}, s.policy, preset, s, seeds,
+                        n_humans=n_humans, ppo_stream_offset=PPO_STREAM_OFFSET)
     out = Path(out_dir)
 
     encoding = config["ppo_policy"].get("obstacle_encoding")
@@ -272,19 +249,11 @@ def setup_ppo_run(
         raise ConfigError(
             f"minibatches {s.minibatches} must be <= the number of environments ({world.batch_size})"
         )
-    refuse_other_kind(out, "training")  # an evaluation's or a sweep's directory: not written into
-    make_output_dir(out)
-    stack.enter_context(DirectoryLock(out, "training"))
-    remove_orphan_temporaries(out)
-
-    resumed: dict[str, Any] | None = None
-    last_path = out / "last.pt"
-    if last_path.exists():
-        ck = load_resume_checkpoint(last_path, s.policy, out, expected_input_dim=-1, map_location=device)
-        resumed = ck.extra.get("resume")
-        if not isinstance(resumed, dict):
-            raise ConfigError(f"{last_path} is not a PPO training state (no 'resume' record); move it away")
-        _check_resumable(ck.config, config, out)
+    found = open_run_directory(out, config, stack, policy=s.policy, diff=resume_diff, expected_input_dim=-1,
+                               map_location=device)
+    resumed, ck = found.resume, found.checkpoint
+    if ck is not None:
+        assert resumed is not None
         _check_budget(ck.config, s, int(resumed["update"]), world.batch_size * s.rollout_steps, out, say)
         net.load_state_dict(ck.model.state_dict())
         load_optimizer_state(optimizer, resumed["optimizer"])
@@ -293,23 +262,12 @@ def setup_ppo_run(
         restore_worlds(world, resumed["worlds"])
         say(f"resuming {out} at update {resumed['update']} ({resumed['env_steps']} env steps)")
     else:
-        recorded = recorded_config(out)  # a run killed before its first last.pt: not to be overwritten
-        if recorded is not None:
-            _check_resumable(recorded, config, out)
         world.reset()
-    atomic_write_json(out / "config.json", config)
-    import yaml
-
-    atomic_write_text(out / "config.yaml", yaml.safe_dump(config, sort_keys=False))
-    # config.yaml keeps the device as asked (`auto` resumes anywhere); the log says which one ran.
-    say(f"training {s.policy} under preset {preset.name!r} on {device} into {out}")
-    curves = Curves(
-        out / "curves.csv",
-        None if resumed is None else int(resumed["update"]),
-        columns=PPO_CURVE_COLUMNS,
-        key="update",
-    )
-    stack.callback(curves.close)
+    curves = start_run_files(out, config, stack, say=say,
+                             banner=f"training {s.policy} under preset {preset.name!r} on {device} "
+                             f"into {out}",
+                             resumed_at=None if resumed is None else int(resumed["update"]),
+                             columns=PPO_CURVE_COLUMNS, key="update")
     return PPORun(
         settings=s,
         preset=preset,

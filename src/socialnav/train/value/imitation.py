@@ -19,8 +19,8 @@ import numpy as np
 import torch
 
 from socialnav.policies.native import NativePolicy
-from socialnav.train.common import AdamSteps, compile_loss
-from socialnav.train.envs import MultiWorld
+from socialnav.train.optim import AdamSteps, compile_loss
+from socialnav.train.worlds import MultiWorld
 
 
 def mc_returns(rewards: np.ndarray | list[float], gamma: float, dt: float, v_pref: float) -> np.ndarray:
@@ -67,7 +67,7 @@ def collect_demonstrations(
     ``policy``: the value policy being trained; its obstacle encoding (if any) is applied to the
     stored states (the teacher itself sees the raw observation and its obstacles).
     """
-    from socialnav.train.rl import encoded_step
+    from socialnav.train.value.rl import encoded_step
 
     obs = world.observe()
     B = world.batch_size
@@ -193,7 +193,7 @@ def fit_values(
     (the trainer saves the network, ``optimizer`` and ``generator`` there, so that an interrupted
     imitation resumes at the next epoch with the same result as an uninterrupted one). ``compiled``
     (training setting ``compile``) compiles the minibatch loss with ``torch.compile``, as the RL
-    loss (``train/rl.py: replay_td_loss``): one graph per minibatch size (the full one and an
+    loss (``train/value/rl.py: replay_td_loss``): one graph per minibatch size (the full one and an
     epoch's last, shorter one).
 
     Returns:

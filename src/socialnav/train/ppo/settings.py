@@ -14,13 +14,16 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from socialnav.settings import Settings, setting
-from socialnav.train.config import DEVICES, load_settings_file
+from socialnav.train.settings_files import DEVICES, load_settings_file
 
 #: The most environments a PPO run steps in lockstep (docs/ppo.md, "Settings"): 128 times the default.
 #: One update holds every environment's rollout and its activations, about 1.7 MB per environment at the
 #: repository's widths (30-step rollouts, 5 humans), so this is ~28 GB; a larger value is a typo (an
 #: extra zero or three), refused with the file's name instead of an out-of-memory error minutes later.
 MAX_N_ENVS = 16_384
+
+#: The command-line options of the PPO settings whose names differ from ``--<setting>`` (``socialnav train``).
+PPO_FLAGS = {"n_envs": "--collection-batch", "total_env_steps": "--env-steps"}
 
 #: PPO-setting keys that may change between a run and its resumption (everything else must match).
 PPO_RESUMABLE_CHANGES = ("device", "threads", "checkpoint_every", "log_every", "total_env_steps")
@@ -145,4 +148,4 @@ def load_ppo_settings(path: str | Path | None = None, **overrides: Any) -> PPOSe
     Raises:
         ConfigError: an unknown key (the valid ones are named) or a bad value.
     """
-    return load_settings_file(PPOSettings, path, overrides)
+    return load_settings_file(PPOSettings, path, overrides, PPO_FLAGS)

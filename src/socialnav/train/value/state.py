@@ -11,9 +11,9 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from socialnav.train.common import load_optimizer_state, optimizer_state
-from socialnav.train.rl import EpisodeStats
-from socialnav.train.value_run import ValueRun
+from socialnav.train.episodes import EpisodeStats
+from socialnav.train.optim import load_optimizer_state, optimizer_state
+from socialnav.train.value.run import ValueRun
 
 #: The TrainState fields saved under the same names in the resume record.
 RECORD_FIELDS = (
