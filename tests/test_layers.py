@@ -16,7 +16,7 @@ PACKAGE = SRC / "socialnav"
 #: a unit are free, and so is a package's ``__init__`` re-exporting its own submodules (its API).
 LAYERS: list[dict[str, tuple[str, ...]]] = [
     {"io": ("socialnav._io", "socialnav._runtime", "socialnav._progress", "socialnav._core",
-            "socialnav.plugins", "socialnav.config", "socialnav.settings"),
+            "socialnav.plugins", "socialnav.settings"),
      "data": ("socialnav.checkpoints", "socialnav.configs")},
     {"maps": ("socialnav.maps",)},
     {"scenarios": ("socialnav.scenarios",)},

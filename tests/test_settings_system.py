@@ -16,8 +16,6 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from socialnav.config import ConfigError as OldConfigError
-from socialnav.config import from_dict as old_from_dict
 from socialnav.presets import EvaluationSettings, Preset, RobotSettings, TrainingScenarios
 from socialnav.settings import (
     ConfigError,
@@ -143,10 +141,6 @@ def test_the_parameter_table_has_one_row_per_field_and_a_row_per_section():
 def test_setting_needs_check_and_requirement_together():
     with pytest.raises(TypeError, match="check= and requirement= together"):
         setting(1, "x", check=lambda v: True)
-
-
-def test_the_old_import_path_is_the_same_system():
-    assert OldConfigError is ConfigError and old_from_dict is from_dict
 
 
 SETTINGS_CLASSES = [WorldSettings, OrcaSettings, SocialForceSettings, RewardSettings, TrainSettings,

@@ -11,9 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import socialnav  # noqa: F401  (registers the ids)
-from socialnav.config import ConfigError
 from socialnav.envs.learner_wrappers import LearnerObservation, LearnerObservationVector
 from socialnav.envs.vector import SocialNavVectorEnv
+from socialnav.settings import ConfigError
 from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
 
 # robot at (1, 1) heading +y, velocity (0, 0.5), radius 0.3, goal (1, 4), v_pref 1.5

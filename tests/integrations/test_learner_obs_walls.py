@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 import socialnav  # noqa: F401  (registers the ids)
-from socialnav.config import ConfigError
 from socialnav.envs.learner_wrappers import LearnerObservation, LearnerObservationVector
 from socialnav.envs.vector import SocialNavVectorEnv
 from socialnav.maps.static_map import StaticMap
+from socialnav.settings import ConfigError
 from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
 
 WALL = StaticMap(([[-1.0, 1.0], [1.0, 1.0]],))  # points every 0.5 m: x = -1, -0.5, 0, 0.5, 1 at y = 1

@@ -178,7 +178,7 @@ def test_settings_name_registered_parts_and_keep_old_records(goal_distance):
     assert "parts" not in ObservationSettings().to_dict()  # models saved before parts existed: same record
     s = ObservationSettings.from_dict({"parts": list(LEARNER_PARTS)})
     assert s.parts == LEARNER_PARTS and s.to_dict()["parts"] == list(LEARNER_PARTS)
-    from socialnav.config import ConfigError
+    from socialnav.settings import ConfigError
 
     with pytest.raises(ConfigError, match="observation.parts.*unknown observation part 'nope'"):
         ObservationSettings(parts=("robot", "nope"))

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from socialnav.config import ConfigError
+from socialnav.settings import ConfigError
 from socialnav.train.run_directory import derive_seeds
 from socialnav.train.value.settings import TrainSettings, load_train_settings
 
@@ -54,7 +54,7 @@ def test_mp_rgl_refuses_to_train_without_its_predictor_and_oracle_refuses_planni
 
     import pytest
 
-    from socialnav.config import ConfigError
+    from socialnav.settings import ConfigError
 
     s = load_train_settings()
     with pytest.raises(ConfigError, match="mp_rgl plans with the state predictor"):
@@ -131,7 +131,7 @@ def test_seeds_are_separate_and_derived():
 
 
 def test_a_seed_from_the_command_line_is_bounded_and_named_as_the_options():
-    from socialnav.config import ConfigError
+    from socialnav.settings import ConfigError
 
     with pytest.raises(ConfigError, match=r"^--seed: seed must be in \[0, 4294967295\], got 1000000000000$"):
         load_train_settings("smoke", seed=10**12)
@@ -139,8 +139,8 @@ def test_a_seed_from_the_command_line_is_bounded_and_named_as_the_options():
 
 
 def test_a_run_directory_of_another_policy_is_named_as_such(tmp_path):
-    from socialnav.config import ConfigError
     from socialnav.policies.learned import build, save_checkpoint
+    from socialnav.settings import ConfigError
     from socialnav.train.run_directory import load_resume_checkpoint
 
     save_checkpoint(tmp_path / "last.pt", "sarl", build("sarl"), {}, {})

@@ -12,7 +12,7 @@ import pytest
 import torch
 import yaml
 
-from socialnav.config import ConfigError
+from socialnav.settings import ConfigError
 from socialnav.train.ppo.algorithm import gae, gaussian_entropy, gaussian_log_prob, ppo_loss
 from socialnav.train.ppo.settings import NetworkSettings, PPOSettings, load_ppo_settings
 from tests.learned.helpers import SMALL_ATTN_GRAPH

@@ -16,10 +16,10 @@ import torch
 
 import socialnav.policies.learned_catalog as catalog
 from socialnav.cli import main
-from socialnav.config import ConfigError
 from socialnav.policies.learned import load_checkpoint
 from socialnav.policies.learned.attn_graph import observation_tensors
 from socialnav.presets import load_preset
+from socialnav.settings import ConfigError
 from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.train.ppo.algorithm import collect_rollout, train_ppo
 from socialnav.train.ppo.run import setup_ppo_run

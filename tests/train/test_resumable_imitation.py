@@ -8,8 +8,8 @@ import torch
 import yaml
 
 import socialnav.train.value.imitation_phase as imitation_phase
-from socialnav.config import ConfigError
 from socialnav.policies.learned import load_checkpoint
+from socialnav.settings import ConfigError
 from socialnav.train.settings_files import shipped_train_configs
 from socialnav.train.value.settings import load_train_settings
 from socialnav.train.value.trainer import train

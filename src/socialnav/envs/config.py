@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from socialnav.config import from_dict
 from socialnav.envs.episode_order import EpisodeOrder
 from socialnav.maps.static_map import StaticMap
 from socialnav.scenarios import make_scenario
 from socialnav.scenarios.base import SPLIT_SIZE
+from socialnav.settings import from_dict
 from socialnav.sim.actions import discrete_actions
 from socialnav.sim.observation import Observation
 from socialnav.sim.parts.base import PartContext, PartInput

@@ -62,8 +62,8 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.config import check
 from socialnav.maps.static_map import StaticMap
+from socialnav.settings import check
 from socialnav.sim.observation import HUMAN_COLUMNS, ROBOT_COLUMNS
 from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.sim.parts.base import FRAMES, PartContext, PartInput
@@ -168,7 +168,7 @@ class ObservationSettings:
         Raises:
             ConfigError: An unknown key or a bad value, named.
         """
-        from socialnav.config import from_dict
+        from socialnav.settings import from_dict
 
         return from_dict(cls, data or {}, "observation")
 

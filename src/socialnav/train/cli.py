@@ -108,7 +108,7 @@ def _read_config(config: str | None) -> dict[str, Any] | None:
     """
     import yaml
 
-    from socialnav.config import ConfigError
+    from socialnav.settings import ConfigError
     from socialnav.train.settings_files import resolve_config_path
 
     if config is None:
@@ -162,7 +162,7 @@ def _check_args(args: argparse.Namespace) -> Trainer:
     Returns:
         The policy's trainer.
     """
-    from socialnav.config import ConfigError
+    from socialnav.settings import ConfigError
     from socialnav.train.registry import get_trainer
     from socialnav.train.settings_files import shipped_train_configs
 
@@ -203,7 +203,7 @@ def _check_config_device(config: str | None, device: str, given: str | None) -> 
     """
     import torch
 
-    from socialnav.config import ConfigError
+    from socialnav.settings import ConfigError
 
     if given is None and config is not None and device == "cuda" and not torch.cuda.is_available():
         raise ConfigError(f"--config {config}: device: cuda, and torch.cuda.is_available() is False here "

@@ -20,8 +20,8 @@ from typing import Any
 import torch
 
 from socialnav._progress import say_line
-from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
+from socialnav.settings import ConfigError
 from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.train.curves import Curves
 from socialnav.train.optim import load_optimizer_state

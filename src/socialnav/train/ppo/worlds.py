@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from socialnav.config import ConfigError
+from socialnav.settings import ConfigError
 from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.world import EpisodeStream
 from socialnav.train.worlds import MultiWorld, pad_humans

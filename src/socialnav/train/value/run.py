@@ -20,8 +20,8 @@ from typing import Any
 import torch
 
 from socialnav._progress import say_line
-from socialnav.config import ConfigError
 from socialnav.presets import Preset, load_preset
+from socialnav.settings import ConfigError
 from socialnav.train.curves import Curves
 from socialnav.train.optim import make_optimizer
 from socialnav.train.run_directory import (
