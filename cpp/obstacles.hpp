@@ -1,6 +1,6 @@
 // Static obstacles of one episode: the geometry shared by ORCA, social force and the collision test.
 //
-// An episode's map arrives as flat polygons (socialnav.static_map.StaticMap.to_flat: vertices (V, 2)
+// An episode's map arrives as flat polygons (socialnav.maps.StaticMap.to_flat: vertices (V, 2)
 // and offsets (P + 1,)): a polygon of k >= 3 vertices is solid and counter-clockwise, a 2-vertex
 // polygon is a wall segment. Each vertex is prepared the way van den Berg et al.'s obstacle
 // algorithm (ISRR 2011, Sec. 5; the RVO2 library) sees it: a directed edge to its successor, its

@@ -3,7 +3,7 @@
 //
 // It computes exactly what the Python generators compute (socialnav/scenarios/{circle,square}.py):
 // the same counter-based random numbers (splitmix64 finaliser chained over seed, salt, key and
-// element; socialnav/scenarios/random.py), the same arithmetic in the same order (no contraction:
+// element; socialnav/scenarios/episode_random.py), the same arithmetic in the same order (no contraction:
 // the build passes -ffp-contract=off) and the same libm cos/sin, so the episodes are bit-identical
 // (tests/scenarios/test_native_generation.py). The Python generators stay the reference and serve
 // every other scenario.
