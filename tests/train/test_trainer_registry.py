@@ -74,6 +74,17 @@ def test_a_malformed_trainer_record_is_refused(random_search):
     with pytest.raises(ValueError, match="checkpoint_kind 'weights' must be one of"):
         dataclasses.replace(trainer, name="other", checkpoint_kind="weights")
     assert registry.register_trainer(trainer) is trainer  # the same record again: a no-op
+    from socialnav.policies import register_learned_policy
+
+    register_learned_policy(dataclasses.replace(random_search.SPEC, name="orphan", trainer="nope"))
+    with pytest.raises(ConfigError, match="policy 'orphan': its record names trainer 'nope', which is not "
+                       "registered"):
+        registry.trainer_for_policy("orphan")
+    register_learned_policy(dataclasses.replace(random_search.SPEC, name="mismatch", network_kwargs=None,
+                                                checkpoint_kind="value_policy"))
+    with pytest.raises(ConfigError, match="its record's checkpoint_kind is 'value_policy', and its trainer "
+                       "'random_search' writes 'ppo_policy' checkpoints"):
+        registry.trainer_for_policy("mismatch")
 
 
 def test_settings_load_and_a_bad_value_names_the_file_and_the_field(random_search, tmp_path):

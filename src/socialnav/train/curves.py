@@ -12,6 +12,7 @@ from typing import Any
 
 from socialnav._io import atomic_write_text
 
+#: The value-based trainer's columns (a trainer passes its own to :class:`Curves`).
 CURVE_COLUMNS = (
     "phase",
     "episode",
@@ -30,7 +31,6 @@ CURVE_COLUMNS = (
     "transitions",
     "wall_time",
 )
-#: Offset of the RL episode stream after the imitation episodes (same scenario_start).
 
 
 def window_columns(rates: dict[str, float], episodes: int) -> dict[str, Any]:
