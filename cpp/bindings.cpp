@@ -7,7 +7,6 @@
 #include <nanobind/stl/vector.h>
 
 #include <cmath>
-#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -152,65 +151,14 @@ int polygon_count(const Array<double>& vertices, const Array<int64_t>& offsets) 
   return static_cast<int>(P);
 }
 
-// Prepared obstacles of many episodes: episode b has polygons [episode_polygons[b], episode_polygons[b + 1]).
-struct PreparedBatch {
-  std::vector<socialnav::ObstacleVertex> vertex;
-  std::vector<double> edges;
-  std::vector<int64_t> first;  // (B,) episode b's first vertex
-  std::vector<int32_t> count;  // (B,) its vertex count
-  socialnav::ObstacleBatchView view() const { return {vertex.data(), edges.data(), first.data(), count.data()}; }
-};
-
-// True when polygons [p0, p0 + n) and [q0, q0 + n) have the same vertex counts and coordinates (bit
-// for bit: -0.0 and 0.0 differ, so a shared copy gives exactly the values its own would).
-bool same_polygons(const double* vertices, const int64_t* o, int64_t p0, int64_t q0, int64_t n) {
-  for (int64_t p = 0; p < n; ++p)
-    if (o[p0 + p + 1] - o[p0 + p] != o[q0 + p + 1] - o[q0 + p]) return false;
-  const int64_t v = o[p0 + n] - o[p0];
-  return std::memcmp(vertices + 2 * o[p0], vertices + 2 * o[q0], static_cast<size_t>(2 * v) * sizeof(double)) == 0;
-}
-
-PreparedBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>& offsets,
-                            const Array<int64_t>& episode_polygons, size_t B) {
+// The B episodes' maps prepared once (obstacles.hpp), after the flat arrays' checks.
+socialnav::PreparedObstacleBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>& offsets,
+                                               const Array<int64_t>& episode_polygons, size_t B) {
   const int P = polygon_count(vertices, offsets);
   if (episode_polygons.size() != B + 1)
     throw std::invalid_argument("episode_polygons: expected B + 1 = " + std::to_string(B + 1) + " entries");
-  const int64_t* ep = episode_polygons.data();
-  const int64_t* o = offsets.data();
-  if (ep[0] != 0 || ep[B] != P) throw std::invalid_argument("episode_polygons must run from 0 to P");
-  for (size_t b = 0; b < B; ++b)
-    if (ep[b + 1] < ep[b]) throw std::invalid_argument("episode_polygons must not decrease");
-  PreparedBatch out;
-  out.first.resize(B);
-  out.count.resize(B);
-  // An episode whose map equals the previous episode's shares its prepared vertices (a batch of one
-  // map, the common case, holds one copy): the same values, read from one place.
-  std::vector<int64_t> rebased;
-  std::vector<size_t> own;  // the episodes with a copy of their own
-  int64_t prepared = 0;
-  for (size_t b = 0; b < B; ++b) {
-    const int64_t n = ep[b + 1] - ep[b];
-    if (b > 0 && n == ep[b] - ep[b - 1] && same_polygons(vertices.data(), o, ep[b], ep[b - 1], n)) {
-      out.first[b] = out.first[b - 1];
-      out.count[b] = out.count[b - 1];
-      continue;
-    }
-    const int64_t v0 = o[ep[b]];
-    const int64_t count = o[ep[b + 1]] - v0;
-    rebased.resize(static_cast<size_t>(n) + 1);
-    for (int64_t p = 0; p <= n; ++p) rebased[p] = o[ep[b] + p] - v0;
-    out.vertex.resize(static_cast<size_t>(prepared + count));
-    socialnav::build_obstacle_vertices(vertices.data() + 2 * v0, rebased.data(), static_cast<int>(n),
-                                       out.vertex.data() + prepared);
-    out.first[b] = prepared;
-    out.count[b] = static_cast<int32_t>(count);
-    own.push_back(b);
-    prepared += count;
-  }
-  out.edges.resize(static_cast<size_t>(5 * prepared));
-  for (size_t b : own)
-    socialnav::build_edge_arrays(out.vertex.data() + out.first[b], out.count[b], out.edges.data() + 5 * out.first[b]);
-  return out;
+  return socialnav::prepare_obstacle_batch(vertices.data(), offsets.data(), P, episode_polygons.data(),
+                                           static_cast<int64_t>(B));
 }
 
 }  // namespace
@@ -454,21 +402,21 @@ NB_MODULE(_core, m) {
           "robot"_a.noconvert(), "humans"_a.noconvert(), "human_mask"_a.noconvert(), "active"_a.noconvert(),
           "time"_a.noconvert(), "The observation of every slot, written into the given arrays.");
 
-  nb::class_<PreparedBatch>(m, "PreparedObstacleBatch")
+  nb::class_<socialnav::PreparedObstacleBatch>(m, "PreparedObstacleBatch")
       .def(
           "__init__",
-          [](PreparedBatch* self, Array<double> vertices, Array<int64_t> polygon_offsets,
+          [](socialnav::PreparedObstacleBatch* self, Array<double> vertices, Array<int64_t> polygon_offsets,
              Array<int64_t> episode_polygons) {
             if (episode_polygons.size() < 1) throw std::invalid_argument("episode_polygons must have B + 1 entries");
-            new (self)
-                PreparedBatch(prepare_batch(vertices, polygon_offsets, episode_polygons, episode_polygons.size() - 1));
+            new (self) socialnav::PreparedObstacleBatch(
+                prepare_batch(vertices, polygon_offsets, episode_polygons, episode_polygons.size() - 1));
           },
           "vertices"_a, "polygon_offsets"_a, "episode_polygons"_a,
           "The static maps of B episodes prepared once for the native robot policies: vertices (V, 2), "
           "polygon_offsets (P + 1,), episode_polygons (B + 1,).")
-      .def_prop_ro("episodes", [](const PreparedBatch& self) { return self.first.size(); })
+      .def_prop_ro("episodes", [](const socialnav::PreparedObstacleBatch& self) { return self.first.size(); })
       .def_prop_ro(
-          "prepared_vertices", [](const PreparedBatch& self) { return self.vertex.size(); },
+          "prepared_vertices", [](const socialnav::PreparedObstacleBatch& self) { return self.vertex.size(); },
           "Vertices stored (episodes with the previous episode's map share its copy).");
 
   nb::class_<socialnav::ThreadPool>(m, "ThreadPool")
@@ -555,7 +503,7 @@ NB_MODULE(_core, m) {
         const socialnav::ActionFormat format{kinematics, rotation_limit};
         socialnav::ObstacleBatchView wall_view{};
         if (!obstacles.is_none()) {
-          const PreparedBatch& walls = nb::cast<const PreparedBatch&>(obstacles);
+          const auto& walls = nb::cast<const socialnav::PreparedObstacleBatch&>(obstacles);
           if (walls.first.size() != B)
             throw std::invalid_argument("obstacles: prepared for " + std::to_string(walls.first.size()) +
                                         " episodes, the observation has " + std::to_string(B));
@@ -693,36 +641,10 @@ NB_MODULE(_core, m) {
         const int P = polygon_count(obstacle_vertices, obstacle_offsets);
         const socialnav::PreparedObstacles walls =
             socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
-        const socialnav::ObstacleView view = walls.view();
-        const double* p = positions.data();
-        const double* v = velocities.data();
-        const double* pv = pref_velocities.data();
-        const double* r = radii.data();
-        const double* ms = max_speeds.data();
+        const double *p = positions.data(), *v = velocities.data(), *pv = pref_velocities.data();
+        const double *r = radii.data(), *ms = max_speeds.data();
         nb::gil_scoped_release release;
-        socialnav::OrcaScratch scratch;
-        std::vector<socialnav::OrcaNeighbor> selected(socialnav::kMaxOrcaNeighbors);
-        for (size_t i = 0; i < n; ++i) {
-          // RVO2's computeNeighbors: every other agent strictly within neighbor_dist, the closest
-          // max_neighbors of them, sorted by distance (ties in index order).
-          const Vec2 pi{p[2 * i], p[2 * i + 1]};
-          scratch.begin(params.neighbor_dist);
-          for (size_t j = 0; j < n; ++j) {
-            if (j == i) continue;
-            scratch.offer(static_cast<int>(j), socialnav::abs_sq(Vec2{p[2 * j], p[2 * j + 1]} - pi),
-                          params.max_neighbors);
-          }
-          for (int k = 0; k < scratch.count; ++k) {
-            const int j = scratch.index[k];
-            selected[k] = socialnav::OrcaNeighbor{Vec2{p[2 * j], p[2 * j + 1]}, Vec2{v[2 * j], v[2 * j + 1]}, r[j]};
-          }
-          const socialnav::OrcaAgent self{pi, Vec2{v[2 * i], v[2 * i + 1]}, r[i], ms[i],
-                                          Vec2{pv[2 * i], pv[2 * i + 1]}};
-          const Vec2 nv = socialnav::orca_new_velocity(self, view, params.time_horizon_obst, selected.data(),
-                                                       scratch.count, params.time_horizon, time_step, scratch);
-          o[2 * i] = nv.x;
-          o[2 * i + 1] = nv.y;
-        }
+        socialnav::orca_step_agents(static_cast<int>(n), p, v, pv, r, ms, params, time_step, walls.view(), o);
       },
       "positions"_a, "velocities"_a, "pref_velocities"_a, "radii"_a, "max_speeds"_a, "params"_a.none(), "time_step"_a,
       "obstacle_vertices"_a, "obstacle_offsets"_a, "out"_a.noconvert(),

@@ -1,6 +1,7 @@
 #include "obstacles.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -59,6 +60,55 @@ PreparedObstacles prepare_obstacles(const double* vertices, const int64_t* offse
   out.edges.resize(static_cast<size_t>(5 * count));
   build_obstacle_vertices(vertices, offsets, n_polygons, out.vertex.data());
   build_edge_arrays(out.vertex.data(), static_cast<int>(count), out.edges.data());
+  return out;
+}
+
+namespace {
+
+// True when polygons [p0, p0 + n) and [q0, q0 + n) have the same vertex counts and coordinates (bit
+// for bit: -0.0 and 0.0 differ, so a shared copy gives exactly the values its own would).
+bool same_polygons(const double* vertices, const int64_t* o, int64_t p0, int64_t q0, int64_t n) {
+  for (int64_t p = 0; p < n; ++p)
+    if (o[p0 + p + 1] - o[p0 + p] != o[q0 + p + 1] - o[q0 + p]) return false;
+  const int64_t v = o[p0 + n] - o[p0];
+  return std::memcmp(vertices + 2 * o[p0], vertices + 2 * o[q0], static_cast<size_t>(2 * v) * sizeof(double)) == 0;
+}
+
+}  // namespace
+
+PreparedObstacleBatch prepare_obstacle_batch(const double* vertices, const int64_t* o, int n_polygons,
+                                             const int64_t* ep, int64_t batch) {
+  const size_t B = static_cast<size_t>(batch);
+  if (ep[0] != 0 || ep[B] != n_polygons) throw std::invalid_argument("episode_polygons must run from 0 to P");
+  for (size_t b = 0; b < B; ++b)
+    if (ep[b + 1] < ep[b]) throw std::invalid_argument("episode_polygons must not decrease");
+  PreparedObstacleBatch out;
+  out.first.resize(B);
+  out.count.resize(B);
+  std::vector<int64_t> rebased;
+  std::vector<size_t> own;  // the episodes with a copy of their own
+  int64_t prepared = 0;
+  for (size_t b = 0; b < B; ++b) {
+    const int64_t n = ep[b + 1] - ep[b];
+    if (b > 0 && n == ep[b] - ep[b - 1] && same_polygons(vertices, o, ep[b], ep[b - 1], n)) {
+      out.first[b] = out.first[b - 1];
+      out.count[b] = out.count[b - 1];
+      continue;
+    }
+    const int64_t v0 = o[ep[b]];
+    const int64_t count = o[ep[b + 1]] - v0;
+    rebased.resize(static_cast<size_t>(n) + 1);
+    for (int64_t p = 0; p <= n; ++p) rebased[p] = o[ep[b] + p] - v0;
+    out.vertex.resize(static_cast<size_t>(prepared + count));
+    build_obstacle_vertices(vertices + 2 * v0, rebased.data(), static_cast<int>(n), out.vertex.data() + prepared);
+    out.first[b] = prepared;
+    out.count[b] = static_cast<int32_t>(count);
+    own.push_back(b);
+    prepared += count;
+  }
+  out.edges.resize(static_cast<size_t>(5 * prepared));
+  for (size_t b : own)
+    build_edge_arrays(out.vertex.data() + out.first[b], out.count[b], out.edges.data() + 5 * out.first[b]);
   return out;
 }
 

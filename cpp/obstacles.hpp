@@ -67,6 +67,24 @@ void build_obstacle_vertices(const double* vertices, const int64_t* offsets, int
 // One map prepared from flat polygons (build_obstacle_vertices + build_edge_arrays).
 PreparedObstacles prepare_obstacles(const double* vertices, const int64_t* offsets, int n_polygons);
 
+// The maps of B episodes prepared once (the native robot policies' per-step input): episode b owns
+// vertex[first[b], first[b] + count[b]) and its edge arrays.
+struct PreparedObstacleBatch {
+  std::vector<ObstacleVertex> vertex;
+  std::vector<double> edges;
+  std::vector<int64_t> first;  // (B,) episode b's first vertex
+  std::vector<int32_t> count;  // (B,) its vertex count
+  ObstacleBatchView view() const { return {vertex.data(), edges.data(), first.data(), count.data()}; }
+};
+
+// Prepares B episodes' maps from flat polygons (vertices, offsets (n_polygons + 1,)) and
+// episode_polygons (B + 1,): episode b has polygons [episode_polygons[b], episode_polygons[b + 1]). An
+// episode whose map equals the previous episode's, bit for bit, shares its prepared vertices (a batch of
+// one map, the common case, holds one copy). Throws std::invalid_argument where episode_polygons does
+// not run from 0 to n_polygons without decreasing, or a polygon is malformed.
+PreparedObstacleBatch prepare_obstacle_batch(const double* vertices, const int64_t* offsets, int n_polygons,
+                                             const int64_t* episode_polygons, int64_t batch);
+
 // RVO2's leftOf(a, b, c): > 0 when c lies to the left of the directed line a -> b.
 inline double left_of(Vec2 a, Vec2 b, Vec2 c) { return det(a - c, b - a); }
 

@@ -472,4 +472,27 @@ Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candida
                            time_step, scratch);
 }
 
+void orca_step_agents(int n, const double* p, const double* v, const double* pv, const double* r, const double* ms,
+                      const OrcaParams& params, double time_step, const ObstacleView& obstacles, double* out) {
+  OrcaScratch scratch;
+  std::vector<OrcaNeighbor> selected(kMaxOrcaNeighbors);
+  for (int i = 0; i < n; ++i) {
+    const Vec2 pi{p[2 * i], p[2 * i + 1]};
+    scratch.begin(params.neighbor_dist);
+    for (int j = 0; j < n; ++j) {
+      if (j == i) continue;
+      scratch.offer(j, abs_sq(Vec2{p[2 * j], p[2 * j + 1]} - pi), params.max_neighbors);
+    }
+    for (int k = 0; k < scratch.count; ++k) {
+      const int j = scratch.index[k];
+      selected[k] = OrcaNeighbor{Vec2{p[2 * j], p[2 * j + 1]}, Vec2{v[2 * j], v[2 * j + 1]}, r[j]};
+    }
+    const OrcaAgent self{pi, Vec2{v[2 * i], v[2 * i + 1]}, r[i], ms[i], Vec2{pv[2 * i], pv[2 * i + 1]}};
+    const Vec2 nv = orca_new_velocity(self, obstacles, params.time_horizon_obst, selected.data(), scratch.count,
+                                      params.time_horizon, time_step, scratch);
+    out[2 * i] = nv.x;
+    out[2 * i + 1] = nv.y;
+  }
+}
+
 }  // namespace socialnav

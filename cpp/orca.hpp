@@ -98,6 +98,14 @@ int orca_obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, do
 Vec2 orca_new_velocity_select(const OrcaAgent& self, const OrcaNeighbor* candidates, int n, const OrcaParams& params,
                               double time_step, OrcaScratch& scratch, const ObstacleView& obstacles = ObstacleView{});
 
+// One ORCA step of n agents among one another and the static obstacles: RVO2's computeNeighbors (every
+// other agent strictly within neighbor_dist, the closest max_neighbors, sorted by distance, ties in
+// index order) and computeNewVelocity for every agent; positions are not advanced. positions,
+// velocities, pref_velocities, out: (n, 2); radii, max_speeds: (n,), used as given.
+void orca_step_agents(int n, const double* positions, const double* velocities, const double* pref_velocities,
+                      const double* radii, const double* max_speeds, const OrcaParams& params, double time_step,
+                      const ObstacleView& obstacles, double* out);
+
 // Preferred velocity of CrowdSim: the vector to the goal [per second], cut to length `speed`
 // beyond `speed` metres. CrowdSim uses speed = 1 for everyone (humans keep that); the robot's ORCA
 // policy passes its v_pref so that a robot faster than 1 m/s prefers its own speed.

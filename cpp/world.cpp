@@ -139,73 +139,95 @@ void World::human_velocities(int b, int worker) {
   behaviour_->velocities(slot, worker, out);
 }
 
+// One slot's step, in phases: the humans decide (from the state before anyone moves), the robot's action
+// becomes a velocity, the robot's swept contacts over the step, everyone moves, first arrivals, the
+// human-human overlaps, then the outcome and reward. A continuing slot (kContinuing: the robot parked
+// at its goal, the humans walking on for M_III) runs the same phases with a robot that stands still and
+// tests nothing but whether the continuation is over.
 void World::step_episode(int b, const double* actions, int worker) {
-  const int A = config_.agents;
   int8_t& status = buf_.status[b];
   buf_.done[b] = 0;
   buf_.reward[b] = 0.0;
   if (status != kRunning && status != kContinuing) return;
-
-  double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
-  double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
-  const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
-  const double* radius = buf_.radius + static_cast<size_t>(b) * A;
-  const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
-  double* arrival = buf_.arrival + static_cast<size_t>(b) * A;
-  const double* new_vel = new_velocity_.data() + static_cast<size_t>(b) * A * 2;
-  const double dt = config_.dt;
-
+  const bool running = status == kRunning;
   if (buf_.steps[b] == 0) record(b, 0);
 
-  // 1. Humans decide from the current state.
   human_velocities(b, worker);
-
-  // 2. Robot action -> velocity.
-  Vec2 v_robot;
   double theta = buf_.theta[b];
-  if (status == kContinuing) {
-    v_robot = Vec2{};
-  } else if (config_.kinematics == kHolonomic) {
-    v_robot = Vec2{actions[2 * b], actions[2 * b + 1]};
-    const double v_max = buf_.v_pref[static_cast<size_t>(b) * A];
+  const Vec2 v_robot = running ? robot_velocity(b, actions, theta) : Vec2{};
+  const RobotContacts contacts = running ? robot_contacts(b, v_robot) : RobotContacts{};
+  buf_.dmin[b] = contacts.dmin;
+  move_agents(b, v_robot, theta);
+  const int steps = buf_.steps[b] + 1;
+  buf_.steps[b] = steps;
+  const double t_before = (steps - 1) * config_.dt;  // products, not sums: no drift over long episodes
+  const double t = steps * config_.dt;
+  const bool all_humans_arrived = record_arrivals(b, t);
+  // Human-human overlaps never end an episode; CrowdSim does not count them. Counted over the robot's
+  // episode only: not in the M_III continuation after its success.
+  if (!config_.crowdsim_compat && running) buf_.overlaps[b] += count_overlaps(b);
+  if (running) {
+    settle_outcome(b, contacts, all_humans_arrived, steps, t_before, t);
+  } else if (all_humans_arrived || t >= config_.continuation_cap - kTimeEps) {
+    status = kSuccess;
+    buf_.done[b] = 1;
+  }
+  record(b, steps);
+}
+
+Vec2 World::robot_velocity(int b, const double* actions, double& theta) const {
+  const double v_max = buf_.v_pref[static_cast<size_t>(b) * config_.agents];
+  if (config_.kinematics == kHolonomic) {
+    Vec2 v_robot{actions[2 * b], actions[2 * b + 1]};
     double speed = norm(v_robot);
     if (std::isinf(speed)) {  // |a|^2 overflowed (an action of 1e200): its direction, at v_pref
       v_robot = (1.0 / std::max(std::abs(v_robot.x), std::abs(v_robot.y))) * v_robot;
       speed = norm(v_robot);
     }
     if (speed > v_max) v_robot = (v_max / speed) * v_robot;
-  } else {
-    const double v_max = buf_.v_pref[static_cast<size_t>(b) * A];
-    const double v = std::min(std::max(actions[2 * b], -v_max), v_max);
-    const double rot = std::min(std::max(actions[2 * b + 1], -config_.rotation_limit), config_.rotation_limit);
-    // Wrapped to [0, 2*pi) as CrowdSim's Agent.step does: the learned policies' heading feature
-    // (theta - goal direction) would otherwise grow with every turn the robot has made.
-    theta = std::fmod(theta + rot, 2.0 * M_PI);
-    if (theta < 0.0) theta += 2.0 * M_PI;
-    v_robot = Vec2{v * std::cos(theta), v * std::sin(theta)};
+    return v_robot;
   }
+  const double v = std::min(std::max(actions[2 * b], -v_max), v_max);
+  const double rot = std::min(std::max(actions[2 * b + 1], -config_.rotation_limit), config_.rotation_limit);
+  // Wrapped to [0, 2*pi) as CrowdSim's Agent.step does: the learned policies' heading feature
+  // (theta - goal direction) would otherwise grow with every turn the robot has made.
+  theta = std::fmod(theta + rot, 2.0 * M_PI);
+  if (theta < 0.0) theta += 2.0 * M_PI;
+  return Vec2{v * std::cos(theta), v * std::sin(theta)};
+}
 
-  // 3. Swept collision test of the robot against every human over the step.
+World::RobotContacts World::robot_contacts(int b, Vec2 v_robot) const {
+  const int A = config_.agents;
+  const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+  const double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
+  const double* radius = buf_.radius + static_cast<size_t>(b) * A;
+  const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+  const double* new_vel = new_velocity_.data() + static_cast<size_t>(b) * A * 2;
+  const double dt = config_.dt;
+  // The robot against every human, both moving linearly over the step.
   const Vec2 p_robot = load(pos);
-  double dmin = std::numeric_limits<double>::infinity();
-  if (status == kRunning) {
-    for (int i = 1; i < A; ++i) {
-      if (!mask[i]) continue;
-      // CrowdSim sweeps with the human's previous velocity, not the one it applies now.
-      const Vec2 v_h = config_.crowdsim_compat ? load(vel + 2 * i) : load(new_vel + 2 * i);
-      const double d = swept_centre_distance(load(pos + 2 * i) - p_robot, v_h - v_robot, dt) - radius[0] - radius[i];
-      dmin = std::min(dmin, d);
-    }
+  RobotContacts out;
+  for (int i = 1; i < A; ++i) {
+    if (!mask[i]) continue;
+    // CrowdSim sweeps with the human's previous velocity, not the one it applies now.
+    const Vec2 v_h = config_.crowdsim_compat ? load(vel + 2 * i) : load(new_vel + 2 * i);
+    const double d = swept_centre_distance(load(pos + 2 * i) - p_robot, v_h - v_robot, dt) - radius[0] - radius[i];
+    out.dmin = std::min(out.dmin, d);
   }
-  buf_.dmin[b] = dmin;
   // The robot's swept disc against the static obstacles (a thin wall crossed within the step counts).
-  bool hit_obstacle = false;
   const ObstacleView walls = obstacles(b);
-  if (status == kRunning && walls.count > 0)
-    hit_obstacle = swept_disc_hits_obstacles(walls, p_robot, p_robot + dt * v_robot, radius[0]);
+  if (walls.count > 0) out.hit_obstacle = swept_disc_hits_obstacles(walls, p_robot, p_robot + dt * v_robot, radius[0]);
+  return out;
+}
 
-  // 4. Everyone moves.
-  store(pos, p_robot + dt * v_robot);
+void World::move_agents(int b, Vec2 v_robot, double theta) {
+  const int A = config_.agents;
+  double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+  double* vel = buf_.velocity + static_cast<size_t>(b) * A * 2;
+  const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+  const double* new_vel = new_velocity_.data() + static_cast<size_t>(b) * A * 2;
+  const double dt = config_.dt;
+  store(pos, load(pos) + dt * v_robot);
   store(vel, v_robot);
   buf_.theta[b] = theta;
   for (int i = 1; i < A; ++i) {
@@ -214,12 +236,15 @@ void World::step_episode(int b, const double* actions, int worker) {
     store(pos + 2 * i, load(pos + 2 * i) + dt * v);
     store(vel + 2 * i, v);
   }
-  const int steps_before = buf_.steps[b];
-  const int steps = steps_before + 1;
-  buf_.steps[b] = steps;
-  const double t_before = steps_before * dt;  // products, not sums: no drift over long episodes
-  const double t = steps * dt;
+}
 
+bool World::record_arrivals(int b, double t) {
+  const int A = config_.agents;
+  const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+  const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
+  const double* radius = buf_.radius + static_cast<size_t>(b) * A;
+  const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+  double* arrival = buf_.arrival + static_cast<size_t>(b) * A;
   // First arrivals (M_III) of every agent at the goal it had at reset.
   bool all_humans_arrived = true;
   for (int i = 0; i < A; ++i) {
@@ -227,34 +252,37 @@ void World::step_episode(int b, const double* actions, int worker) {
     if (std::isnan(arrival[i]) && norm(load(pos + 2 * i) - load(goal + 2 * i)) < radius[i]) arrival[i] = t;
     if (i > 0 && std::isnan(arrival[i])) all_humans_arrived = false;
   }
+  return all_humans_arrived;
+}
 
-  // 6. Human-human overlaps never end an episode; CrowdSim does not count them.
-  // Counted over the robot's episode only: not in the M_III continuation after its success.
-  if (!config_.crowdsim_compat && status == kRunning) {
-    int count = 0;
-    for (int i = 1; i < A; ++i) {
-      if (!mask[i]) continue;
-      for (int j = i + 1; j < A; ++j) {
-        if (!mask[j]) continue;
-        const double r = radius[i] + radius[j];
-        if (abs_sq(load(pos + 2 * i) - load(pos + 2 * j)) < r * r) ++count;
-      }
+int World::count_overlaps(int b) const {
+  const int A = config_.agents;
+  const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+  const double* radius = buf_.radius + static_cast<size_t>(b) * A;
+  const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
+  int count = 0;
+  for (int i = 1; i < A; ++i) {
+    if (!mask[i]) continue;
+    for (int j = i + 1; j < A; ++j) {
+      if (!mask[j]) continue;
+      const double r = radius[i] + radius[j];
+      if (abs_sq(load(pos + 2 * i) - load(pos + 2 * j)) < r * r) ++count;
     }
-    buf_.overlaps[b] += count;
   }
+  return count;
+}
 
-  // 5. Outcome and reward.
-  if (status == kContinuing) {
-    if (all_humans_arrived || t >= config_.continuation_cap - kTimeEps) {
-      status = kSuccess;
-      buf_.done[b] = 1;
-    }
-    record(b, steps);
-    return;
-  }
+void World::settle_outcome(int b, const RobotContacts& contacts, bool all_humans_arrived, int steps, double t_before,
+                           double t) {
+  const int A = config_.agents;
+  const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
+  const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
+  const double* radius = buf_.radius + static_cast<size_t>(b) * A;
+  int8_t& status = buf_.status[b];
+  const double dmin = contacts.dmin;
   const bool reached = norm(load(pos) - load(goal)) < radius[0];
   const bool hit_human = dmin < 0.0;
-  const bool collided = hit_human || (hit_obstacle && config_.obstacle_collision_ends);
+  const bool collided = hit_human || (contacts.hit_obstacle && config_.obstacle_collision_ends);
   int8_t outcome = kRunning;
   if (config_.crowdsim_compat) {
     // CrowdSim tests the clock before the step and lets a timeout win over everything else.
@@ -279,10 +307,10 @@ void World::step_episode(int b, const double* actions, int worker) {
     reward = hit_human ? config_.collision_penalty : config_.obstacle_collision_penalty;
   else if (outcome == kSuccess)
     reward = config_.success_reward;
-  else if (outcome == kRunning && hit_obstacle)
+  else if (outcome == kRunning && contacts.hit_obstacle)
     reward = config_.obstacle_collision_penalty;
   else if (outcome == kRunning && dmin < config_.discomfort_dist)
-    reward = (dmin - config_.discomfort_dist) * config_.discomfort_penalty_factor * dt;
+    reward = (dmin - config_.discomfort_dist) * config_.discomfort_penalty_factor * config_.dt;
   buf_.reward[b] = reward;
   if (outcome == kCollision && buf_.collision_kind)
     buf_.collision_kind[b] = hit_human ? kHumanCollision : kObstacleCollision;
@@ -297,7 +325,6 @@ void World::step_episode(int b, const double* actions, int worker) {
       buf_.done[b] = 1;
     }
   }
-  record(b, steps);
 }
 
 void World::preview_humans(double* out) {

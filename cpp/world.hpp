@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -162,7 +163,19 @@ class World {
 
  private:
   void step_episode(int b, const double* actions, int worker);
-  void human_velocities(int b, int worker);
+  // step_episode's phases (world.cpp), in the order it runs them.
+  void human_velocities(int b, int worker);  // the humans' next velocities, into new_velocity_
+  Vec2 robot_velocity(int b, const double* actions, double& theta) const;  // the action, clipped; turns theta
+  struct RobotContacts {
+    double dmin = std::numeric_limits<double>::infinity();  // swept clearance to the nearest human [m]
+    bool hit_obstacle = false;                              // the swept disc touched a static obstacle
+  };
+  RobotContacts robot_contacts(int b, Vec2 v_robot) const;
+  void move_agents(int b, Vec2 v_robot, double theta);
+  bool record_arrivals(int b, double t);  // first arrivals at t; whether every human has arrived
+  int count_overlaps(int b) const;        // human-human overlaps after the move
+  void settle_outcome(int b, const RobotContacts& contacts, bool all_humans_arrived, int steps, double t_before,
+                      double t);  // outcome, reward, collision kind, end step, status and done
   void require_human_velocities() const;
   void record(int b, int sample);
   struct GenerationScratch {
