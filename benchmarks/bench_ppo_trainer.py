@@ -1,6 +1,6 @@
 """PPO training speed of crowdnav_pp: environment steps per second end to end (collection + updates).
 
-Runs the project's PPO trainer (train/ppo.py) under ``wang2022`` for a few updates of the default
+Runs the project's PPO trainer (train/ppo/algorithm.py) under ``wang2022`` for a few updates of the default
 schedule (``--config``, default the shipped ``ppo``) and of the same schedule with the CrowdNav++
 repository's layer sizes, and, as the reference measured in the same run, the batched world alone
 stepping the same environments with constant actions (the collection floor: no network at all).

@@ -84,7 +84,7 @@ def time_gradient_step(
     """Seconds per TD gradient step, the trainer's own (sample, gather, transform, target forward,
     forward, the divergence check, backward, fused Adam through AdamSteps); the best of ``repeats``
     timings of ``steps`` steps. ``network_kwargs`` changes the layer sizes; ``compiled`` compiles as
-    ``compile: true`` does — the whole step as one graph (train/fused_step.py) where the network
+    ``compile: true`` does — the whole step as one graph (train/value/fused_step.py) where the network
     traces into one, else the loss — with the compilation outside the timing. Every step's loss is
     read and checked here (the trainer checks a fused step's losses once per burst of steps)."""
     kw = network_kwargs or {}
