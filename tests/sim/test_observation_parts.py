@@ -296,3 +296,20 @@ def test_the_entry_point_group_registers_a_part(monkeypatch):
         env.close()
     finally:
         unregister_observation_part("heading")
+
+
+def test_training_refuses_a_record_observing_other_parts(monkeypatch):
+    import dataclasses
+
+    from socialnav.policies import learned_catalog
+    from socialnav.settings import ConfigError
+    from socialnav.train.worlds import check_observation_parts
+
+    sarl = learned_catalog.get_learned_spec("sarl")
+    check_observation_parts("sarl")  # every shipped record observes NETWORK_PARTS
+    other = dataclasses.replace(sarl, observation_parts=("robot", "humans", "goal_marker", "obstacle_points"))
+    monkeypatch.setattr(learned_catalog, "get_learned_spec", lambda name: other)
+    with pytest.raises(ConfigError, match="observes robot, humans, goal_marker, obstacle_points: training"):
+        check_observation_parts("sarl")
+    with pytest.raises(ValueError, match="holding 'robot'"):
+        dataclasses.replace(sarl, observation_parts=("humans",))

@@ -120,6 +120,25 @@ def obstacle_encoding_entry(preset: Preset) -> dict[str, Any]:
     return {"obstacle_encoding": ObstaclePoints().to_dict()}
 
 
+def check_observation_parts(policy: str) -> None:
+    """Refuses to train a learned policy whose record observes other parts than the trainers build.
+
+    Both trainers build the networks' inputs of :data:`~socialnav.sim.parts.NETWORK_PARTS` (their replay
+    memory and rollout buffers hold the human and obstacle point slots); evaluation composes any parts.
+
+    Raises:
+        ConfigError: naming the record's parts and the ones training builds.
+    """
+    from socialnav.policies.learned_catalog import get_learned_spec
+    from socialnav.settings import ConfigError
+    from socialnav.sim.parts import NETWORK_PARTS
+
+    parts = get_learned_spec(policy).observation_parts
+    if parts != NETWORK_PARTS:
+        raise ConfigError(f"policy {policy!r} observes {', '.join(parts)}: training builds the networks' "
+                          f"inputs of {', '.join(NETWORK_PARTS)} only (docs/extending.md)")
+
+
 def pad_humans(humans: np.ndarray, mask: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """(B, m, 5), (B, m) zero-padded to n >= m human slots (mask False)."""
     m = humans.shape[1]

@@ -142,7 +142,9 @@ class PPORun(RunFiles):
 def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints | None) -> dict[str, Any]:
     """The network's arguments from the policy's record; among walls with the point slots."""
     from socialnav.policies.learned_catalog import get_learned_spec
+    from socialnav.train.worlds import check_observation_parts
 
+    check_observation_parts(s.policy)
     network_kwargs = get_learned_spec(s.policy).network_kwargs
     assert network_kwargs is not None  # a PPO record always has one (LearnedPolicySpec checks)
     if encoding is None:

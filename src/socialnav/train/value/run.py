@@ -33,7 +33,13 @@ from socialnav.train.run_directory import (
     start_run_files,
 )
 from socialnav.train.value.settings import TrainSettings, resume_diff
-from socialnav.train.worlds import MultiWorld, obstacle_encoding_entry, reward_config, training_n_humans
+from socialnav.train.worlds import (
+    MultiWorld,
+    check_observation_parts,
+    obstacle_encoding_entry,
+    reward_config,
+    training_n_humans,
+)
 
 #: Offset of the RL episode stream after the imitation episodes (same ``scenario_start``), recorded
 #: in the run's config.
@@ -219,6 +225,7 @@ def setup_run(
     preset = load_preset(preset) if not isinstance(preset, Preset) else preset
     settings = resolve_policy_settings(policy_name, settings)
     name = canonical_name(policy_name)
+    check_observation_parts(name)
     rl = settings.rl
     device = run_device(settings)
     seeds = derive_seeds(settings.seed)
