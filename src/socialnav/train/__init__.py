@@ -50,7 +50,7 @@ _EXPORTS = {
     "run_record": "socialnav.train.run_directory",
     "open_run_directory": "socialnav.train.run_directory",
     "start_run_files": "socialnav.train.run_directory",
-    "flat_diff": "socialnav.train.run_directory",
+    "flat_diff": "socialnav.train.settings_files",
     "MultiWorld": "socialnav.train.worlds",
     "ppo_policy_config": "socialnav.train.worlds",
     "validate": "socialnav.train.episodes",
@@ -108,13 +108,12 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load
     from socialnav.train.run_directory import (
         RunFiles,
         derive_seeds,
-        flat_diff,
         open_run_directory,
         run_device,
         run_record,
         start_run_files,
     )
-    from socialnav.train.settings_files import shipped_train_configs
+    from socialnav.train.settings_files import flat_diff, shipped_train_configs
     from socialnav.train.value.settings import (
         ImitationSettings,
         RLSettings,

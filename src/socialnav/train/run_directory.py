@@ -185,18 +185,6 @@ def dotted(data: Any, key: str) -> Any:
     return data
 
 
-def flat_diff(a: Any, b: Any, prefix: str = "") -> list[str]:
-    """Dotted keys where two nested plain dicts differ."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        out = []
-        for k in sorted(set(a) | set(b)):
-            out += flat_diff(a.get(k), b.get(k), f"{prefix}{k}.")
-        return out
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        a, b = list(a), list(b)
-    return [] if a == b else [prefix.rstrip(".")]
-
-
 def refuse_other_settings(saved: dict[str, Any], config: dict[str, Any], diff: list[str], out: Path) -> None:
     """Refuses a resume where ``diff`` (dotted keys) is not empty, naming each key's two values.
 

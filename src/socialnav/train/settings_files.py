@@ -144,3 +144,15 @@ def load_settings_file(cls: type[T], path: str | Path | None, overrides: dict[st
             option = (flags or {}).get(named[0], "--" + named[0].replace("_", "-"))
             raise ConfigError(f"{option}: {err}") from None
         raise ConfigError(f"{path}: {err}" if path is not None else str(err)) from None
+
+
+def flat_diff(a: Any, b: Any, prefix: str = "") -> list[str]:
+    """Dotted keys where two nested plain dicts differ."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out = []
+        for k in sorted(set(a) | set(b)):
+            out += flat_diff(a.get(k), b.get(k), f"{prefix}{k}.")
+        return out
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        a, b = list(a), list(b)
+    return [] if a == b else [prefix.rstrip(".")]

@@ -30,12 +30,12 @@ from socialnav.train.ppo.worlds import restore_worlds
 from socialnav.train.run_directory import (
     RunFiles,
     derive_seeds,
-    flat_diff,
     open_run_directory,
     run_device,
     run_record,
     start_run_files,
 )
+from socialnav.train.settings_files import flat_diff
 from socialnav.train.worlds import MultiWorld, mix_human_slots, ppo_policy_config
 
 PPO_STREAM_OFFSET = 5_000_000  # training episodes start here within the seed's range (as the RL stream)

@@ -16,8 +16,7 @@ from typing import Any, ClassVar
 
 from socialnav.policies.learned_catalog import VALUE_DEFAULTS, get_learned_spec
 from socialnav.settings import ConfigError, Settings, setting
-from socialnav.train.run_directory import flat_diff
-from socialnav.train.settings_files import DEVICES, load_settings_file
+from socialnav.train.settings_files import DEVICES, flat_diff, load_settings_file
 
 INFORMATION = ("constant_velocity", "oracle", "learned")
 REWARD_RULES = ("end", "swept")
