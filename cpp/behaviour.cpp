@@ -53,6 +53,11 @@ ParamValues::ParamValues(const std::string& behaviour, const std::vector<Behavio
   values_ = values;
 }
 
+void HumanBehaviour::preferred_velocities(const SlotView& s, const double* targets, Vec2* out) const {
+  for (int i = 1; i < s.agents; ++i)
+    if (s.mask[i]) out[i] = preferred_velocity(s.at(s.position, i), s.at(targets, i), s.v_pref[i], s.dt);
+}
+
 double ParamValues::get(const std::string& name) const {
   for (size_t k = 0; k < params_->size(); ++k)
     if ((*params_)[k].name == name) return values_[k];

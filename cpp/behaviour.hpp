@@ -106,11 +106,24 @@ class HumanBehaviour {
   // Question 1: the velocity [m/s] with which a human at `position` heads for `target` (its goal, or
   // a route's waypoint), given its preferred speed v_pref [m/s] and the step dt [s].
   virtual Vec2 preferred_velocity(Vec2 position, Vec2 target, double v_pref, double dt) const = 0;
+  // Question 1 for every real human i in [1, A) of a slot: out[i] = preferred_velocity(position i,
+  // target i, v_pref i, dt), targets (A, 2) [m] (the goals, or a route's waypoints). This default calls
+  // preferred_velocity through the vtable once per human; a behaviour overrides it with
+  // fill_preferred_velocities(*this, ...), which calls its own law directly so that it is inlined.
+  virtual void preferred_velocities(const SlotView& slot, const double* targets, Vec2* out) const;
   // Question 2: writes the new velocity of every real human i in [1, A) (mask[i]) to out[2i], out[2i+1]
   // [m/s]; other entries are left alone. `worker` in [0, threads) indexes per-thread scratch space:
   // calls with different workers run at the same time.
   virtual void velocities(const SlotView& slot, int worker, double* out) = 0;
 };
+
+// preferred_velocities' loop with behaviour B's own law, called without the vtable (B final), so that the
+// compiler inlines it: one indirect call per slot instead of one per human.
+template <class B>
+void fill_preferred_velocities(const B& behaviour, const SlotView& s, const double* targets, Vec2* out) {
+  for (int i = 1; i < s.agents; ++i)
+    if (s.mask[i]) out[i] = behaviour.B::preferred_velocity(s.at(s.position, i), s.at(targets, i), s.v_pref[i], s.dt);
+}
 
 // What a behaviour is built from: its checked parameters, the world's worker threads and agents per slot.
 struct BehaviourSetup {

@@ -131,10 +131,7 @@ void World::human_velocities(int b, int worker) {
   slot.dt = config_.dt;
   // Where each human wants to go (its goal), then how it avoids the others (behaviour.hpp).
   Vec2* preferred = preferred_[worker].data();
-  for (int i = 1; i < A; ++i)
-    if (mask[i])
-      preferred[i] =
-          behaviour_->preferred_velocity(slot.at(slot.position, i), slot.at(slot.goal, i), slot.v_pref[i], slot.dt);
+  behaviour_->preferred_velocities(slot, slot.goal, preferred);
   slot.preferred = preferred;
   behaviour_->velocities(slot, worker, out);
 }

@@ -14,6 +14,10 @@ class LinearBehaviour final : public HumanBehaviour {
     return straight_to_goal_velocity(position, target, v_pref, dt);
   }
 
+  void preferred_velocities(const SlotView& s, const double* targets, Vec2* out) const override {
+    fill_preferred_velocities(*this, s, targets, out);
+  }
+
   void velocities(const SlotView& s, int, double* out) override {
     for (int i = 1; i < s.agents; ++i) {
       if (!s.mask[i]) continue;

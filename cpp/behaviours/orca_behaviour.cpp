@@ -37,6 +37,10 @@ class OrcaBehaviour final : public HumanBehaviour {
     return crowdsim_pref_velocity(position, target);
   }
 
+  void preferred_velocities(const SlotView& s, const double* targets, Vec2* out) const override {
+    fill_preferred_velocities(*this, s, targets, out);
+  }
+
   void velocities(const SlotView& s, int worker, double* out) override {
     const OrcaParams& params = values_.solver;
     OrcaScratch& scratch = scratch_[worker];

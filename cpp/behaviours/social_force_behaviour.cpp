@@ -38,6 +38,10 @@ class SocialForceBehaviour final : public HumanBehaviour {
     return social_force_desired_velocity(position, target, v_pref);
   }
 
+  void preferred_velocities(const SlotView& s, const double* targets, Vec2* out) const override {
+    fill_preferred_velocities(*this, s, targets, out);
+  }
+
   void velocities(const SlotView& s, int worker, double* out) override {
     std::vector<SocialForceOther>& others = others_[worker];
     for (int i = 1; i < s.agents; ++i) {

@@ -92,6 +92,11 @@ class HumanBehaviour(Settings):
     straight to the goal, :meth:`preferred_velocity`), and register the class with
     :func:`register_human_behaviour`. In a world, ``WorldSettings(human_model=name, human_params={...})``
     selects it; errors name the field as ``human_params.<parameter>``.
+
+    Both methods must be functions of the state they are given (and the parameters): the world calls
+    them once per step, and once more for an oracle's preview of the same state (``observe(oracle=True)``),
+    which must see the velocities the step then applies. Randomness, if any, must be drawn from the
+    state (e.g. seeded by positions), never from a generator advanced by each call.
     """
 
     section: ClassVar[str] = "human_params"
