@@ -178,13 +178,17 @@ def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any
             raise CheckpointError(
                 f"checkpoint {path} is a Stable-Baselines3 model: evaluate it with --policy sb3:{path}"
             ) from None
-        # weights_only refused an object that is not a tensor or plain value; torch's own message advises
-        # weights_only=False, which would run whatever the file names: never repeat that advice.
-        refused = re.search(r"unsupported GLOBAL (\S+)", _one_line(err, limit=2000), re.IGNORECASE)
-        what = f"the object {refused.group(1)}" if refused else "objects other than tensors and plain values"
+        # weights_only names the object it refused ("GLOBAL posix.system"); any other refusal (an opcode it
+        # does not know) is a damaged file. torch's own message advises weights_only=False, which would run
+        # whatever the file names: never repeat that advice.
+        refused = re.search(r"GLOBAL ([\w.]+)", _one_line(err, limit=4000))
+        if refused is None:
+            raise CheckpointError(f"checkpoint {path} is damaged or not a torch file (it is not a pickle "
+                                  "of tensors and plain values)") from None
         raise CheckpointError(
-            f"checkpoint {path} is refused: it holds {what}, and socialnav loads only tensors and plain "
-            "values from a checkpoint (an object could run code when read); it was not written by socialnav"
+            f"checkpoint {path} is refused: it holds the object {refused.group(1)}, and socialnav loads only "
+            "tensors and plain values from a checkpoint (an object could run code when read); it was not "
+            "written by socialnav"
         ) from None
     except Exception as err:  # unpickling a damaged or foreign file fails in many ways
         hint = ""
