@@ -95,7 +95,9 @@ def metric_population(key: str, require_success: bool) -> str:
     ``all``, ``success`` or ``known_outcome`` (the metric's population; a social metric counts every episode
     unless ``require_success``), or ``unknown`` for a key of no registered metric.
     """
-    from socialnav.metrics.registry import _REGISTRY, parse_key
+    from socialnav.metrics.registry import _REGISTRY, load_metric_plugins, parse_key
+
+    load_metric_plugins()
 
     metric = _REGISTRY.get(parse_key(key)[0])
     if metric is None:

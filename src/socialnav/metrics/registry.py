@@ -1,7 +1,10 @@
 """Metric registry: every metric declares its name, units, direction and parameters.
 
 Metrics register themselves where they are defined (``@register_metric(...)``), so there is no
-central list to keep in sync. :func:`socialnav.metrics.score.score_episode` runs every registered
+central list to keep in sync. Another package adds metrics through the entry-point group
+``socialnav.metrics``: an entry point names a module whose import registers them, loaded on the first
+lookup of the registry (in every process that scores), so ``socialnav evaluate`` and ``socialnav
+metrics`` report them beside the built-in ones. :func:`socialnav.metrics.score.score_episode` runs every registered
 metric and flattens the results into keys built by :func:`metric_key`:
 
     ``<metric>[.<output>][@<param>=<value>,...]``
@@ -26,9 +29,11 @@ from typing import Any, Literal
 import numpy as np
 
 __all__ = [
+    "ENTRY_POINT_GROUP",
     "Metric",
     "get_metric",
     "list_metrics",
+    "load_metric_plugins",
     "metric_key",
     "parse_key",
     "register_metric",
@@ -231,8 +236,27 @@ def register_metric(
     return wrap
 
 
+#: The entry-point group of metric plugins (docs/extending.md, "A metric").
+ENTRY_POINT_GROUP = "socialnav.metrics"
+_plugins_loaded = False
+
+
+def load_metric_plugins() -> None:
+    """Imports every module the ``socialnav.metrics`` entry points name (once per process), which
+    registers their metrics; one that fails to import is a RuntimeWarning, never an error."""
+    global _plugins_loaded
+    if _plugins_loaded:
+        return
+    _plugins_loaded = True
+    from socialnav.plugins import load_entry_points
+
+    for _entry_point, _module in load_entry_points(ENTRY_POINT_GROUP, "metric"):
+        pass  # importing the module ran its @register_metric decorators
+
+
 def list_metrics() -> list[Metric]:
-    """All registered metrics, in registration order."""
+    """All registered metrics, in registration order (the plugins' after the built-in ones)."""
+    load_metric_plugins()
     return list(_REGISTRY.values())
 
 
@@ -242,6 +266,7 @@ def get_metric(name: str) -> Metric:
     Raises:
         KeyError: Unknown name; the message lists the valid names.
     """
+    load_metric_plugins()
     try:
         return _REGISTRY[name]
     except KeyError:
