@@ -4,8 +4,8 @@ Metrics register themselves where they are defined (``@register_metric(...)``), 
 central list to keep in sync. Another package adds metrics through the entry-point group
 ``socialnav.metrics``: an entry point names a module whose import registers them, loaded on the first
 lookup of the registry (in every process that scores), so ``socialnav evaluate`` and ``socialnav
-metrics`` report them beside the built-in ones. :func:`socialnav.metrics.score.score_episode` runs every registered
-metric and flattens the results into keys built by :func:`metric_key`:
+metrics`` report them beside the built-in ones. :func:`socialnav.metrics.score.score_episode` runs
+every registered metric and flattens the results into keys built by :func:`metric_key`:
 
     ``<metric>[.<output>][@<param>=<value>,...]``
 
@@ -242,8 +242,10 @@ _plugins_loaded = False
 
 
 def load_metric_plugins() -> None:
-    """Imports every module the ``socialnav.metrics`` entry points name (once per process), which
-    registers their metrics; one that fails to import is a RuntimeWarning, never an error."""
+    """Imports every module the ``socialnav.metrics`` entry points name, once per process.
+
+    Importing a module registers its metrics; one that fails to import is a RuntimeWarning, never an error.
+    """
     global _plugins_loaded
     if _plugins_loaded:
         return
