@@ -95,6 +95,7 @@ struct SlotView {
   const Vec2* preferred = nullptr;   // (A,) the humans' preferred velocities [m/s] (entry 0 unused)
   bool robot_visible = false;        // the humans react to agent 0
   ObstacleView obstacles;            // the slot's static map (count 0: open floor)
+  ObstacleView orca_obstacles;       // the same map as RVO2's ORCA sees it (OrcaObstacles)
   double dt = 0.25;                  // [s]
   int first_other() const { return robot_visible ? 0 : 1; }
   Vec2 at(const double* xy, int i) const { return Vec2{xy[2 * i], xy[2 * i + 1]}; }

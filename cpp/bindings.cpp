@@ -644,7 +644,7 @@ NB_MODULE(_core, m) {
         const double *p = positions.data(), *v = velocities.data(), *pv = pref_velocities.data();
         const double *r = radii.data(), *ms = max_speeds.data();
         nb::gil_scoped_release release;
-        socialnav::orca_step_agents(static_cast<int>(n), p, v, pv, r, ms, params, time_step, walls.view(), o);
+        socialnav::orca_step_agents(static_cast<int>(n), p, v, pv, r, ms, params, time_step, walls.orca_view(), o);
       },
       "positions"_a, "velocities"_a, "pref_velocities"_a, "radii"_a, "max_speeds"_a, "params"_a.none(), "time_step"_a,
       "obstacle_vertices"_a, "obstacle_offsets"_a, "out"_a.noconvert(),
@@ -701,7 +701,7 @@ NB_MODULE(_core, m) {
             socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
         socialnav::OrcaScratch scratch;
         const socialnav::OrcaAgent self{vec(position), vec(velocity), radius, max_speed, Vec2{}};
-        const int k = socialnav::orca_obstacle_lines(self, walls.view(), time_horizon_obst, scratch);
+        const int k = socialnav::orca_obstacle_lines(self, walls.orca_view(), time_horizon_obst, scratch);
         nb::list out;
         for (int i = 0; i < k; ++i) {
           const socialnav::Line& l = scratch.lines[i];
@@ -712,4 +712,30 @@ NB_MODULE(_core, m) {
       "position"_a, "velocity"_a, "radius"_a, "max_speed"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
       "time_horizon_obst"_a = 5.0,
       "The obstacle ORCA half-planes (px, py, dx, dy; permitted on the left) of one agent, in solver order.");
+
+  m.def(
+      "orca_obstacle_neighbors",
+      [](Array<double> position, double radius, double max_speed, Array<double> obstacle_vertices,
+         Array<int64_t> obstacle_offsets, double time_horizon_obst) {
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        socialnav::OrcaScratch scratch;
+        const socialnav::OrcaAgent self{vec(position), Vec2{}, radius, max_speed, Vec2{}};
+        socialnav::orca_obstacle_lines(self, walls.orca_view(), time_horizon_obst, scratch);
+        nb::list neighbors;
+        for (int i = 0; i < scratch.obstacle_count; ++i) neighbors.append(scratch.obstacle_index[i]);
+        nb::list vertices;
+        for (size_t i = 0; i < walls.orca.vertex.size(); ++i) {
+          const socialnav::ObstacleVertex& v = walls.orca.vertex[i];
+          vertices.append(nb::make_tuple(v.point.x, v.point.y, v.next, v.prev, v.convex, walls.orca.parent[i],
+                                         walls.orca.is_left[i] != 0, walls.orca.depth[i]));
+        }
+        return nb::make_tuple(neighbors, vertices);
+      },
+      "position"_a, "radius"_a, "max_speed"_a, "obstacle_vertices"_a, "obstacle_offsets"_a, "time_horizon_obst"_a = 5.0,
+      "RVO2's obstacle neighbours of one agent (vertex ids, nearest first, ties in RVO2's tree-query order) and "
+      "the map as ORCA sees it: (x, y, next, prev, convex, tree parent, is left child, depth) per vertex, the split "
+      "points after the map's own "
+      "vertices (RVO2's obstacle ids).");
 }

@@ -60,6 +60,7 @@ PreparedObstacles prepare_obstacles(const double* vertices, const int64_t* offse
   out.edges.resize(static_cast<size_t>(5 * count));
   build_obstacle_vertices(vertices, offsets, n_polygons, out.vertex.data());
   build_edge_arrays(out.vertex.data(), static_cast<int>(count), out.edges.data());
+  out.orca = build_orca_obstacles(out.vertex.data(), static_cast<int>(count));
   return out;
 }
 
@@ -72,6 +73,98 @@ bool same_polygons(const double* vertices, const int64_t* o, int64_t p0, int64_t
     if (o[p0 + p + 1] - o[p0 + p] != o[q0 + p + 1] - o[q0 + p]) return false;
   const int64_t v = o[p0 + n] - o[p0];
   return std::memcmp(vertices + 2 * o[p0], vertices + 2 * o[q0], static_cast<size_t>(2 * v) * sizeof(double)) == 0;
+}
+
+// RVO2's tolerance (RVO_EPSILON) for an end point lying on a node's line.
+constexpr double kTreeEpsilon = 1e-5;
+
+// Builds RVO2's obstacle kd-tree over `ids` (vertices whose edges reach their `next`), splitting in
+// `out.vertex` every edge that crosses the chosen node's line; returns the node's vertex (-1: none).
+// Node choice: the edge whose line leaves the fewest edges on its larger side, then on its smaller side,
+// the first such edge in list order; each side keeps list order, a split edge's two halves going to the
+// sides their ends lie on.
+int32_t build_tree(std::vector<int32_t>& ids, OrcaObstacles& out, int32_t parent, bool is_left, int32_t depth) {
+  const int n = static_cast<int>(ids.size());
+  if (n == 0) return -1;
+  auto side_counts = [&](int i, int limit_big, int limit_small, int& left, int& right) {
+    const ObstacleVertex& i1 = out.vertex[ids[i]];
+    const Vec2 a = i1.point, b = out.vertex[i1.next].point;
+    left = right = 0;
+    for (int j = 0; j < n; ++j) {
+      if (j == i) continue;
+      const ObstacleVertex& j1 = out.vertex[ids[j]];
+      const double l1 = left_of(a, b, j1.point), l2 = left_of(a, b, out.vertex[j1.next].point);
+      if (l1 >= -kTreeEpsilon && l2 >= -kTreeEpsilon) {
+        ++left;
+      } else if (l1 <= kTreeEpsilon && l2 <= kTreeEpsilon) {
+        ++right;
+      } else {
+        ++left;
+        ++right;
+      }
+      const int big = std::max(left, right), small = std::min(left, right);
+      if (big > limit_big || (big == limit_big && small >= limit_small)) return false;  // no better
+    }
+    return true;
+  };
+  int best = 0, best_big = n, best_small = n;
+  for (int i = 0; i < n; ++i) {
+    int left = 0, right = 0;
+    if (side_counts(i, best_big, best_small, left, right)) {
+      const int big = std::max(left, right), small = std::min(left, right);
+      if (big < best_big || (big == best_big && small < best_small)) {
+        best = i;
+        best_big = big;
+        best_small = small;
+      }
+    }
+  }
+  const int32_t node = ids[best];
+  const Vec2 a = out.vertex[node].point, b = out.vertex[out.vertex[node].next].point;
+  std::vector<int32_t> left_ids, right_ids;
+  for (int j = 0; j < n; ++j) {
+    if (j == best) continue;
+    const int32_t j1 = ids[j];
+    const int32_t j2 = out.vertex[j1].next;
+    const double l1 = left_of(a, b, out.vertex[j1].point), l2 = left_of(a, b, out.vertex[j2].point);
+    if (l1 >= -kTreeEpsilon && l2 >= -kTreeEpsilon) {
+      left_ids.push_back(j1);
+    } else if (l1 <= kTreeEpsilon && l2 <= kTreeEpsilon) {
+      right_ids.push_back(j1);
+    } else {
+      // The edge j1 -> j2 crosses the node's line: a new convex vertex where it does, taking the
+      // direction of the edge it cuts (as RVO2 does, not recomputed).
+      const Vec2 p1 = out.vertex[j1].point, p2 = out.vertex[j2].point;
+      const double t = det(b - a, p1 - a) / det(b - a, p1 - p2);
+      ObstacleVertex split = out.vertex[j1];
+      split.point = p1 + t * (p2 - p1);
+      split.prev = j1;
+      split.next = j2;
+      split.convex = true;
+      const int32_t k = static_cast<int32_t>(out.vertex.size());
+      out.vertex.push_back(split);
+      out.vertex[j1].next = k;
+      out.vertex[j2].prev = k;
+      if (l1 > 0.0) {
+        left_ids.push_back(j1);
+        right_ids.push_back(k);
+      } else {
+        right_ids.push_back(j1);
+        left_ids.push_back(k);
+      }
+    }
+  }
+  out.parent.resize(out.vertex.size(), -1);
+  out.is_left.resize(out.vertex.size(), 0);
+  out.depth.resize(out.vertex.size(), 0);
+  out.parent[node] = parent;
+  out.is_left[node] = is_left ? 1 : 0;
+  out.depth[node] = depth;
+  ids.clear();  // the caller's list is not needed below: release it before recursing
+  ids.shrink_to_fit();
+  build_tree(left_ids, out, node, true, depth + 1);
+  build_tree(right_ids, out, node, false, depth + 1);
+  return node;
 }
 
 }  // namespace
@@ -109,7 +202,83 @@ PreparedObstacleBatch prepare_obstacle_batch(const double* vertices, const int64
   out.edges.resize(static_cast<size_t>(5 * prepared));
   for (size_t b : own)
     build_edge_arrays(out.vertex.data() + out.first[b], out.count[b], out.edges.data() + 5 * out.first[b]);
+  // RVO2's split map and tree of each distinct map, shared by the episodes that share its vertices.
+  out.orca_first.resize(B);
+  out.orca_count.resize(B);
+  for (size_t b = 0; b < B; ++b) {
+    if (b > 0 && out.first[b] == out.first[b - 1] && out.count[b] == out.count[b - 1] && out.count[b] > 0) {
+      out.orca_first[b] = out.orca_first[b - 1];
+      out.orca_count[b] = out.orca_count[b - 1];
+      continue;
+    }
+    const OrcaObstacles one = build_orca_obstacles(out.vertex.data() + out.first[b], out.count[b]);
+    out.orca_first[b] = static_cast<int64_t>(out.orca.vertex.size());
+    out.orca_count[b] = static_cast<int32_t>(one.vertex.size());
+    out.orca.vertex.insert(out.orca.vertex.end(), one.vertex.begin(), one.vertex.end());
+    out.orca.edges.insert(out.orca.edges.end(), one.edges.begin(), one.edges.end());  // its own 7 arrays
+    out.orca.parent.insert(out.orca.parent.end(), one.parent.begin(), one.parent.end());
+    out.orca.is_left.insert(out.orca.is_left.end(), one.is_left.begin(), one.is_left.end());
+    out.orca.depth.insert(out.orca.depth.end(), one.depth.begin(), one.depth.end());
+  }
   return out;
+}
+
+OrcaObstacles build_orca_obstacles(const ObstacleVertex* vertex, int count) {
+  OrcaObstacles out;
+  out.vertex.assign(vertex, vertex + count);
+  std::vector<int32_t> ids(static_cast<size_t>(count));
+  for (int i = 0; i < count; ++i) ids[i] = i;
+  build_tree(ids, out, -1, false, 0);
+  // Edge vectors of the vertices a split changed (the cut edges' first halves and the split points).
+  for (ObstacleVertex& v : out.vertex) {
+    v.edge = out.vertex[v.next].point - v.point;
+    v.inv_edge_len_sq = 1.0 / abs_sq(v.edge);
+  }
+  out.edges.resize(7 * out.vertex.size());
+  build_orca_edge_arrays(out.vertex.data(), static_cast<int>(out.vertex.size()), out.edges.data());
+  return out;
+}
+
+void build_orca_edge_arrays(const ObstacleVertex* vertex, int count, double* edges) {
+  for (int i = 0; i < count; ++i) {
+    const ObstacleVertex& v = vertex[i];
+    const Vec2 next = vertex[v.next].point;
+    edges[i] = v.point.x;
+    edges[count + i] = v.point.y;
+    edges[2 * count + i] = v.edge.x;
+    edges[3 * count + i] = v.edge.y;
+    edges[4 * count + i] = abs_sq(v.edge);
+    edges[5 * count + i] = next.x;
+    edges[6 * count + i] = next.y;
+  }
+}
+
+bool tree_query_precedes(const ObstacleView& view, int a, int b, Vec2 position) {
+  // The query visits a node's near subtree (the side of its line the agent is on, left when on the
+  // line), then the node, then the far subtree. Climb to the children of the two nodes' meeting point.
+  int ua = a, ub = b;
+  bool a_left = false, b_left = false;  // side of the last step up from a and from b
+  while (view.tree_depth[ua] > view.tree_depth[ub]) {
+    a_left = view.tree_is_left[ua] != 0;
+    ua = view.tree_parent[ua];
+  }
+  while (view.tree_depth[ub] > view.tree_depth[ua]) {
+    b_left = view.tree_is_left[ub] != 0;
+    ub = view.tree_parent[ub];
+  }
+  auto near_is_left = [&](int node) {
+    const ObstacleVertex& v = view.vertex[node];
+    return left_of(v.point, view.vertex[v.next].point, position) >= 0.0;
+  };
+  if (ua == ub) {                                   // one node is the other's ancestor
+    if (ua == a) return b_left != near_is_left(a);  // a first unless b lies in a's near subtree
+    return a_left == near_is_left(b);
+  }
+  while (view.tree_parent[ua] != view.tree_parent[ub]) {
+    ua = view.tree_parent[ua];
+    ub = view.tree_parent[ub];
+  }
+  return (view.tree_is_left[ua] != 0) == near_is_left(view.tree_parent[ua]);
 }
 
 double segment_segment_distance(Vec2 p0, Vec2 p1, Vec2 a, Vec2 b) {

@@ -34,7 +34,45 @@ struct ObstacleView {
   const ObstacleVertex* vertex = nullptr;
   int count = 0;
   const double* edges = nullptr;
+  // An ORCA view (OrcaObstacles) has, instead of `edges`, seven arrays of `count` doubles: point x, y,
+  // edge x, y, |edge|^2, next point x, y (what RVO2's distance to a segment reads), and RVO2's
+  // obstacle tree over these vertices: per vertex, the vertex
+  // whose tree node is its node's parent (-1 at the root), whether its node is that parent's left child,
+  // and its depth. It orders edges at equal distance from an agent as RVO2's tree query meets them; null
+  // elsewhere (ties then keep vertex order).
+  const double* orca_edges = nullptr;
+  const int32_t* tree_parent = nullptr;
+  const uint8_t* tree_is_left = nullptr;
+  const int32_t* tree_depth = nullptr;
 };
+
+// The obstacles as RVO2's ORCA sees them (van den Berg et al., ISRR 2011, Sec. 5; the RVO2 library's
+// obstacle kd-tree): the map's vertices, then the points where building the tree split an edge that
+// crossed the line of the edge chosen at a node. A split point is a vertex of its own, convex, with the
+// direction of the edge it cuts, so the velocity obstacle of each half has legs at the split point as in
+// RVO2. Built once per map; collisions, social force and observations keep the unsplit map.
+struct OrcaObstacles {
+  std::vector<ObstacleVertex> vertex;
+  std::vector<double> edges;  // build_orca_edge_arrays of vertex (7 per vertex)
+  std::vector<int32_t> parent;
+  std::vector<uint8_t> is_left;
+  std::vector<int32_t> depth;
+  ObstacleView view() const {
+    return ObstacleView{
+        vertex.data(), static_cast<int>(vertex.size()), nullptr, edges.data(), parent.data(), is_left.data(),
+        depth.data()};
+  }
+};
+
+// RVO2's split of `count` prepared vertices (indices next/prev relative to vertex[0]) and its tree.
+OrcaObstacles build_orca_obstacles(const ObstacleVertex* vertex, int count);
+
+// Writes an ORCA view's seven edge arrays of `count` vertices (ObstacleView::orca_edges, 7 * count).
+void build_orca_edge_arrays(const ObstacleVertex* vertex, int count, double* edges);
+
+// True when an agent at `position` meets the edge of vertex a before the edge of vertex b in RVO2's
+// obstacle-tree query (near subtree, then the node, then the far subtree); `view` must carry a tree.
+bool tree_query_precedes(const ObstacleView& view, int a, int b, Vec2 position);
 
 // Writes `count` vertices' edge arrays (ObstacleView::edges, 5 * count doubles).
 void build_edge_arrays(const ObstacleVertex* vertex, int count, double* edges);
@@ -43,7 +81,9 @@ void build_edge_arrays(const ObstacleVertex* vertex, int count, double* edges);
 struct PreparedObstacles {
   std::vector<ObstacleVertex> vertex;
   std::vector<double> edges;  // 5 doubles per vertex, episode by episode
+  OrcaObstacles orca;         // the same map as ORCA sees it
   ObstacleView view() const { return ObstacleView{vertex.data(), static_cast<int>(vertex.size()), edges.data()}; }
+  ObstacleView orca_view() const { return orca.view(); }
 };
 
 // Many episodes' prepared vertices: episode b owns vertex[first[b], first[b] + count[b]) and the edge
@@ -54,9 +94,23 @@ struct ObstacleBatchView {
   const double* edges = nullptr;
   const int64_t* first = nullptr;
   const int32_t* count = nullptr;
+  // The same episodes' OrcaObstacles back to back (episode b at orca_first[b], orca_count[b] vertices).
+  const ObstacleVertex* orca_vertex = nullptr;
+  const double* orca_edges = nullptr;
+  const int32_t* orca_parent = nullptr;
+  const uint8_t* orca_is_left = nullptr;
+  const int32_t* orca_depth = nullptr;
+  const int64_t* orca_first = nullptr;
+  const int32_t* orca_count = nullptr;
   ObstacleView episode(int b) const {
     if (!first) return ObstacleView{};
     return ObstacleView{vertex + first[b], count[b], edges + 5 * first[b]};
+  }
+  ObstacleView orca_episode(int b) const {
+    if (!orca_first) return ObstacleView{};
+    const int64_t f = orca_first[b];
+    return ObstacleView{orca_vertex + f, orca_count[b],    nullptr,       orca_edges + 7 * f,
+                        orca_parent + f, orca_is_left + f, orca_depth + f};
   }
 };
 
@@ -74,7 +128,15 @@ struct PreparedObstacleBatch {
   std::vector<double> edges;
   std::vector<int64_t> first;  // (B,) episode b's first vertex
   std::vector<int32_t> count;  // (B,) its vertex count
-  ObstacleBatchView view() const { return {vertex.data(), edges.data(), first.data(), count.data()}; }
+  // The episodes' maps as ORCA sees them (OrcaObstacles), back to back, shared as above.
+  OrcaObstacles orca;
+  std::vector<int64_t> orca_first;
+  std::vector<int32_t> orca_count;
+  ObstacleBatchView view() const {
+    return {vertex.data(),      edges.data(),      first.data(),       count.data(),
+            orca.vertex.data(), orca.edges.data(), orca.parent.data(), orca.is_left.data(),
+            orca.depth.data(),  orca_first.data(), orca_count.data()};
+  }
 };
 
 // Prepares B episodes' maps from flat polygons (vertices, offsets (n_polygons + 1,)) and

@@ -155,8 +155,8 @@ inline Vec2 right_leg(Vec2 p, double dist_sq, double radius) {
 }
 
 // RVO2's obstacle neighbours: vertices whose edge faces the agent (agent strictly on its right,
-// the outside of a counter-clockwise polygon) within range, sorted by distance to the edge (ties
-// keep vertex order).
+// the outside of a counter-clockwise polygon) within range, sorted by distance to the edge (ties in
+// RVO2's tree-query order where the view has the tree, else in vertex order).
 // Also compiled for AVX2, chosen at load time where the CPU has it: the query's vectorised pass then
 // takes 4 edges at a time instead of 2 (6 % of a walled world's ORCA time on the benchmark map). The
 // same IEEE operations in the same order (no contraction into FMA: -ffp-contract=off), so the
@@ -170,25 +170,31 @@ SOCIALNAV_AVX2_CLONE void select_obstacles(const OrcaAgent& self, const Obstacle
     scratch.obstacle_dist_sq.resize(n);
   }
   double* __restrict key = scratch.obstacle_key.data();
-  const double* __restrict px = obstacles.edges;
+  const double* __restrict px = obstacles.orca_edges;
   const double* __restrict py = px + n;
   const double* __restrict ex = px + 2 * n;
   const double* __restrict ey = px + 3 * n;
-  const double* __restrict inv = px + 4 * n;
+  const double* __restrict len_sq = px + 4 * n;
+  const double* __restrict qx = px + 5 * n;
+  const double* __restrict qy = px + 6 * n;
   const double ax = self.position.x, ay = self.position.y;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   // Branch-free over all edges (the compiler vectorises it): the squared distance of each edge that
-  // faces the agent within range, +inf for the others.
+  // faces the agent within range, +inf for the others. The arithmetic is RVO2's, operation for
+  // operation (its leftOf and distSqPointLineSegment): an agent's distances to two edges meeting at
+  // its nearest vertex are then equal to the bit, and their order is the tree query's.
   for (int i = 0; i < n; ++i) {
     const double tx = ax - px[i], ty = ay - py[i];
     const double left = ex[i] * ty - ey[i] * tx;  // RVO2's leftOf(p1, p2, agent)
-    // Squared distance to the segment (RVO2's distSqPointLineSegment), r clamped to [0, 1].
-    const double r = std::min(std::max((tx * ex[i] + ty * ey[i]) * inv[i], 0.0), 1.0);
-    const double dx = tx - r * ex[i], dy = ty - r * ey[i];
+    const double r = (tx * ex[i] + ty * ey[i]) / len_sq[i];
+    // Beyond an end, the distance to that end point itself; else to the point at r along the edge.
+    const double cx = r < 0.0 ? px[i] : (r > 1.0 ? qx[i] : px[i] + r * ex[i]);
+    const double cy = r < 0.0 ? py[i] : (r > 1.0 ? qy[i] : py[i] + r * ey[i]);
+    const double dx = ax - cx, dy = ay - cy;
     const double dist_sq = dx * dx + dy * dy;
     // Facing (strictly on the edge's right), line and segment within range; written without
     // branches so that the loop vectorises.
-    const double line_dist_sq = left * left * inv[i];
+    const double line_dist_sq = left * left / len_sq[i];
     const double facing = left < 0.0 ? dist_sq : kInf;
     const double in_range = line_dist_sq < range_sq ? facing : kInf;
     key[i] = dist_sq < range_sq ? in_range : kInf;
@@ -203,11 +209,15 @@ SOCIALNAV_AVX2_CLONE void select_obstacles(const OrcaAgent& self, const Obstacle
     dsq[m] = key[i];
     m += key[i] < kInf;
   }
+  // With RVO2's tree (an ORCA view), equally distant edges (two edges meeting at the vertex closest to
+  // the agent, the common case) keep the order RVO2's tree query inserts them in.
+  const bool tree = obstacles.tree_parent != nullptr;
   for (int j = 1; j < m; ++j) {
     const int i = idx[j];
     const double dist_sq = dsq[j];
     int k = j;
-    while (k != 0 && dist_sq < dsq[k - 1]) {
+    while (k != 0 && (dist_sq < dsq[k - 1] || (tree && dist_sq == dsq[k - 1] &&
+                                               tree_query_precedes(obstacles, i, idx[k - 1], self.position)))) {
       idx[k] = idx[k - 1];
       dsq[k] = dsq[k - 1];
       --k;
@@ -256,7 +266,7 @@ int obstacle_lines(const OrcaAgent& self, const ObstacleView& obstacles, double 
     const double dist_sq1 = abs_sq(relative_position1);
     const double dist_sq2 = abs_sq(relative_position2);
     const Vec2 obstacle_vector = obstacle1->edge;
-    const double s = dot(-relative_position1, obstacle_vector) * obstacle1->inv_edge_len_sq;
+    const double s = dot(-relative_position1, obstacle_vector) / abs_sq(obstacle_vector);
     const double dist_sq_line = abs_sq(-relative_position1 - s * obstacle_vector);
 
     Line line;

@@ -71,7 +71,7 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
         nb[k] = OrcaNeighbor{{hj[0], hj[1]}, {hj[2], hj[3]}, hj[4] + margin};
       }
       const OrcaAgent self{r.p, r.v, r.radius + margin, r.v_pref, crowdsim_pref_velocity(r.p, r.g, r.v_pref)};
-      const Vec2 v = orca_new_velocity(self, obstacles.episode(b), params.time_horizon_obst, nb, scratch.count,
+      const Vec2 v = orca_new_velocity(self, obstacles.orca_episode(b), params.time_horizon_obst, nb, scratch.count,
                                        params.time_horizon, dt, scratch);
       write_action(format, r.theta, v, out + 2 * b);
     }

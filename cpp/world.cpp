@@ -132,6 +132,7 @@ void World::human_velocities(int b, int worker) {
   slot.mask = mask;
   slot.robot_visible = config_.robot_visible;
   slot.obstacles = obstacles(b);
+  slot.orca_obstacles = orca_obstacles(b);
   slot.dt = config_.dt;
   // Where each human wants to go (its goal), then how it avoids the others (behaviour.hpp).
   Vec2* preferred = preferred_[worker].data();

@@ -125,6 +125,11 @@ class World {
     const PreparedObstacles* map = slot_obstacles_[b].get();
     return map ? map->view() : ObstacleView{};
   }
+  // Slot b's obstacles as ORCA sees them (RVO2's split edges and tree, OrcaObstacles).
+  ObstacleView orca_obstacles(int b) const {
+    const PreparedObstacles* map = slot_obstacles_[b].get();
+    return map ? map->orca_view() : ObstacleView{};
+  }
 
   // With human_behaviour "": the humans' velocities (B, A, 2) of the next step (or preview), written by
   // the caller before each call (a behaviour written in Python); entries of robots and empty slots are

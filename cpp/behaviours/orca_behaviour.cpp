@@ -59,7 +59,7 @@ class OrcaBehaviour final : public HumanBehaviour {
         nb[k] = OrcaNeighbor{s.at(s.position, j), s.at(s.velocity, j), s.radius[j] + margin};
       }
       const OrcaAgent self{p, s.at(s.velocity, i), s.radius[i] + margin, s.v_pref[i], s.preferred[i]};
-      const Vec2 v = orca_new_velocity(self, s.obstacles, params.time_horizon_obst, nb.data(), scratch.count,
+      const Vec2 v = orca_new_velocity(self, s.orca_obstacles, params.time_horizon_obst, nb.data(), scratch.count,
                                        params.time_horizon, s.dt, scratch);
       out[2 * i] = v.x;
       out[2 * i + 1] = v.y;

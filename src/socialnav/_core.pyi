@@ -419,3 +419,8 @@ def orca_obstacle_lines(position: Annotated[NDArray[numpy.float64], dict(order='
     """
     The obstacle ORCA half-planes (px, py, dx, dy; permitted on the left) of one agent, in solver order.
     """
+
+def orca_obstacle_neighbors(position: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, max_speed: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], time_horizon_obst: float = 5.0) -> tuple:
+    """
+    RVO2's obstacle neighbours of one agent (vertex ids, nearest first, ties in RVO2's tree-query order) and the map as ORCA sees it: (x, y, next, prev, convex, tree parent, is left child, depth) per vertex, the split points after the map's own vertices (RVO2's obstacle ids).
+    """

@@ -5,7 +5,10 @@ obstacles p1 -> p2 -> p1, both vertices convex: RVO2's own representation of a s
 ``RVOSimulator::addObstacle`` builds for two vertices). It selects the obstacle edges like RVO2's
 obstacle query: an edge is a neighbour when the agent is strictly on its right and its distance
 is below ``static_time_horizon * maxSpeed + radius``; then RVO2's ``computeNewVelocity`` runs
-unchanged. So for wall segments navground is RVO2, with the caveats of navground_orca.py:
+unchanged. It does not build RVO2's obstacle kd-tree, which splits every edge crossing the line of
+the edge chosen at a node (the split point gets legs of its own) and orders equally distant edges by
+its query: where walls cross each other's lines, navground departs from RVO2 (RVO2 itself:
+rvo2_pyrvo.py). Otherwise navground is RVO2, with the caveats of navground_orca.py:
 
 - navground uses ``maxSpeed = |pref_velocity|``: the cases drawn here have ``|pref| == max_speed``;
 - it pushes overlapping *agents* apart: the layouts keep agents >= 1 cm apart (walls are never

@@ -18,8 +18,10 @@ from socialnav.sim.settings import WorldSettings
 #: Memory one World may allocate for its state and recorded histories (docs/simulator.md, "Bounds").
 MAX_WORLD_BYTES = 4 * 2**30
 #: Native bytes per obstacle vertex and slot, for the memory check: the worst case, a different map in
-#: every slot (slots with equal maps share one prepared copy).
-OBSTACLE_VERTEX_BYTES = 128
+#: every slot (slots with equal maps share one prepared copy). A vertex is held twice: as drawn (112
+#: bytes with its edge arrays) and in ORCA's split map (137 with the tree), whose split points add a few
+#: vertices per map (none to four in francis2023's): 320 allows half as many again.
+OBSTACLE_VERTEX_BYTES = 320
 
 
 def world_bytes(settings: WorldSettings, batch_size: int, n_agents: int, record: bool = True) -> int:
