@@ -43,7 +43,7 @@ def test_max_obstacle_vertices_is_checked_with_the_setting_named():
     assert world.static_maps == [None, None]  # a refused map changes nothing
     huge = StaticMap(tuple([[x, 0.0], [x, 1.0]] for x in range(10_000)))  # 20 000 vertices
     many = walled_world(None, batch=2048, count=1000, max_obstacle_vertices=20_000)  # the test split's 1000
-    with pytest.raises(ValueError, match=r"in each of 2048 slots needs 4\.9 GiB"):
+    with pytest.raises(ValueError, match=r"in each of 2048 slots needs 12\.2 GiB"):  # 320 bytes a vertex
         many.set_static_map(0, huge)
 
 
