@@ -29,7 +29,6 @@ from tests.reference.navground_orca_walls import (
     solve_with_hard_lines,
 )
 from tests.reference.python_orca import orca_lines
-
 from tests.reference.rvo2_pyrvo import float32_sensitive, pyrvo_available, rvo2_step
 
 from socialnav import _core
@@ -68,8 +67,8 @@ def test_orca_with_walls_matches_navground_rvo2():
                          layout["radii"], layout["max_speeds"], StaticMap(tuple(layout["walls"])))
         n = len(layout["radii"])
         rvo2 = None
-        case = {"obstacles": [np.asarray(w) for w in layout["walls"]],
-                **{k: layout[k] for k in ("positions", "velocities", "pref_velocities", "radii", "max_speeds")}}
+        agents = ("positions", "velocities", "pref_velocities", "radii", "max_speeds")
+        case = {"obstacles": [np.asarray(w) for w in layout["walls"]], **{k: layout[k] for k in agents}}
         if pyrvo_available():
             rvo2 = rvo2_step(case)[0]
         for i in range(n):

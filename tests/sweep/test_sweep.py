@@ -616,7 +616,8 @@ def test_a_training_jobs_lines_name_the_job_or_are_silenced(tmp_path, capsys, mo
     import socialnav.train.value.trainer as trainer
     from socialnav.sweep.tasks import train_job
 
-    def fake_train(policy, preset, out, settings, progress, stop_after, log):  # the trainer's log, not its work
+    # the trainer's log, not its work
+    def fake_train(policy, preset, out, settings, progress, stop_after, log):
         log("after imitation: 0.5")
         return SimpleNamespace(out_dir=out, best_checkpoint=out, episodes=0, gradient_steps=0, best_val={},
                                wall_time=0.0, resumed=False)

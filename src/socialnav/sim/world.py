@@ -8,7 +8,8 @@ and episodes never interact, an episode's trajectory is the same whatever the ba
 in.
 
 The World's parts live beside it: the stream (``episode_stream``), the step's report (``step_result``),
-the native configuration and size bounds (``world_config``), the slots' static maps (``slot_maps``).
+the native configuration and size bounds (``world_config``), the slots' static maps (``slot_maps``), the
+filling of slots with the stream's next episodes (``slot_filling``).
 The names users imported from here still are (``__all__``).
 """
 
@@ -20,16 +21,16 @@ import warnings
 import numpy as np
 
 from socialnav import _core
-from socialnav.maps.static_map import MapError, StaticMap
-from socialnav.scenarios import EpisodeBatch, Scenario, episode_seeds
-from socialnav.scenarios.native import native_config, raise_on_failure
-from socialnav.sim.covered_starts import covered_message, raise_first_covered
+from socialnav.maps.static_map import StaticMap
+from socialnav.scenarios import Scenario
+from socialnav.scenarios.native import native_config
 from socialnav.sim.episode_stream import EpisodeStream
 from socialnav.sim.observation import HUMAN_DIM, ROBOT_DIM, Observation, ObstacleArrays, build_observation
 from socialnav.sim.pool import shared_pool
 from socialnav.sim.python_humans import python_humans
 from socialnav.sim.recorder import Recorder
 from socialnav.sim.settings import WorldSettings
+from socialnav.sim.slot_filling import SlotFilling
 from socialnav.sim.slot_maps import SlotMaps, scenario_map
 from socialnav.sim.step_result import StepResult
 from socialnav.sim.world_config import (
@@ -64,7 +65,7 @@ def walls_win_message(scenario: str) -> str:
     return (f"scenario {scenario!r} has walls of its own, which win over static_map: the given map is not "
             "used (docs/walls.md)")
 
-class World:
+class World(SlotFilling):
     """B episode slots of (1 robot + N humans) stepped in lockstep by the native core.
 
     Args:
@@ -279,132 +280,6 @@ class World:
         self.stream = stream
         return self._reset()
 
-    @property
-    def _generates_natively(self) -> bool:
-        """The core generates the stream's next episodes (a built-in scenario, nothing buffered)."""
-        return self._native_scenario is not None and not self.stream.buffered
-
-    def _next_episodes(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """Indices and seeds of the stream's next ``min(k, remaining)`` episodes.
-
-        Raises as :func:`episode_seeds` where they leave the split.
-        """
-        indices = self.stream.take_indices(k) if k else None
-        if indices is None:
-            return _NO_EPISODES, _NO_EPISODES  # no episode ended (most steps of a small batch)
-        return indices, episode_seeds(self.stream.split, indices)
-
-    def _fill(self, slots: np.ndarray) -> None:
-        if self._generates_natively:
-            self._fill_native(slots)
-            return
-        episodes = self.stream.take(len(slots))
-        n = 0 if episodes is None else len(episodes.indices)
-        if episodes is not None and n:
-            self._load(slots[:n], episodes)
-        self.status[slots[n:]] = _core.STATUS_IDLE
-        self.episode_index[slots[n:]] = -1
-
-    def _fill_native(self, slots: np.ndarray) -> None:
-        """`_fill` for a built-in scenario.
-
-        The core generates the episodes straight into the slots, in its worker threads, bit-identical
-        to ``scenario.generate`` + `_load`.
-        """
-        self._maps.restore_fixed(self._native(), slots)
-        indices, seeds = self._next_episodes(len(slots))
-        n = len(indices)
-        if n:
-            failure = np.zeros(n, dtype=np.int32)
-            self._native().load_generated(
-                self._native_scenario, np.ascontiguousarray(slots[:n], dtype=np.int64), seeds, failure
-            )
-            self._raise_on_load_failure(slots[:n], indices, seeds, failure)
-            self.episode_index[slots[:n]] = indices
-            self.episode_seed[slots[:n]] = seeds
-        self.status[slots[n:]] = _core.STATUS_IDLE
-        self.episode_index[slots[n:]] = -1
-
-    def _raise_on_load_failure(
-        self, slots: np.ndarray, indices: np.ndarray, seeds: np.ndarray, failure: np.ndarray
-    ) -> None:
-        """Raises for the native loads that failed (codes of ``World.load_generated`` in cpp/world.hpp).
-
-        A start or goal covered by the slot's map (code < 0) is named from the slot, which the core
-        left loaded; a human the generator could not place (code > 0), as the Python generator would.
-        """
-        covered = np.flatnonzero(failure < 0)
-        if len(covered):
-            j = int(covered[0])
-            slot, code = int(slots[j]), -int(failure[j])
-            agent, what = (code - 1) // 2, "start" if code % 2 else "goal"
-            point = (self.position if what == "start" else self.goal)[slot, agent]
-            smap = self.static_maps[slot]
-            assert smap is not None  # the core only checks slots with obstacles
-            raise MapError(covered_message(
-                self.scenario.name, smap, slot, int(indices[j]), int(seeds[j]), agent, what, point,
-                float(self.radius[slot, agent]),
-            ))
-        raise_on_failure(self.scenario, failure, seeds)
-
-    def _load(self, slots: np.ndarray, ep: EpisodeBatch) -> None:
-        for name in (
-            "robot_start",
-            "robot_goal",
-            "robot_theta",
-            "robot_radius",
-            "robot_v_pref",
-            "human_start",
-            "human_goal",
-            "human_radius",
-            "human_v_pref",
-        ):
-            value = getattr(ep, name)
-            if not np.all(np.isfinite(value)):
-                bad = np.argwhere(~np.isfinite(value))[0]
-                raise ValueError(
-                    f"scenario {type(self.scenario).__name__} produced a non-finite {name} "
-                    f"for episode index {int(ep.indices[bad[0]])}"
-                )
-        maps = getattr(ep, "static_maps", None)
-        if maps is not None and len(maps) != len(ep.indices):
-            raise ValueError(
-                f"scenario {type(self.scenario).__name__} produced {len(maps)} static maps for "
-                f"{len(ep.indices)} episodes"
-            )
-        for j, slot in enumerate(slots):
-            self.set_static_map(int(slot), self._maps.fixed if maps is None else maps[j])
-        self.position[slots, 0] = ep.robot_start
-        self.position[slots, 1:] = ep.human_start
-        self.velocity[slots] = 0.0
-        self.goal[slots, 0] = ep.robot_goal
-        self.goal[slots, 1:] = ep.human_goal
-        self.radius[slots, 0] = ep.robot_radius
-        self.radius[slots, 1:] = ep.human_radius
-        self.v_pref[slots, 0] = ep.robot_v_pref
-        self.v_pref[slots, 1:] = ep.human_v_pref
-        self.mask[slots, 0] = 1
-        self.mask[slots, 1:] = ep.human_mask
-        self.theta[slots] = ep.robot_theta
-        self.steps[slots] = 0
-        self.reward[slots] = 0.0
-        self.dmin[slots] = np.inf
-        self.done[slots] = 0
-        self.overlaps[slots] = 0
-        self.arrival[slots] = np.nan
-        self.end_step[slots] = -1
-        self.collision_kind[slots] = 0
-        if maps is None and self._maps.fixed is not None:
-            # Episodes drawn without the world's map (the scenario's own maps are checked by
-            # EpisodeBatch.validate): refused before they start where it covers a start or goal.
-            raise_first_covered(
-                self.scenario.name, self._maps.fixed, slots, ep.indices, ep.seeds, self.position[slots],
-                self.goal[slots], self.radius[slots], self.mask[slots].astype(bool),
-            )
-        self.episode_index[slots] = ep.indices
-        self.episode_seed[slots] = ep.seeds
-        self.status[slots] = _core.STATUS_RUNNING
-
     # -- stepping -------------------------------------------------------------------------------
     @property
     def active(self) -> np.ndarray:
@@ -566,5 +441,3 @@ class World:
             None if nxt is None else Observation(*nxt, dt, kinematics, obstacles=walls),
         )
 
-
-_NO_EPISODES = np.zeros(0, dtype=np.int64)  # empty: nothing can be written into it
