@@ -1,8 +1,9 @@
 """Issue #47, a model file cannot run code: ``sb3:PATH`` models are loaded without unpickling any field of
-the zip (a pickled payload in a field socialnav rebuilds is never run; one in a field it cannot rebuild
-refuses the model first), also in a worker's copy of the policy and through ``socialnav evaluate``; a
-legitimate model still predicts exactly as SB3's own load of it; a record that is not a dict and a device
-this machine lacks are refused by name; and a pickled ``--checkpoint`` is refused without running it."""
+the zip. A field whose pickle names an object no SB3 model holds refuses the model (its opcodes read, never
+run), and so does one in a field socialnav cannot rebuild, also in a worker's copy of the policy and through
+``socialnav evaluate``; a legitimate model still predicts exactly as SB3's own load of it; a record that is
+not a dict and a device this machine lacks are refused by name; and a pickled ``--checkpoint`` is refused
+without running it."""
 
 import base64
 import json
@@ -107,12 +108,39 @@ REBUILT = ["lr_schedule", "clip_range", "policy_class", "observation_space", "ac
 
 
 @pytest.mark.parametrize("field", REBUILT)
-def test_a_payload_in_a_field_socialnav_rebuilds_is_never_run(field, model, preset, tmp_path, sb3):
+def test_a_payload_in_any_pickled_field_refuses_the_model_without_running_it(field, model, preset, tmp_path):
+    """The payload's pickle names io.open (builtins.open), which no SB3 model holds: the file is refused,
+    naming the field and the object, after its opcodes were read and nothing was run."""
+    from socialnav.integrations.sb3_policy import SB3ModelError
+
     marker = tmp_path / "ran"
     evil = poisoned(model, tmp_path / "evil.zip", field, marker)
-    policy = load(evil, preset)
+    refusal = rf"evil\.zip: field {field} of the model file names io\.open"
+    with pytest.raises(SB3ModelError, match=refusal):
+        load(evil, preset)
     assert not marker.exists()
-    assert same_predictions(policy.model, sb3.PPO.load(model, device="cpu"), policy.model.observation_space)
+
+
+@pytest.mark.parametrize("algorithm", ["PPO", "A2C", "SAC", "TD3", "DDPG", "DQN"])
+def test_every_pickled_field_of_a_legitimate_model_passes_the_scan(algorithm, preset, tmp_path, sb3):
+    """What SB3 2.9 pickles for each algorithm (classes, schedules, buffers, spaces, generators) names only
+    objects the scan allows, so a model saved by socialnav is never refused for it."""
+    from socialnav.integrations.sb3 import SocialNavVecEnv, save_model
+    from socialnav.integrations.sb3_files import read_saved_data
+    from socialnav.sim.learner_obs import ObservationSettings
+
+    discrete = algorithm == "DQN"
+    observation = ObservationSettings(frame="world" if discrete else "robot", max_humans=5)
+    venv = SocialNavVecEnv("socialnav/CircleCrossing-v0", 2, preset="wang2022",
+                           action_set="discrete" if discrete else "continuous", observation=observation)
+    options = {"PPO": {"n_steps": 8, "batch_size": 8, "n_epochs": 1}, "A2C": {"n_steps": 4}}.get(
+        algorithm, {"learning_starts": 0, "buffer_size": 100})
+    learner = getattr(sb3, algorithm)("MultiInputPolicy", venv, seed=0, device="cpu", **options)
+    learner.learn(16)
+    path = save_model(learner, tmp_path / f"{algorithm}.zip")
+    venv.close()
+    read_saved_data(path, path.read_bytes())  # raises for a field the scan refuses
+    assert load(path, preset).model.__class__.__name__ == algorithm
 
 
 def test_a_pickled_field_socialnav_cannot_rebuild_refuses_the_model_first(model, preset, tmp_path):
@@ -120,11 +148,14 @@ def test_a_pickled_field_socialnav_cannot_rebuild_refuses_the_model_first(model,
 
     marker = tmp_path / "ran"
 
+    # pickles the scan lets through (a number, a plain dict): refused by the rebuild, by name
+    harmless = base64.b64encode(pickle.dumps(42)).decode()
+
     def extra(data):
-        data["backdoor"] = {":type:": "<class 'object'>", ":serialized:": payload(marker)}
+        data["backdoor"] = {":type:": "<class 'object'>", ":serialized:": harmless}
 
     def custom_kwargs(data):
-        data["policy_kwargs"] = {":type:": "<class 'dict'>", ":serialized:": payload(marker),
+        data["policy_kwargs"] = {":type:": "<class 'dict'>", ":serialized:": harmless,
                                  "activation_fn": "<class 'evil.Activation'>"}
 
     with pytest.raises(SB3ModelError, match=r"x\.zip: field backdoor of the model file is a pickled"):
@@ -139,11 +170,13 @@ def test_a_workers_copy_of_the_policy_never_unpickles_the_file(model, preset, tm
 
     policy = load(model, preset)
     marker = tmp_path / "ran"
+    copy = pickle.loads(pickle.dumps(policy))
+    assert same_predictions(copy.model, sb3.PPO.load(model, device="cpu"), copy.model.observation_space)
     # the bytes a worker loads from are the policy's own: here, a poisoned copy of the same model
     policy._data = poisoned(model, tmp_path / "evil.zip", "lr_schedule", marker).read_bytes()
-    copy = pickle.loads(pickle.dumps(policy))
+    with pytest.raises(SB3ModelError, match="lr_schedule of the model file names io.open"):
+        pickle.loads(pickle.dumps(policy))
     assert not marker.exists()
-    assert same_predictions(copy.model, sb3.PPO.load(model, device="cpu"), copy.model.observation_space)
 
     def extra(data):
         data["backdoor"] = {":type:": "<class 'object'>", ":serialized:": payload(marker)}
@@ -170,11 +203,13 @@ def test_socialnav_evaluate_never_runs_a_model_files_code(model, tmp_path, capsy
     assert code != 0 and len(err.strip().splitlines()) == 1, err
     assert "refused.zip: field backdoor" in err
     assert not marker.exists() and not out.exists()
-    # a payload in a rebuilt field: the model is evaluated, the payload never run
+    # a payload in a field socialnav would rebuild: refused all the same, in one line, nothing written
     evil = poisoned(model, tmp_path / "evil.zip", "clip_range", marker)
     code = main(["evaluate", "--policy", f"sb3:{evil}", "--out", str(tmp_path / "run"), *PASSING])
-    assert code == 0, capsys.readouterr().err
-    assert not marker.exists()
+    err = capsys.readouterr().err
+    assert code != 0 and len(err.strip().splitlines()) == 1, err
+    assert "evil.zip: field clip_range of the model file names io.open" in err
+    assert not marker.exists() and not (tmp_path / "run").exists()
 
 
 def test_a_legitimate_model_predicts_exactly_as_sb3s_own_load(model, preset, sb3):
@@ -203,7 +238,8 @@ def test_a_model_saved_without_a_record_loads_with_its_algorithm_named(preset, t
     assert same_predictions(policy.model, trusted, trusted.observation_space)
     marker = tmp_path / "ran"
     evil = poisoned(tmp_path / "plain.zip", tmp_path / "evil.zip", "observation_space", marker)
-    assert load(evil, preset, algo="PPO").describe()["record"] == "inferred"
+    with pytest.raises(ValueError, match="field observation_space of the model file names io.open"):
+        load(evil, preset, algo="PPO")
     assert not marker.exists()
 
 
