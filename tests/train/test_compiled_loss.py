@@ -2,6 +2,7 @@
 gives the same gradients, and a compiled training run is reproducible for its seed."""
 
 import dataclasses
+import os
 
 import pytest
 import torch
@@ -119,3 +120,20 @@ def test_compiled_imitation_fit_matches_eager():
         )
     assert len(losses[True]) == 3 and losses[True][-1] < losses[True][0]
     np.testing.assert_allclose(losses[True], losses[False], rtol=1e-4)
+
+
+def test_inductor_gets_a_cache_of_its_own_per_cpu_capability(monkeypatch):
+    """Kernels Inductor compiled under one vector ISA must not be reused under another (they failed with
+    an index out of bounds when ATEN_CPU_CAPABILITY=avx2 ran after AVX-512); a directory the user set
+    is kept."""
+    import torch
+
+    from socialnav.train.optim import use_inductor_cache_of_these_kernels
+
+    monkeypatch.delenv("TORCHINDUCTOR_CACHE_DIR", raising=False)
+    use_inductor_cache_of_these_kernels()
+    chosen = os.environ["TORCHINDUCTOR_CACHE_DIR"]
+    assert chosen.endswith("_" + torch.backends.cpu.get_cpu_capability().lower())
+    monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", "/somewhere/else")
+    use_inductor_cache_of_these_kernels()
+    assert os.environ["TORCHINDUCTOR_CACHE_DIR"] == "/somewhere/else"

@@ -6,6 +6,9 @@ a diverged loss raises.
 
 from __future__ import annotations
 
+import getpass
+import os
+import tempfile
 from collections.abc import Callable
 from typing import Any
 
@@ -49,7 +52,23 @@ def compile_loss(loss: Callable[[torch.Tensor], torch.Tensor], device: torch.dev
         The compiled loss.
     """
     options = {"cpp_wrapper": True} if device.type == "cpu" else {}
+    use_inductor_cache_of_these_kernels()
     return torch.compile(loss, dynamic=False, options=options)
+
+
+def use_inductor_cache_of_these_kernels() -> None:
+    """Gives Inductor an on-disk cache of its own per CPU capability, unless the user chose one.
+
+    Inductor keys its cached kernels by the graph, not by the vector ISA ATen runs with: kernels compiled
+    under AVX-512 were reused with ``ATEN_CPU_CAPABILITY=avx2`` on the same machine and failed (an index
+    out of bounds inside a generated kernel). ``TORCHINDUCTOR_CACHE_DIR``, where set, is left alone.
+    """
+    if os.environ.get("TORCHINDUCTOR_CACHE_DIR"):
+        return
+    capability = torch.backends.cpu.get_cpu_capability().lower()
+    user = "".join(c for c in getpass.getuser() if c.isalnum() or c in "-_") or "user"
+    directory = os.path.join(tempfile.gettempdir(), f"torchinductor_{user}_{capability}")
+    os.environ["TORCHINDUCTOR_CACHE_DIR"] = directory
 
 
 class AdamSteps:
