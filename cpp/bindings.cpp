@@ -13,6 +13,7 @@
 
 #include "behaviour.hpp"
 #include "behaviours/builtin_params.hpp"
+#include "observation_layout.hpp"
 #include "orca.hpp"
 #include "robot_policies.hpp"
 #include "sarl_scorer.hpp"
@@ -52,8 +53,8 @@ bool observation_buffers(nb::object arrays, const char* name, size_t rows, int h
   if (nb::len(seq) != 5)
     throw std::invalid_argument(std::string(name) + ": expected (robot, humans, human_mask, active, time)");
   const size_t N = static_cast<size_t>(humans);
-  out.robot = optional_checked<double>(seq[0], "robot", rows * 9);
-  out.humans = optional_checked<double>(seq[1], "humans", rows * N * 5);
+  out.robot = optional_checked<double>(seq[0], "robot", rows * socialnav::kRobotFeatures);
+  out.humans = optional_checked<double>(seq[1], "humans", rows * N * socialnav::kHumanFeatures);
   out.human_mask = reinterpret_cast<uint8_t*>(optional_checked<bool>(seq[2], "human_mask", rows * N));
   out.active = reinterpret_cast<uint8_t*>(optional_checked<bool>(seq[3], "active", rows));
   out.time = optional_checked<double>(seq[4], "time", rows);
@@ -204,6 +205,8 @@ NB_MODULE(_core, m) {
   m.attr("STATUS_CONTINUING") = static_cast<int>(socialnav::kContinuing);
   m.attr("COLLISION_NONE") = static_cast<int>(socialnav::kNoCollision);
   m.attr("COLLISION_HUMAN") = static_cast<int>(socialnav::kHumanCollision);
+  m.attr("ROBOT_FEATURES") = socialnav::kRobotFeatures;  // observation_layout.hpp
+  m.attr("HUMAN_FEATURES") = socialnav::kHumanFeatures;
   m.attr("COLLISION_OBSTACLE") = static_cast<int>(socialnav::kObstacleCollision);
   m.attr("HOLONOMIC") = static_cast<int>(socialnav::kHolonomic);
   m.attr("UNICYCLE") = static_cast<int>(socialnav::kUnicycle);
@@ -357,7 +360,7 @@ NB_MODULE(_core, m) {
           "preview_humans",
           [](PyWorld& self, Array<double> out) {
             const auto& c = self.world->config();
-            double* o = checked(out, "out", static_cast<size_t>(c.batch) * (c.agents - 1) * 5);
+            double* o = checked(out, "out", static_cast<size_t>(c.batch) * (c.agents - 1) * socialnav::kHumanFeatures);
             nb::gil_scoped_release release;
             self.world->preview_humans(o);
           },
@@ -391,8 +394,8 @@ NB_MODULE(_core, m) {
              Array<double> time) {
             const auto& c = self.world->config();
             const size_t B = static_cast<size_t>(c.batch), N = static_cast<size_t>(c.agents - 1);
-            double* r = checked(robot, "robot", B * 9);
-            double* h = checked(humans, "humans", B * N * 5);
+            double* r = checked(robot, "robot", B * socialnav::kRobotFeatures);
+            double* h = checked(humans, "humans", B * N * socialnav::kHumanFeatures);
             auto* m = reinterpret_cast<uint8_t*>(checked(human_mask, "human_mask", B * N));
             auto* a = reinterpret_cast<uint8_t*>(checked(active, "active", B));
             double* t = checked(time, "time", B);
@@ -486,10 +489,11 @@ NB_MODULE(_core, m) {
       [](const std::string& policy, Array<double> robot, Array<double> humans, Array<bool> mask, Array<bool> active,
          int kinematics, double rotation_limit, double dt, nb::object orca, double safety_space,
          nb::object social_force, socialnav::ThreadPool& pool, Array<double> out, nb::object obstacles) {
-        if (robot.ndim() != 2 || robot.shape(1) != 9) throw std::invalid_argument("robot must be (B, 9)");
+        if (robot.ndim() != 2 || robot.shape(1) != socialnav::kRobotFeatures)
+          throw std::invalid_argument("robot must be (B, " + std::to_string(socialnav::kRobotFeatures) + ")");
         const size_t B = robot.shape(0);
-        if (humans.ndim() != 3 || humans.shape(0) != B || humans.shape(2) != 5)
-          throw std::invalid_argument("humans must be (B, N, 5)");
+        if (humans.ndim() != 3 || humans.shape(0) != B || humans.shape(2) != socialnav::kHumanFeatures)
+          throw std::invalid_argument("humans must be (B, N, " + std::to_string(socialnav::kHumanFeatures) + ")");
         const size_t N = humans.shape(1);
         checked(mask, "mask", B * N);
         checked(active, "active", B);

@@ -5,6 +5,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "observation_layout.hpp"
+
 namespace socialnav {
 
 namespace {
@@ -33,7 +35,7 @@ struct RobotRow {
 };
 
 inline RobotRow robot_row(const ObservationView& obs, int b) {
-  const double* r = obs.robot + static_cast<size_t>(b) * 9;
+  const double* r = obs.robot + static_cast<size_t>(b) * kRobotFeatures;
   return RobotRow{{r[0], r[1]}, {r[2], r[3]}, {r[5], r[6]}, r[4], r[7], r[8]};
 }
 
@@ -60,14 +62,15 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
       out[2 * b] = out[2 * b + 1] = 0.0;
       if (!obs.active[b]) continue;
       const RobotRow r = robot_row(obs, b);
-      const double* h = obs.human + static_cast<size_t>(b) * N * 5;
+      const double* h = obs.human + static_cast<size_t>(b) * N * kHumanFeatures;
       const uint8_t* m = obs.mask + static_cast<size_t>(b) * N;
       scratch.begin(params.neighbor_dist);
       for (int j = 0; j < N; ++j)
-        if (m[j]) scratch.offer(j, abs_sq(Vec2{h[5 * j], h[5 * j + 1]} - r.p), params.max_neighbors);
+        if (m[j])
+          scratch.offer(j, abs_sq(Vec2{h[kHumanFeatures * j], h[kHumanFeatures * j + 1]} - r.p), params.max_neighbors);
       const double margin = radius_margin + safety_space;
       for (int k = 0; k < scratch.count; ++k) {
-        const double* hj = h + 5 * scratch.index[k];
+        const double* hj = h + kHumanFeatures * scratch.index[k];
         nb[k] = OrcaNeighbor{{hj[0], hj[1]}, {hj[2], hj[3]}, hj[4] + margin};
       }
       const OrcaAgent self{r.p, r.v, r.radius + margin, r.v_pref, crowdsim_pref_velocity(r.p, r.g, r.v_pref)};
@@ -89,11 +92,13 @@ void social_force_robot_actions(const ObservationView& obs, const ActionFormat& 
       out[2 * b] = out[2 * b + 1] = 0.0;
       if (!obs.active[b]) continue;
       const RobotRow r = robot_row(obs, b);
-      const double* h = obs.human + static_cast<size_t>(b) * N * 5;
+      const double* h = obs.human + static_cast<size_t>(b) * N * kHumanFeatures;
       const uint8_t* m = obs.mask + static_cast<size_t>(b) * N;
       int n = 0;
       for (int j = 0; j < N; ++j)
-        if (m[j]) others[n++] = SocialForceOther{{h[5 * j], h[5 * j + 1]}, {h[5 * j + 2], h[5 * j + 3]}};
+        if (m[j])
+          others[n++] = SocialForceOther{{h[kHumanFeatures * j], h[kHumanFeatures * j + 1]},
+                                         {h[kHumanFeatures * j + 2], h[kHumanFeatures * j + 3]}};
       // The robot never exceeds its own v_pref, unlike a pedestrian's 1.3x margin.
       const SocialForceAgent self{r.p, r.v, social_force_desired_velocity(r.p, r.g, r.v_pref), r.v_pref};
       write_action(format, r.theta, social_force_new_velocity(self, others.data(), n, params, dt, obstacles.episode(b)),

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "observation_layout.hpp"
+
 // step_episode's phases are functions of their own for reading, inlined into it for speed (each runs
 // once per slot and step; as calls they cost the linear humans' step a fifth of its time).
 #define SOCIALNAV_PHASE [[gnu::always_inline]] inline
@@ -366,7 +368,7 @@ void World::observe_one(int b, const ObservationBuffers& o, int64_t row) const {
   const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
   const double* radius = buf_.radius + static_cast<size_t>(b) * A;
   const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
-  double* r = o.robot + static_cast<size_t>(row) * 9;
+  double* r = o.robot + static_cast<size_t>(row) * kRobotFeatures;
   r[0] = pos[0];
   r[1] = pos[1];
   r[2] = vel[0];
@@ -377,7 +379,7 @@ void World::observe_one(int b, const ObservationBuffers& o, int64_t row) const {
   r[7] = buf_.v_pref[static_cast<size_t>(b) * A];
   r[8] = buf_.theta[b];
   for (int i = 1; i < A; ++i) {
-    double* h = o.humans + (static_cast<size_t>(row) * N + (i - 1)) * 5;
+    double* h = o.humans + (static_cast<size_t>(row) * N + (i - 1)) * kHumanFeatures;
     const bool real = mask[i] != 0;
     o.human_mask[static_cast<size_t>(row) * N + (i - 1)] = real;
     if (!real) {

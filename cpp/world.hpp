@@ -83,8 +83,8 @@ struct WorldBuffers {
 
 // The policies' observation arrays (see World::observe).
 struct ObservationBuffers {
-  double* robot;        // (B, 9)
-  double* humans;       // (B, N, 5)
+  double* robot;        // (B, kRobotFeatures) (observation_layout.hpp)
+  double* humans;       // (B, N, kHumanFeatures)
   uint8_t* human_mask;  // (B, N)
   uint8_t* active;      // (B,)
   double* time;         // (B,)
