@@ -14,7 +14,8 @@ or name the class in an entry point of the group ``socialnav.behaviours``. The w
 step for the whole batch (:mod:`socialnav.sim.python_humans`), slower than a native one (docs/extending.md).
 
 Both kinds answer the same two questions, kept apart: where does each human want to go (a preferred
-velocity, towards its goal; route following, issue #48, will supply it from a path among walls), and
+velocity, towards its goal, or towards the next point of a route: the part a route among walls
+supplies), and
 how does it avoid the others (its new velocity).
 """
 
