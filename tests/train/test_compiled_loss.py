@@ -124,16 +124,23 @@ def test_compiled_imitation_fit_matches_eager():
 
 def test_inductor_gets_a_cache_of_its_own_per_cpu_capability(monkeypatch):
     """Kernels Inductor compiled under one vector ISA must not be reused under another (they failed with
-    an index out of bounds when ATEN_CPU_CAPABILITY=avx2 ran after AVX-512); a directory the user set
-    is kept."""
+    an index out of bounds when ATEN_CPU_CAPABILITY=avx2 ran after AVX-512). Unset, or Inductor's own
+    default (which it writes there itself when it first compiles), becomes a directory per capability; a
+    directory the user set is kept."""
+    import tempfile
+
     import torch
 
     from socialnav.train.optim import use_inductor_cache_of_these_kernels
 
+    capability = "_" + torch.backends.cpu.get_cpu_capability().lower()
     monkeypatch.delenv("TORCHINDUCTOR_CACHE_DIR", raising=False)
     use_inductor_cache_of_these_kernels()
     chosen = os.environ["TORCHINDUCTOR_CACHE_DIR"]
-    assert chosen.endswith("_" + torch.backends.cpu.get_cpu_capability().lower())
+    assert chosen.endswith(capability) and chosen.startswith(tempfile.gettempdir())
+    monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", chosen[: -len(capability)])  # Inductor's default
+    use_inductor_cache_of_these_kernels()
+    assert os.environ["TORCHINDUCTOR_CACHE_DIR"] == chosen
     monkeypatch.setenv("TORCHINDUCTOR_CACHE_DIR", "/somewhere/else")
     use_inductor_cache_of_these_kernels()
     assert os.environ["TORCHINDUCTOR_CACHE_DIR"] == "/somewhere/else"

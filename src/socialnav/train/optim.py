@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import getpass
 import os
+import re
 import tempfile
 from collections.abc import Callable
 from typing import Any
@@ -61,14 +62,21 @@ def use_inductor_cache_of_these_kernels() -> None:
 
     Inductor keys its cached kernels by the graph, not by the vector ISA ATen runs with: kernels compiled
     under AVX-512 were reused with ``ATEN_CPU_CAPABILITY=avx2`` on the same machine and failed (an index
-    out of bounds inside a generated kernel). ``TORCHINDUCTOR_CACHE_DIR``, where set, is left alone.
+    out of bounds inside a generated kernel). Inductor writes its default directory into
+    ``TORCHINDUCTOR_CACHE_DIR`` the first time it compiles, so that value counts as unset; any other is
+    the user's and is left alone. Called before every compilation (``compile_loss``, the fused step).
     """
-    if os.environ.get("TORCHINDUCTOR_CACHE_DIR"):
+    current = os.environ.get("TORCHINDUCTOR_CACHE_DIR")
+    try:
+        user = getpass.getuser()
+    except (KeyError, ModuleNotFoundError, OSError):
+        user = f"uid_{os.getuid()}" if hasattr(os, "getuid") else "unknown_user"
+    user = re.sub(r'[\\/:*?"<>|]', "_", user)
+    inductors_default = os.path.join(tempfile.gettempdir(), f"torchinductor_{user}")
+    if current and os.path.abspath(current) != os.path.abspath(inductors_default):
         return
     capability = torch.backends.cpu.get_cpu_capability().lower()
-    user = "".join(c for c in getpass.getuser() if c.isalnum() or c in "-_") or "user"
-    directory = os.path.join(tempfile.gettempdir(), f"torchinductor_{user}_{capability}")
-    os.environ["TORCHINDUCTOR_CACHE_DIR"] = directory
+    os.environ["TORCHINDUCTOR_CACHE_DIR"] = f"{inductors_default}_{capability}"
 
 
 class AdamSteps:

@@ -35,7 +35,7 @@ import torch
 from torch import nn
 from torch.fx.experimental.proxy_tensor import make_fx
 
-from socialnav.train.optim import shared_step_counters
+from socialnav.train.optim import shared_step_counters, use_inductor_cache_of_these_kernels
 from socialnav.train.value.memory import ReplayMemory, Transitions
 from socialnav.train.value.rl import td_targets
 
@@ -253,6 +253,8 @@ class FusedTDStep:
             self.network.train(was_training)
         options = {"cpp_wrapper": True} if self.memory.device.type == "cpu" else {}
         import torch._inductor as inductor  # noqa: PLC0415 - only a compiled run needs Inductor
+
+        use_inductor_cache_of_these_kernels()
 
         self._compiled = inductor.compile(graph, [idx, *self._inputs], options=options)
         if self._use_graph:
