@@ -22,6 +22,7 @@ from typing import Any, TypeGuard
 import numpy as np
 
 from socialnav.envs.learner_wrappers import RECORD_FORMAT
+from socialnav.integrations.sb3_pickles import foreign_object
 from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
 
 __all__ = [
@@ -63,65 +64,17 @@ def read_saved_data(path: Path, data: bytes) -> dict[str, Any]:
     return saved
 
 
-#: What the pickled fields of a Stable-Baselines3 model name (its classes, schedules, buffers, spaces,
-#: torch optimizers and activations, NumPy arrays and generators, a function pickled by cloudpickle):
-#: module prefixes, and exact (module, name) pairs for the modules that also hold dangerous functions.
-_SB3_MODULES = ("stable_baselines3.", "sb3_contrib.", "gymnasium.spaces.", "torch.optim.",
-                "torch.nn.modules.", "cloudpickle.", "numpy.random.")
-_SB3_OBJECTS = frozenset({
-    ("collections", "deque"), ("collections", "OrderedDict"), ("copyreg", "_reconstructor"),
-    ("numpy", "dtype"), ("numpy", "ndarray"), ("numpy._core.multiarray", "scalar"),
-    ("numpy._core.multiarray", "_reconstruct"), ("numpy._core.numeric", "_frombuffer"),
-    ("numpy.core.multiarray", "scalar"), ("numpy.core.multiarray", "_reconstruct"),
-    ("numpy.core.numeric", "_frombuffer"), ("torch", "float32"), ("torch", "float64"),
-    *(("builtins", name) for name in ("object", "bool", "int", "float", "complex", "str", "bytes", "tuple",
-                                      "list", "dict", "set", "frozenset", "slice", "range")),
-})
-_STRING_OPS = frozenset({"SHORT_BINUNICODE", "BINUNICODE", "BINUNICODE8", "UNICODE", "SHORT_BINSTRING",
-                         "BINSTRING", "STRING"})
-
-
 def _refuse_foreign_objects(path: Path, key: str, encoded: Any) -> None:
-    """Refuses a pickled field that names an object no Stable-Baselines3 model holds.
-
-    ``os.system``, ``builtins.open``, ``subprocess.Popen``...: a crafted file. The pickle is only read as a
-    list of opcodes (``pickletools.genops``), never run; socialnav replaces every such field anyway
-    (``safe_custom_objects``), so this is a refusal to open the file, not what keeps it from running.
-    """
-    import base64
-    import binascii
-    import pickletools
-
+    """Refuses a pickled field that names an object no Stable-Baselines3 model holds (``sb3_pickles``)."""
     try:
-        raw = base64.b64decode(encoded, validate=True)
-    except (binascii.Error, TypeError, ValueError):
-        raise SB3ModelError(f"{path}: field {key} of the model file is not base64") from None
-    strings: list[str | None] = []
-    memo: dict[int, str | None] = {}
-    try:
-        for op, arg, _ in pickletools.genops(raw):
-            if op.name in _STRING_OPS:
-                strings.append(arg if isinstance(arg, str) else str(arg))
-            elif op.name == "MEMOIZE":
-                memo[len(memo)] = strings[-1] if strings else None
-            elif op.name in ("PUT", "BINPUT", "LONG_BINPUT"):
-                memo[int(arg)] = strings[-1] if strings else None
-            elif op.name in ("GET", "BINGET", "LONG_BINGET"):
-                strings.append(memo.get(int(arg)))
-            elif op.name in ("GLOBAL", "INST", "STACK_GLOBAL"):
-                module, name = arg.split(" ", 1) if op.name != "STACK_GLOBAL" else (
-                    (strings[-2], strings[-1]) if len(strings) >= 2 else (None, None))
-                if not (isinstance(module, str) and isinstance(name, str) and (
-                        module.startswith(_SB3_MODULES) or (module, name) in _SB3_OBJECTS)):
-                    raise SB3ModelError(
-                        f"{path}: field {key} of the model file names {module}.{name}, which no "
-                        "Stable-Baselines3 model holds; socialnav refuses the file without unpickling it "
-                        "(docs/security.md)"
-                    )
-    except (ValueError, IndexError, TypeError) as err:  # not a pickle at all
-        if isinstance(err, SB3ModelError):
-            raise
-        raise SB3ModelError(f"{path}: field {key} of the model file is not a pickle ({err})") from None
+        foreign = foreign_object(encoded)
+    except ValueError as err:
+        raise SB3ModelError(f"{path}: field {key} of the model file is {err}") from None
+    if foreign is not None:
+        raise SB3ModelError(
+            f"{path}: field {key} of the model file names {foreign}, which no Stable-Baselines3 model holds; "
+            "socialnav refuses the file without unpickling it (docs/security.md)"
+        )
 
 
 #: Fields of the record :func:`socialnav.integrations.sb3.save_model` writes that loading reads.

@@ -6,10 +6,7 @@ a diverged loss raises.
 
 from __future__ import annotations
 
-import getpass
 import os
-import re
-import tempfile
 from collections.abc import Callable
 from typing import Any
 
@@ -66,13 +63,10 @@ def use_inductor_cache_of_these_kernels() -> None:
     ``TORCHINDUCTOR_CACHE_DIR`` the first time it compiles, so that value counts as unset; any other is
     the user's and is left alone. Called before every compilation (``compile_loss``, the fused step).
     """
+    from torch._inductor.runtime.cache_dir_utils import default_cache_dir
+
     current = os.environ.get("TORCHINDUCTOR_CACHE_DIR")
-    try:
-        user = getpass.getuser()
-    except (KeyError, ModuleNotFoundError, OSError):
-        user = f"uid_{os.getuid()}" if hasattr(os, "getuid") else "unknown_user"
-    user = re.sub(r'[\\/:*?"<>|]', "_", user)
-    inductors_default = os.path.join(tempfile.gettempdir(), f"torchinductor_{user}")
+    inductors_default = default_cache_dir()
     if current and os.path.abspath(current) != os.path.abspath(inductors_default):
         return
     capability = torch.backends.cpu.get_cpu_capability().lower()

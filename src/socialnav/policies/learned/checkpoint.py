@@ -173,10 +173,14 @@ def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any
             raise CheckpointError(f"checkpoint {path} is damaged or truncated (reading it failed: "
                                   f"{_one_line(err)})") from None
         raise CheckpointError(f"checkpoint {path} cannot be read: {_one_line(err)}") from None
-    except pickle.UnpicklingError as err:
+    except Exception as err:  # unpickling a damaged, foreign or crafted file fails in many ways
         if _saved_by_sb3(path):
             raise CheckpointError(
                 f"checkpoint {path} is a Stable-Baselines3 model: evaluate it with --policy sb3:{path}"
+            ) from None
+        if not isinstance(err, pickle.UnpicklingError):
+            raise CheckpointError(
+                f"checkpoint {path} is damaged or not a torch file ({type(err).__name__}: {_one_line(err)})"
             ) from None
         # weights_only names the object it refused ("GLOBAL posix.system"); any other refusal (an opcode it
         # does not know) is a damaged file. torch's own message advises weights_only=False, which would run
@@ -189,13 +193,6 @@ def _read_payload(path: Path, map_location: str | torch.device) -> dict[str, Any
             f"checkpoint {path} is refused: it holds the object {refused.group(1)}, and socialnav loads only "
             "tensors and plain values from a checkpoint (an object could run code when read); it was not "
             "written by socialnav"
-        ) from None
-    except Exception as err:  # unpickling a damaged or foreign file fails in many ways
-        hint = ""
-        if _saved_by_sb3(path):
-            hint = f"; it is a Stable-Baselines3 model: evaluate it with --policy sb3:{path}"
-        raise CheckpointError(
-            f"checkpoint {path} is damaged or not a torch file ({type(err).__name__}: {_one_line(err)}){hint}"
         ) from None
     if not isinstance(payload, dict) or payload.get("format") != FORMAT:
         if not isinstance(payload, dict):
