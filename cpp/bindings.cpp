@@ -16,6 +16,7 @@
 #include "observation_layout.hpp"
 #include "orca.hpp"
 #include "robot_policies.hpp"
+#include "routes.hpp"
 #include "sarl_scorer.hpp"
 #include "scenario_gen.hpp"
 #include "social_force.hpp"
@@ -195,7 +196,9 @@ NB_MODULE(_core, m) {
       .def_rw("threads", &C::threads)
       .def_rw("max_obstacle_vertices", &C::max_obstacle_vertices)
       .def_rw("obstacle_collision_penalty", &C::obstacle_collision_penalty)
-      .def_rw("obstacle_collision_ends", &C::obstacle_collision_ends);
+      .def_rw("obstacle_collision_ends", &C::obstacle_collision_ends)
+      .def_rw("human_routes", &C::human_routes)
+      .def_rw("route_clearance", &C::route_clearance);
 
   m.attr("STATUS_IDLE") = static_cast<int>(socialnav::kIdle);
   m.attr("STATUS_RUNNING") = static_cast<int>(socialnav::kRunning);
@@ -488,7 +491,8 @@ NB_MODULE(_core, m) {
       "robot_actions",
       [](const std::string& policy, Array<double> robot, Array<double> humans, Array<bool> mask, Array<bool> active,
          int kinematics, double rotation_limit, double dt, nb::object orca, double safety_space,
-         nb::object social_force, socialnav::ThreadPool& pool, Array<double> out, nb::object obstacles) {
+         nb::object social_force, socialnav::ThreadPool& pool, Array<double> out, nb::object obstacles,
+         double route_clearance) {
         if (robot.ndim() != 2 || robot.shape(1) != socialnav::kRobotFeatures)
           throw std::invalid_argument("robot must be (B, " + std::to_string(socialnav::kRobotFeatures) + ")");
         const size_t B = robot.shape(0);
@@ -517,12 +521,15 @@ NB_MODULE(_core, m) {
         const socialnav::SocialForceParams sf_values =
             socialnav::social_force_values(behaviour_values("social_force", social_force));
         nb::gil_scoped_release release;
-        socialnav::robot_actions(policy, obs, format, dt, orca_values, safety_space, sf_values, pool, o, wall_view);
+        socialnav::robot_actions(policy, obs, format, dt, orca_values, safety_space, sf_values, pool, o, wall_view,
+                                 route_clearance);
       },
       "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a,
       "orca"_a.none(), "safety_space"_a, "social_force"_a.none(), "pool"_a, "out"_a.noconvert(),
-      "obstacles"_a.none() = nb::none(),
-      "Batched actions of a native robot policy ('linear', 'orca' or 'social_force'), written into out (B, 2). "
+      "obstacles"_a.none() = nb::none(), "route_clearance"_a = 0.1,
+      "Batched actions of a native robot policy ('linear', 'orca', 'orca_route', 'social_force' or "
+      "'social_force_route'), written into out (B, 2). route_clearance [m]: the '_route' policies' clearance "
+      "from the walls beyond their radius. "
       "orca, social_force: the humans' behaviour parameters of that name (a dict by name, the values in "
       "declared order, or None for the defaults); safety_space [m]: the ORCA robot's own inflation. obstacles: "
       "None or the B episodes' static maps as PreparedObstacleBatch.");
@@ -742,4 +749,80 @@ NB_MODULE(_core, m) {
       "the map as ORCA sees it: (x, y, next, prev, convex, tree parent, is left child, depth) per vertex, the split "
       "points after the map's own "
       "vertices (RVO2's obstacle ids).");
+
+  m.def(
+      "plan_route",
+      [](Array<double> start, Array<double> goal, double radius, double clearance, Array<double> obstacle_vertices,
+         Array<int64_t> obstacle_offsets) {
+        if (!(radius > 0.0) || !(clearance >= 0.0) || !std::isfinite(radius) || !std::isfinite(clearance))
+          throw std::invalid_argument("plan_route: radius must be > 0 and clearance >= 0 (finite), got " +
+                                      std::to_string(radius) + " and " + std::to_string(clearance));
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        socialnav::Route route;
+        if (P == 0) {
+          route.point.assign(1, vec(goal));
+          route.found = true;
+          route.inflation = radius;
+        } else {
+          nb::gil_scoped_release release;
+          socialnav::plan_route(walls.view(), vec(start), vec(goal), radius, clearance, route);
+        }
+        nb::list points;
+        for (const Vec2& p : route.point) points.append(nb::make_tuple(p.x, p.y));
+        return nb::make_tuple(points, route.found, route.inflation);
+      },
+      "start"_a, "goal"_a, "radius"_a, "clearance"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
+      "The shortest route (routes.hpp) of an agent of radius [m] from start to goal keeping clearance [m] from the "
+      "walls where it can: (points, found, inflation), the points to pass with the goal last; found False: no "
+      "route at any inflation (points: the goal alone).");
+
+  m.def(
+      "route_lengths",
+      [](Array<double> starts, Array<double> goals, double radius, double clearance, Array<double> obstacle_vertices,
+         Array<int64_t> obstacle_offsets, Array<double> out) {
+        const size_t n = out.size();
+        checked(starts, "starts", 2 * n);
+        checked(goals, "goals", 2 * n);
+        double* o = checked(out, "out", n);
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        const double *s = starts.data(), *g = goals.data();
+        nb::gil_scoped_release release;
+        for (size_t i = 0; i < n; ++i)
+          o[i] = socialnav::route_length(walls.view(), Vec2{s[2 * i], s[2 * i + 1]}, Vec2{g[2 * i], g[2 * i + 1]},
+                                         radius, clearance);
+      },
+      "starts"_a, "goals"_a, "radius"_a, "clearance"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
+      "out"_a.noconvert(),
+      "Lengths [m] of the shortest routes (plan_route) from starts (n, 2) to goals (n, 2), written into out (n,); "
+      "inf where there is none.");
+
+  m.def(
+      "route_distances",
+      [](Array<double> points, Array<double> goal, double radius, Array<double> obstacle_vertices,
+         Array<int64_t> obstacle_offsets, Array<double> out) {
+        if (!(radius > 0.0) || !std::isfinite(radius))
+          throw std::invalid_argument("route_distances: radius must be finite and > 0, got " + std::to_string(radius));
+        const size_t n = out.size();
+        checked(points, "points", 2 * n);
+        checked(goal, "goal", 2);
+        double* o = checked(out, "out", n);
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        static_assert(sizeof(Vec2) == 2 * sizeof(double), "points (n, 2) are read as n Vec2");
+        const auto* pts = reinterpret_cast<const Vec2*>(points.data());
+        const Vec2 g = vec(goal);
+        nb::gil_scoped_release release;
+        socialnav::route_distances(walls.view(), pts, static_cast<int>(n), g, radius, o);
+      },
+      "points"_a, "goal"_a, "radius"_a, "obstacle_vertices"_a, "obstacle_offsets"_a, "out"_a.noconvert(),
+      "Free-space distances [m] of a disc of radius from each of points (n, 2) to goal (2,) around the obstacles "
+      "(the visibility graph inflated by the radius), written into out (n,); inf where the goal cannot be reached.");
+
+  m.def("route_cache_size", &socialnav::route_cache_size, "Maps whose route graphs the process holds now.");
+  m.def("clear_route_cache", &socialnav::clear_route_cache, "Drops every cached route graph.");
 }

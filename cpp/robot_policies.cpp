@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "observation_layout.hpp"
+#include "routes.hpp"
 
 namespace socialnav {
 
@@ -39,6 +40,21 @@ inline RobotRow robot_row(const ObservationView& obs, int b) {
   return RobotRow{{r[0], r[1]}, {r[2], r[3]}, {r[5], r[6]}, r[4], r[7], r[8]};
 }
 
+// Where the robot heads: its goal, or among obstacles with routes (route_clearance >= 0) the first point
+// of the shortest route from where it stands (routes.hpp), planned afresh each step so that it needs no
+// memory between calls; the point is put as far along the line to it as the route is long (as
+// RouteFollower::target), so the slow-down near the target applies at the goal only.
+Vec2 robot_target(const ObstacleView& walls, Vec2 p, Vec2 goal, double radius, double route_clearance) {
+  if (route_clearance < 0.0 || walls.count == 0) return goal;
+  thread_local Route route;
+  plan_route(walls, p, goal, radius, route_clearance, route);
+  if (!route.found || route.point.size() <= 1) return goal;
+  const Vec2 w = route.point[0];
+  const double to_point = norm(w - p);
+  if (to_point < 1e-9) return route.point[1];
+  return p + ((to_point + route.remaining[0]) / to_point) * (w - p);
+}
+
 }  // namespace
 
 void linear_robot_actions(const ObservationView& obs, const ActionFormat& format, double dt, double* out) {
@@ -52,7 +68,7 @@ void linear_robot_actions(const ObservationView& obs, const ActionFormat& format
 
 void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, const OrcaParams& params,
                         double radius_margin, double safety_space, double dt, ThreadPool& pool, double* out,
-                        const ObstacleBatchView& obstacles) {
+                        const ObstacleBatchView& obstacles, double route_clearance) {
   const int N = obs.humans;
   pool.parallel_for(obs.batch, [&](int begin, int end, int) {
     // One per thread, kept between calls: its line buffers grow once to the largest problem.
@@ -73,7 +89,8 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
         const double* hj = h + kHumanFeatures * scratch.index[k];
         nb[k] = OrcaNeighbor{{hj[0], hj[1]}, {hj[2], hj[3]}, hj[4] + margin};
       }
-      const OrcaAgent self{r.p, r.v, r.radius + margin, r.v_pref, crowdsim_pref_velocity(r.p, r.g, r.v_pref)};
+      const Vec2 target = robot_target(obstacles.episode(b), r.p, r.g, r.radius + margin, route_clearance);
+      const OrcaAgent self{r.p, r.v, r.radius + margin, r.v_pref, crowdsim_pref_velocity(r.p, target, r.v_pref)};
       const Vec2 v = orca_new_velocity(self, obstacles.orca_episode(b), params.time_horizon_obst, nb, scratch.count,
                                        params.time_horizon, dt, scratch);
       write_action(format, r.theta, v, out + 2 * b);
@@ -82,7 +99,8 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
 }
 
 void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format, const SocialForceParams& params,
-                                double dt, ThreadPool& pool, double* out, const ObstacleBatchView& obstacles) {
+                                double dt, ThreadPool& pool, double* out, const ObstacleBatchView& obstacles,
+                                double route_clearance) {
   const int N = obs.humans;
   pool.parallel_for(obs.batch, [&](int begin, int end, int) {
     // Grows once per thread to the largest crowd seen; no allocation in steady state.
@@ -100,7 +118,8 @@ void social_force_robot_actions(const ObservationView& obs, const ActionFormat& 
           others[n++] = SocialForceOther{{h[kHumanFeatures * j], h[kHumanFeatures * j + 1]},
                                          {h[kHumanFeatures * j + 2], h[kHumanFeatures * j + 3]}};
       // The robot never exceeds its own v_pref, unlike a pedestrian's 1.3x margin.
-      const SocialForceAgent self{r.p, r.v, social_force_desired_velocity(r.p, r.g, r.v_pref), r.v_pref};
+      const Vec2 target = robot_target(obstacles.episode(b), r.p, r.g, r.radius, route_clearance);
+      const SocialForceAgent self{r.p, r.v, social_force_desired_velocity(r.p, target, r.v_pref), r.v_pref};
       write_action(format, r.theta, social_force_new_velocity(self, others.data(), n, params, dt, obstacles.episode(b)),
                    out + 2 * b);
     }
@@ -109,15 +128,21 @@ void social_force_robot_actions(const ObservationView& obs, const ActionFormat& 
 
 void robot_actions(const std::string& policy, const ObservationView& obs, const ActionFormat& format, double dt,
                    const OrcaValues& orca, double safety_space, const SocialForceParams& social_force, ThreadPool& pool,
-                   double* out, const ObstacleBatchView& obstacles) {
+                   double* out, const ObstacleBatchView& obstacles, double route_clearance) {
   if (policy == "linear")
     linear_robot_actions(obs, format, dt, out);
   else if (policy == "orca")
     orca_robot_actions(obs, format, orca.solver, orca.radius_margin, safety_space, dt, pool, out, obstacles);
+  else if (policy == "orca_route")
+    orca_robot_actions(obs, format, orca.solver, orca.radius_margin, safety_space, dt, pool, out, obstacles,
+                       route_clearance);
   else if (policy == "social_force")
     social_force_robot_actions(obs, format, social_force, dt, pool, out, obstacles);
+  else if (policy == "social_force_route")
+    social_force_robot_actions(obs, format, social_force, dt, pool, out, obstacles, route_clearance);
   else
-    throw std::invalid_argument("unknown native robot policy '" + policy + "'; valid: linear, orca, social_force");
+    throw std::invalid_argument("unknown native robot policy '" + policy +
+                                "'; valid: linear, orca, orca_route, social_force, social_force_route");
 }
 
 }  // namespace socialnav

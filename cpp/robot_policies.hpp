@@ -34,20 +34,25 @@ void linear_robot_actions(const ObservationView& obs, const ActionFormat& format
 
 // CrowdNav's ORCA policy: own and neighbours' radii inflated by margin + safety_space. Static
 // obstacles (one episode per observation row) are avoided with RVO2's obstacle algorithm, as the
-// ORCA humans do; the linear policy ignores them, as linear humans do.
+// ORCA humans do; the linear policy ignores them, as linear humans do. route_clearance >= 0: towards
+// the first point of the shortest route instead of the goal (robot_actions' "_route" policies).
 void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, const OrcaParams& params,
                         double radius_margin, double safety_space, double dt, ThreadPool& pool, double* out,
-                        const ObstacleBatchView& obstacles = ObstacleBatchView{});
+                        const ObstacleBatchView& obstacles = ObstacleBatchView{}, double route_clearance = -1.0);
 
 void social_force_robot_actions(const ObservationView& obs, const ActionFormat& format, const SocialForceParams& params,
                                 double dt, ThreadPool& pool, double* out,
-                                const ObstacleBatchView& obstacles = ObstacleBatchView{});
+                                const ObstacleBatchView& obstacles = ObstacleBatchView{},
+                                double route_clearance = -1.0);
 
-// The native robot policy named `policy` ("linear", "orca" or "social_force"; std::invalid_argument
-// otherwise): the ORCA one configured as the ORCA humans are (orca: that behaviour's values) with the
-// robot's own safety_space [m], the social-force one with the humans' social-force parameters.
+// The native robot policy named `policy` ("linear", "orca", "orca_route", "social_force" or
+// "social_force_route"; std::invalid_argument otherwise): the ORCA one configured as the ORCA humans are
+// (orca: that behaviour's values) with the robot's own safety_space [m], the social-force one with the
+// humans' social-force parameters. The "_route" ones head for the first point of the shortest route
+// among the obstacles (routes.hpp; Francis et al.'s "global planner + local avoidance" baseline),
+// keeping route_clearance [m] from the walls where they can, beyond the radius ORCA inflates.
 void robot_actions(const std::string& policy, const ObservationView& obs, const ActionFormat& format, double dt,
                    const OrcaValues& orca, double safety_space, const SocialForceParams& social_force, ThreadPool& pool,
-                   double* out, const ObstacleBatchView& obstacles = ObstacleBatchView{});
+                   double* out, const ObstacleBatchView& obstacles = ObstacleBatchView{}, double route_clearance = 0.1);
 
 }  // namespace socialnav

@@ -48,6 +48,13 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
     throw std::invalid_argument("human_params given without a human_behaviour");
   new_velocity_.assign(static_cast<size_t>(config.batch) * config.agents * 2, 0.0);
   preferred_.assign(threads, std::vector<Vec2>(config.agents));
+  if (config.human_routes) {
+    if (!(config.route_clearance >= 0.0) || !std::isfinite(config.route_clearance))
+      throw std::invalid_argument("route_clearance must be finite and >= 0, got " +
+                                  std::to_string(config.route_clearance));
+    routes_.resize(static_cast<size_t>(config.batch) * config.agents);
+    targets_.assign(threads, std::vector<double>(2 * static_cast<size_t>(config.agents)));
+  }
   if (pool && pool->size() != threads)
     throw std::invalid_argument("the pool has " + std::to_string(pool->size()) + " threads, the world " +
                                 std::to_string(threads));
@@ -136,11 +143,31 @@ void World::human_velocities(int b, int worker) {
   slot.obstacles = obstacles(b);
   slot.orca_obstacles = orca_obstacles(b);
   slot.dt = config_.dt;
-  // Where each human wants to go (its goal), then how it avoids the others (behaviour.hpp).
+  // Where each human wants to go (its goal, or the point of its route it heads for), then how it avoids
+  // the others (behaviour.hpp).
+  const double* targets = config_.human_routes && slot.obstacles.count > 0 ? route_targets(b, worker, slot) : slot.goal;
   Vec2* preferred = preferred_[worker].data();
-  behaviour_->preferred_velocities(slot, slot.goal, preferred);
+  behaviour_->preferred_velocities(slot, targets, preferred);
   slot.preferred = preferred;
   behaviour_->velocities(slot, worker, out);
+}
+
+// Each human's route point for this step (routes.hpp); routes are planned at an episode's first step
+// (again if asked twice before it: the episode's state is the same) and re-planned by the follower.
+const double* World::route_targets(int b, int worker, const SlotView& slot) {
+  const size_t row = static_cast<size_t>(b) * config_.agents;
+  double* out = targets_[worker].data();
+  const bool start = buf_.steps[b] == 0;
+  for (int i = 1; i < slot.agents; ++i) {
+    if (!slot.mask[i]) continue;
+    RouteFollower& follower = routes_[row + i];
+    const Vec2 p = slot.at(slot.position, i), goal = slot.at(slot.goal, i);
+    if (start) follower.plan(slot.obstacles, p, goal, slot.radius[i], config_.route_clearance);
+    const Vec2 t = follower.target(slot.obstacles, p, goal, slot.radius[i], config_.route_clearance);
+    out[2 * i] = t.x;
+    out[2 * i + 1] = t.y;
+  }
+  return out;
 }
 
 // One slot's step, in phases: the humans decide (from the state before anyone moves), the robot's action

@@ -14,6 +14,7 @@
 
 #include "behaviour.hpp"
 #include "obstacles.hpp"
+#include "routes.hpp"
 #include "scenario_gen.hpp"
 #include "thread_pool.hpp"
 
@@ -57,6 +58,10 @@ struct WorldConfig {
   int max_obstacle_vertices = 0;              // bound on one episode's obstacle vertices (set_obstacles checks)
   double obstacle_collision_penalty = -0.25;  // reward when the robot touches an obstacle
   bool obstacle_collision_ends = true;        // touching an obstacle ends the episode (as a human)
+  // The humans among obstacles follow shortest routes to their goals (routes.hpp), keeping
+  // route_clearance [m] from the walls where they can; false: they head straight for their goals.
+  bool human_routes = false;
+  double route_clearance = 0.2;
 };
 
 struct WorldBuffers {
@@ -170,6 +175,7 @@ class World {
   void step_episode(int b, const double* actions, int worker);
   // step_episode's phases (world.cpp), in the order it runs them.
   void human_velocities(int b, int worker);  // the humans' next velocities, into new_velocity_
+  const double* route_targets(int b, int worker, const SlotView& slot);    // human_routes: the route points
   Vec2 robot_velocity(int b, const double* actions, double& theta) const;  // the action, clipped; turns theta
   struct RobotContacts {
     double dmin = std::numeric_limits<double>::infinity();  // swept clearance to the nearest human [m]
@@ -195,6 +201,8 @@ class World {
   std::unique_ptr<HumanBehaviour> behaviour_;  // null: the caller gives the velocities
   const double* given_velocity_ = nullptr;     // (B, A, 2), see give_human_velocities
   std::vector<std::vector<Vec2>> preferred_;   // (threads, A) the humans' preferred velocities
+  std::vector<RouteFollower> routes_;          // (B, A) with human_routes: each human's route
+  std::vector<std::vector<double>> targets_;   // (threads, A, 2) where each human heads this step
   std::unique_ptr<ThreadPool> own_pool_;       // when no pool was given
   ThreadPool* pool_;
   std::vector<int64_t> refill_slots_;           // refill_done's finished slots, (B,) reserved

@@ -22,9 +22,15 @@ class NativePolicy:
     of the same model do (RVO2's obstacle algorithm; Helbing & Molnár's wall repulsion); the linear
     policy ignores them, as linear humans do.
 
+    The ``_route`` kinds head for the first point of the shortest route around the walls from where the
+    robot stands (re-planned every step; docs/routes.md) instead of the goal itself: Francis et al.'s
+    "global planner + local avoidance" baseline. On an open floor they act as their plain kinds.
+
     Args:
-        kind: "linear", "orca" or "social_force".
+        kind: "linear", "orca", "orca_route", "social_force" or "social_force_route".
         safety_space: ORCA only: inflation of the robot's and every human's radius [m].
+        route_clearance: the ``_route`` kinds: distance [m] kept from walls beyond the robot's (inflated)
+            radius where the passage allows.
         orca: ORCA parameters (CrowdSim's by default).
         social_force: social-force parameters (Helbing & Molnár's by default).
         threads: native worker threads (0 = all cores, at most 8).
@@ -39,9 +45,13 @@ class NativePolicy:
         orca: OrcaSettings | None = None,  # type: ignore[valid-type]
         social_force: SocialForceSettings | None = None,  # type: ignore[valid-type]
         threads: int = 0,
+        route_clearance: float = 0.1,
     ):
         if safety_space < 0:
             raise ValueError(f"safety_space must be >= 0, got {safety_space}")
+        if not 0 <= route_clearance <= 10:
+            raise ValueError(f"route_clearance must be in [0, 10] m, got {route_clearance}")
+        self.route_clearance = float(route_clearance)
         self.name = kind
         self.kind = kind
         self.safety_space = float(safety_space)
@@ -94,12 +104,17 @@ class NativePolicy:
             self._pool,
             self._out,
             None if observation.obstacles is None else observation.obstacles.native,
+            self.route_clearance,
         )
         return self._out.copy()
 
     def describe(self) -> dict[str, Any]:
-        """The record stored with results: policy, information and ORCA's safety space [m]."""
-        return {"policy": self.name, "information": self.information, "safety_space": self.safety_space}
+        """The record stored with results: policy, information, ORCA's safety space [m] (and for the
+        ``_route`` kinds their route clearance [m])."""
+        record = {"policy": self.name, "information": self.information, "safety_space": self.safety_space}
+        if self.kind.endswith("_route"):
+            record["route_clearance"] = self.route_clearance
+        return record
 
 
 @register_policy(
@@ -150,3 +165,47 @@ def social_force(threads: int = 0) -> NativePolicy:
         The policy.
     """
     return NativePolicy("social_force", threads=threads)
+
+
+@register_policy(
+    "orca_route",
+    description="ORCA towards the first point of the shortest route around the walls (global planner + local "
+    "avoidance)",
+    parameters={"safety_space": 0.2, "route_clearance": 0.1, "threads": 0},
+)
+def orca_route(safety_space: float = 0.2, route_clearance: float = 0.1, threads: int = 0) -> NativePolicy:
+    """ORCA following the shortest route around the walls, re-planned every step (docs/routes.md).
+
+    The classical baseline Francis et al. (2023) ask for beside learned ones: a global planner (a
+    visibility graph over the walls' corners, Lozano-Pérez & Wesley 1979) and a local one (ORCA, van den
+    Berg et al. 2011). On an open floor it is the ``orca`` policy.
+
+    Args:
+        safety_space: Extra clearance [m] added to the robot's radius in ORCA's constraints.
+        route_clearance: Distance [m] the route keeps from walls beyond the inflated radius, where the
+            passage allows (narrower passages: the radius alone).
+        threads: Native threads over the batch (0: one per core).
+
+    Returns:
+        The policy.
+    """
+    return NativePolicy("orca_route", safety_space=safety_space, threads=threads, route_clearance=route_clearance)
+
+
+@register_policy(
+    "social_force_route",
+    description="social force towards the first point of the shortest route around the walls",
+    parameters={"route_clearance": 0.1, "threads": 0},
+)
+def social_force_route(route_clearance: float = 0.1, threads: int = 0) -> NativePolicy:
+    """The social force model following the shortest route around the walls (docs/routes.md).
+
+    Args:
+        route_clearance: Distance [m] the route keeps from walls beyond the robot's radius, where the
+            passage allows.
+        threads: Native threads over the batch (0: one per core).
+
+    Returns:
+        The policy.
+    """
+    return NativePolicy("social_force_route", threads=threads, route_clearance=route_clearance)

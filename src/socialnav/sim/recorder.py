@@ -62,6 +62,8 @@ class Recorder:
             "crowdsim_compat": s.crowdsim_compat,
             "time_limit": s.time_limit,
         }
+        if s.human_routes != "none":  # recorded where routes are on only: other records stay as they were
+            recorded.update(human_routes=s.human_routes, route_clearance=s.route_clearance)
         per_episode = ("index", "seed", "collision_kind")  # set by collect()
         clash = sorted(set(tags) & {*recorded, *per_episode})
         if clash:

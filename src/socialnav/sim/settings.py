@@ -21,6 +21,7 @@ from socialnav.sim.behaviours import HUMAN_MODELS, human_behaviour, native_setti
 ORCA_MODES = ("centralized", "decentralized")
 VISIBILITIES = ("invisible", "visible")
 KINEMATICS = ("holonomic", "unicycle")
+HUMAN_ROUTES = ("none", "shortest")
 
 # Bounds that keep one setting from exhausting the machine (docs/simulator.md, "Bounds"); checked
 # when settings are built, i.e. before anything is allocated.
@@ -103,6 +104,15 @@ class WorldSettings(Settings):
     obstacle_collision_ends: bool = setting(
         True, "touching a static obstacle ends the episode as a collision (else: the step's reward is "
         "reward.obstacle_collision_penalty and the episode goes on)"
+    )
+    human_routes: str = setting(
+        "none", "among static obstacles, the humans follow the shortest route to their goal around the walls "
+        "(shortest; docs/routes.md) or head straight for it (none); no effect on an open floor; left out of "
+        "records while none", choices=HUMAN_ROUTES, record_default=False,
+    )
+    route_clearance: float = setting(
+        0.2, "distance beyond their radius that routed humans keep from walls where the passage allows; left "
+        "out of records while 0.2", unit="m", ge=0, le=10.0, record_default=False,
     )
 
     def cross_check(self) -> None:

@@ -116,6 +116,8 @@ def world_config(
     c.max_obstacle_vertices = s.max_obstacle_vertices
     c.obstacle_collision_penalty = s.reward.resolved_obstacle_collision_penalty
     c.obstacle_collision_ends = s.obstacle_collision_ends
+    c.human_routes = s.human_routes == "shortest"
+    c.route_clearance = s.route_clearance
     return c
 
 

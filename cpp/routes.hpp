@@ -1,0 +1,90 @@
+// Routes among static obstacles: where an agent walks to reach its goal when a wall stands between
+// them (docs/routes.md).
+//
+// Per map and inflation d (an agent's radius plus a clearance), once: a visibility graph over the
+// obstacles' corners offset by d (T. Lozano-Pérez, M. A. Wesley, "An algorithm for planning collision-free
+// paths among polyhedral obstacles", Commun. ACM 22(10), 1979; with the configuration-space offset of the
+// same paper). Nodes sit at distance >= d from every edge, beside each convex corner (a wall's ends
+// included); two nodes are joined where the straight segment between them keeps >= d from every edge. Per
+// agent: the shortest route from where it stands to its goal (Dijkstra over the graph, the start and the
+// goal joined to the nodes they see). Per step: the agent heads for the farthest route point it sees with
+// clearance (string pulling), and re-plans from where it stands once the point it heads for is hidden.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "obstacles.hpp"
+#include "vec2.hpp"
+
+namespace socialnav {
+
+// One map's visibility graph for inflation d [m]: nodes and their edges (CSR: node i's neighbours are
+// neighbour[first[i]..first[i + 1]), with the segment lengths).
+struct RouteGraph {
+  double inflation = 0.0;
+  std::vector<Vec2> node;
+  std::vector<int32_t> first;
+  std::vector<int32_t> neighbour;
+  std::vector<double> length;
+};
+
+// Builds the graph of `obstacles` (the unsplit map) for inflation d > 0. Cost: O(V) nodes (one or two
+// per convex corner), O(V^2 * E) segment tests for the edges.
+RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation);
+
+// The graph of a map with this content and inflation, built on first use and then shared (process-wide,
+// thread-safe; keyed by the vertices' coordinates, so every episode with the same map shares one graph,
+// and maps drawn per episode get one each). At most kRouteCacheMaps maps are kept; the oldest go first.
+std::shared_ptr<const RouteGraph> cached_route_graph(const ObstacleView& obstacles, double inflation);
+constexpr int kRouteCacheMaps = 4096;
+// Graphs in the cache now (tests and the cost measurement read it).
+int route_cache_size();
+void clear_route_cache();
+
+// True when a disc of radius c moving straight from a to b touches no obstacle edge (and b is outside the
+// solid polygons): `b` is visible from `a` with clearance c.
+bool visible_with_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b, double c);
+
+// The distance from p to the nearest obstacle edge (0 inside a solid polygon; +inf without obstacles).
+double obstacle_clearance(const ObstacleView& obstacles, Vec2 p);
+
+// A planned route: the points to pass, the goal last, and the inflation it was planned with.
+struct Route {
+  std::vector<Vec2> point;
+  std::vector<double> remaining;  // remaining[k]: route length from point k to the goal
+  double inflation = 0.0;
+  bool found = false;  // false: no route at any inflation (the point list is then the goal alone)
+};
+
+// Plans `start` -> `goal` for an agent of `radius` [m] keeping `clearance` [m] from the walls where it can:
+// with inflation radius + clearance, else (a door narrower than that) with the radius alone, else no
+// route (heading straight for the goal, as without routes). The start and goal connect to the nodes with
+// min(inflation, their own clearance), so an agent already closer to a wall than d can still leave it.
+void plan_route(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance, Route& out);
+
+// The length of the shortest route from `start` to `goal` under plan_route's rule (inf when there is none).
+double route_length(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance);
+
+// The lengths [m] of the shortest paths of a disc of `radius` from each of n points to `goal` (the free-space
+// geodesic distance: the visibility graph with inflation = radius, no clearance), written into out; inf where
+// there is none. One Dijkstra from the goal serves every point, and a point that sees the goal costs one
+// segment test: what the stuck detection measures progress with (docs/routes.md).
+void route_distances(const ObstacleView& obstacles, const Vec2* points, int n, Vec2 goal, double radius, double* out);
+
+// One agent following its route: which point it heads for, re-planning when that point is hidden.
+struct RouteFollower {
+  Route route;
+  int index = 0;    // the route point it heads for
+  int replans = 0;  // re-plans since the route was first planned
+
+  void plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance);
+  // The point to hand the behaviour's preferred-velocity law (behaviour.hpp): the goal once it is the
+  // point headed for; before, a point beyond the current route point on the line to it, as far from the
+  // agent as the rest of the route is long, so that the law's slow-down near its target applies at the
+  // goal, not at each corner.
+  Vec2 target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance);
+};
+
+}  // namespace socialnav
