@@ -282,9 +282,43 @@ void RouteFollower::plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, d
   plan_route(obstacles, start, goal, radius, clearance, route);
   index = 0;
   replans = 0;
+  yields = 0;
+  best_remaining = kInf;
+  stalled = 0.0;
+  yielding = 0.0;
+  last_step = -1;
 }
 
-Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance) {
+Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance,
+                           int step, double dt, int agent) {
+  const Vec2 ahead = route_target(obstacles, position, goal, radius, clearance);
+  if (!route.found) return ahead;
+  const double remaining = norm(route.point[index] - position) + route.remaining[index];
+  if (step != last_step) {
+    last_step = step;
+    if (yielding > 0.0) {
+      yielding -= dt;
+    } else if (remaining <= radius) {  // arrived: waiting at the goal is no stall
+      stalled = 0.0;
+      best_remaining = remaining;
+    } else if (remaining < best_remaining - kProgress) {
+      best_remaining = remaining;
+      stalled = 0.0;
+    } else if ((stalled += dt) >= kPatience) {
+      yielding = kYieldTimes[(agent + yields) % 4];
+      ++yields;
+      stalled = 0.0;
+      best_remaining = kInf;  // progress is measured afresh after giving way
+    }
+  }
+  if (yielding <= 0.0) return ahead;
+  const Vec2 away = position - route.point[index];
+  const double len = norm(away);
+  return len > 1e-9 ? position + (1.0 / len) * away : ahead;
+}
+
+Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius,
+                                 double clearance) {
   if (!route.found) return goal;
   const int n = static_cast<int>(route.point.size());
   const double own = obstacle_clearance(obstacles, position);

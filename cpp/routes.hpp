@@ -73,18 +73,38 @@ double route_length(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double
 // segment test: what the stuck detection measures progress with (docs/routes.md).
 void route_distances(const ObstacleView& obstacles, const Vec2* points, int n, Vec2 goal, double radius, double* out);
 
+// A routed agent that makes no progress gives way: after kPatience seconds in which its remaining route
+// length shrank by less than kProgress, it steps back (away from the point it heads for) for a while, then
+// tries again. Local models have no yielding of their own: two social-force pedestrians meeting head-on in
+// a one-person door push against each other for ever (Helbing & Molnár's forces balance), and RVO2 agents
+// can freeze the same way. The step-back time differs between agents and attempts (kYieldTimes, chosen by
+// agent index and attempt), so that two who gave way together do not come back together.
+constexpr double kProgress = 0.2;   // [m]
+constexpr double kPatience = 3.0;   // [s]
+constexpr double kYieldTimes[4] = {1.0, 2.5, 4.0, 5.5};  // [s]
+
 // One agent following its route: which point it heads for, re-planning when that point is hidden.
 struct RouteFollower {
   Route route;
   int index = 0;    // the route point it heads for
   int replans = 0;  // re-plans since the route was first planned
+  int yields = 0;   // times it gave way
+  double best_remaining = 0.0;  // the shortest remaining route length so far [m]
+  double stalled = 0.0;         // time since it last came kProgress closer [s]
+  double yielding = 0.0;        // time left stepping back [s]
+  int last_step = -1;           // the step the timers were last advanced at
 
   void plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance);
-  // The point to hand the behaviour's preferred-velocity law (behaviour.hpp): the goal once it is the
-  // point headed for; before, a point beyond the current route point on the line to it, as far from the
-  // agent as the rest of the route is long, so that the law's slow-down near its target applies at the
-  // goal, not at each corner.
-  Vec2 target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance);
+  // The point to hand the behaviour's preferred-velocity law (behaviour.hpp) at step `step` of length dt
+  // [s] for agent `agent`: the goal once it is the point headed for; before, a point beyond the current
+  // route point on the line to it, as far from the agent as the rest of the route is long, so that the
+  // law's slow-down near its target applies at the goal, not at each corner; while giving way, a point
+  // behind it. Calls for the same step (a preview, then the step) advance the timers once.
+  Vec2 target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance, int step,
+              double dt, int agent);
+
+ private:
+  Vec2 route_target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance);
 };
 
 }  // namespace socialnav

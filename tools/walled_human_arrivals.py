@@ -1,63 +1,125 @@
-"""How many humans of the walled scenarios reach their goal (docs/walls_maps.md, "Humans among walls").
+"""How many humans of the walled scenarios reach their goal (docs/routes.md, "Do the crowds find their way").
 
-Humans are ORCA agents heading straight for their goals, local planners like the ORCA robot: where a wall
-stands between a human's start and its goal, the human can stay pressed against it. This runs the
-francis2023 protocol's visible pass (with the continuation after the robot's arrival, up to the cap) with
-the ORCA robot and counts the humans whose centre came within their radius of their goal.
+Two measurements per scenario of a preset (francis2023 by default) and per human model (ORCA and social
+force by default), over the protocol's test episodes:
 
-    PYTHONPATH=src python tools/walled_human_arrivals.py [--episodes 40] [--out DIR]
+- **crowd**: the humans alone. Each episode is generated as the protocol generates it, the robot is then
+  moved 1 km away with its goal where it stands, so that it succeeds at the first step and the humans walk
+  on (the M_III continuation) until every one arrived or the preset's continuation cap (100 s). A human
+  reached its goal when its centre came within its radius of it. This is what the routes are for: a
+  person who cannot find the door shows here, whatever a robot does.
+- **with_robot** (``--robot POLICY``, default ``orca_route``): the protocol's visible pass with that robot
+  (the pass with the continuation); "all" counts every human, "uncensored" only the humans of episodes
+  that ran to the cap (the robot reached its goal), since an episode that ends in a collision or a timeout
+  stops its humans before they could arrive. ``--robot none`` skips it.
 
-Prints one line per scenario, then one JSON object last.
+    python tools/walled_human_arrivals.py [--episodes 500] [--models orca social_force] [--robot orca_route]
+        [--routes shortest|none]
+
+Prints one line per scenario and model, then one JSON object last.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from socialnav.evaluate import run_protocol
-from socialnav.policies.loading import build_policy
-from socialnav.presets import load_preset
-from socialnav.trajectory_io import read_trajectories
+from socialnav.presets import Preset, load_preset
+from socialnav.scenarios import make_scenario
+from socialnav.sim import World
+from socialnav.trajectory import Trajectory
+
+FAR = 1000.0  # [m] where the robot is put for the crowd measurement
 
 
-def arrivals(run_dir: Path) -> tuple[int, int]:
-    """(humans, humans that reached their goal) over a run's stored trajectories."""
-    total = reached = 0
-    for path in sorted(run_dir.glob("trajectories/**/*.parquet")):
-        for tr in read_trajectories(path):
-            for h in range(1, tr.n_agents):
-                seen = tr.positions[:, h][tr.presence[:, h]]
-                if tr.continuation is not None:  # after the robot's arrival, up to the cap
-                    seen = np.concatenate([seen, tr.continuation[:, h]])
-                d = np.linalg.norm(seen - tr.goals[h], axis=-1)
-                total += 1
-                reached += bool((d <= tr.radii[h] + 1e-9).any())
-    return total, reached
+def reached(tr: Trajectory, human: int) -> bool:
+    """Whether a human's centre came within its radius of its goal (episode or continuation)."""
+    seen = tr.positions[:, human] if tr.presence is None else tr.positions[:, human][tr.presence[:, human]]
+    if tr.continuation is not None:
+        seen = np.concatenate([seen, tr.continuation[:, human]])
+    return bool((np.linalg.norm(seen - tr.goals[human], axis=-1) <= tr.radii[human] + 1e-9).any())
+
+
+def count(trajectories: list[Trajectory], uncensored_only: bool = False) -> dict[str, float | int | None]:
+    """{humans, reached_goal, fraction} over the trajectories' humans."""
+    total = hits = 0
+    for tr in trajectories:
+        if uncensored_only and tr.outcome != "success":
+            continue
+        for h in range(1, tr.n_agents):
+            total += 1
+            hits += reached(tr, h)
+    return {"humans": total, "reached_goal": hits, "fraction": round(hits / total, 4) if total else None}
+
+
+def crowd_alone(preset: Preset, scenario_name: str, episodes: int) -> list[Trajectory]:
+    """The scenario's first `episodes` test episodes with the robot moved away: the humans' trajectories."""
+    world_settings = dataclasses.replace(preset.world, continue_after_success=True,
+                                         continuation_cap=preset.evaluation.continuation_cap)
+    n_humans = preset.evaluation.n_humans
+    try:
+        scenario = make_scenario(scenario_name, n_humans=n_humans)
+    except (TypeError, ValueError):  # a scenario whose design fixes its crowd
+        scenario = make_scenario(scenario_name)
+    out: list[Trajectory] = []
+    with World(world_settings, scenario, episodes, split=preset.evaluation.split, count=episodes) as world:
+        world.reset()
+        world.position[:, 0] = FAR
+        world.goal[:, 0] = FAR
+        world.velocity[:, 0] = 0.0
+        actions = np.zeros((episodes, 2))
+        while world.busy:
+            out += world.step(actions).finished
+    return out
+
+
+def with_robot(preset: Preset, scenario_name: str, episodes: int, policy: str, root: Path) -> list[Trajectory]:
+    """The protocol's visible pass of one scenario with a robot policy: its stored trajectories."""
+    from socialnav.evaluate import run_protocol
+    from socialnav.policies.building import build_policy
+    from socialnav.trajectory_io import read_trajectories
+
+    run_dir = root / scenario_name
+    run_protocol(build_policy(policy, preset), preset, run_dir, scenarios=[scenario_name], episodes=episodes,
+                 visibility="visible", progress=False)
+    return [tr for path in sorted(run_dir.glob("trajectories/**/*.parquet")) for tr in read_trajectories(path)]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--episodes", type=int, default=40, help="episodes per scenario (default 40)")
-    ap.add_argument("--out", type=Path, help="where the runs go (default: a temporary directory)")
+    ap.add_argument("--preset", default="francis2023", help="a preset with walls (default francis2023)")
+    ap.add_argument("--episodes", type=int, default=500, help="test episodes per scenario (default 500)")
+    ap.add_argument("--models", nargs="+", default=["orca", "social_force"], help="human models")
+    ap.add_argument("--robot", default="orca_route", help="robot policy of the with_robot figures, or none")
+    ap.add_argument("--scenarios", nargs="+", help="default: the preset's")
+    ap.add_argument("--routes", choices=["shortest", "none"], help="the humans' routes (default: the preset's)")
     args = ap.parse_args()
-    preset = load_preset("francis2023")
-    result = {"preset": preset.name, "robot": "orca", "visibility": "visible", "episodes": args.episodes,
-              "scenarios": {}}
+    base = load_preset(args.preset)
+    if args.routes:
+        base = dataclasses.replace(base, world=dataclasses.replace(base.world, human_routes=args.routes))
+    result: dict = {"preset": base.name, "episodes": args.episodes, "human_routes": base.world.human_routes,
+                    "robot": args.robot, "models": {}}
     with tempfile.TemporaryDirectory() as tmp:
-        root = args.out or Path(tmp)
-        for scenario in preset.evaluation.multi_human:
-            run_dir = root / scenario
-            run_protocol(build_policy("orca", preset), preset, run_dir, scenarios=[scenario],
-                         episodes=args.episodes, visibility="visible", progress=False)
-            total, reached = arrivals(run_dir)
-            result["scenarios"][scenario] = {"humans": total, "reached_goal": reached,
-                                             "fraction": round(reached / total, 3) if total else None}
-            print(f"{scenario}: {reached} of {total} humans reached their goal", flush=True)
+        for model in args.models:
+            preset = dataclasses.replace(base, world=dataclasses.replace(base.world, human_model=model))
+            rows: dict = {}
+            result["models"][model] = {"scenarios": rows}
+            for scenario in args.scenarios or preset.evaluation.multi_human:
+                row = rows[scenario] = {"crowd": count(crowd_alone(preset, scenario, args.episodes))}
+                line = f"{model} {scenario}: crowd {row['crowd']['fraction']}"
+                if args.robot != "none":
+                    trs = with_robot(preset, scenario, args.episodes, args.robot, Path(tmp) / model)
+                    row["with_robot"] = {"all": count(trs), "uncensored": count(trs, uncensored_only=True)}
+                    line += (f"; with {args.robot}: all {row['with_robot']['all']['fraction']}, uncensored "
+                             f"{row['with_robot']['uncensored']['fraction']}")
+                print(line, flush=True)
+            crowd = [r["crowd"]["fraction"] for r in rows.values() if r["crowd"]["fraction"] is not None]
+            result["models"][model]["min_crowd_fraction"] = min(crowd) if crowd else None
     print(json.dumps(result))
 
 
