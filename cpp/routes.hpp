@@ -79,16 +79,16 @@ void route_distances(const ObstacleView& obstacles, const Vec2* points, int n, V
 // a one-person door push against each other for ever (Helbing & Molnár's forces balance), and RVO2 agents
 // can freeze the same way. The step-back time differs between agents and attempts (kYieldTimes, chosen by
 // agent index and attempt), so that two who gave way together do not come back together.
-constexpr double kProgress = 0.2;   // [m]
-constexpr double kPatience = 3.0;   // [s]
+constexpr double kProgress = 0.2;                        // [m]
+constexpr double kPatience = 3.0;                        // [s]
 constexpr double kYieldTimes[4] = {1.0, 2.5, 4.0, 5.5};  // [s]
 
 // One agent following its route: which point it heads for, re-planning when that point is hidden.
 struct RouteFollower {
   Route route;
-  int index = 0;    // the route point it heads for
-  int replans = 0;  // re-plans since the route was first planned
-  int yields = 0;   // times it gave way
+  int index = 0;                // the route point it heads for
+  int replans = 0;              // re-plans since the route was first planned
+  int yields = 0;               // times it gave way
   double best_remaining = 0.0;  // the shortest remaining route length so far [m]
   double stalled = 0.0;         // time since it last came kProgress closer [s]
   double yielding = 0.0;        // time left stepping back [s]
