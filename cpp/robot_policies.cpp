@@ -40,14 +40,35 @@ inline RobotRow robot_row(const ObservationView& obs, int b) {
   return RobotRow{{r[0], r[1]}, {r[2], r[3]}, {r[5], r[6]}, r[4], r[7], r[8]};
 }
 
+// People slower than this [m/s] are standing: the route-following policies plan around them.
+constexpr double kStandingSpeed = 0.1;
+
 // Where the robot heads: its goal, or among obstacles with routes (route_clearance >= 0) the first point
-// of the shortest route from where it stands (routes.hpp), planned afresh each step so that it needs no
-// memory between calls; the point is put as far along the line to it as the route is long (as
-// RouteFollower::target), so the slow-down near the target applies at the goal only.
-Vec2 robot_target(const ObstacleView& walls, Vec2 p, Vec2 goal, double radius, double route_clearance) {
+// of the shortest route from where it stands (routes.hpp) around the walls and the people standing still
+// (the global planner's obstacle layer: a standing group or a person waiting at a corridor's end blocks a
+// passage as a wall does), planned afresh each step so that it needs no memory between calls; the point is
+// put as far along the line to it as the route is long (as RouteFollower::target), so the slow-down near
+// the target applies at the goal only.
+// `radius`: the robot's radius as its local planner inflates it; `margin`: what that planner adds to each
+// person's radius (ORCA's radius margin and safety space), which the route keeps too.
+Vec2 robot_target(const ObstacleView& walls, const ObservationView& obs, int b, Vec2 p, Vec2 goal, double radius,
+                  double margin, double route_clearance) {
   if (route_clearance < 0.0 || walls.count == 0) return goal;
   thread_local Route route;
-  plan_route(walls, p, goal, radius, route_clearance, route);
+  thread_local std::vector<Vec2> centres;
+  thread_local std::vector<double> radii;
+  centres.clear();
+  radii.clear();
+  const double* h = obs.human + static_cast<size_t>(b) * obs.humans * kHumanFeatures;
+  const uint8_t* m = obs.mask + static_cast<size_t>(b) * obs.humans;
+  for (int j = 0; j < obs.humans; ++j) {
+    const double* hj = h + kHumanFeatures * j;
+    if (!m[j] || hj[2] * hj[2] + hj[3] * hj[3] >= kStandingSpeed * kStandingSpeed) continue;
+    centres.push_back(Vec2{hj[0], hj[1]});
+    radii.push_back(hj[4] + margin);
+  }
+  plan_route_around(walls, centres.data(), radii.data(), static_cast<int>(centres.size()), p, goal, radius,
+                    route_clearance, route);
   if (!route.found || route.point.size() <= 1) return goal;
   const Vec2 w = route.point[0];
   const double to_point = norm(w - p);
@@ -89,7 +110,8 @@ void orca_robot_actions(const ObservationView& obs, const ActionFormat& format, 
         const double* hj = h + kHumanFeatures * scratch.index[k];
         nb[k] = OrcaNeighbor{{hj[0], hj[1]}, {hj[2], hj[3]}, hj[4] + margin};
       }
-      const Vec2 target = robot_target(obstacles.episode(b), r.p, r.g, r.radius + margin, route_clearance);
+      const Vec2 target =
+          robot_target(obstacles.episode(b), obs, b, r.p, r.g, r.radius + margin, margin, route_clearance);
       const OrcaAgent self{r.p, r.v, r.radius + margin, r.v_pref, crowdsim_pref_velocity(r.p, target, r.v_pref)};
       const Vec2 v = orca_new_velocity(self, obstacles.orca_episode(b), params.time_horizon_obst, nb, scratch.count,
                                        params.time_horizon, dt, scratch);
@@ -118,7 +140,7 @@ void social_force_robot_actions(const ObservationView& obs, const ActionFormat& 
           others[n++] = SocialForceOther{{h[kHumanFeatures * j], h[kHumanFeatures * j + 1]},
                                          {h[kHumanFeatures * j + 2], h[kHumanFeatures * j + 3]}};
       // The robot never exceeds its own v_pref, unlike a pedestrian's 1.3x margin.
-      const Vec2 target = robot_target(obstacles.episode(b), r.p, r.g, r.radius, route_clearance);
+      const Vec2 target = robot_target(obstacles.episode(b), obs, b, r.p, r.g, r.radius, 0.0, route_clearance);
       const SocialForceAgent self{r.p, r.v, social_force_desired_velocity(r.p, target, r.v_pref), r.v_pref};
       write_action(format, r.theta, social_force_new_velocity(self, others.data(), n, params, dt, obstacles.episode(b)),
                    out + 2 * b);

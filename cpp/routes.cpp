@@ -224,6 +224,60 @@ void plan_route(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double rad
   fill_remaining(out);
 }
 
+namespace {
+
+// The flat polygons (vertices, offsets) of a prepared map: its polygons end where a vertex's successor
+// comes before it; a wall segment's return face a -> b -> a gives its two points.
+void append_flat(const ObstacleView& walls, std::vector<double>& vertices, std::vector<int64_t>& offsets) {
+  for (int i = 0; i < walls.count; ++i) {
+    vertices.push_back(walls.vertex[i].point.x);
+    vertices.push_back(walls.vertex[i].point.y);
+    if (walls.vertex[i].next <= i) offsets.push_back(static_cast<int64_t>(vertices.size() / 2));
+  }
+}
+
+}  // namespace
+
+void plan_route_around(const ObstacleView& walls, const Vec2* centres, const double* radii, int n, Vec2 start,
+                       Vec2 goal, double radius, double clearance, Route& out) {
+  if (n == 0) {
+    plan_route(walls, start, goal, radius, clearance, out);
+    return;
+  }
+  thread_local std::vector<double> vertices;
+  thread_local std::vector<int64_t> offsets;
+  vertices.clear();
+  offsets.assign(1, 0);
+  append_flat(walls, vertices, offsets);
+  // Counter-clockwise regular octagons around the discs (vertices 1 / cos(pi / 8) = 1.082 radii out, so
+  // that the edges touch the circle): close to the disc, so that a passage a person leaves beside it stays
+  // open to the planner.
+  const double reach = 1.0 / std::cos(M_PI / 8.0);
+  for (int k = 0; k < n; ++k) {
+    for (int j = 0; j < 8; ++j) {
+      const double a = M_PI / 8.0 + j * M_PI / 4.0;
+      vertices.push_back(centres[k].x + reach * radii[k] * std::cos(a));
+      vertices.push_back(centres[k].y + reach * radii[k] * std::sin(a));
+    }
+    offsets.push_back(static_cast<int64_t>(vertices.size() / 2));
+  }
+  const PreparedObstacles map =
+      prepare_obstacles(vertices.data(), offsets.data(), static_cast<int>(offsets.size()) - 1);
+  const ObstacleView view = map.view();
+  out.found = false;
+  const double tiers[2] = {radius + clearance, radius};
+  for (int t = 0; t < (clearance > 0.0 ? 2 : 1) && !out.found; ++t) {
+    const RouteGraph graph = build_route_graph(view, tiers[t]);
+    out.found = shortest_route(graph, view, start, goal, out.point);
+    out.inflation = tiers[t];
+  }
+  if (!out.found) {
+    plan_route(walls, start, goal, radius, clearance, out);
+    return;
+  }
+  fill_remaining(out);
+}
+
 double route_length(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance) {
   if (obstacles.count == 0) return norm(goal - start);
   Route r;

@@ -64,6 +64,13 @@ struct Route {
 // min(inflation, their own clearance), so an agent already closer to a wall than d can still leave it.
 void plan_route(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance, Route& out);
 
+// plan_route among the walls and n standing discs (centres, radii [m]; e.g. people who do not move), each
+// taken as the regular octagon around it: the global planner's obstacle layer. Its graph is built for this call
+// (nothing cached: the discs change from step to step). Where no route avoids the discs, the route among
+// the walls alone.
+void plan_route_around(const ObstacleView& walls, const Vec2* centres, const double* radii, int n, Vec2 start,
+                       Vec2 goal, double radius, double clearance, Route& out);
+
 // The length of the shortest route from `start` to `goal` under plan_route's rule (inf when there is none).
 double route_length(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance);
 
