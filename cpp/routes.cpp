@@ -207,21 +207,47 @@ void clear_route_cache() {
   cache.order.clear();
 }
 
-void plan_route(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance, Route& out) {
-  out.found = false;
-  const double tiers[2] = {radius + clearance, radius};
-  const int n_tiers = clearance > 0.0 ? 2 : 1;
-  for (int t = 0; t < n_tiers && !out.found; ++t) {
-    if (!(tiers[t] > 0.0)) continue;
-    const auto graph = cached_route_graph(obstacles, tiers[t]);
-    out.found = shortest_route(*graph, obstacles, start, goal, out.point);
-    out.inflation = tiers[t];
+namespace {
+
+double route_length_from(const Route& r, Vec2 start) { return norm(r.point[0] - start) + r.remaining[0]; }
+
+// plan_route's rule over the graphs of inflation radius + clearance and radius (graph(d) gives them): the
+// wider route, unless a narrower passage saves more than a fifth of its length (kNarrowDetour); none
+// (the goal alone, found false) where neither graph joins start and goal.
+template <class GraphFor>
+void plan_with_tiers(const ObstacleView& obstacles, GraphFor graph, Vec2 start, Vec2 goal, double radius,
+                     double clearance, Route& out) {
+  out.found = shortest_route(graph(radius + clearance), obstacles, start, goal, out.point);
+  out.inflation = radius + clearance;
+  if (out.found) fill_remaining(out);
+  if (clearance > 0.0 && !(out.found && out.point.size() == 1)) {  // a goal in sight is the route
+    thread_local Route narrow;
+    narrow.found = shortest_route(graph(radius), obstacles, start, goal, narrow.point);
+    if (narrow.found) {
+      narrow.inflation = radius;
+      fill_remaining(narrow);
+      if (!out.found || route_length_from(out, start) > kNarrowDetour * route_length_from(narrow, start)) {
+        std::swap(out, narrow);
+        return;
+      }
+    }
   }
   if (!out.found) {
     out.point.assign(1, goal);
     out.inflation = radius;
+    fill_remaining(out);
   }
-  fill_remaining(out);
+}
+
+}  // namespace
+
+void plan_route(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance, Route& out) {
+  std::shared_ptr<const RouteGraph> held;
+  auto graph = [&](double d) -> const RouteGraph& {
+    held = cached_route_graph(obstacles, d);
+    return *held;
+  };
+  plan_with_tiers(obstacles, graph, start, goal, radius, clearance, out);
 }
 
 namespace {
@@ -264,18 +290,13 @@ void plan_route_around(const ObstacleView& walls, const Vec2* centres, const dou
   const PreparedObstacles map =
       prepare_obstacles(vertices.data(), offsets.data(), static_cast<int>(offsets.size()) - 1);
   const ObstacleView view = map.view();
-  out.found = false;
-  const double tiers[2] = {radius + clearance, radius};
-  for (int t = 0; t < (clearance > 0.0 ? 2 : 1) && !out.found; ++t) {
-    const RouteGraph graph = build_route_graph(view, tiers[t]);
-    out.found = shortest_route(graph, view, start, goal, out.point);
-    out.inflation = tiers[t];
-  }
-  if (!out.found) {
-    plan_route(walls, start, goal, radius, clearance, out);
-    return;
-  }
-  fill_remaining(out);
+  RouteGraph held;
+  auto graph = [&](double d) -> const RouteGraph& {
+    held = build_route_graph(view, d);
+    return held;
+  };
+  plan_with_tiers(view, graph, start, goal, radius, clearance, out);
+  if (!out.found) plan_route(walls, start, goal, radius, clearance, out);
 }
 
 double route_length(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance) {

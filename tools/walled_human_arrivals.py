@@ -78,7 +78,8 @@ def crowd_alone(preset: Preset, scenario_name: str, episodes: int) -> list[Traje
     return out
 
 
-def with_robot(preset: Preset, scenario_name: str, episodes: int, policy: str, root: Path) -> list[Trajectory]:
+def with_robot(preset: Preset, scenario_name: str, episodes: int, policy: str,
+               root: Path) -> list[Trajectory]:
     """The protocol's visible pass of one scenario with a robot policy: its stored trajectories."""
     from socialnav.evaluate import run_protocol
     from socialnav.policies.building import build_policy
@@ -87,7 +88,8 @@ def with_robot(preset: Preset, scenario_name: str, episodes: int, policy: str, r
     run_dir = root / scenario_name
     run_protocol(build_policy(policy, preset), preset, run_dir, scenarios=[scenario_name], episodes=episodes,
                  visibility="visible", progress=False)
-    return [tr for path in sorted(run_dir.glob("trajectories/**/*.parquet")) for tr in read_trajectories(path)]
+    paths = sorted(run_dir.glob("trajectories/**/*.parquet"))
+    return [tr for path in paths for tr in read_trajectories(path)]
 
 
 def main() -> None:
@@ -97,7 +99,8 @@ def main() -> None:
     ap.add_argument("--models", nargs="+", default=["orca", "social_force"], help="human models")
     ap.add_argument("--robot", default="orca_route", help="robot policy of the with_robot figures, or none")
     ap.add_argument("--scenarios", nargs="+", help="default: the preset's")
-    ap.add_argument("--routes", choices=["shortest", "none"], help="the humans' routes (default: the preset's)")
+    ap.add_argument("--routes", choices=["shortest", "none"],
+                    help="the humans' routes (default: the preset's)")
     args = ap.parse_args()
     base = load_preset(args.preset)
     if args.routes:

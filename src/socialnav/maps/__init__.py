@@ -9,7 +9,8 @@ Example::
 
 :class:`StaticMap` (``static_map.py``) is the one representation of obstacles, shared by scenarios,
 the world, trajectories and metrics; it depends on NumPy only. The map files (``files.py``: YAML in
-``yaml_reader.py``, the SVG subset in ``svg_reader.py``) load on first use of their names.
+``yaml_reader.py``, the SVG subset in ``svg_reader.py``) and the routes around a map's walls
+(``routes.py``: ``plan_route``, ``route_distances``) load on first use of their names.
 """
 
 from __future__ import annotations
@@ -27,6 +28,9 @@ _EXPORTS = {
     "map_from_svg": "socialnav.maps.files",
     "map_from_yaml": "socialnav.maps.files",
     "save_map": "socialnav.maps.files",
+    "Route": "socialnav.maps.routes",
+    "plan_route": "socialnav.maps.routes",
+    "route_distances": "socialnav.maps.routes",
 }
 
 __all__ = [
@@ -35,10 +39,13 @@ __all__ = [
     "MapError",
     "MapFileError",
     "MapStack",
+    "Route",
     "StaticMap",
     "load_map",
     "map_from_svg",
     "map_from_yaml",
+    "plan_route",
+    "route_distances",
     "save_map",
 ]
 
@@ -53,3 +60,4 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load
         map_from_yaml,
         save_map,
     )
+    from socialnav.maps.routes import Route, plan_route, route_distances

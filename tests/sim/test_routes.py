@@ -1,0 +1,193 @@
+"""The route layer (cpp/routes.hpp, socialnav.maps.routes): hand-computed routes, invariants, and the world's
+routed humans (WorldSettings.human_routes)."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from socialnav import _core
+from socialnav.maps import StaticMap
+from socialnav.maps.routes import plan_route, route_distances
+from socialnav.presets import load_preset
+from socialnav.scenarios import make_scenario
+from socialnav.sim import World, WorldSettings
+
+SLACK = 1.01  # nodes sit 1 % farther than the inflation from the walls' lines (cpp/routes.cpp, kNodeSlack)
+
+
+def door_map(half_width=0.6, extent=20.0):
+    """A wall along y = 0 from -extent to extent with a door |x| < half_width."""
+    return StaticMap(([[-extent, 0.0], [-half_width, 0.0]], [[half_width, 0.0], [extent, 0.0]]))
+
+
+def test_a_goal_in_sight_is_the_route():
+    route = plan_route(door_map(), (-3.0, -3.0), (3.0, -3.0), radius=0.3)
+    assert route.found and route.points.tolist() == [[3.0, -3.0]]
+
+
+def test_through_a_door_by_the_jambs_offset_corners():
+    # d = 0.3 + 0.2; each jamb's wall end gets two nodes, (x_jamb -/+ 1.01 d, +-1.01 d), on the door side
+    # and beyond it; from (3, -3) to (2, 3) the shortest way passes the right jamb's two inner nodes.
+    d = SLACK * 0.5
+    route = plan_route(door_map(), (3.0, -3.0), (2.0, 3.0), radius=0.3, clearance=0.2)
+    assert route.found and route.inflation == pytest.approx(0.5)
+    np.testing.assert_allclose(route.points, [[0.6 - d, -d], [0.6 - d, d], [2.0, 3.0]], atol=1e-12)
+    expected = math.dist((3, -3), (0.6 - d, -d)) + 2 * d + math.dist((0.6 - d, d), (2, 3))
+    dist = route_distances(door_map(), np.array([[3.0, -3.0]]), (2.0, 3.0), radius=0.3)
+    assert dist[0] <= expected + 1e-9  # the distance keeps the radius only: a shorter way through the door
+    assert dist[0] >= math.dist((3, -3), (2, 3))
+
+
+def test_around_a_box_by_its_miter_corners():
+    box = StaticMap(([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]],))
+    d = SLACK * 0.5
+    route = plan_route(box, (-3.0, 0.0), (3.0, 0.2), radius=0.3, clearance=0.2)
+    # Right angles: the miter point of the two offset lines, (1 + d, 1 + d) out from the centre, on the side
+    # of the goal's offset.
+    np.testing.assert_allclose(route.points, [[-1 - d, 1 + d], [1 + d, 1 + d], [3.0, 0.2]], atol=1e-12)
+
+
+def test_a_door_narrower_than_radius_plus_clearance_is_taken_with_the_radius_alone():
+    route = plan_route(door_map(half_width=0.4), (0.0, -3.0), (0.0, 3.0), radius=0.3, clearance=0.2)
+    assert route.found and route.inflation == pytest.approx(0.3)
+    assert abs(route.points[0, 0]) < 0.4 - 0.3
+
+
+def test_no_route_into_a_closed_room_leaves_the_goal_alone():
+    corners = [[-2.0, -2.0], [2.0, -2.0], [2.0, 2.0], [-2.0, 2.0]]
+    room = StaticMap(tuple([corners[i], corners[(i + 1) % 4]] for i in range(4)))  # four walls, no door
+    route = plan_route(room, (5.0, 0.0), (0.0, 0.0), radius=0.3)
+    assert not route.found and route.points.tolist() == [[0.0, 0.0]]
+    assert np.isinf(route_distances(room, np.array([[5.0, 0.0]]), (0.0, 0.0), radius=0.3))[0]
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(ValueError, match="start"):
+        plan_route(door_map(), (math.nan, 0.0), (1.0, 1.0), radius=0.3)
+    with pytest.raises(ValueError, match="radius"):
+        plan_route(door_map(), (0.0, -1.0), (1.0, 1.0), radius=0.0)
+    with pytest.raises(TypeError, match="StaticMap"):
+        plan_route([[0, 0], [1, 1]], (0.0, -1.0), (1.0, 1.0), radius=0.3)
+
+
+def _segments_clearance(static_map, points):
+    vertices, offsets = static_map.to_flat()
+    return [_core.swept_obstacle_clearance(np.asarray(a), np.asarray(b), 0.0, vertices, offsets)
+            for a, b in zip(points[:-1], points[1:], strict=True)]
+
+
+PILLARS = StaticMap((
+    [[-0.5, 1.0], [0.5, 1.0], [0.5, 2.0], [-0.5, 2.0]],
+    [[1.5, -1.5], [2.5, -1.5], [2.2, -0.5]],
+    [[-3.0, -1.0], [-1.0, -0.2]],
+    [[-2.0, 3.0], [2.0, 3.5]],
+))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(-4, 4), st.floats(-4, 4), st.floats(-4, 4), st.floats(-4, 4), st.floats(0.1, 0.4))
+def test_routes_keep_their_inflation_and_distances_are_at_least_straight(sx, sy, gx, gy, radius):
+    vertices, offsets = PILLARS.to_flat()
+    start, goal = np.array([sx, sy]), np.array([gx, gy])
+    for p in (start, goal):  # only free points
+        if _core.swept_obstacle_clearance(p, p, 0.0, vertices, offsets) < radius:
+            return
+    route = plan_route(PILLARS, start, goal, radius=radius, clearance=0.1)
+    if not route.found:
+        return
+    legs = _segments_clearance(PILLARS, route.points)  # node to node, and the last node to the goal
+    for c in legs[:-1]:
+        assert c >= route.inflation * (1 - 1e-6)
+    assert min([*_segments_clearance(PILLARS, [start, route.points[0]]), *legs]) >= radius * (1 - 1e-6)
+    dist = route_distances(PILLARS, start[None], goal, radius)[0]
+    assert dist >= np.linalg.norm(goal - start) - 1e-9
+    assert dist <= np.linalg.norm(route.points[0] - start) + route.length + 1e-9
+
+
+def test_route_graphs_are_cached_per_map_and_inflation():
+    _core.clear_route_cache()
+    plan_route(door_map(), (3.0, -3.0), (2.0, 3.0), radius=0.3)
+    plan_route(door_map(), (-3.0, -3.0), (-2.0, 3.0), radius=0.3)
+    assert _core.route_cache_size() == 2  # one map, two inflations (radius + clearance, radius)
+    plan_route(door_map(half_width=0.7), (3.0, -3.0), (2.0, 3.0), radius=0.3)
+    assert _core.route_cache_size() == 4
+
+
+# -- the world's routed humans -------------------------------------------------------------------
+
+
+def _run(settings, scenario, episodes, steps=None):
+    with World(settings, scenario, episodes, count=episodes) as world:
+        world.reset()
+        states = []
+        actions = np.zeros((episodes, 2))
+        while world.busy and (steps is None or len(states) < steps):
+            world.step(actions)
+            states.append(world.position.copy())
+        return np.array(states), world
+
+
+def test_open_floor_is_bit_identical_with_routes_on():
+    base = WorldSettings(threads=1)
+    scenario = make_scenario("circle_crossing", n_humans=5)
+    a, _ = _run(base, scenario, 8, steps=60)
+    b, _ = _run(dataclasses.replace(base, human_routes="shortest"), scenario, 8, steps=60)
+    assert np.array_equal(a, b)
+
+
+def _crowd_arrivals(human_model, routes, episodes=40):
+    """Share of narrow_doorway's humans reaching their goal, the robot moved away (as the arrivals tool)."""
+    preset = load_preset("francis2023")
+    world = dataclasses.replace(preset.world, human_model=human_model, human_routes=routes,
+                                continue_after_success=True, continuation_cap=100.0, threads=1)
+    with World(world, make_scenario("narrow_doorway"), episodes, count=episodes) as w:
+        w.reset()
+        w.position[:, 0] = w.goal[:, 0] = 1000.0
+        arrived = np.zeros(episodes, dtype=int)
+        actions = np.zeros((episodes, 2))
+        while w.busy:
+            result = w.step(actions)
+            for tr in result.finished:
+                full = np.concatenate([tr.positions, tr.continuation])
+                d = np.linalg.norm(full[:, 1:] - tr.goals[None, 1:], axis=-1)
+                arrived[tr.settings["index"]] = int((d <= tr.radii[None, 1:] + 1e-9).any(axis=0).sum())
+        return arrived.sum() / (4 * episodes)
+
+
+@pytest.mark.parametrize("human_model", ["orca", "social_force"])
+def test_routed_crowds_get_through_the_door(human_model):
+    # Without routes half of them stay pressed against the wall (docs/routes.md); with routes, and their
+    # giving way in the door, all or nearly all arrive.
+    assert _crowd_arrivals(human_model, "none") < 0.7
+    assert _crowd_arrivals(human_model, "shortest") >= 0.97
+
+
+def _recorded(settings):
+    with World(settings, make_scenario("narrow_doorway"), 1, count=1) as world:
+        world.reset()
+        while True:
+            finished = world.step(np.zeros((1, 2))).finished
+            if finished:
+                return finished[0].settings
+
+
+def test_routes_are_recorded_only_when_on():
+    assert "human_routes" not in _recorded(WorldSettings(threads=1, time_limit=1.0))
+    on = WorldSettings(threads=1, time_limit=1.0, human_routes="shortest", route_clearance=0.1)
+    recorded = _recorded(on)
+    assert recorded["human_routes"] == "shortest" and recorded["route_clearance"] == 0.1
+    assert "human_routes" not in WorldSettings().to_dict()
+    assert on.to_dict()["human_routes"] == "shortest"
+
+
+def test_a_bad_routes_setting_is_named():
+    from socialnav.settings import ConfigError
+
+    with pytest.raises(ConfigError, match="human_routes"):
+        WorldSettings(human_routes="fastest")
+    with pytest.raises(ConfigError, match="route_clearance"):
+        WorldSettings(route_clearance=-0.1)
