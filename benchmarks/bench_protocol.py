@@ -28,7 +28,7 @@ from pathlib import Path
 
 from socialnav.evaluate.plan import cell_scenario, cell_world_settings, plan_cells
 from socialnav.evaluate.runner import run_protocol
-from socialnav.policies.loading import build_policy
+from socialnav.policies.building import build_policy
 from socialnav.presets import load_preset
 from socialnav.sim.world import World
 

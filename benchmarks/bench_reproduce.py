@@ -28,7 +28,7 @@ from pathlib import Path
 from socialnav.evaluate.multi import default_specs, run_policies
 from socialnav.evaluate.reproduce import HUMAN_MODELS, PRESET, preset_for
 from socialnav.evaluate.runner import run_protocol
-from socialnav.policies.loading import build_policy
+from socialnav.policies.building import build_policy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _machine import add_record_arguments, emit, run_record  # noqa: E402  (benchmarks/ is not a package)

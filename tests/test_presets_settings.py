@@ -129,7 +129,7 @@ def test_the_table_carries_units_and_constraints():
 
 def test_a_presets_scenario_and_policy_typos_are_named_with_the_file(tmp_path, capsys):
     from socialnav.cli import main
-    from socialnav.policies.loading import check_preset_policies
+    from socialnav.policies.building import check_preset_policies
     from socialnav.presets import load_preset
     from socialnav.settings import ConfigError
 

@@ -121,7 +121,7 @@ installed_package_is_the_wheel() {
 import sys
 from pathlib import Path
 import socialnav, socialnav._core
-from socialnav.policies.loading import checkpoint_dir
+from socialnav.policies.building import checkpoint_dir
 venv = Path(sys.argv[1]).resolve()
 for what, path in {"socialnav": socialnav.__file__, "socialnav._core": socialnav._core.__file__,
                    "the shipped checkpoints": checkpoint_dir()}.items():
@@ -161,7 +161,7 @@ reproduce_quick() {
   in_clean_env python - <<'EOF'
 import json, sys
 out = json.loads(open("reproduce.json").read().strip().splitlines()[-1])
-from socialnav.policies.loading import shipped_checkpoints
+from socialnav.policies.building import shipped_checkpoints
 evaluated = set(out["timings"]["orca"])
 missing = [c.name for c in shipped_checkpoints("wang2022") if c.name not in evaluated]
 papers = [c for c in out["comparison"] if c.get("paper") is not None]

@@ -22,7 +22,7 @@ from pathlib import Path
 from socialnav._io import atomic_write_text
 from socialnav.evaluate.expectations import EPISODES, METRICS, TOLERANCE, fingerprint
 from socialnav.evaluate.multi import file_sha256
-from socialnav.policies.loading import shipped_checkpoints
+from socialnav.policies.building import shipped_checkpoints
 
 PATH = Path(__file__).resolve().parents[1] / "tests" / "evaluate" / "checkpoint_expectations.json"
 

@@ -253,7 +253,7 @@ def cmd_list(args: argparse.Namespace) -> int:
     from socialnav.envs.registration import ENV_IDS
     from socialnav.metrics import list_metrics
     from socialnav.policies import list_policies
-    from socialnav.policies.loading import list_shipped_checkpoints
+    from socialnav.policies.building import list_shipped_checkpoints
     from socialnav.presets import shipped_presets
     from socialnav.scenarios import list_scenarios
     from socialnav.sim.behaviours import list_human_behaviours

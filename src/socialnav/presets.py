@@ -204,7 +204,7 @@ def _check_names(preset: Preset, source: str) -> None:
 
     Checked when the preset is loaded, so that a typo is the preset's error, not one raised later
     without the file (or after part of a run). Its ``policies`` section is checked by the policies
-    layer (:func:`socialnav.policies.loading.check_preset_policies`), which this one may not import.
+    layer (:func:`socialnav.policies.building.check_preset_policies`), which this one may not import.
     """
     from socialnav.scenarios.registry import get_scenario
 

@@ -468,7 +468,7 @@ def build_inputs(base: Path):
         _yaml(base, name, text)
 
     # checkpoints
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     shipped = shipped_checkpoint("sarl", "wang2022")
     shutil.copy(shipped, base / "sarl.pt")

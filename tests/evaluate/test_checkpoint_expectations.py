@@ -14,7 +14,7 @@ pytest.importorskip("torch")
 
 from socialnav._io import file_sha256  # noqa: E402
 from socialnav.evaluate.expectations import EPISODES, METRICS, compare, fingerprint  # noqa: E402
-from socialnav.policies.loading import shipped_checkpoints  # noqa: E402
+from socialnav.policies.building import shipped_checkpoints  # noqa: E402
 
 PATH = Path(__file__).with_name("checkpoint_expectations.json")
 EXPECTED = json.loads(PATH.read_text())

@@ -4,9 +4,9 @@ import shutil
 
 import pytest
 
-import socialnav.policies.loading as loading
+import socialnav.policies.building as building
 from socialnav.evaluate.multi import default_specs
-from socialnav.policies.loading import (
+from socialnav.policies.building import (
     checkpoint_dir,
     read_checkpoint_index,
     shipped_checkpoint,
@@ -27,7 +27,7 @@ def test_index_and_directory_agree():
 @pytest.fixture
 def fake_dir(tmp_path, monkeypatch):
     shutil.copy(checkpoint_dir() / "index.yaml", tmp_path / "index.yaml")
-    monkeypatch.setattr(loading, "checkpoint_dir", lambda: tmp_path)
+    monkeypatch.setattr(building, "checkpoint_dir", lambda: tmp_path)
     return tmp_path
 
 

@@ -169,7 +169,7 @@ def test_checkpoint_under_mismatching_preset_is_refused_naming_both_values(tmp_p
     pytest.importorskip("torch")
     preset = tmp_path / "fast.yaml"
     preset.write_text("name: fast\nworld: {dt: 0.1}\nrobot: {v_pref: 1.5}\n")
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     ckpt = str(shipped_checkpoint("sarl", "wang2022"))
     argv = [
@@ -224,7 +224,7 @@ def test_a_checkpoint_trained_without_walls_is_refused_among_walls_naming_both(t
     preset.write_text(yaml.safe_dump(data))
     argv = ["evaluate", "--policy", "sarl", "--preset", str(preset), "--scenario", "narrow_doorway",
             "--visibility", "invisible", "--episodes", "2", "--out", str(tmp_path / "o"), "--no-progress"]
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     argv += ["--checkpoint", str(shipped_checkpoint("sarl", "wang2022"))]
     assert main(argv) == 2
@@ -257,7 +257,7 @@ def test_other_kinematics_are_refused_even_with_allow_preset_mismatch(tmp_path, 
     pytest.importorskip("torch")
     preset = tmp_path / "uni.yaml"
     preset.write_text("name: uni\nworld: {kinematics: unicycle}\n")
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     argv = ["evaluate", "--policy", "sarl", "--checkpoint", str(shipped_checkpoint("sarl", "wang2022")),
             "--preset", str(preset), "--scenario", "circle_crossing",
@@ -295,7 +295,7 @@ def test_a_resume_with_another_network_at_the_checkpoint_path_is_refused(tmp_pat
     pytest.importorskip("torch")
     import shutil
 
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     ckpt = tmp_path / "model.pt"
     shutil.copy(shipped_checkpoint("sarl", "wang2022"), ckpt)
@@ -317,8 +317,8 @@ def test_a_resume_with_another_network_at_the_checkpoint_path_is_refused(tmp_pat
 def test_a_checkpoint_that_records_no_world_is_evaluated_with_a_warning(tmp_path, capsys):
     # saved by hand (docs/policies_learned.md's snippet): no config.value_policy, so no world to compare
     pytest.importorskip("torch")
+    from socialnav.policies.building import shipped_checkpoint
     from socialnav.policies.learned import build, save_checkpoint
-    from socialnav.policies.loading import shipped_checkpoint
 
     hand = save_checkpoint(tmp_path / "hand.pt", "sarl", build("sarl"), config={"kinematics": "holonomic"})
     argv = ["evaluate", "--policy", "sarl", "--scenario", "circle_crossing", "--episodes", "1",
@@ -337,7 +337,7 @@ def test_the_same_checkpoint_under_another_path_string_is_refused_with_the_way_t
     pytest.importorskip("torch")
     import shutil
 
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     shutil.copy(shipped_checkpoint("sarl", "wang2022"), tmp_path / "sarl.pt")
     monkeypatch.chdir(tmp_path)

@@ -7,7 +7,7 @@ import pytest
 torch = pytest.importorskip("torch")
 
 from socialnav.evaluate.runner import run_protocol  # noqa: E402
-from socialnav.policies.loading import build_policy  # noqa: E402
+from socialnav.policies.building import build_policy  # noqa: E402
 from socialnav.presets import load_preset  # noqa: E402
 
 

@@ -167,7 +167,7 @@ def test_a_policy_built_without_the_presets_policy_settings_is_said(tmp_path):
     # (build_policy); make_policy has the registry's 0.2, so the run would not be the CLI's
     import warnings
 
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
 
     preset = load_preset("crowdnav")
     preset = dataclasses.replace(preset, evaluation=dataclasses.replace(preset.evaluation, episodes=1))

@@ -210,7 +210,7 @@ def test_evaluate_all_honours_quiet_no_trajectories_and_report(tmp_path, capsys)
 
 def test_replaced_checkpoint_is_refused_in_an_old_directory(tmp_path):
     pytest.importorskip("torch")
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     ckpt = tmp_path / "mine.pt"
     shutil.copy(shipped_checkpoint("sarl", "wang2022"), ckpt)

@@ -7,7 +7,7 @@ import pytest
 pytest.importorskip("torch")
 
 from socialnav.cli import main  # noqa: E402
-from socialnav.policies.loading import list_shipped_checkpoints, shipped_checkpoint  # noqa: E402
+from socialnav.policies.building import list_shipped_checkpoints, shipped_checkpoint  # noqa: E402
 
 
 def test_sarl_crowdnav_ships_and_is_used_without_a_path(tmp_path, capsys):

@@ -61,7 +61,7 @@ def test_one_human_encounters_among_the_multi_human_scenarios_get_their_side_pre
 
     from socialnav.evaluate.runner import run_protocol
     from socialnav.metrics import side_case_of_row
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
     from socialnav.presets import load_preset
 
     preset = load_preset("francis2023")

@@ -183,7 +183,7 @@ def test_replay_detects_a_tampered_trajectory(tmp_path, capsys):
 
 def test_replay_reproduces_a_learned_policy_with_its_checkpoint(tmp_path):
     pytest.importorskip("torch")
-    from socialnav.policies.loading import build_policy, shipped_checkpoint
+    from socialnav.policies.building import build_policy, shipped_checkpoint
 
     preset = small_preset(episodes=5, chunk_size=5)
     ckpt = shipped_checkpoint("sarl", "wang2022")
@@ -213,7 +213,7 @@ def test_replay_reproduces_a_learned_policy_with_its_checkpoint(tmp_path):
 def test_replay_rebuilds_the_recorded_settings_of_every_learned_kind(tmp_path, name, overrides):
     # a PPO policy takes no information or scorer; --planning-depth/--information runs record theirs
     pytest.importorskip("torch")
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
 
     preset = small_preset(episodes=2, chunk_size=2)
     policy = build_policy(name, preset, None, **overrides)
@@ -232,7 +232,7 @@ def test_replay_rebuilds_the_recorded_scorer(tmp_path, scorer):
     pytest.importorskip("torch")
     import json
 
-    from socialnav.policies.loading import build_policy, shipped_checkpoint
+    from socialnav.policies.building import build_policy, shipped_checkpoint
 
     preset = small_preset(episodes=3, chunk_size=3)
     ckpt = shipped_checkpoint("sarl", "wang2022")
@@ -278,7 +278,7 @@ def test_replay_from_another_directory_says_where_a_relative_checkpoint_was_look
     import shutil
 
     from socialnav.cli import main
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     (tmp_path / "work" / "ck").mkdir(parents=True)
     shutil.copy(shipped_checkpoint("sarl", "wang2022"), tmp_path / "work" / "ck" / "sarl.pt")

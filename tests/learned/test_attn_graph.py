@@ -159,10 +159,10 @@ def test_policy_resets_the_recurrent_state_where_an_episode_starts():
 
 
 def test_checkpoint_round_trip_through_the_policy_registry(tmp_path):
+    from socialnav.policies.building import build_policy
     from socialnav.policies.learned import save_checkpoint
     from socialnav.policies.learned.checkpoint import CheckpointError
-    from socialnav.policies.learned_entries import PresetMismatchError
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.learned_loading import PresetMismatchError
     from socialnav.presets import load_preset
     from socialnav.train.worlds import ppo_policy_config
 

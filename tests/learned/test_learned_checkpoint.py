@@ -154,7 +154,7 @@ def test_a_stable_baselines3_model_given_as_a_checkpoint_points_to_sb3(tmp_path)
 
 
 def test_a_truncated_checkpoint_is_called_damaged(tmp_path):
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     whole = shipped_checkpoint("sarl", "wang2022").read_bytes()
     path = tmp_path / "cut.pt"

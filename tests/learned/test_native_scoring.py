@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from socialnav import _core
+from socialnav.policies.building import shipped_checkpoint
 from socialnav.policies.learned import SARL, ValuePolicy, build, load_checkpoint
 from socialnav.policies.learned.native_scoring import NativeSarlScorer, ScorerError, native_unavailable_reason
-from socialnav.policies.loading import shipped_checkpoint
 
 from .helpers import obs_dict, random_scene
 

@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("torch")
 
-from socialnav.policies.loading import build_policy  # noqa: E402
+from socialnav.policies.building import build_policy  # noqa: E402
 from socialnav.presets import load_preset  # noqa: E402
 from socialnav.scenarios import make_scenario  # noqa: E402
 from socialnav.sim import World, WorldSettings  # noqa: E402

@@ -55,7 +55,7 @@ def test_sequence_equals_steps():
 
 
 def test_ppo_trains_the_mlp_and_the_registry_loads_it(tmp_path):
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
     from socialnav.presets import load_preset
     from socialnav.train.ppo.algorithm import train_ppo
     from socialnav.train.ppo.settings import PPOSettings

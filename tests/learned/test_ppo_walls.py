@@ -20,7 +20,7 @@ from socialnav.policies.learned.attn_graph import AttnGraphNet, observation_tens
 from socialnav.policies.learned.checkpoint import CheckpointError
 from socialnav.policies.learned.ppo_mlp import MLPActorCritic
 from socialnav.policies.learned.ppo_policy import RecurrentActorPolicy
-from socialnav.policies.learned_entries import PresetMismatchError, load_ppo_policy
+from socialnav.policies.learned_loading import PresetMismatchError, load_ppo_policy
 from socialnav.presets import load_preset
 from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.obstacle_points import ObstaclePoints

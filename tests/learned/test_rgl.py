@@ -317,7 +317,7 @@ def test_checkpoint_keeps_the_predictor_and_refuses_other_policies(tmp_path):
 
 
 def test_learned_information_needs_a_checkpoint_with_a_predictor(tmp_path):
-    from socialnav.policies.learned_entries import load_learned_policy
+    from socialnav.policies.learned_loading import load_learned_policy
 
     rgl_path = save_checkpoint(
         tmp_path / "rgl.pt",

@@ -154,7 +154,7 @@ def test_the_native_scorer_scores_wall_points_like_the_torch_module(name):
 
 def test_a_checkpoint_with_a_bad_obstacle_encoding_is_refused_by_name(tmp_path):
     from socialnav.policies.learned.checkpoint import CheckpointError, save_checkpoint
-    from socialnav.policies.learned_entries import load_learned_policy
+    from socialnav.policies.learned_loading import load_learned_policy
 
     good = {"kinematics": "holonomic", "obstacle_encoding": ObstaclePoints(count=4).to_dict()}
     save_checkpoint(tmp_path / "good.pt", "rgl", build("rgl"), config={"value_policy": good})

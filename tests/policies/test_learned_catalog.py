@@ -101,7 +101,7 @@ def test_a_taken_name_or_alias_is_refused(isolated_registries):
 
 def test_a_registered_record_reaches_list_train_and_labels(isolated_registries, capsys):
     from socialnav.cli import main
-    from socialnav.policies.loading import default_label, default_paper_row
+    from socialnav.policies.learned_catalog import default_label, default_paper_row
     from socialnav.presets import load_preset
     from socialnav.train.value.settings import TrainSettings
     from socialnav.train.worlds import training_n_humans
@@ -145,9 +145,9 @@ def test_a_registered_record_saves_loads_and_acts(isolated_registries, tmp_path)
     pytest.importorskip("torch")
     import torch
 
+    from socialnav.policies.building import build_policy
     from socialnav.policies.learned import build, load_checkpoint, save_checkpoint
-    from socialnav.policies.learned_entries import LearnedPolicy
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.learned_loading import LearnedPolicy
     from socialnav.presets import load_preset
     from socialnav.scenarios import make_scenario
     from socialnav.sim.world import World
@@ -178,7 +178,7 @@ def test_a_registered_record_saves_loads_and_acts(isolated_registries, tmp_path)
 
 def test_an_alias_finds_its_policys_shipped_checkpoint():
     # `--policy ga3c_cadrl` without --checkpoint: lstm_rl's shipped network, which it names
-    from socialnav.policies.loading import build_policy, shipped_checkpoint
+    from socialnav.policies.building import build_policy, shipped_checkpoint
     from socialnav.presets import load_preset
 
     lstm = shipped_checkpoint("lstm_rl", "wang2022")

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from socialnav.policies.loading import build_policy
+from socialnav.policies.building import build_policy
 from socialnav.policies.native import NativePolicy
 from socialnav.presets import load_preset
 from socialnav.scenarios import make_scenario

@@ -18,7 +18,7 @@ import yaml
 
 from socialnav.cli import main
 from socialnav.evaluate.runner import run_protocol
-from socialnav.policies.loading import build_policy
+from socialnav.policies.building import build_policy
 from socialnav.presets import load_preset
 from socialnav.settings import ConfigError
 from socialnav.sweep.driver import run_sweep
@@ -563,7 +563,7 @@ def test_training_then_evaluating_its_checkpoint(tmp_path):
 
 def test_a_checkpoint_of_another_preset_names_the_sweep_key_that_allows_it(tmp_path):
     pytest.importorskip("torch")
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
 
     crowdnav_sarl = str(shipped_checkpoint("sarl", "crowdnav"))
     path = write_sweep(tmp_path, {"jobs": [{"kind": "evaluate", "policy": "sarl", "checkpoint": crowdnav_sarl,

@@ -68,7 +68,7 @@ def test_train_among_walls_records_the_encoding_and_evaluates(tmp_path, walls_pr
     last = torch.load(out / "last.pt", weights_only=True)
     assert last["extra"]["resume"]["episode"] == 9
     # evaluated under the walled preset: no mismatch, the encoding in effect
-    from socialnav.policies.learned_entries import load_learned_policy
+    from socialnav.policies.learned_loading import load_learned_policy
 
     policy = load_learned_policy("rgl", out / "best.pt", preset=load_preset(walls_preset))
     assert policy.preset_mismatch == []

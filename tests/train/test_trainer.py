@@ -242,7 +242,7 @@ def test_damaged_curve_rows_do_not_block_resume(tmp_path, tiny, quick_preset):
 
 
 def test_mp_rgl_trains_its_predictor_in_the_same_resumable_run(tmp_path, tiny, quick_preset, capsys):
-    from socialnav.policies.learned_entries import load_learned_policy
+    from socialnav.policies.learned_loading import load_learned_policy
 
     out = tmp_path / "mp"
     settings = load_train_settings(tiny)

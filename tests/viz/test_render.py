@@ -293,7 +293,7 @@ def test_ppo_training_curves_figure_and_report(tmp_path):
     import shutil
 
     from socialnav.cli import main
-    from socialnav.policies.loading import shipped_checkpoint
+    from socialnav.policies.building import shipped_checkpoint
     from socialnav.viz.figures import read_curves, training_curves
 
     curves = ROOT / "benchmarks" / "results" / "train_wang2022_crowdnav_pp_s0_curves.csv"

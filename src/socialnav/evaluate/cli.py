@@ -115,7 +115,7 @@ def cmd_evaluate(args: argparse.Namespace, report_writer: Callable[[], Callable[
     from socialnav.evaluate.plan import preset_for_scenarios
     from socialnav.evaluate.report import mismatch_caveats, table2, table3, table_notes, with_caveats
     from socialnav.evaluate.runner import run_protocol
-    from socialnav.policies.loading import LOOKAHEAD_SETTINGS, build_policy, refuse_lookahead_setting
+    from socialnav.policies.building import LOOKAHEAD_SETTINGS, build_policy, refuse_lookahead_setting
     from socialnav.presets import load_preset
 
     if args.batch_size < 1:
@@ -127,7 +127,7 @@ def cmd_evaluate(args: argparse.Namespace, report_writer: Callable[[], Callable[
     if args.policy == "all":
         return cmd_evaluate_all(args, write_report)
     preset = load_preset(args.preset)
-    from socialnav.policies.loading import check_preset_policies
+    from socialnav.policies.building import check_preset_policies
 
     check_preset_policies(preset, args.preset)
     overrides = parse_policy_args(args.policy_arg)
@@ -367,14 +367,14 @@ def cmd_evaluate_all(args: argparse.Namespace, write_report: Any = None) -> int:
         raise ValueError(f"--policy all takes no {', '.join(refused)} (each policy uses its own settings: "
                          "a preset's `policies:` section sets a policy's parameters)")
     preset = load_preset(args.preset)
-    from socialnav.policies.loading import check_preset_policies
+    from socialnav.policies.building import check_preset_policies
 
     check_preset_policies(preset, args.preset)
     specs = default_specs(preset.name)
     out = Path(args.out or f"runs/evaluate/{preset.name}-all")
     quiet = args.json or args.quiet
     if not any(s.checkpoint for s in specs) and not quiet:
-        from socialnav.policies.loading import shipped_checkpoints
+        from socialnav.policies.building import shipped_checkpoints
 
         shipped = sorted({e.preset for e in shipped_checkpoints()})
         print(f"note: no checkpoint ships for preset {preset.name!r} (checkpoints ship for "

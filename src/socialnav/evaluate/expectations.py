@@ -41,7 +41,7 @@ def fingerprint(entry: Any) -> list[dict[str, Any]]:
     from socialnav.evaluate.execution import simulate_chunk
     from socialnav.evaluate.plan import plan_cells
     from socialnav.metrics import score_episode
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
     from socialnav.presets import load_preset
 
     threads = torch.get_num_threads()

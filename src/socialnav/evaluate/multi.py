@@ -65,7 +65,8 @@ class MultiResult:
 
 def default_specs(preset_name: str, learned: bool = True) -> list[PolicySpec]:
     """Every shipped checkpoint for ``preset_name`` (index order) and the native policies."""
-    from socialnav.policies.loading import default_label, describe_checkpoint, shipped_checkpoints
+    from socialnav.policies.building import describe_checkpoint, shipped_checkpoints
+    from socialnav.policies.learned_catalog import default_label
     from socialnav.policies.registry import list_policies
 
     specs = []
@@ -113,7 +114,7 @@ def run_policies(
         ResumeMismatchError: A policy's directory holds a different run's results.
     """
     from socialnav.evaluate.manifest import refuse_other_kind
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
 
     if not specs:
         raise ValueError("no policies to evaluate")

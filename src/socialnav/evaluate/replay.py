@@ -45,7 +45,7 @@ class ReplayResult:
 
 def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     """The policy a manifest describes, built as `socialnav evaluate` built it."""
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
     from socialnav.policies.registry import SB3_PREFIX, get_policy_entry
 
     desc = dict(manifest.get("policy") or {})
@@ -94,7 +94,7 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
 def _rebuild_from_module(manifest: dict[str, Any], desc: dict[str, Any], preset: Any) -> Any:
     """A policy of the user's module (``module.path:ClassName``), refused when its source changed."""
     from socialnav.evaluate.manifest import policy_sources
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
 
     entry = manifest["policy_entry"]
     try:
@@ -116,7 +116,7 @@ def _rebuild_from_module(manifest: dict[str, Any], desc: dict[str, Any], preset:
 
 def _rebuild_sb3(desc: dict[str, Any], preset: Any) -> Any:
     """The SB3 model of the run, refused when its file is gone or changed (SHA-256 differs)."""
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
 
     model = desc.get("model", "")
     if not Path(model).is_file():

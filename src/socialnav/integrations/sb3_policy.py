@@ -248,7 +248,7 @@ def _check_device(spec: str, device: Any) -> None:
 def _check(path: Path, model: Any, record: dict[str, Any], preset: Any, asked: dict[str, Any]) -> list[str]:
     """Refuses hard mismatches (both sides named); returns the allowable ones (dt, walls it cannot see)."""
     from socialnav.envs.config import observation_and_action_spaces
-    from socialnav.policies.learned_entries import walled_scenarios
+    from socialnav.policies.learned_loading import walled_scenarios
 
     world = preset.world
     where = f"preset {preset.name!r}"

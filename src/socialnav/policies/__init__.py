@@ -37,9 +37,9 @@ from socialnav.policies.registry import (
 
 #: Public names whose module loads on first use (see ``lazy_exports``).
 _EXPORTS = {
-    "build_policy": "socialnav.policies.loading",
-    "shipped_checkpoint": "socialnav.policies.loading",
-    "list_shipped_checkpoints": "socialnav.policies.loading",
+    "build_policy": "socialnav.policies.building",
+    "shipped_checkpoint": "socialnav.policies.building",
+    "list_shipped_checkpoints": "socialnav.policies.building",
 }
 __all__ = [
     "RECORDED_ONLY",
@@ -62,4 +62,4 @@ __all__ = [
 __getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; at run time the names load lazily
-    from socialnav.policies.loading import build_policy, list_shipped_checkpoints, shipped_checkpoint
+    from socialnav.policies.building import build_policy, list_shipped_checkpoints, shipped_checkpoint

@@ -1,4 +1,10 @@
-"""Builds the policy a command line or a preset names, loading a checkpoint for learned ones.
+"""Builds the policy a command line, a preset or a sweep names, loading a checkpoint for learned ones.
+
+:func:`build_policy` (the CLI, evaluation, replay and sweeps call it) takes a policy's parameters from
+the preset and the caller, checks them (:func:`check_policy_parameters`, also behind ``make_policy``, a
+preset's ``policies:`` section and a sweep's ``policy_args``), finds the shipped checkpoint of a learned
+policy when none is given, and calls the policy's registry entry (for a learned one, its loader in
+:mod:`socialnav.policies.learned_loading`).
 
 Shipped checkpoints are described by ``socialnav/checkpoints/index.yaml`` (file, policy, preset, result
 name, display label, variant, paper row, training command, seed, notes). A ``.pt`` file there without an
@@ -15,7 +21,12 @@ from pathlib import Path
 from typing import Any
 
 from socialnav._io import load_yaml
-from socialnav.policies.learned_catalog import VALUE_INFORMATION, canonical_name, get_learned_spec
+from socialnav.policies.learned_catalog import (
+    VALUE_INFORMATION,
+    canonical_name,
+    default_label,
+    default_paper_row,
+)
 from socialnav.policies.native import NativePolicy
 from socialnav.policies.registry import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
 from socialnav.presets import Preset
@@ -23,22 +34,6 @@ from socialnav.settings import ConfigError
 
 INDEX_FILE = "index.yaml"
 VARIANTS = ("protocol", "original")
-
-
-def default_label(policy: str) -> str:
-    """The display name of a policy in tables: its record's label for a learned one, else its name."""
-    try:
-        return get_learned_spec(policy).label
-    except KeyError:
-        return policy
-
-
-def default_paper_row(policy: str) -> str | None:
-    """The row of Wang et al. 2022's tables a learned policy fills, if any (its record says)."""
-    try:
-        return get_learned_spec(policy).paper_row
-    except KeyError:
-        return None
 
 
 @dataclass(frozen=True)

@@ -1,11 +1,12 @@
 """One registration record per learned policy: the single place that names a learned policy.
 
 Everything else reads these records: the policy registry and ``socialnav list`` (description,
-evaluation parameters), ``socialnav train`` (which trainer, the policy's training defaults),
-checkpoint saving and loading (the network factory, aliases), result tables (display label, paper
-row) and the table in docs/policies_learned.md (:func:`markdown_table`, checked by a test). Adding a
-learned policy is one :class:`LearnedPolicySpec` appended to :data:`BUILTIN` (or, from outside the
-package, :func:`register_learned_policy`).
+evaluation parameters; :mod:`socialnav.policies.learned_loading` makes each record a registry entry),
+``socialnav train`` (which trainer, the policy's training defaults), checkpoint saving and loading (the
+network factory, aliases; :mod:`socialnav.policies.learned.networks`), result tables (display label,
+paper row: :func:`default_label`, :func:`default_paper_row`) and the table in docs/policies_learned.md
+(:func:`markdown_table`, checked by a test). Adding a learned policy is one :class:`LearnedPolicySpec`
+appended to :data:`BUILTIN` (or, from outside the package, :func:`register_learned_policy`).
 
 This module is plain data: importing it imports neither torch nor the networks (``network`` names
 its factory as ``module:attribute``, imported when a network is built).
@@ -37,6 +38,8 @@ __all__ = [
     "learned_policy_names",
     "get_learned_spec",
     "canonical_name",
+    "default_label",
+    "default_paper_row",
     "markdown_table",
 ]
 
@@ -374,6 +377,22 @@ def get_learned_spec(name: str) -> LearnedPolicySpec:
         raise KeyError(
             f"unknown learned policy {name!r}; known: {', '.join(sorted(learned_policy_names()))}"
         ) from None
+
+
+def default_label(policy: str) -> str:
+    """The display name of a policy in tables: its record's label for a learned one, else its name."""
+    try:
+        return get_learned_spec(policy).label
+    except KeyError:
+        return policy
+
+
+def default_paper_row(policy: str) -> str | None:
+    """The row of Wang et al. 2022's tables a learned policy fills, if any (its record says)."""
+    try:
+        return get_learned_spec(policy).paper_row
+    except KeyError:
+        return None
 
 
 def markdown_table() -> str:

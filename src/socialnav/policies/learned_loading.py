@@ -1,8 +1,14 @@
-"""Registry entries of the learned policies; torch is imported only when one is built.
+"""A learned policy's checkpoint → the policy that acts with it; torch is imported only when one loads.
 
-A learned policy is built from a checkpoint written by ``socialnav train``. The checkpoint's config
-holds ``value_policy`` (kinematics, gamma, information, rotation_limit, dt and the reward constants)
-so that the evaluator scores candidate actions exactly as the trainer did.
+A learned policy is built from a checkpoint written by ``socialnav train``. Its record's checkpoint kind
+(:mod:`socialnav.policies.learned_catalog`) says how: a ``value_policy`` checkpoint loads into a
+:class:`LearnedPolicy` (:func:`load_learned_policy`; its config holds ``value_policy``: kinematics,
+gamma, information, rotation_limit, dt and the reward constants, so that the evaluator scores candidate
+actions exactly as the trainer did), a ``ppo_policy`` one into a
+:class:`~socialnav.policies.learned.ppo_policy.RecurrentActorPolicy` (:func:`load_ppo_policy`). Both
+refuse a checkpoint trained for another world than the preset (:func:`checked_preset_mismatches`).
+:func:`register_catalog` makes every record a policy registry entry whose factory is its loader, the
+factory ``build_policy`` (:mod:`socialnav.policies.building`) calls.
 """
 
 from __future__ import annotations

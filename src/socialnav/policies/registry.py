@@ -200,7 +200,7 @@ def make_policy(name: str, /, **params: Any) -> Policy:
                          f"`socialnav train`); build_policy({name!r}, preset) takes the checkpoint that "
                          "ships for a preset")
     if not name.startswith(SB3_PREFIX):
-        from socialnav.policies.loading import check_policy_parameters
+        from socialnav.policies.building import check_policy_parameters
 
         loading = ("checkpoint", "preset", "allow_preset_mismatch") if entry.learned else ()
         check_policy_parameters(name, entry, {k: v for k, v in params.items() if k not in loading})
@@ -323,7 +323,8 @@ def _load_plugins() -> None:
 
 def _load_builtin() -> None:
     # Native policies register on import; learned ones from their records in learned_catalog (their
-    # factories import torch only when called). Records added since the last call register now.
-    from socialnav.policies import learned_entries, native  # noqa: F401
+    # factories, in learned_loading, import torch only when called). Records added since the last call
+    # register now.
+    from socialnav.policies import learned_loading, native  # noqa: F401
 
-    learned_entries.register_catalog()
+    learned_loading.register_catalog()

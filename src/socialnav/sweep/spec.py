@@ -372,7 +372,7 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
     if kind == "train":
         _check_train_job(entry, params, where, base)
         return
-    from socialnav.policies.loading import LOOKAHEAD_SETTINGS, refuse_lookahead_setting
+    from socialnav.policies.building import LOOKAHEAD_SETTINGS, refuse_lookahead_setting
 
     name = str(params["policy"])
     try:
@@ -392,7 +392,7 @@ def _check_job(kind: str, params: dict[str, Any], where: str, base: Path | None)
                 raise ConfigError(f"{where}: checkpoint {checkpoint} does not exist")
             params["checkpoint"] = str(resolved)
     elif entry.learned:
-        from socialnav.policies.loading import shipped_checkpoint
+        from socialnav.policies.building import shipped_checkpoint
 
         if shipped_checkpoint(str(params["policy"]), preset.name) is None:
             raise ConfigError(
@@ -406,7 +406,7 @@ def _check_policy_args(where: str, name: str, entry: Any, params: dict[str, Any]
 
     A device is checked where the job runs (a Ray worker may have the GPU the driver lacks).
     """
-    from socialnav.policies.loading import check_policy_parameters
+    from socialnav.policies.building import check_policy_parameters
     from socialnav.policies.registry import SB3_PREFIX
 
     args = dict(params.get("policy_args") or {})

@@ -60,7 +60,7 @@ def job_preset(params: dict[str, Any], threads: int | None = None) -> Preset:
 
 def policy_overrides(params: dict[str, Any]) -> dict[str, Any]:
     """``socialnav evaluate``'s ``--policy-arg``, ``--information`` and ``--planning-*`` of a job."""
-    from socialnav.policies.loading import LOOKAHEAD_SETTINGS
+    from socialnav.policies.building import LOOKAHEAD_SETTINGS
 
     overrides = dict(params.get("policy_args") or {})
     for key in LOOKAHEAD_SETTINGS:
@@ -79,7 +79,7 @@ def build_job_policy(
     machine whose cores the workers already fill, each of its calls would wake a thread that has no core to
     run on (results do not depend on it).
     """
-    from socialnav.policies.loading import build_policy
+    from socialnav.policies.building import build_policy
     from socialnav.policies.registry import get_policy_entry
 
     name = str(params["policy"])

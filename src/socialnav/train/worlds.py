@@ -323,7 +323,7 @@ class MultiWorld:
 def reward_config(world: Any) -> dict[str, float]:
     """The reward constants a checkpoint records for ``world``.
 
-    The evaluator compares them (policies/learned_entries.py).
+    The evaluator compares them (policies/learned_loading.py).
 
     Args:
         world: a preset's WorldSettings.

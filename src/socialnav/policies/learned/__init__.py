@@ -5,7 +5,7 @@ learned state predictor), and CrowdNav++'s attention-graph actor-critic trained 
 with a plain MLP actor-critic beside it (``ppo_mlp``).
 
 The policies themselves are named by their registration records (:mod:`socialnav.policies.learned_catalog`);
-:data:`LEARNED_POLICIES` maps each name to its network. See docs/policies_learned.md.
+:data:`LEARNED_POLICIES` (``networks.py``) maps each name to its network. See docs/policies_learned.md.
 """
 
 from socialnav.policies.learned.actions import discrete_actions
@@ -13,10 +13,9 @@ from socialnav.policies.learned.attn_graph import AttnGraphNet
 from socialnav.policies.learned.cadrl import CADRL
 from socialnav.policies.learned.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from socialnav.policies.learned.lstm_rl import LSTMRL
-from socialnav.policies.learned.networks import ValueNetwork
+from socialnav.policies.learned.networks import LEARNED_POLICIES, ValueNetwork, build
 from socialnav.policies.learned.ppo_mlp import MLPActorCritic
 from socialnav.policies.learned.predictor import StatePredictor
-from socialnav.policies.learned.registry import LEARNED_POLICIES, build
 from socialnav.policies.learned.rgl import RGL, mp_rgl
 from socialnav.policies.learned.sarl import SARL, om_sarl
 from socialnav.policies.learned.state import (

@@ -29,7 +29,8 @@ from torch import nn
 
 from socialnav import __version__
 from socialnav._io import atomic_write
-from socialnav.policies.learned.registry import LEARNED_POLICIES, build, canonical_name
+from socialnav.policies.learned.networks import LEARNED_POLICIES, build
+from socialnav.policies.learned_catalog import canonical_name
 
 __all__ = [
     "FORMAT",

@@ -128,7 +128,7 @@ class ValueRun(RunFiles):
 
 
 def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, Any]:
-    """The keyword arguments the evaluator passes to ValuePolicy (learned_entries.py).
+    """The keyword arguments the evaluator passes to ValuePolicy (policies/learned_loading.py).
 
     A network trained among walls records the obstacle encoding it saw (docs/walls_learned.md); one
     trained on open floors records none (its checkpoints load as those of every open-floor run).
