@@ -12,6 +12,7 @@ import numpy as np
 
 from socialnav.trajectory import Trajectory
 from socialnav.viz.draw import FrameRenderer, frame_indices
+from socialnav.viz.routes import Routes
 
 
 class FfmpegMissingError(RuntimeError):
@@ -26,9 +27,10 @@ def frames(
     max_frames: int | None = 400,
     size_px: tuple[int, int] = (560, 560),
     progress: bool = False,
+    routes: Routes = True,
 ) -> Iterator[np.ndarray]:
-    """RGB frames (H, W, 3) of the episode, one per shown sample."""
-    renderer = FrameRenderer(traj, overlays=overlays, size_px=size_px)
+    """RGB frames (H, W, 3) of the episode, one per shown sample (``routes``: as ``plot_trajectory``'s)."""
+    renderer = FrameRenderer(traj, overlays=overlays, size_px=size_px, routes=routes)
     idx = frame_indices(renderer.view.n_samples, stride, max_frames)
     from tqdm.auto import tqdm
 
@@ -52,10 +54,12 @@ def write_gif(
     speed: float = 1.0,
     size_px: tuple[int, int] = (560, 560),
     progress: bool = False,
+    routes: Routes = True,
 ) -> int:
     """Writes an animated GIF (atomically); returns the number of frames.
 
-    ``speed`` multiplies real time (1.0: one simulated second per second).
+    ``speed`` multiplies real time (1.0: one simulated second per second); ``routes``: the agents' routes
+    around the walls, as :func:`socialnav.viz.draw.plot_trajectory` takes them.
     """
     from PIL import Image
 
@@ -67,7 +71,8 @@ def write_gif(
     images = [
         Image.fromarray(f).quantize(colors=128, method=Image.Quantize.MEDIANCUT)
         for f in frames(
-            traj, overlays=overlays, stride=stride, max_frames=max_frames, size_px=size_px, progress=progress
+            traj, overlays=overlays, stride=stride, max_frames=max_frames, size_px=size_px, progress=progress,
+            routes=routes,
         )
     ]
     duration = _frame_ms(traj, step, speed)
@@ -102,8 +107,12 @@ def write_mp4(
     speed: float = 1.0,
     size_px: tuple[int, int] = (560, 560),
     progress: bool = False,
+    routes: Routes = True,
 ) -> int:
     """Writes an H.264 MP4 through ffmpeg (atomically); returns the number of frames.
+
+    ``routes``: the agents' routes around the walls, as :func:`socialnav.viz.draw.plot_trajectory`
+    takes them.
 
     Raises:
         FfmpegMissingError: ffmpeg is not installed (the message says how to get it, or to use GIF).
@@ -157,6 +166,7 @@ def write_mp4(
                 max_frames=max_frames,
                 size_px=(w, h),
                 progress=progress,
+                routes=routes,
             ):
                 proc.stdin.write(np.ascontiguousarray(frame[:h, :w]).tobytes())
                 count += 1

@@ -49,6 +49,14 @@ def add_viz_parsers(sub: argparse._SubParsersAction) -> None:
     rd.add_argument("--eps", type=float, default=0.2, help="M_I threshold of the overlay [m] (default 0.2)")
     rd.add_argument("--tau", type=float, default=1.0, help="M_II horizon of the overlay [s] (default 1)")
     rd.add_argument("--resample", action="store_true", help="files: resample irregular timestamps")
+    rd.add_argument(
+        "--routes",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="among walls, draw each routed agent's route planned at its start, dashed: the humans' where "
+        "the episode's world set human_routes, the robot's under orca_route/social_force_route "
+        "(default: on; only where routes exist)",
+    )
     # A robot log in another layout is read as `socialnav metrics` reads it (docs/real_world_logs.md).
     add_layout_arguments(rd)
     rd.add_argument("--ego", help="draw agent ID of a pedestrian log as the robot")
@@ -149,6 +157,18 @@ def _one_log_episode(path: Path, episode: str | None, resample: bool, **log: Any
     return chosen[0]
 
 
+def _routes(traj, source: str) -> dict:
+    """The routes drawn with ``traj``; from a result directory, the robot's as its manifest records."""
+    from socialnav.viz.routes import episode_routes
+
+    manifest = None
+    if Path(source).is_dir():
+        from socialnav.evaluate.results import load_manifest
+
+        manifest = load_manifest(source)
+    return episode_routes(traj, manifest)
+
+
 def _run_render(args: argparse.Namespace) -> int:
     from socialnav.viz import require_viz
     from socialnav.viz.geometry import parse_overlays
@@ -177,6 +197,7 @@ def _run_render(args: argparse.Namespace) -> int:
     for note in dict.fromkeys(str(w.message) for w in caught):
         if not args.quiet:
             print(f"note: {note}", file=sys.stderr)
+    routes = _routes(traj, args.source) if args.routes else False  # planned on the episode's own walls
     if smap is not None:
         import dataclasses
 
@@ -193,7 +214,8 @@ def _run_render(args: argparse.Namespace) -> int:
         from socialnav._io import atomic_write
         from socialnav.viz.draw import plot_trajectory
 
-        fig = plot_trajectory(traj, overlays=overlays, every=args.every, eps=args.eps, tau=args.tau)
+        fig = plot_trajectory(traj, overlays=overlays, every=args.every, eps=args.eps, tau=args.tau,
+                              routes=routes)
         atomic_write(out, lambda tmp: fig.savefig(tmp, format=fmt))
     elif fmt in ("gif", "mp4"):
         from socialnav.viz.animate import write_gif, write_mp4
@@ -207,13 +229,14 @@ def _run_render(args: argparse.Namespace) -> int:
             max_frames=args.max_frames,
             speed=args.speed,
             progress=progress,
+            routes=routes,
         )
         detail = f" ({n} frames)"
     else:
         from socialnav._io import atomic_write_text
         from socialnav.viz.report import episode_page
 
-        atomic_write_text(out, episode_page(traj, eps=args.eps, tau=args.tau))
+        atomic_write_text(out, episode_page(traj, eps=args.eps, tau=args.tau, routes=routes))
     if not args.quiet:
         print(f"wrote {out}{detail}", file=sys.stderr)
     return 0

@@ -14,6 +14,7 @@ import numpy as np
 
 from socialnav.trajectory import Trajectory
 from socialnav.viz.geometry import EpisodeView, episode_view, parse_overlays, scene_bounds, velocity_rectangle
+from socialnav.viz.routes import Routes, resolve_routes
 
 ROBOT_FACE = "#ffd23f"
 ROBOT_EDGE = "#111111"
@@ -39,6 +40,15 @@ def draw_static_map(ax, smap) -> None:
         else:
             ax.add_patch(Polygon(poly, closed=True, facecolor=WALL_FACE, edgecolor=WALL_EDGE, lw=1.0,
                                  zorder=0.5))
+
+
+ROUTE_STYLE = {"ls": "--", "lw": 0.9, "alpha": 0.6, "zorder": 0.8}  # thin, dashed, over walls, under agents
+
+
+def draw_routes(ax, routes: dict[int, np.ndarray]) -> list:
+    """Each route (:mod:`socialnav.viz.routes`) as a dashed line in its agent's colour; returns the lines."""
+    return [ax.plot(line[:, 0], line[:, 1], color=agent_colour(a), **ROUTE_STYLE)[0]
+            for a, line in sorted(routes.items())]
 
 
 def agent_colour(agent: int) -> str:
@@ -78,6 +88,7 @@ def plot_trajectory(
     eps: float = 0.2,
     tau: float = 1.0,
     size_px: tuple[int, int] = (720, 720),
+    routes: Routes = True,
 ):
     """Static plot of one episode: paths, discs fading over time, time stamps every ``every`` steps.
 
@@ -89,6 +100,8 @@ def plot_trajectory(
         eps: M_I's threshold ε [m] of the overlays.
         tau: M_II's time horizon τ [s] of the overlays.
         size_px: (width, height) of the figure [px].
+        routes: The agents' routes around the walls, dashed (:mod:`socialnav.viz.routes`): True, those
+            the trajectory records enough to plan; False, none; or routes already planned.
 
     Returns:
         A matplotlib Figure on the Agg canvas (save it with ``fig.savefig("x.png")`` or ``.svg``).
@@ -104,6 +117,8 @@ def plot_trajectory(
     stamps = sorted(set(range(0, K + 1, every)) | {K})
     pos = view.positions
     draw_static_map(ax, traj.static_map)
+    if draw_routes(ax, resolve_routes(traj, routes)):
+        ax.plot([], [], color="#555555", **ROUTE_STYLE, label="route planned at the start")
     for a in range(traj.n_agents):
         colour = agent_colour(a)
         ax.plot(pos[: view.n_main, a, 0], pos[: view.n_main, a, 1], "-", color=colour, lw=1.0, alpha=0.7)
@@ -234,7 +249,10 @@ def _draw_side(ax, view: EpisodeView) -> None:
 
 
 class FrameRenderer:
-    """Draws sample k of an episode (for GIF/MP4); reuses one figure and its artists."""
+    """Draws sample k of an episode (for GIF/MP4); reuses one figure and its artists.
+
+    ``routes``: as :func:`plot_trajectory`'s, drawn once under everything that moves.
+    """
 
     def __init__(
         self,
@@ -245,6 +263,7 @@ class FrameRenderer:
         tau: float = 1.0,
         size_px: tuple[int, int] = (560, 560),
         title: str | None = None,
+        routes: Routes = True,
     ):
         from matplotlib.patches import Circle, Polygon
 
@@ -259,6 +278,7 @@ class FrameRenderer:
         ax.grid(alpha=0.25)
         ax.set_title(title or describe_episode(traj), fontsize=9)
         draw_static_map(ax, traj.static_map)
+        self.routes = draw_routes(ax, resolve_routes(traj, routes))
         for a in range(traj.n_agents):
             ax.plot(*traj.goals[a], "*", color=agent_colour(a), ms=10 if a == 0 else 7, alpha=0.8)
         self.trails = [

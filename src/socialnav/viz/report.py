@@ -16,6 +16,7 @@ from typing import Any
 from socialnav.trajectory import Trajectory
 from socialnav.viz.report_data import ResultRun, single_episode_data, viewer_data
 from socialnav.viz.report_html import document, md_tables_to_html, report_page, tables_html, viewer_html
+from socialnav.viz.routes import Routes
 
 __all__ = ["episode_page", "md_tables_to_html", "write_report"]
 
@@ -158,19 +159,21 @@ def _figures(
     return out
 
 
-def episode_page(traj: Trajectory, *, eps: float = 0.2, tau: float = 1.0) -> str:
+def episode_page(traj: Trajectory, *, eps: float = 0.2, tau: float = 1.0, routes: Routes = True) -> str:
     """A self-contained page with the viewer for one episode (`socialnav render --format html`).
 
     Args:
         traj: The episode.
         eps: M_I threshold [m] of the viewer's overlays.
         tau: M_II horizon [s] of the viewer's overlays.
+        routes: The agents' routes around the walls (:mod:`socialnav.viz.routes`): True, those the
+            trajectory records enough to plan; False, none; or routes already planned.
 
     Returns:
         The HTML document.
     """
     from socialnav.viz.draw import describe_episode
 
-    data = single_episode_data(traj, eps=eps, tau=tau)
+    data = single_episode_data(traj, eps=eps, tau=tau, routes=routes)
     body = f"<h1>{html.escape(describe_episode(traj))}</h1>" + viewer_html(data)
     return document("socialnav episode " + html.escape(data["episodes"][0]["id"]), body)

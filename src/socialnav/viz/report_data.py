@@ -11,8 +11,11 @@ Layout of the viewer's data (``<script id="episode-data" type="application/json"
                    "pos": [x, y per (sample, agent), integers in 1/scale m],
                    "m1"|"m2"|"collision": "0101…" per sample, "side": [sample, label] | null,
                    "values": {metric key: value},
-                   "walls": [[x, y, x, y, ...] per polygon, integers in 1/scale m]}]}
+                   "walls": [[x, y, x, y, ...] per polygon, integers in 1/scale m],
+                   "routes": {agent index: [x, y, x, y, ...], integers in 1/scale m}}]}
                                                     # walls: only with a static map; 2 vertices = a segment
+                                                    # routes: only where an agent's route bends
+                                                    # (socialnav/viz/routes.py): start, points, goal
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from socialnav.trajectory import Trajectory
+from socialnav.viz.routes import Routes, episode_routes, resolve_routes
 
 # (key prefix, label, direction) — what the viewer can rank a cell's episodes by
 RANKING_METRICS = (
@@ -225,7 +229,8 @@ def viewer_data(runs: list[ResultRun], per_metric: int, eps: float, tau: float) 
             for traj in read_trajectories(path, episodes=ids):
                 eid = str(traj.settings["episode"])
                 index[(i, eid)] = len(episodes)
-                episodes.append(episode_json(traj, run.label, eps, tau, row_of.get(eid, {}), metric_keys))
+                episodes.append(episode_json(traj, run.label, eps, tau, row_of.get(eid, {}), metric_keys,
+                                             routes=episode_routes(traj, run.manifest)))
     out_cells = []
     for c in cells:
         eps_idx = [index[(c["run"], e)] for e in c["ids"] if (c["run"], e) in index]
@@ -262,7 +267,13 @@ def _bits(flags: np.ndarray) -> str:
 
 
 def episode_json(
-    traj: Trajectory, policy: str, eps: float, tau: float, row: dict[str, Any], metric_keys: list[str]
+    traj: Trajectory,
+    policy: str,
+    eps: float,
+    tau: float,
+    row: dict[str, Any],
+    metric_keys: list[str],
+    routes: Routes = True,
 ) -> dict[str, Any]:
     """One episode as the viewer draws it (an entry of ``episodes`` in the module docstring).
 
@@ -273,9 +284,11 @@ def episode_json(
         tau: M_II horizon [s] of its projected-path flags.
         row: Its result row (metric values), possibly empty.
         metric_keys: Flat keys of the values to show beside it.
+        routes: The agents' routes around the walls (:mod:`socialnav.viz.routes`): True, those the
+            trajectory records enough to plan; False, none; or routes already planned.
 
     Returns:
-        The JSON-ready dict (positions and walls as integers in 1/``SCALE`` m).
+        The JSON-ready dict (positions, walls and routes as integers in 1/``SCALE`` m).
     """
     from socialnav.viz.geometry import episode_view
 
@@ -285,10 +298,14 @@ def episode_json(
         v = row.get(k)
         if isinstance(v, int | float) and math.isfinite(v):
             values[k] = round(float(v), 4)
-    walls = {}
+    among_walls: dict[str, Any] = {}  # walls and routes: only where the episode has walls
     if traj.static_map is not None:
-        walls["walls"] = [np.rint(p * SCALE).astype(np.int64).reshape(-1).tolist()
+        among_walls["walls"] = [np.rint(p * SCALE).astype(np.int64).reshape(-1).tolist()
                           for p in traj.static_map.polygons]
+    drawn = resolve_routes(traj, routes)
+    if drawn:
+        among_walls["routes"] = {str(a): np.rint(line * SCALE).astype(np.int64).reshape(-1).tolist()
+                           for a, line in sorted(drawn.items())}
     return {
         "id": str(traj.settings.get("episode", "")),
         "policy": policy,
@@ -303,17 +320,20 @@ def episode_json(
         "collision": _bits(view.collision),
         "side": list(view.side) if view.side else None,
         "values": values,
-        **walls,
+        **among_walls,
     }
 
 
-def single_episode_data(traj: Trajectory, *, eps: float = 0.2, tau: float = 1.0) -> dict[str, Any]:
+def single_episode_data(
+    traj: Trajectory, *, eps: float = 0.2, tau: float = 1.0, routes: Routes = True
+) -> dict[str, Any]:
     """The viewer's data for one episode alone (``socialnav render --format html``).
 
     Args:
         traj: The episode.
         eps: M_I threshold [m] of the overlays.
         tau: M_II horizon [s] of the overlays.
+        routes: The agents' routes, as :func:`episode_json` takes them.
 
     Returns:
         The data (layout: the module docstring), one cell of one episode ranked by navigation time.
@@ -326,6 +346,7 @@ def single_episode_data(traj: Trajectory, *, eps: float = 0.2, tau: float = 1.0)
         tau,
         {"navigation_time": traj.duration},
         ["navigation_time"],
+        routes=routes,
     )
     return {
         "scale": SCALE,

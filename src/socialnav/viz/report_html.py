@@ -118,6 +118,9 @@ def viewer_html(data: dict[str, Any]) -> str:
     """
     js = resources.files("socialnav.viz").joinpath("viewer.js").read_text(encoding="utf-8")
     payload = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    # only where an episode has routes (among walls): the controls of other reports stay as they were
+    routes = ('\n    <label><input type="checkbox" id="ov-routes" checked> routes planned at the start '
+              "(dashed)</label>" if any("routes" in e for e in data["episodes"]) else "")
     return f"""
 <div id="viewer">
   <canvas id="viewer-canvas" width="640" height="640"></canvas>
@@ -135,7 +138,7 @@ def viewer_html(data: dict[str, Any]) -> str:
     <label><input type="checkbox" id="ov-trails" checked> trails</label>
     <label><input type="checkbox" id="ov-m1" checked> M_I personal-space ring (ε = {data["eps"]:g} m)</label>
     <label><input type="checkbox" id="ov-m2"> M_II velocity rectangles (τ = {data["tau"]:g} s)</label>
-    <label><input type="checkbox" id="ov-m6" checked> M_VI side-preference frame</label>
+    <label><input type="checkbox" id="ov-m6" checked> M_VI side-preference frame</label>{routes}
     <div id="episode-info"></div>
   </div>
 </div>

@@ -1,5 +1,5 @@
 // socialnav episode viewer: plain JavaScript, no library, no network. Reads the JSON embedded in
-// <script id="episode-data" type="application/json"> (see socialnav/viz/report.py for the layout).
+// <script id="episode-data" type="application/json"> (see socialnav/viz/report_data.py for the layout).
 (function () {
   "use strict";
   const DATA = JSON.parse(document.getElementById("episode-data").textContent);
@@ -81,6 +81,8 @@
       ep.P = ep.pos.map((v) => v / DATA.scale); // decode once: (S * A * 2) metres
       ep.S = ep.P.length / (2 * ep.radii.length);
       ep.W = (ep.walls || []).map((w) => w.map((v) => v / DATA.scale)); // [x, y, x, y, ...] metres
+      // routes planned at the start (socialnav/viz/routes.py): [agent, [x, y, x, y, ...] metres]
+      ep.R = Object.keys(ep.routes || {}).map((a) => [Number(a), ep.routes[a].map((v) => v / DATA.scale)]);
     }
     state.ep = ep;
     state.k = 0;
@@ -163,6 +165,14 @@
       }
       ctx.stroke();
     });
+    if (ep.R.length && $("ov-routes") && $("ov-routes").checked) { // dashed, thin, under the agents
+      ep.R.forEach(([a, r]) => {
+        ctx.beginPath();
+        for (let i = 0; i < r.length; i += 2) (i ? ctx.lineTo(X(r[i]), Y(r[i + 1])) : ctx.moveTo(X(r[i]), Y(r[i + 1])));
+        ctx.setLineDash([6, 4]); ctx.strokeStyle = colour(a); ctx.globalAlpha = 0.6; ctx.lineWidth = 1.2;
+        ctx.stroke(); ctx.globalAlpha = 1; ctx.setLineDash([]);
+      });
+    }
     for (let a = 0; a < A; a++) { // goals
       const [gx, gy] = ep.goals[a];
       ctx.fillStyle = colour(a);
@@ -249,7 +259,7 @@
   $("sel-cell").addEventListener("change", refreshEpisodes);
   $("sel-metric").addEventListener("change", refreshEpisodes);
   $("sel-episode").addEventListener("change", () => { setPlaying(false); load(parseInt($("sel-episode").value, 10)); });
-  ["ov-trails", "ov-m1", "ov-m2", "ov-m6"].forEach((id) => $(id).addEventListener("change", draw));
+  ["ov-trails", "ov-m1", "ov-m2", "ov-m6", "ov-routes"].forEach((id) => $(id) && $(id).addEventListener("change", draw));
   fill($("sel-metric"), DATA.metrics.map((m) => [m.key, m.label]));
   refreshPolicies();
   if (location.hash === "#play") setPlaying(true);
