@@ -19,13 +19,19 @@ def test_all_metrics_registered_with_records() -> None:
         "discomfort", "human_overlaps", "n_humans", "m1_personal_space", "m2_projected_path",
         "m3_aggregated_time", "m4_jerk", "m5_walking_speed", "m6_side_preference",
         "min_obstacle_clearance", "obstacle_proximity", "wall_collision",
+        "human_arrival", "humans_stuck", "robot_stuck_time",
     ]
     obstacle_metrics = ("min_obstacle_clearance", "obstacle_proximity", "wall_collision")
+    progress_metrics = ("human_arrival", "humans_stuck", "robot_stuck_time")
     for m in list_metrics():
         assert m.direction in ("lower", "higher", "none")
         assert m.unit and m.outputs and m.description and m.reference
+        assert m.map_only == (m.name in progress_metrics)
         if m.name in obstacle_metrics:
             assert "2306.16740" in m.reference  # Francis et al.
+            continue
+        if m.name in progress_metrics:
+            assert "docs/metrics.md" in m.reference and "Lozano-Pérez" in m.reference  # the route distance
             continue
         assert "2202.01045" in (m.fn.__doc__ or "") or m.name in ("path_length", "human_overlaps", "n_humans")
     assert "Jin" in get_metric("m2_projected_path").fn.__doc__

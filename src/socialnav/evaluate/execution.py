@@ -29,6 +29,7 @@ from socialnav._runtime import forkserver_pool, main_module_reruns_call, worker_
 from socialnav.evaluate.chunks import Chunk, trajectory_path, write_chunk
 from socialnav.evaluate.plan import Cell, cell_scenario, cell_world_settings
 from socialnav.metrics import score_episode, side_case_of_row
+from socialnav.metrics.score import fill_missing_keys
 from socialnav.policies.registry import Policy, PolicyError
 from socialnav.presets import Preset
 from socialnav.sim.world import World, check_world_size
@@ -189,7 +190,8 @@ def score_trajectories(trajs: list[Trajectory], cell: Cell, label: str) -> tuple
             if cell.single_human:
                 row["side"] = "failed" if traj.outcome != "success" else side_case_of_row(row)
             rows.append(row)
-    return rows, sorted({(w.category.__name__, str(w.message)) for w in caught})
+    # one set of columns per chunk, also where some of its episodes have a static map and some not
+    return fill_missing_keys(rows), sorted({(w.category.__name__, str(w.message)) for w in caught})
 
 
 def episode_id(scenario: str, visibility: str, index: int) -> str:

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from socialnav._io import atomic_write_text, json_text
-from socialnav.metrics import get_metric, list_metrics, walking_speed_note
+from socialnav.metrics import get_metric, list_metrics, parse_key, walking_speed_note
 from socialnav.presets import Preset
 
 # (header, key prefix, visibility of the pass it comes from, digits)
@@ -33,6 +33,22 @@ SIDE_SCENARIOS = ("passing", "overtaking", "crossing")
 WALL_COLLISION_NOTE = (
     "Wall collision %: the episodes that ended in a collision with a wall or another obstacle, as a share "
     "of all episodes; Collision % counts them too"
+)
+#: Table II's columns of a run with walls only, after M_V≥ (metrics/progress.py): (header, key prefix,
+#: visibility of the pass, digits, as a percentage). The humans' columns come from the visible pass,
+#: whose successful episodes carry the humans on to the continuation cap.
+WALL_TABLE2_COLUMNS = [
+    ("Humans at goal %", "human_arrival.full_time", "visible", 2, True),
+    ("Humans stuck", "humans_stuck", "visible", 2, False),
+    ("Robot stuck (s)", "robot_stuck_time", "invisible", 2, False),
+]
+#: Under a Table II with walls: what its progress columns count (docs/metrics.md, "Progress among walls").
+PROGRESS_NOTE = (
+    "Humans at goal %: the humans that reached their goal, over the visible pass's episodes in which the "
+    "robot succeeded (the humans walk on to the continuation cap; after a collision or a timeout they could "
+    "not arrive); Humans stuck: humans per episode of the visible pass (continuation included) whose "
+    "distance to their goal around the walls shrank by less than 0.5 m in 5 s before they arrived; "
+    "Robot stuck (s): the time the robot was stuck so (invisible pass)"
 )
 
 
@@ -102,6 +118,8 @@ def render_reports(
             "description": m.description,
         }
         for m in list_metrics()
+        # a map_only metric is listed where its keys are: open-floor summaries stay as they were
+        if not m.map_only or any(parse_key(k)[0] == m.name for row in summary for k in row)
     ]
     notes = table_notes(preset)
     document: dict[str, Any] = {"preset": preset.name, "rows": summary, "metrics": metrics, "notes": notes}
@@ -239,6 +257,11 @@ def table2_rows(summary: Sequence[dict[str, Any]], scenario: str = "pooled") -> 
         for _, prefix, visibility, digits in TABLE2_COLUMNS:
             row = inv if visibility == "invisible" else vis
             cells.append(_pm(_find(row, prefix, "mean"), _find(row, prefix, "std"), digits))
+        for _, key, visibility, digits, percent in WALL_TABLE2_COLUMNS if walls else ():
+            row = inv if visibility == "invisible" else vis
+            mean, std = (math.nan, math.nan) if row is None else (row.get(f"{key}.mean", math.nan),
+                                                                  row.get(f"{key}.std", math.nan))
+            cells.append(_pct(mean) if percent else _pm(mean, std, digits))
         out.append(cells)
     return out
 
@@ -270,12 +293,14 @@ SPREAD_NOTE = ("mean ± standard deviation over episodes, not a confidence inter
 def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[str] = ()) -> str:
     """Table II (pooled) and one per multi-human scenario; ``notes`` (see :func:`table_notes`) follow.
 
-    A run with walls gets a "Wall collision %" column and :data:`WALL_COLLISION_NOTE`. Policies whose
+    A run with walls gets a "Wall collision %" column and :data:`WALL_COLLISION_NOTE`, and the columns of
+    :data:`WALL_TABLE2_COLUMNS` (humans at their goal, humans and robot stuck) with :data:`PROGRESS_NOTE`,
+    "–" where the run lacks their pass or an old run their keys. Policies whose
     pooled rows are over different scenarios (runs of other ``--scenario`` lists compared) get a note
     saying so.
     """
     walls = has_walls(summary)
-    notes = [*notes, WALL_COLLISION_NOTE] if walls else list(notes)
+    notes = [*notes, WALL_COLLISION_NOTE, PROGRESS_NOTE] if walls else list(notes)
     notes.append(SPREAD_NOTE)
     coverage = pooled_coverage(summary)
     if len(set(coverage.values())) > 1:
@@ -289,6 +314,7 @@ def table2(summary: Sequence[dict[str, Any]], fmt: str = "md", notes: Sequence[s
         "Timeout %",
         "Nav. time (s)",
         *[c[0] for c in TABLE2_COLUMNS],
+        *([c[0] for c in WALL_TABLE2_COLUMNS] if walls else []),
     ]
     # Tables without rows are left out (a run of single-human scenarios only has no Table II).
     pooled = table2_rows(summary)

@@ -78,7 +78,8 @@ def summarize_group(
     }
     if pooled_over:
         out["pooled_over"] = ",".join(pooled_over)
-    metric_keys = [k for k in rows[0] if k not in ID_COLUMNS]
+    # every row's keys: episodes without a static map lack the map_only metrics' (NaN for them here)
+    metric_keys = [k for k in dict.fromkeys(k for r in rows for k in r) if k not in ID_COLUMNS]
     if n == 1:  # one episode (e.g. a scene of a log): the statistics need no arrays
         columns = [_single_value_stats(_as_float(rows[0].get(k))) for k in metric_keys]
     else:

@@ -210,7 +210,8 @@ def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
 
     rows = scores.rows
     ids = ("source", "scene", "episode", "ego", "mode", "outcome")
-    keys = [k for k in rows[0] if k not in ids]
+    # every row's keys: episodes without a static map lack the map_only metrics' (progress among walls)
+    keys = [k for k in dict.fromkeys(k for row in rows for k in row) if k not in ids]
     several_files = len({row["source"] for row in rows}) > 1
     if per_episode or len(rows) <= _PER_EPISODE_LIMIT:
         for row in rows:
@@ -218,7 +219,8 @@ def _print_text(scores: Any, per_episode: bool, require_success: bool) -> None:
             of = f" of {row['source']}" if several_files else ""
             print(f"episode {row['episode']}{of} ({row['outcome']}{who}):")
             for k in keys:
-                print(f"  {k:60s} {row[k]:.4g}")
+                if k in row:
+                    print(f"  {k:60s} {row[k]:.4g}")
     words = {"all": "all episodes", "success": "successful episodes", "known_outcome": "known outcomes"}
     for group in scores.summaries:
         title = "dataset" if group["scope"] == "dataset" else f"scene {group['scenario']}"

@@ -1,7 +1,8 @@
 """Social-conformity metrics: pure NumPy functions of a :class:`socialnav.trajectory.Trajectory`.
 
-Importing this package registers every metric (basic, M_I–M_VI, obstacle clearance) and imports
-NumPy only. Score one
+Importing this package registers every metric (basic, M_I–M_VI, obstacle clearance, progress among
+walls) and imports NumPy only (the route distances of :mod:`~socialnav.metrics.progress` import the
+compiled core when a map is scored). Score one
 episode with :func:`score_episode`; aggregate with :func:`summarize`. See ``docs/metrics.md``.
 """
 
@@ -9,7 +10,8 @@ from socialnav.metrics import basic, comfort, naturalness, sociability  # noqa: 
 
 # isort: split
 # registered after the human metrics, so that their columns come first in every table
-from socialnav.metrics import obstacles  # noqa: F401
+# (progress: map_only, rows of open-floor episodes leave its keys out)
+from socialnav.metrics import obstacles, progress  # noqa: F401
 from socialnav.metrics.aggregate import summarize, summarize_rows
 from socialnav.metrics.naturalness import WalkingSpeedWarning, walking_speed_note
 from socialnav.metrics.registry import (

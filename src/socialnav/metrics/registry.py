@@ -17,6 +17,10 @@ computed under different settings never share a key. Examples: ``success``,
 One exception keeps published keys stable: a parameter added to a metric after its keys appeared in
 result files is declared *quiet* (``quiet_parameters``) and is listed only when it differs from its
 default. ``m4_jerk.mean_sq`` is M_IV as it always was; ``m4_jerk.mean_sq@dt_power=2`` is a variant.
+
+Another keeps the result files of open floors as they were: a metric declared ``map_only`` is scored on
+episodes with a static map only, and rows of episodes without one leave its keys out (not NaN: a new
+column would change every open-floor results file byte for byte).
 """
 
 from __future__ import annotations
@@ -75,6 +79,9 @@ class Metric:
             (parameters added after the metric's keys were published; see the module docstring).
         positive_parameters: Numeric parameters that must be > 0, not only >= 0 (a zero cap or
             horizon makes every value 0, silently).
+        map_only: Scored by :func:`~socialnav.metrics.score.score_episode` only on episodes with a static
+            map; the rows of the others leave its keys out (see the module docstring). Calling the metric
+            itself computes it on any trajectory.
         fn: ``fn(traj, **params) -> {output: value}``.
     """
 
@@ -90,6 +97,7 @@ class Metric:
     population: str = "all"
     quiet_parameters: frozenset[str] = frozenset()
     positive_parameters: frozenset[str] = frozenset()
+    map_only: bool = False
     fn: MetricFn = field(default=lambda traj: {}, repr=False)
 
     def resolve(self, overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -199,6 +207,7 @@ def register_metric(
     population: str | None = None,
     quiet_parameters: tuple[str, ...] = (),
     positive_parameters: tuple[str, ...] = (),
+    map_only: bool = False,
 ) -> Callable[[MetricFn], MetricFn]:
     """Decorator registering ``fn(traj, **params) -> {output: value}`` as a metric.
 
@@ -226,7 +235,7 @@ def register_metric(
             description=description or (fn.__doc__ or "").strip().splitlines()[0],
             reference=reference, outputs=dict(outputs), variants=tuple(variants), social=social,
             population=population, quiet_parameters=frozenset(quiet_parameters),
-            positive_parameters=frozenset(positive_parameters), fn=fn,
+            positive_parameters=frozenset(positive_parameters), map_only=map_only, fn=fn,
         )
         for variant in metric.variants:
             metric.resolve(variant)  # fail at import time on a misspelt variant parameter

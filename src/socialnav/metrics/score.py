@@ -5,7 +5,9 @@ with every parameter spelled out, e.g. ``m1_personal_space.duration_s@eps=0.2,di
 Each metric contributes one group of keys per parameter variant it reports by default (ε ∈ {0.2, 1.2}
 for M_I, τ ∈ {0.5, 1, 2} for M_II). Social metrics (M_I–M_VI) are NaN unless the outcome is success,
 as in Wang et al., ARSO 2022 (arXiv 2202.01045), which computes them on successful episodes only;
-basic metrics are computed on every episode.
+basic metrics are computed on every episode. Metrics declared ``map_only`` (progress among walls:
+:mod:`socialnav.metrics.progress`) are scored on episodes with a static map only; the rows of open-floor
+episodes leave their keys out, so results of the original protocol keep their columns.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from typing import Any
 from socialnav.metrics.registry import Metric, list_metrics
 from socialnav.trajectory import Trajectory
 
-__all__ = ["ParamsSpec", "UnknownOutcomeWarning", "score_episode", "score_keys"]
+__all__ = ["ParamsSpec", "UnknownOutcomeWarning", "fill_missing_keys", "score_episode", "score_keys"]
 
 
 class UnknownOutcomeWarning(UserWarning):
@@ -54,10 +56,38 @@ def _check_names(params: ParamsSpec | None) -> None:
                             f"result per dict), got {spec!r}")
 
 
-def score_keys(params: ParamsSpec | None = None) -> list[str]:
-    """The keys :func:`score_episode` returns for these params, in order (for table columns)."""
+def score_keys(params: ParamsSpec | None = None, *, static_map: bool = False) -> list[str]:
+    """The keys :func:`score_episode` returns for these params, in order (for table columns).
+
+    By default those of an episode without a static map (an open floor); ``static_map=True`` gives those
+    of an episode with one, which add the keys of the ``map_only`` metrics.
+    """
     _check_names(params)
-    return [key for m in list_metrics() for v in _variants(m, params) for key in m.keys(v)]
+    return [key for m in list_metrics() if static_map or not m.map_only
+            for v in _variants(m, params) for key in m.keys(v)]
+
+
+def fill_missing_keys(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Rows that all have every key any of them has, NaN where a row lacked one.
+
+    Episodes with and without a static map have different keys (``map_only`` metrics); a table of
+    rows (a Parquet chunk, a printout) takes its columns from its first row. Rows that already share
+    their keys come back as they are (the same objects).
+
+    Args:
+        rows: Result rows (score rows with identifiers).
+
+    Returns:
+        The rows, each with the keys of the row with the most keys first, in its order, then any other
+        key in order of first appearance.
+    """
+    if len({frozenset(r) for r in rows}) <= 1:
+        return list(rows)
+    longest: dict[str, Any] = max(rows, key=len)
+    order = dict.fromkeys(longest)
+    for row in rows:
+        order.update(dict.fromkeys(k for k in row if k not in order))
+    return [{k: row.get(k, float("nan")) for k in order} for row in rows]
 
 
 def score_episode(
@@ -75,7 +105,8 @@ def score_episode(
             ``traj.outcome == "success"``. Set False to score logs whose outcome is ``unknown``.
 
     Returns:
-        ``{flat key: value}`` with the same keys for every episode (see :func:`score_keys`).
+        ``{flat key: value}`` with the same keys for every episode with a static map, and for every
+        episode without one (see :func:`score_keys`; ``map_only`` metrics are left out there).
 
     Warns:
         UnknownOutcomeWarning: ``require_success`` is True and the outcome is ``unknown``, so every
@@ -88,7 +119,10 @@ def score_episode(
         warnings.warn("episode outcome is 'unknown': social metrics (M_I-M_VI) are NaN because they are "
                       "computed on successful episodes only; pass require_success=False (CLI: "
                       "--all-episodes) or give the outcome", UnknownOutcomeWarning, stacklevel=2)
+    no_map = traj.static_map is None
     for metric, variant, keys in plan:
+        if no_map and metric.map_only:
+            continue
         if metric.social and gated:
             row.update(dict.fromkeys(keys, float("nan")))
             continue
