@@ -15,7 +15,10 @@ With ``--obstacles`` (issue #28) it measures instead the same workload among 8 w
 (``spoke_walls``: radial walls from 1.5 to 2.5 m around the centre, in the crowd's way) against the
 open world and against navground's ORCA with the same walls, all in the same run, best of
 ``--repeats`` alternating runs each; keys ``env_steps_per_s_obstacles``, ``ratio_vs_open_world``
-(goal >= 0.5) and ``ratio_vs_navground_obstacles`` (goal >= 3).
+(goal >= 0.5) and ``ratio_vs_navground_obstacles`` (goal >= 3); and the same walls with routed
+humans (``human_routes: shortest``, issue #48) against them without routes,
+``ratio_routed_vs_unrouted`` (goal >= 0.8), with what building the route graphs costs
+(``route_graph_ms_*``).
 
     python benchmarks/bench_world.py [--batch 4096] [--seconds 5] [--threads 0]
         [--scaling-threads 1 2] [--scaling-repeats 3] [--scaling-seconds 2] [--scaling-ceiling]
@@ -79,8 +82,9 @@ def room_walls() -> list[tuple[tuple[float, float], tuple[float, float]]]:
 MAPS = {"spokes": spoke_walls, "room": room_walls}
 
 
-def measure_socialnav(batch: int, seconds: float, threads: int, static_map: StaticMap | None = None) -> dict:
-    settings = WorldSettings(time_limit=25.0, threads=threads)
+def measure_socialnav(batch: int, seconds: float, threads: int, static_map: StaticMap | None = None,
+                      routes: bool = False) -> dict:
+    settings = WorldSettings(time_limit=25.0, threads=threads, human_routes="shortest" if routes else "none")
     world = World(settings, make_scenario("circle_crossing", n_humans=5), batch, split="train", record=False,
                   static_map=static_map)
     policy = make_policy("orca", safety_space=0.0, threads=threads)
@@ -254,6 +258,31 @@ def main_against(args: argparse.Namespace) -> None:
     print(json.dumps(run_record() | rounded))
 
 
+def route_graph_cost(static_map: StaticMap, pillar_maps: int = 200) -> dict:
+    """What building the route graphs costs (issue #48): the benchmark's map, and the maps that
+    circle_crossing_obstacles draws per episode (each distinct map gets its own graphs, cached), both
+    inflations of a 0.3 m human with the default 0.2 m clearance, timed from an empty cache."""
+    from socialnav import _core
+    from socialnav.maps.routes import plan_route
+
+    def build(m: StaticMap) -> float:
+        _core.clear_route_cache()
+        start = time.perf_counter()
+        plan_route(m, (-10.0, -10.0), (10.0, 10.0), radius=0.3)  # builds the graphs of both inflations
+        return time.perf_counter() - start
+
+    bench_ms = 1e3 * min(build(static_map) for _ in range(5))
+    with World(WorldSettings(), make_scenario("circle_crossing_obstacles"), pillar_maps, count=pillar_maps,
+               record=False) as world:
+        world.reset()
+        maps = [m for m in world.static_maps if m is not None]
+    total = sum(build(m) for m in maps)
+    _core.clear_route_cache()
+    per_map = 1e3 * total / max(len(maps), 1)
+    return {"route_graph_ms_bench_map": bench_ms, "route_graph_ms_per_pillar_map": per_map,
+            "pillar_maps": len(maps)}
+
+
 def main_obstacles(args: argparse.Namespace) -> None:
     """The --obstacles benchmark: walls vs open floor vs navground with walls, alternating."""
     walls = MAPS[args.map]()
@@ -261,12 +290,14 @@ def main_obstacles(args: argparse.Namespace) -> None:
     sys.path.insert(0, os.path.dirname(__file__))
     from _navground_workload import navground_env_steps_per_s
 
-    best = {"obstacles": 0.0, "open": 0.0, "navground_obstacles": 0.0, "navground_open": 0.0}
+    best = {"obstacles": 0.0, "routed": 0.0, "open": 0.0, "navground_obstacles": 0.0, "navground_open": 0.0}
     threads = None
     for _ in range(args.repeats):
         walled = measure_socialnav(args.batch, args.seconds, args.threads, static_map)
         threads = walled["threads"]
         best["obstacles"] = max(best["obstacles"], walled["env_steps_per_s"])
+        routed = measure_socialnav(args.batch, args.seconds, args.threads, static_map, routes=True)
+        best["routed"] = max(best["routed"], routed["env_steps_per_s"])
         open_floor = measure_socialnav(args.batch, args.seconds, args.threads)
         best["open"] = max(best["open"], open_floor["env_steps_per_s"])
         ng = navground_env_steps_per_s(seconds=args.seconds, walls=walls)
@@ -288,9 +319,13 @@ def main_obstacles(args: argparse.Namespace) -> None:
         "ratio_vs_navground_obstacles": best["obstacles"] / best["navground_obstacles"],
         "navground_env_steps_per_s_open_world": best["navground_open"],
         "navground_ratio_obstacles_vs_open": best["navground_obstacles"] / best["navground_open"],
+        "env_steps_per_s_routed": best["routed"],
+        "ratio_routed_vs_unrouted": best["routed"] / best["obstacles"],
+        **route_graph_cost(static_map),
     }
     result["meets_target"] = bool(
         result["ratio_vs_open_world"] >= 0.5 and result["ratio_vs_navground_obstacles"] >= 3
+        and result["ratio_routed_vs_unrouted"] >= 0.8
     )
     result["load_average_1min"] = os.getloadavg()[0]
     print(f"socialnav with {len(walls)} walls: {best['obstacles']:,.0f} env-steps/s "
@@ -299,6 +334,11 @@ def main_obstacles(args: argparse.Namespace) -> None:
           f"{result['ratio_vs_open_world']:.2f} (goal 0.5)")
     print(f"navground with the same walls: {best['navground_obstacles']:,.0f} env-steps/s -> ratio "
           f"{result['ratio_vs_navground_obstacles']:.1f}x (goal 3)")
+    print(f"socialnav with the walls and routed humans: {best['routed']:,.0f} env-steps/s -> ratio "
+          f"{result['ratio_routed_vs_unrouted']:.2f} to the same walls without routes (goal 0.8)")
+    print(f"route graphs: {result['route_graph_ms_bench_map']:.2f} ms for this map (both inflations), "
+          f"{result['route_graph_ms_per_pillar_map']:.2f} ms per circle_crossing_obstacles map (mean of "
+          f"{result['pillar_maps']})")
     rounded = {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
     emit(run_record() | rounded, args)
 

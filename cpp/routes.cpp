@@ -11,6 +11,9 @@
 #include <unordered_map>
 #include <utility>
 
+// As cpp/orca.cpp's: the per-step kernels get an AVX2 clone, chosen when the library loads.
+#define SOCIALNAV_ROUTES_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
+
 namespace socialnav {
 
 namespace {
@@ -44,57 +47,68 @@ void corner_nodes(const ObstacleView& obs, int i, double d, std::vector<Vec2>& o
   }
 }
 
-struct Candidate {
-  double distance;
+struct Entry {
+  double key;  // g + the straight distance to the goal (A*'s admissible, consistent estimate)
+  double g;    // route length from the start
   int node;
-  bool operator>(const Candidate& o) const {
-    return distance > o.distance || (distance == o.distance && node > o.node);
-  }
+  int pred;  // the node it is reached from; -1: straight from the start, not yet checked
+  bool operator>(const Entry& o) const { return key > o.key || (key == o.key && node > o.node); }
 };
 
-// Dijkstra from `start` to `goal` over graph g; writes the route's points (the goal last) and returns true,
-// or returns false where the graph joins them nowhere.
+// A* from `start` to `goal` over graph g; writes the route's points (the goal last) and returns true, or
+// returns false where the graph joins them nowhere. The start's and the goal's segments to the nodes are
+// checked lazily, when a node comes out of the queue (the graph's own edges were checked when it was
+// built): the search stops as soon as no route through the remaining nodes can be shorter, so most of
+// them are never tested.
 bool shortest_route(const RouteGraph& g, const ObstacleView& obs, Vec2 start, Vec2 goal, std::vector<Vec2>& points) {
   const double d = g.inflation;
-  const double c_start = std::max(std::min(d, obstacle_clearance(obs, start)) * (1.0 - 1e-9), kMinClearance);
-  const double c_goal = std::max(std::min(d, obstacle_clearance(obs, goal)) * (1.0 - 1e-9), kMinClearance);
+  // The start's and the goal's own clearance (a point inside a solid polygon sees nothing anyway: every
+  // segment out of it crosses an edge).
+  const EdgeSet& walls = g.walls;
+  auto visible = [&](Vec2 a, Vec2 b, double c) { return segment_clearance(walls, obs, a, b) >= c; };
+  const double c_start = std::max(std::min(d, edge_clearance(walls, start)) * (1.0 - 1e-9), kMinClearance);
+  const double c_goal = std::max(std::min(d, edge_clearance(walls, goal)) * (1.0 - 1e-9), kMinClearance);
   points.clear();
-  if (visible_with_clearance(obs, start, goal, std::min(c_start, c_goal))) {
+  if (visible(start, goal, std::min(c_start, c_goal))) {
     points.push_back(goal);
     return true;
   }
   const int n = static_cast<int>(g.node.size());
-  std::vector<double> dist(static_cast<size_t>(n), kInf);
-  std::vector<int> prev(static_cast<size_t>(n), -1);
-  std::vector<uint8_t> settled(static_cast<size_t>(n), 0);
-  std::priority_queue<Candidate, std::vector<Candidate>, std::greater<Candidate>> open;
+  thread_local std::vector<int> prev;
+  thread_local std::vector<uint8_t> settled;
+  thread_local std::vector<Entry> heap;
+  prev.assign(static_cast<size_t>(n), -1);
+  settled.assign(static_cast<size_t>(n), 0);
+  heap.clear();
+  const auto later = std::greater<Entry>();
   for (int i = 0; i < n; ++i) {
-    if (!visible_with_clearance(obs, start, g.node[i], c_start)) continue;
-    dist[i] = norm(g.node[i] - start);
-    open.push({dist[i], i});
+    const double g0 = norm(g.node[i] - start);
+    heap.push_back({g0 + norm(goal - g.node[i]), g0, i, -1});
   }
+  std::make_heap(heap.begin(), heap.end(), later);
   double best = kInf;
   int last = -1;
-  while (!open.empty()) {
-    const Candidate c = open.top();
-    open.pop();
-    if (settled[c.node] || c.distance > dist[c.node]) continue;
-    if (c.distance >= best) break;  // no route through a farther node can be shorter
-    settled[c.node] = 1;
-    const Vec2 p = g.node[c.node];
+  while (!heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end(), later);
+    const Entry e = heap.back();
+    heap.pop_back();
+    if (e.key >= best) break;  // no route through the remaining nodes can be shorter
+    if (settled[e.node]) continue;
+    const Vec2 p = g.node[e.node];
+    if (e.pred < 0 && !visible(start, p, c_start)) continue;
+    settled[e.node] = 1;
+    prev[e.node] = e.pred;
     const double to_goal = norm(goal - p);
-    if (c.distance + to_goal < best && visible_with_clearance(obs, p, goal, c_goal)) {
-      best = c.distance + to_goal;
-      last = c.node;
+    if (e.g + to_goal < best && visible(p, goal, c_goal)) {
+      best = e.g + to_goal;
+      last = e.node;
     }
-    for (int k = g.first[c.node]; k < g.first[c.node + 1]; ++k) {
+    for (int k = g.first[e.node]; k < g.first[e.node + 1]; ++k) {
       const int j = g.neighbour[k];
-      const double dj = c.distance + g.length[k];
-      if (dj < dist[j]) {
-        dist[j] = dj;
-        prev[j] = c.node;
-        open.push({dj, j});
-      }
+      if (settled[j]) continue;
+      const double gj = e.g + g.length[k];
+      heap.push_back({gj + norm(goal - g.node[j]), gj, j, e.node});
+      std::push_heap(heap.begin(), heap.end(), later);
     }
   }
   if (last < 0) return false;
@@ -141,8 +155,124 @@ std::string cache_key(const ObstacleView& obs, double inflation) {
 
 }  // namespace
 
+namespace {
+
+// The smallest squared distance between the segment [a, b] and the view's edges, 0 where one crosses it:
+// branch-free over the edge arrays (a wall's return face repeats its own edge), so that the compiler
+// vectorises it, with an AVX2 clone chosen at load time (no contraction: the same values either way).
+SOCIALNAV_ROUTES_AVX2_CLONE double min_edge_distance_sq(const double* __restrict px, int n, Vec2 a, Vec2 b) {
+  const double* __restrict py = px + n;
+  const double* __restrict ex = px + 2 * n;
+  const double* __restrict ey = px + 3 * n;
+  const double* __restrict inv = px + 4 * n;
+  const double abx = b.x - a.x, aby = b.y - a.y;
+  const double ab_sq = abx * abx + aby * aby;
+  const double inv_ab = ab_sq > 0.0 ? 1.0 / ab_sq : 0.0;
+  // Chunks of the edges' distances, then their minimum: the compiler vectorises the first loop (a minimum
+  // reduction over doubles it would not, without -ffast-math).
+  constexpr int kChunk = 64;
+  double d[kChunk];
+  double best = kInf;
+  for (int base = 0; base < n; base += kChunk) {
+    const int m = std::min(kChunk, n - base);
+    for (int k = 0; k < m; ++k) {
+      const int i = base + k;
+      // a and b to the edge p + t e
+      const double ax = a.x - px[i], ay = a.y - py[i];
+      const double ta = std::min(std::max((ax * ex[i] + ay * ey[i]) * inv[i], 0.0), 1.0);
+      const double dax = ax - ta * ex[i], day = ay - ta * ey[i];
+      const double bx = b.x - px[i], by = b.y - py[i];
+      const double tb = std::min(std::max((bx * ex[i] + by * ey[i]) * inv[i], 0.0), 1.0);
+      const double dbx = bx - tb * ex[i], dby = by - tb * ey[i];
+      // the edge's ends p and q = p + e to the segment a + s (b - a)
+      const double sp = std::min(std::max((-ax * abx - ay * aby) * inv_ab, 0.0), 1.0);
+      const double dpx = -ax - sp * abx, dpy = -ay - sp * aby;
+      const double qx = px[i] + ex[i] - a.x, qy = py[i] + ey[i] - a.y;
+      const double sq = std::min(std::max((qx * abx + qy * aby) * inv_ab, 0.0), 1.0);
+      const double dqx = qx - sq * abx, dqy = qy - sq * aby;
+      const double dist = std::min(std::min(dax * dax + day * day, dbx * dbx + dby * dby),
+                                   std::min(dpx * dpx + dpy * dpy, dqx * dqx + dqy * dqy));
+      // a proper crossing: p and q on opposite sides of the segment's line, a and b on opposite sides of the
+      // edge's
+      const double s1 = aby * ax - abx * ay, s2 = abx * qy - aby * qx;
+      const double s3 = ex[i] * ay - ey[i] * ax, s4 = ex[i] * by - ey[i] * bx;
+      const bool crossing = (s1 * s2 < 0.0) & (s3 * s4 < 0.0);
+      d[k] = crossing ? 0.0 : dist;
+    }
+    for (int k = 0; k < m; ++k) best = std::min(best, d[k]);
+  }
+  return best;
+}
+
+}  // namespace
+
+double segment_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b) {
+  if (obstacles.count == 0) return kInf;
+  const double best = obstacles.edges ? std::sqrt(min_edge_distance_sq(obstacles.edges, obstacles.count, a, b))
+                                      : std::max(swept_obstacle_clearance(obstacles, a, b, 0.0), 0.0);
+  // Clear of every edge, the segment lies inside or outside each solid polygon as a whole.
+  return best > 0.0 && inside_solid(obstacles, b) ? 0.0 : best;
+}
+
+EdgeSet compact_edges(const ObstacleView& obstacles) {
+  EdgeSet e;
+  std::vector<ObstacleVertex> own;
+  for (int i = 0; i < obstacles.count; ++i) {
+    const ObstacleVertex& v = obstacles.vertex[i];
+    e.has_solid = e.has_solid || v.solid;
+    if (v.own_edge) own.push_back(v);
+  }
+  e.count = static_cast<int>(own.size());
+  e.soa.resize(5 * own.size());
+  build_edge_arrays(own.data(), e.count, e.soa.data());
+  return e;
+}
+
+double segment_clearance(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b) {
+  if (edges.count == 0) return kInf;
+  const double best = std::sqrt(min_edge_distance_sq(edges.soa.data(), edges.count, a, b));
+  return best > 0.0 && edges.has_solid && inside_solid(obstacles, b) ? 0.0 : best;
+}
+
 bool visible_with_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b, double c) {
-  return !swept_disc_hits_obstacles(obstacles, a, b, std::max(c, kMinClearance));
+  return segment_clearance(obstacles, a, b) >= std::max(c, kMinClearance);
+}
+
+namespace {
+
+SOCIALNAV_ROUTES_AVX2_CLONE double min_point_distance_sq(const double* __restrict px, int n, Vec2 p) {
+  const double* __restrict py = px + n;
+  const double* __restrict ex = px + 2 * n;
+  const double* __restrict ey = px + 3 * n;
+  const double* __restrict inv = px + 4 * n;
+  // As min_edge_distance_sq: chunks of distances (vectorised), then their minimum.
+  constexpr int kChunk = 64;
+  double d[kChunk];
+  double best = kInf;
+  for (int base = 0; base < n; base += kChunk) {
+    const int m = std::min(kChunk, n - base);
+    for (int k = 0; k < m; ++k) {
+      const int i = base + k;
+      const double tx = p.x - px[i], ty = p.y - py[i];
+      const double r = std::min(std::max((tx * ex[i] + ty * ey[i]) * inv[i], 0.0), 1.0);
+      const double dx = tx - r * ex[i], dy = ty - r * ey[i];
+      d[k] = dx * dx + dy * dy;
+    }
+    for (int k = 0; k < m; ++k) best = std::min(best, d[k]);
+  }
+  return best;
+}
+
+}  // namespace
+
+double edge_clearance(const ObstacleView& obstacles, Vec2 p) {
+  if (obstacles.count == 0) return kInf;
+  if (!obstacles.edges) return obstacle_clearance(obstacles, p);
+  return std::sqrt(min_point_distance_sq(obstacles.edges, obstacles.count, p));
+}
+
+double edge_clearance(const EdgeSet& edges, Vec2 p) {
+  return edges.count == 0 ? kInf : std::sqrt(min_point_distance_sq(edges.soa.data(), edges.count, p));
 }
 
 double obstacle_clearance(const ObstacleView& obstacles, Vec2 p) {
@@ -153,6 +283,7 @@ double obstacle_clearance(const ObstacleView& obstacles, Vec2 p) {
 RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation) {
   RouteGraph g;
   g.inflation = inflation;
+  g.walls = compact_edges(obstacles);
   std::vector<Vec2> candidates;
   for (int i = 0; i < obstacles.count; ++i) corner_nodes(obstacles, i, inflation, candidates);
   for (const Vec2& c : candidates)
@@ -220,7 +351,9 @@ void plan_with_tiers(const ObstacleView& obstacles, GraphFor graph, Vec2 start, 
   out.found = shortest_route(graph(radius + clearance), obstacles, start, goal, out.point);
   out.inflation = radius + clearance;
   if (out.found) fill_remaining(out);
-  if (clearance > 0.0 && !(out.found && out.point.size() == 1)) {  // a goal in sight is the route
+  // A narrower passage is looked for only where it could save a fifth: no route, or one longer than a fifth
+  // more than the straight line (a goal in sight is the route).
+  if (clearance > 0.0 && (!out.found || route_length_from(out, start) > kNarrowDetour * norm(goal - start))) {
     thread_local Route narrow;
     narrow.found = shortest_route(graph(radius), obstacles, start, goal, narrow.point);
     if (narrow.found) {
@@ -242,9 +375,10 @@ void plan_with_tiers(const ObstacleView& obstacles, GraphFor graph, Vec2 start, 
 }  // namespace
 
 void plan_route(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance, Route& out) {
-  std::shared_ptr<const RouteGraph> held;
+  std::shared_ptr<const RouteGraph> wide, narrow;
   auto graph = [&](double d) -> const RouteGraph& {
-    held = cached_route_graph(obstacles, d);
+    std::shared_ptr<const RouteGraph>& held = d == radius + clearance ? wide : narrow;
+    if (!held) held = cached_route_graph(obstacles, d);
     return *held;
   };
   plan_with_tiers(obstacles, graph, start, goal, radius, clearance, out);
@@ -318,9 +452,16 @@ void route_distances(const ObstacleView& obstacles, const Vec2* points, int n, V
   const double c_goal = std::max(std::min(radius, obstacle_clearance(obstacles, goal)) * (1.0 - 1e-9), kMinClearance);
   // Dijkstra from the goal: to_goal[i], node i's route length to the goal.
   std::vector<double> to_goal(static_cast<size_t>(m), kInf);
+  struct Candidate {
+    double distance;
+    int node;
+    bool operator>(const Candidate& o) const {
+      return distance > o.distance || (distance == o.distance && node > o.node);
+    }
+  };
   std::priority_queue<Candidate, std::vector<Candidate>, std::greater<Candidate>> open;
   for (int i = 0; i < m; ++i)
-    if (visible_with_clearance(obstacles, g.node[i], goal, c_goal)) {
+    if (segment_clearance(g.walls, obstacles, g.node[i], goal) >= c_goal) {
       to_goal[i] = norm(goal - g.node[i]);
       open.push({to_goal[i], i});
     }
@@ -340,28 +481,49 @@ void route_distances(const ObstacleView& obstacles, const Vec2* points, int n, V
   for (int k = 0; k < n; ++k) {
     const Vec2 p = points[k];
     const double c_point = std::max(std::min(radius, obstacle_clearance(obstacles, p)) * (1.0 - 1e-9), kMinClearance);
-    if (visible_with_clearance(obstacles, p, goal, std::min(c_point, c_goal))) {
+    if (segment_clearance(g.walls, obstacles, p, goal) >= std::min(c_point, c_goal)) {
       out[k] = norm(goal - p);
       continue;
     }
     double best = kInf;
     for (int i = 0; i < m; ++i) {
       const double via = norm(g.node[i] - p) + to_goal[i];
-      if (via < best && visible_with_clearance(obstacles, p, g.node[i], c_point)) best = via;
+      if (via < best && segment_clearance(g.walls, obstacles, p, g.node[i]) >= c_point) best = via;
     }
     out[k] = best;
   }
 }
 
-void RouteFollower::plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance) {
-  plan_route(obstacles, start, goal, radius, clearance, route);
-  index = 0;
+void RouteFollower::plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance,
+                         std::shared_ptr<const void> map) {
+  if (!map || map != held_map) {  // another map (or one not known): its graphs are looked up afresh
+    wide_graph.reset();
+    narrow_graph.reset();
+    held_map = std::move(map);
+  }
+  start_over(obstacles, start, goal, radius, clearance);
   replans = 0;
+}
+
+void RouteFollower::start_over(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance) {
+  replan(obstacles, start, goal, radius, clearance);
   yields = 0;
   best_remaining = kInf;
   stalled = 0.0;
   yielding = 0.0;
   last_step = -1;
+}
+
+void RouteFollower::replan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance) {
+  // The episode's graphs are looked up once and kept: a re-plan costs the search only.
+  auto graph = [&](double d) -> const RouteGraph& {
+    std::shared_ptr<const RouteGraph>& held = d == radius + clearance ? wide_graph : narrow_graph;
+    if (!held) held = cached_route_graph(obstacles, d);
+    return *held;
+  };
+  plan_with_tiers(obstacles, graph, start, goal, radius, clearance, route);
+  index = 0;
+  seen_margin = blocked_margin = -1.0;
 }
 
 Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance,
@@ -395,23 +557,50 @@ Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 go
 Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius,
                                  double clearance) {
   if (!route.found) return goal;
+  const EdgeSet& walls = wide_graph->walls;  // planned: the graph is held
   const int n = static_cast<int>(route.point.size());
-  const double own = obstacle_clearance(obstacles, position);
-  // Advance to the farthest point seen with half the planned clearance, or with the agent's own where a
-  // neighbour pressed it closer to a wall than that.
-  const double c_advance = std::min(0.5 * (radius + route.inflation), 0.99 * own);
+  // The two tests below are skipped where their answer is known from an earlier step: a segment's clearance,
+  // and the agent's own, change by at most as much as the agent moved (both are 1-Lipschitz in its position).
   bool advanced = false;
-  while (index + 1 < n && visible_with_clearance(obstacles, position, route.point[index + 1], c_advance)) {
-    ++index;
-    advanced = true;
+  double own = -1.0;  // the agent's own clearance, computed when a test needs it
+  if (index + 1 < n && !(blocked_margin > 0.0 && norm(position - blocked_from) < blocked_margin)) {
+    // Advance to the farthest point seen with half the planned clearance, or with the agent's own where a
+    // neighbour pressed it closer to a wall than that.
+    own = edge_clearance(walls, position);
+    const double c_advance = std::max(std::min(0.5 * (radius + route.inflation), 0.99 * own), kMinClearance);
+    while (index + 1 < n) {
+      const double seen = segment_clearance(walls, obstacles, position, route.point[index + 1]);
+      if (seen < c_advance) {
+        // Hidden: it stays hidden while the agent moves less than this (the segment gains at most the
+        // distance moved, c_advance loses at most 0.99 of it).
+        blocked_from = position;
+        blocked_margin = (c_advance - seen) / 1.99;
+        break;
+      }
+      ++index;
+      advanced = true;
+      blocked_margin = -1.0;
+      seen_from = position;
+      seen_margin = seen - std::max(0.99 * radius, kMinClearance);
+    }
   }
-  // Pushed off the route (the point it heads for, the goal included, is behind a wall or closer to one than
-  // the agent's radius on the way): re-plan from here.
-  if (!advanced && !visible_with_clearance(obstacles, position, route.point[index], 0.99 * std::min(radius, own))) {
-    const int replanned = replans + 1;
-    plan(obstacles, position, goal, radius, clearance);
-    replans = replanned;
-    if (!route.found) return goal;
+  // Pushed off the route (the point it heads for, the goal included, is behind a wall, or the way to it passes
+  // a wall closer than the agent's radius, or than its own clearance where it is closer): re-plan from here,
+  // as on a new route (the giving-way timers start afresh). It surely still sees the point while it strays
+  // less than seen_margin from the segment it saw it along: every point of the new segment is then within
+  // that distance of a point of the old one.
+  if (!advanced && !(seen_margin >= 0.0 &&
+                     dist_sq_point_segment(seen_from, route.point[index], position) <= seen_margin * seen_margin)) {
+    if (own < 0.0) own = edge_clearance(walls, position);
+    const double seen = segment_clearance(walls, obstacles, position, route.point[index]);
+    if (seen >= std::max(0.99 * std::min(radius, own), kMinClearance)) {
+      seen_from = position;
+      seen_margin = seen - std::max(0.99 * radius, kMinClearance);
+    } else {
+      start_over(obstacles, position, goal, radius, clearance);
+      ++replans;
+      if (!route.found) return goal;
+    }
   }
   if (index + 1 >= static_cast<int>(route.point.size())) return goal;
   const Vec2 w = route.point[index];

@@ -20,10 +20,23 @@
 
 namespace socialnav {
 
+// A map's own edges (a wall's return face left out) as five arrays of `count` doubles (point x, y, edge
+// x, y, 1 / |edge|^2): what the per-step visibility and clearance tests scan.
+struct EdgeSet {
+  std::vector<double> soa;
+  int count = 0;
+  bool has_solid = false;  // some polygon has an interior (then a segment's end may lie inside one)
+};
+EdgeSet compact_edges(const ObstacleView& obstacles);
+// segment_clearance and edge_clearance (below) over an EdgeSet of `obstacles` (the same map).
+double segment_clearance(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b);
+double edge_clearance(const EdgeSet& edges, Vec2 p);
+
 // One map's visibility graph for inflation d [m]: nodes and their edges (CSR: node i's neighbours are
-// neighbour[first[i]..first[i + 1]), with the segment lengths).
+// neighbour[first[i]..first[i + 1]), with the segment lengths), and the map's edges.
 struct RouteGraph {
   double inflation = 0.0;
+  EdgeSet walls;
   std::vector<Vec2> node;
   std::vector<int32_t> first;
   std::vector<int32_t> neighbour;
@@ -43,12 +56,19 @@ constexpr int kRouteCacheMaps = 4096;
 int route_cache_size();
 void clear_route_cache();
 
+// The distance [m] between the segment [a, b] and the nearest obstacle edge: 0 where it crosses one or ends
+// inside a solid polygon; +inf without obstacles.
+double segment_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b);
+
 // True when a disc of radius c moving straight from a to b touches no obstacle edge (and b is outside the
-// solid polygons): `b` is visible from `a` with clearance c.
+// solid polygons): `b` is visible from `a` with clearance c (segment_clearance >= c).
 bool visible_with_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b, double c);
 
 // The distance from p to the nearest obstacle edge (0 inside a solid polygon; +inf without obstacles).
 double obstacle_clearance(const ObstacleView& obstacles, Vec2 p);
+// The same distance to the nearest edge without the inside test, over the view's edge arrays (a view with
+// `edges`, as the world's and a prepared map's are): the per-step query of a route follower.
+double edge_clearance(const ObstacleView& obstacles, Vec2 p);
 
 constexpr double kNarrowDetour = 1.2;
 
@@ -97,15 +117,24 @@ constexpr double kYieldTimes[4] = {1.0, 2.5, 4.0, 5.5};  // [s]
 // One agent following its route: which point it heads for, re-planning when that point is hidden.
 struct RouteFollower {
   Route route;
-  int index = 0;                // the route point it heads for
-  int replans = 0;              // re-plans since the route was first planned
-  int yields = 0;               // times it gave way
-  double best_remaining = 0.0;  // the shortest remaining route length so far [m]
-  double stalled = 0.0;         // time since it last came kProgress closer [s]
-  double yielding = 0.0;        // time left stepping back [s]
-  int last_step = -1;           // the step the timers were last advanced at
+  int index = 0;                                               // the route point it heads for
+  int replans = 0;                                             // re-plans since the route was first planned
+  int yields = 0;                                              // times it gave way
+  double best_remaining = 0.0;                                 // the shortest remaining route length so far [m]
+  double stalled = 0.0;                                        // time since it last came kProgress closer [s]
+  double yielding = 0.0;                                       // time left stepping back [s]
+  int last_step = -1;                                          // the step the timers were last advanced at
+  std::shared_ptr<const RouteGraph> wide_graph, narrow_graph;  // the map's graphs (radius + clearance, radius)
+  std::shared_ptr<const void> held_map;                        // the map they belong to (plan's `map`)
+  // What the last tests showed (route_target): from seen_from the point headed for was in sight with
+  // seen_margin to spare, from blocked_from the next one was hidden by blocked_margin (< 0: not known).
+  Vec2 seen_from, blocked_from;
+  double seen_margin = -1.0, blocked_margin = -1.0;
 
-  void plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance);
+  // `map`: the object that owns `obstacles` where the caller has one (the world's slot map); a follower
+  // planning again on the same one keeps the graphs it holds instead of looking them up.
+  void plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance,
+            std::shared_ptr<const void> map = nullptr);
   // The point to hand the behaviour's preferred-velocity law (behaviour.hpp) at step `step` of length dt
   // [s] for agent `agent`: the goal once it is the point headed for; before, a point beyond the current
   // route point on the line to it, as far from the agent as the rest of the route is long, so that the
@@ -116,6 +145,10 @@ struct RouteFollower {
 
  private:
   Vec2 route_target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance);
+  // The route from `start` afresh (same map: the held graphs), index at its first point.
+  void replan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance);
+  // replan, and the giving-way timers too: what an agent pushed off its route does.
+  void start_over(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance);
 };
 
 }  // namespace socialnav

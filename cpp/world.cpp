@@ -162,7 +162,7 @@ const double* World::route_targets(int b, int worker, const SlotView& slot) {
     if (!slot.mask[i]) continue;
     RouteFollower& follower = routes_[row + i];
     const Vec2 p = slot.at(slot.position, i), goal = slot.at(slot.goal, i);
-    if (start) follower.plan(slot.obstacles, p, goal, slot.radius[i], config_.route_clearance);
+    if (start) follower.plan(slot.obstacles, p, goal, slot.radius[i], config_.route_clearance, slot_obstacles_[b]);
     const Vec2 t =
         follower.target(slot.obstacles, p, goal, slot.radius[i], config_.route_clearance, buf_.steps[b], slot.dt, i);
     out[2 * i] = t.x;
