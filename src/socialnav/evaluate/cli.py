@@ -370,7 +370,10 @@ def cmd_evaluate_all(args: argparse.Namespace, write_report: Any = None) -> int:
     from socialnav.policies.building import check_preset_policies
 
     check_preset_policies(preset, args.preset)
-    specs = default_specs(preset.name)
+    from socialnav.policies.learned_loading import walled_scenarios
+
+    evaluated = [*preset.evaluation.multi_human, *preset.evaluation.single_human]
+    specs = default_specs(preset.name, walls=bool(walled_scenarios(evaluated)))
     out = Path(args.out or f"runs/evaluate/{preset.name}-all")
     quiet = args.json or args.quiet
     if not any(s.checkpoint for s in specs) and not quiet:

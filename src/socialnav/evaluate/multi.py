@@ -63,8 +63,21 @@ class MultiResult:
     recorded_timings: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
 
 
-def default_specs(preset_name: str, learned: bool = True) -> list[PolicySpec]:
-    """Every shipped checkpoint for ``preset_name`` (index order) and the native policies."""
+#: The native policies that plan routes around walls: evaluated by ``--policy all`` only under a preset
+#: with walls (on an open floor they act as their plain kinds, rows that would repeat ``orca`` and
+#: ``social_force``).
+ROUTE_POLICIES = ("orca_route", "social_force_route")
+
+
+def default_specs(preset_name: str, learned: bool = True, walls: bool = False) -> list[PolicySpec]:
+    """Every shipped checkpoint for ``preset_name`` (index order) and the native policies.
+
+    Args:
+        preset_name: The preset whose shipped checkpoints to take.
+        learned: Include the shipped checkpoints.
+        walls: The preset evaluates scenarios with walls: include the route-following natives
+            (`ROUTE_POLICIES`).
+    """
     from socialnav.policies.building import describe_checkpoint, shipped_checkpoints
     from socialnav.policies.learned_catalog import default_label
     from socialnav.policies.registry import list_policies
@@ -75,11 +88,12 @@ def default_specs(preset_name: str, learned: bool = True) -> list[PolicySpec]:
             PolicySpec(e.name, e.policy, e.label, e.path, describe_checkpoint(e))
             for e in shipped_checkpoints(preset_name)
         ]
-    natives = {"linear": "Linear", "orca": "ORCA", "social_force": "Social force"}
+    natives = {"linear": "Linear", "orca": "ORCA", "social_force": "Social force",
+               "orca_route": "ORCA + route", "social_force_route": "Social force + route"}
     specs += [
         PolicySpec(p.name, p.name, natives.get(p.name, default_label(p.name)))
         for p in list_policies()
-        if not p.learned
+        if not p.learned and (walls or p.name not in ROUTE_POLICIES)
     ]
     names = [s.name for s in specs]
     duplicates = sorted({n for n in names if names.count(n) > 1})
