@@ -143,6 +143,18 @@ class WorldConfig:
     @obstacle_collision_ends.setter
     def obstacle_collision_ends(self, arg: bool, /) -> None: ...
 
+    @property
+    def human_routes(self) -> bool: ...
+
+    @human_routes.setter
+    def human_routes(self, arg: bool, /) -> None: ...
+
+    @property
+    def route_clearance(self) -> float: ...
+
+    @route_clearance.setter
+    def route_clearance(self, arg: float, /) -> None: ...
+
 STATUS_IDLE: int = -1
 
 STATUS_RUNNING: int = 0
@@ -250,9 +262,9 @@ class SarlScorer:
     def values(self, joint: Annotated[NDArray[numpy.float32], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float32], dict(order='C', device='cpu')], pool: ThreadPool, states_per_tile: int = 32) -> None:
         """SARL values of M joint states, written into out (M,)."""
 
-def robot_actions(policy: str, robot: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], humans: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], active: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], kinematics: int, rotation_limit: float, dt: float, orca: object | None, safety_space: float, social_force: object | None, pool: ThreadPool, out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacles: object | None = None) -> None:
+def robot_actions(policy: str, robot: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], humans: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], active: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], kinematics: int, rotation_limit: float, dt: float, orca: object | None, safety_space: float, social_force: object | None, pool: ThreadPool, out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacles: object | None = None, route_clearance: float = 0.1) -> None:
     """
-    Batched actions of a native robot policy ('linear', 'orca' or 'social_force'), written into out (B, 2). orca, social_force: the humans' behaviour parameters of that name (a dict by name, the values in declared order, or None for the defaults); safety_space [m]: the ORCA robot's own inflation. obstacles: None or the B episodes' static maps as PreparedObstacleBatch.
+    Batched actions of a native robot policy ('linear', 'orca', 'orca_route', 'social_force' or 'social_force_route'), written into out (B, 2). route_clearance [m]: the '_route' policies' clearance from the walls beyond their radius. orca, social_force: the humans' behaviour parameters of that name (a dict by name, the values in declared order, or None for the defaults); safety_space [m]: the ORCA robot's own inflation. obstacles: None or the B episodes' static maps as PreparedObstacleBatch.
     """
 
 class ScenarioConfig:
@@ -428,3 +440,24 @@ def orca_obstacle_neighbors(position: Annotated[NDArray[numpy.float64], dict(ord
     """
     RVO2's obstacle neighbours of one agent (vertex ids, nearest first, ties in RVO2's tree-query order) and the map as ORCA sees it: (x, y, next, prev, convex, tree parent, is left child, depth) per vertex, the split points after the map's own vertices (RVO2's obstacle ids).
     """
+
+def plan_route(start: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], goal: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, clearance: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')]) -> tuple:
+    """
+    The shortest route (routes.hpp) of an agent of radius [m] from start to goal keeping clearance [m] from the walls where it can: (points, found, inflation), the points to pass with the goal last; found False: no route at any inflation (points: the goal alone).
+    """
+
+def route_lengths(starts: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], goals: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, clearance: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
+    """
+    Lengths [m] of the shortest routes (plan_route) from starts (n, 2) to goals (n, 2), written into out (n,); inf where there is none.
+    """
+
+def route_distances(points: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], goal: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
+    """
+    Free-space distances [m] of a disc of radius from each of points (n, 2) to goal (2,) around the obstacles (the visibility graph inflated by the radius), written into out (n,); inf where the goal cannot be reached.
+    """
+
+def route_cache_size() -> int:
+    """Maps whose route graphs the process holds now."""
+
+def clear_route_cache() -> None:
+    """Drops every cached route graph."""
