@@ -304,6 +304,19 @@ NB_MODULE(_core, m) {
           "truncated, final status, dmin, episode index and collision kind where an episode ended); returns "
           "the number of episodes that ended.")
       .def(
+          "route_state",
+          [](PyWorld& self, int slot) {
+            std::vector<double> state = self.world->route_state(slot);
+            return state;
+          },
+          "slot"_a, "With human_routes: the route state of one slot's humans (a list of floats) for set_route_state.")
+      .def(
+          "set_route_state",
+          [](PyWorld& self, int slot, Array<double> state) {
+            self.world->set_route_state(slot, state.data(), state.size());
+          },
+          "slot"_a, "state"_a, "Puts back one slot's route state (route_state's).")
+      .def(
           "set_obstacles",
           [](PyWorld& self, int slot, Array<double> vertices, Array<int64_t> offsets) {
             const int P = polygon_count(vertices, offsets);

@@ -171,6 +171,70 @@ const double* World::route_targets(int b, int worker, const SlotView& slot) {
   return out;
 }
 
+// Per human: points K, found, inflation, index, replans, yields, best_remaining, stalled, yielding, last_step,
+// then the K points (x, y) and their K remaining lengths. The graphs are looked up again, and the skipped-test
+// memory starts empty (it only spares tests whose answer it knows).
+std::vector<double> World::route_state(int b) const {
+  if (b < 0 || b >= config_.batch) throw std::invalid_argument("slot " + std::to_string(b) + " out of range");
+  std::vector<double> out;
+  if (!config_.human_routes) return out;
+  const size_t row = static_cast<size_t>(b) * config_.agents;
+  for (int i = 1; i < config_.agents; ++i) {
+    const RouteFollower& f = routes_[row + i];
+    const Route& r = f.route;
+    out.insert(out.end(), {static_cast<double>(r.point.size()), r.found ? 1.0 : 0.0, r.inflation,
+                           static_cast<double>(f.index), static_cast<double>(f.replans), static_cast<double>(f.yields),
+                           f.best_remaining, f.stalled, f.yielding, static_cast<double>(f.last_step)});
+    for (const Vec2& p : r.point) out.insert(out.end(), {p.x, p.y});
+    out.insert(out.end(), r.remaining.begin(), r.remaining.end());
+  }
+  return out;
+}
+
+void World::set_route_state(int b, const double* state, size_t size) {
+  if (b < 0 || b >= config_.batch) throw std::invalid_argument("slot " + std::to_string(b) + " out of range");
+  if (!config_.human_routes) {
+    if (size) throw std::invalid_argument("route state given to a world without human_routes");
+    return;
+  }
+  constexpr size_t kHeader = 10;
+  const size_t row = static_cast<size_t>(b) * config_.agents;
+  size_t at = 0;
+  std::vector<RouteFollower> restored(static_cast<size_t>(config_.agents));
+  for (int i = 1; i < config_.agents; ++i) {
+    if (at + kHeader > size) throw std::invalid_argument("route state: too short for slot " + std::to_string(b));
+    const double* h = state + at;
+    const auto k = static_cast<size_t>(h[0]);
+    if (!(h[0] >= 0.0) || static_cast<double>(k) != h[0] || at + kHeader + 3 * k > size)
+      throw std::invalid_argument("route state: malformed entry for human " + std::to_string(i));
+    RouteFollower& f = restored[i];
+    f.route.found = h[1] != 0.0;
+    f.route.inflation = h[2];
+    f.index = static_cast<int>(h[3]);
+    f.replans = static_cast<int>(h[4]);
+    f.yields = static_cast<int>(h[5]);
+    f.best_remaining = h[6];
+    f.stalled = h[7];
+    f.yielding = h[8];
+    f.last_step = static_cast<int>(h[9]);
+    if (k > 0 && (f.index < 0 || static_cast<size_t>(f.index) >= k))
+      throw std::invalid_argument("route state: index out of range for human " + std::to_string(i));
+    const double* pts = h + kHeader;
+    for (size_t j = 0; j < k; ++j) f.route.point.push_back(Vec2{pts[2 * j], pts[2 * j + 1]});
+    f.route.remaining.assign(pts + 2 * k, pts + 3 * k);
+    if (f.route.found) {  // the graphs of this slot's map, for its re-plans and tests
+      const ObstacleView walls = obstacles(b);
+      const double radius = buf_.radius[row + i];
+      if (walls.count == 0) throw std::invalid_argument("route state for a slot without obstacles");
+      f.wide_graph = cached_route_graph(walls, radius + config_.route_clearance);
+      f.held_map = slot_obstacles_[b];
+    }
+    at += kHeader + 3 * k;
+  }
+  if (at != size) throw std::invalid_argument("route state: " + std::to_string(size - at) + " values left over");
+  for (int i = 1; i < config_.agents; ++i) routes_[row + i] = std::move(restored[i]);
+}
+
 // One slot's step, in phases: the humans decide (from the state before anyone moves), the robot's action
 // becomes a velocity, the robot's swept contacts over the step, everyone moves, first arrivals, the
 // human-human overlaps, then the outcome and reward. A continuing slot (kContinuing: the robot parked

@@ -136,6 +136,13 @@ class World {
     return map ? map->orca_view() : ObstacleView{};
   }
 
+  // With human_routes: the route state of slot b's humans (what RouteFollower holds that decides where they
+  // head), as doubles, so that a run saved mid-episode resumes as it went on (train/ppo/worlds.py); empty
+  // without routes. set_route_state puts back what route_state gave; throws std::invalid_argument on a
+  // malformed state.
+  std::vector<double> route_state(int b) const;
+  void set_route_state(int b, const double* state, size_t size);
+
   // With human_behaviour "": the humans' velocities (B, A, 2) of the next step (or preview), written by
   // the caller before each call (a behaviour written in Python); entries of robots and empty slots are
   // not read. The array must outlive the world or the next call.

@@ -102,7 +102,9 @@ def test_the_recorded_keys_and_defaults_are_unchanged():
     preset = Preset().to_dict()
     assert list(preset) == ["name", "description", "world", "robot", "policies", "evaluation", "training"]
     plain = dataclasses.asdict(Preset())
-    assert plain["world"].pop("human_params") is None  # added later: not recorded at its default
+    assert plain["world"].pop("human_params") is None  # added later: not recorded at their defaults
+    assert plain["world"].pop("human_routes") == "none"
+    assert plain["world"].pop("route_clearance") == 0.2
     assert preset == plain
 
 

@@ -194,6 +194,14 @@ class World:
         Advance every running episode by one step and write its per-slot report (reward; terminated, truncated, final status, dmin, episode index and collision kind where an episode ended); returns the number of episodes that ended.
         """
 
+    def route_state(self, slot: int) -> list[float]:
+        """
+        With human_routes: the route state of one slot's humans (a list of floats) for set_route_state.
+        """
+
+    def set_route_state(self, slot: int, state: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
+        """Puts back one slot's route state (route_state's)."""
+
     def set_obstacles(self, slot: int, vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')]) -> None:
         """
         Sets the static obstacles of one slot from flat polygons (StaticMap.to_flat); they stay for the slot's later episodes until set again. Raises ValueError beyond max_obstacle_vertices.

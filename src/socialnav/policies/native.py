@@ -109,8 +109,10 @@ class NativePolicy:
         return self._out.copy()
 
     def describe(self) -> dict[str, Any]:
-        """The record stored with results: policy, information, ORCA's safety space [m] (and for the
-        ``_route`` kinds their route clearance [m])."""
+        """The record stored with results.
+
+        Policy, information, ORCA's safety space [m], and for the ``_route`` kinds their route clearance [m].
+        """
         record = {"policy": self.name, "information": self.information, "safety_space": self.safety_space}
         if self.kind.endswith("_route"):
             record["route_clearance"] = self.route_clearance
@@ -189,7 +191,8 @@ def orca_route(safety_space: float = 0.2, route_clearance: float = 0.1, threads:
     Returns:
         The policy.
     """
-    return NativePolicy("orca_route", safety_space=safety_space, threads=threads, route_clearance=route_clearance)
+    return NativePolicy("orca_route", safety_space=safety_space, threads=threads,
+                        route_clearance=route_clearance)
 
 
 @register_policy(

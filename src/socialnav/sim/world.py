@@ -237,6 +237,28 @@ class World(SlotFilling):
                              f"{self.batch_size - 1})")
         self._maps.set(self._native(), slot, static_map)
 
+    def route_state(self) -> list[np.ndarray]:
+        """With ``human_routes``: where each slot's humans stand on their routes (one float array per slot).
+
+        What decides where a routed human heads next besides the arrays of the state (its route, the point
+        it heads for, its giving-way timers): saved with the episodes in flight, it lets a run resumed
+        mid-episode go on as the uninterrupted one (train/ppo/worlds.py). Empty arrays without routes.
+        """
+        core = self._native()
+        return [np.asarray(core.route_state(b), dtype=np.float64) for b in range(self.batch_size)]
+
+    def set_route_state(self, state: list[np.ndarray]) -> None:
+        """Puts back what :meth:`route_state` gave (after the slots' state and static maps).
+
+        Raises:
+            ValueError: ``state`` does not have one entry per slot, or an entry is malformed.
+        """
+        if len(state) != self.batch_size:
+            raise ValueError(f"route state: {len(state)} entries for {self.batch_size} slots")
+        core = self._native()
+        for b, entry in enumerate(state):
+            core.set_route_state(b, np.ascontiguousarray(entry, dtype=np.float64))
+
     @property
     def obstacles(self) -> ObstacleArrays | None:
         """The slots' static maps in flat form (None when every slot is an open floor)."""

@@ -40,14 +40,18 @@ WORLD_STATE = (
 
 
 def world_snapshot(world: MultiWorld) -> list[dict[str, Any]]:
-    """The state of every world's episodes in flight and its stream position (plain tensors)."""
-    return [
-        {
-            **{k: torch.from_numpy(np.array(getattr(w, k))) for k in WORLD_STATE},
-            "next_index": int(w.stream.next_index),
-        }
-        for w in world.worlds
-    ]
+    """The state of every world's episodes in flight and its stream position (plain tensors).
+
+    Worlds with ``human_routes`` also save where their humans stand on their routes (``routes``).
+    """
+    out = []
+    for w in world.worlds:
+        saved: dict[str, Any] = {k: torch.from_numpy(np.array(getattr(w, k))) for k in WORLD_STATE}
+        saved["next_index"] = int(w.stream.next_index)
+        if w.settings.human_routes != "none":
+            saved["routes"] = [torch.from_numpy(r) for r in w.route_state()]
+        out.append(saved)
+    return out
 
 
 def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
@@ -55,7 +59,7 @@ def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
 
     The episodes in flight get their static maps back: a map is drawn from the episode's index and
     seed alone, so the scenario draws it again (the snapshot holds no maps; without this, a resumed
-    run would go on with its episodes in flight on open floors).
+    run would go on with its episodes in flight on open floors). Routed humans get their routes back.
     """
     if len(snapshot) != len(world.worlds):
         raise ConfigError(f"the saved run has {len(snapshot)} worlds, this one {len(world.worlds)}")
@@ -64,13 +68,11 @@ def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
         for k in WORLD_STATE:
             np.copyto(getattr(w, k), saved[k].numpy())
         live = np.flatnonzero(w.episode_index >= 0)
-        if not live.size:
-            continue
-        maps = w.scenario.episode_maps(w.episode_seed[live], w.episode_index[live])
-        if maps is None:
-            continue
-        for slot, static_map in zip(live, maps, strict=True):
+        maps = w.scenario.episode_maps(w.episode_seed[live], w.episode_index[live]) if live.size else None
+        for slot, static_map in zip(live, maps or (), strict=True):
             w.set_static_map(int(slot), static_map)
+        if "routes" in saved:  # after the maps: the routes' graphs are those of the slots' maps
+            w.set_route_state([r.numpy() for r in saved["routes"]])
 
 
 def step_worlds(world: MultiWorld, actions: np.ndarray):
