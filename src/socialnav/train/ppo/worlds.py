@@ -69,8 +69,9 @@ def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
             np.copyto(getattr(w, k), saved[k].numpy())
         live = np.flatnonzero(w.episode_index >= 0)
         maps = w.scenario.episode_maps(w.episode_seed[live], w.episode_index[live]) if live.size else None
-        for slot, static_map in zip(live, maps or (), strict=True):
-            w.set_static_map(int(slot), static_map)
+        if maps is not None:
+            for slot, static_map in zip(live, maps, strict=True):
+                w.set_static_map(int(slot), static_map)
         if "routes" in saved:  # after the maps: the routes' graphs are those of the slots' maps
             w.set_route_state([r.numpy() for r in saved["routes"]])
 
