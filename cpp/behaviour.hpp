@@ -3,9 +3,8 @@
 //
 // A behaviour answers two questions, kept apart so that either can be replaced on its own:
 //  1. Where does a human want to go? `preferred_velocity`: the behaviour's own law for heading to a
-//     target point at its preferred speed. The world passes each human's goal; route following
-//     (issue #48: humans following a path among walls) will pass the next waypoint of the human's
-//     route instead, or hand the behaviour preferred velocities of its own.
+//     target point at its preferred speed. The world passes each human's goal, or with human_routes
+//     among walls the point of the human's route it heads for (routes.hpp, RouteFollower::target).
 //  2. How does it avoid the others? `velocities`: the new velocities of the slot's humans from their
 //     preferred velocities, the other agents (the robot only where it is visible) and the slot's
 //     static obstacles.
