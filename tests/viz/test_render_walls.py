@@ -19,6 +19,7 @@ from socialnav.trajectory import Trajectory, write_trajectories  # noqa: E402
 from socialnav.viz.draw import WALL_EDGE, WALL_FACE, FrameRenderer, plot_trajectory  # noqa: E402
 from socialnav.viz.geometry import WALL_CONTEXT, scene_bounds  # noqa: E402
 from socialnav.viz.report import episode_page  # noqa: E402
+from tests.viz._node_dom import ELEMENTS
 
 # a corridor 2 m wide along y (solid side walls 0.2 m thick) with a wall segment across its far end
 CORRIDOR = StaticMap.from_polygons([
@@ -121,18 +122,7 @@ const ctx = new Proxy({}, {
     : (...args) => calls.push([k, args, t.fillStyle, t.strokeStyle, t.lineWidth])),
   set: (t, k, v) => { t[k] = v; return true; },
 });
-const els = {};
-function el(id) {
-  if (!els[id]) {
-    els[id] = { id, value: "", checked: true, max: "0", innerHTML: "", textContent: "", children: [],
-      width: 600, height: 600,
-      appendChild(c) { this.children.push(c); if (!this.value) this.value = c.value; },
-      addEventListener() {}, getContext: () => ctx };
-    Object.defineProperty(els[id], "innerHTML",
-      { set(v) { this.children = []; this.value = ""; }, get() { return ""; } });
-  }
-  return els[id];
-}
+""" + ELEMENTS + r"""
 global.document = { getElementById: (id) => (id === "episode-data" ? { textContent: data } : el(id)),
                     createElement: () => ({}) };
 global.location = { hash: "" };

@@ -25,6 +25,7 @@ from socialnav.trajectory import Trajectory, write_trajectories  # noqa: E402
 from socialnav.viz.draw import FrameRenderer, agent_colour, plot_trajectory  # noqa: E402
 from socialnav.viz.report import episode_page, write_report  # noqa: E402
 from socialnav.viz.routes import episode_routes, robot_route_parameters  # noqa: E402
+from tests.viz._node_dom import ELEMENTS
 
 # a wall segment across the y axis: the human walks from below it to above it, the robot beside it
 WALL = StaticMap.from_polygons([[[-1.0, 0.0], [1.0, 0.0]]])
@@ -188,18 +189,7 @@ const ctx = new Proxy({ dash: [] }, {
   },
   set: (t, k, v) => { t[k] = v; return true; },
 });
-const els = {};
-function el(id) {
-  if (!els[id]) {
-    els[id] = { id, value: "", checked: true, max: "0", textContent: "", children: [],
-      width: 600, height: 600,
-      appendChild(c) { this.children.push(c); if (!this.value) this.value = c.value; },
-      addEventListener() {}, getContext: () => ctx };
-    Object.defineProperty(els[id], "innerHTML",
-      { set(v) { this.children = []; this.value = ""; }, get() { return ""; } });
-  }
-  return els[id];
-}
+""" + ELEMENTS + r"""
 global.document = { getElementById: (id) => (id === "episode-data" ? { textContent: data }
                     : id === "ov-routes" && !page.includes('id="ov-routes"') ? null : el(id)),
                     createElement: () => ({}) };
