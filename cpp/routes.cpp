@@ -157,6 +157,23 @@ std::string cache_key(const ObstacleView& obs, double inflation) {
 
 namespace {
 
+#define SOCIALNAV_INLINE __attribute__((always_inline))
+
+// The minimum of distance(i) over i in [0, n): the distances in chunks, then their minimum, so that the
+// compiler vectorises the first loop (a minimum reduction over doubles it would not, without -ffast-math).
+template <class Distance>
+SOCIALNAV_INLINE inline double chunked_min(int n, Distance distance) {
+  constexpr int kChunk = 64;
+  double d[kChunk];
+  double best = kInf;
+  for (int base = 0; base < n; base += kChunk) {
+    const int m = std::min(kChunk, n - base);
+    for (int k = 0; k < m; ++k) d[k] = distance(base + k);
+    for (int k = 0; k < m; ++k) best = std::min(best, d[k]);
+  }
+  return best;
+}
+
 // The smallest squared distance between the segment [a, b] and the view's edges, 0 where one crosses it:
 // branch-free over the edge arrays (a wall's return face repeats its own edge), so that the compiler
 // vectorises it, with an AVX2 clone chosen at load time (no contraction: the same values either way).
@@ -168,40 +185,29 @@ SOCIALNAV_ROUTES_AVX2_CLONE double min_edge_distance_sq(const double* __restrict
   const double abx = b.x - a.x, aby = b.y - a.y;
   const double ab_sq = abx * abx + aby * aby;
   const double inv_ab = ab_sq > 0.0 ? 1.0 / ab_sq : 0.0;
-  // Chunks of the edges' distances, then their minimum: the compiler vectorises the first loop (a minimum
-  // reduction over doubles it would not, without -ffast-math).
-  constexpr int kChunk = 64;
-  double d[kChunk];
-  double best = kInf;
-  for (int base = 0; base < n; base += kChunk) {
-    const int m = std::min(kChunk, n - base);
-    for (int k = 0; k < m; ++k) {
-      const int i = base + k;
-      // a and b to the edge p + t e
-      const double ax = a.x - px[i], ay = a.y - py[i];
-      const double ta = std::min(std::max((ax * ex[i] + ay * ey[i]) * inv[i], 0.0), 1.0);
-      const double dax = ax - ta * ex[i], day = ay - ta * ey[i];
-      const double bx = b.x - px[i], by = b.y - py[i];
-      const double tb = std::min(std::max((bx * ex[i] + by * ey[i]) * inv[i], 0.0), 1.0);
-      const double dbx = bx - tb * ex[i], dby = by - tb * ey[i];
-      // the edge's ends p and q = p + e to the segment a + s (b - a)
-      const double sp = std::min(std::max((-ax * abx - ay * aby) * inv_ab, 0.0), 1.0);
-      const double dpx = -ax - sp * abx, dpy = -ay - sp * aby;
-      const double qx = px[i] + ex[i] - a.x, qy = py[i] + ey[i] - a.y;
-      const double sq = std::min(std::max((qx * abx + qy * aby) * inv_ab, 0.0), 1.0);
-      const double dqx = qx - sq * abx, dqy = qy - sq * aby;
-      const double dist = std::min(std::min(dax * dax + day * day, dbx * dbx + dby * dby),
-                                   std::min(dpx * dpx + dpy * dpy, dqx * dqx + dqy * dqy));
-      // a proper crossing: p and q on opposite sides of the segment's line, a and b on opposite sides of the
-      // edge's
-      const double s1 = aby * ax - abx * ay, s2 = abx * qy - aby * qx;
-      const double s3 = ex[i] * ay - ey[i] * ax, s4 = ex[i] * by - ey[i] * bx;
-      const bool crossing = (s1 * s2 < 0.0) & (s3 * s4 < 0.0);
-      d[k] = crossing ? 0.0 : dist;
-    }
-    for (int k = 0; k < m; ++k) best = std::min(best, d[k]);
-  }
-  return best;
+  return chunked_min(n, [&](int i) SOCIALNAV_INLINE {
+    // a and b to the edge p + t e
+    const double ax = a.x - px[i], ay = a.y - py[i];
+    const double ta = std::min(std::max((ax * ex[i] + ay * ey[i]) * inv[i], 0.0), 1.0);
+    const double dax = ax - ta * ex[i], day = ay - ta * ey[i];
+    const double bx = b.x - px[i], by = b.y - py[i];
+    const double tb = std::min(std::max((bx * ex[i] + by * ey[i]) * inv[i], 0.0), 1.0);
+    const double dbx = bx - tb * ex[i], dby = by - tb * ey[i];
+    // the edge's ends p and q = p + e to the segment a + s (b - a)
+    const double sp = std::min(std::max((-ax * abx - ay * aby) * inv_ab, 0.0), 1.0);
+    const double dpx = -ax - sp * abx, dpy = -ay - sp * aby;
+    const double qx = px[i] + ex[i] - a.x, qy = py[i] + ey[i] - a.y;
+    const double sq = std::min(std::max((qx * abx + qy * aby) * inv_ab, 0.0), 1.0);
+    const double dqx = qx - sq * abx, dqy = qy - sq * aby;
+    const double dist = std::min(std::min(dax * dax + day * day, dbx * dbx + dby * dby),
+                                 std::min(dpx * dpx + dpy * dpy, dqx * dqx + dqy * dqy));
+    // a proper crossing: p and q on opposite sides of the segment's line, a and b on opposite sides of the
+    // edge's
+    const double s1 = aby * ax - abx * ay, s2 = abx * qy - aby * qx;
+    const double s3 = ex[i] * ay - ey[i] * ax, s4 = ex[i] * by - ey[i] * bx;
+    const bool crossing = (s1 * s2 < 0.0) & (s3 * s4 < 0.0);
+    return crossing ? 0.0 : dist;
+  });
 }
 
 }  // namespace
@@ -245,22 +251,12 @@ SOCIALNAV_ROUTES_AVX2_CLONE double min_point_distance_sq(const double* __restric
   const double* __restrict ex = px + 2 * n;
   const double* __restrict ey = px + 3 * n;
   const double* __restrict inv = px + 4 * n;
-  // As min_edge_distance_sq: chunks of distances (vectorised), then their minimum.
-  constexpr int kChunk = 64;
-  double d[kChunk];
-  double best = kInf;
-  for (int base = 0; base < n; base += kChunk) {
-    const int m = std::min(kChunk, n - base);
-    for (int k = 0; k < m; ++k) {
-      const int i = base + k;
-      const double tx = p.x - px[i], ty = p.y - py[i];
-      const double r = std::min(std::max((tx * ex[i] + ty * ey[i]) * inv[i], 0.0), 1.0);
-      const double dx = tx - r * ex[i], dy = ty - r * ey[i];
-      d[k] = dx * dx + dy * dy;
-    }
-    for (int k = 0; k < m; ++k) best = std::min(best, d[k]);
-  }
-  return best;
+  return chunked_min(n, [&](int i) SOCIALNAV_INLINE {
+    const double tx = p.x - px[i], ty = p.y - py[i];
+    const double r = std::min(std::max((tx * ex[i] + ty * ey[i]) * inv[i], 0.0), 1.0);
+    const double dx = tx - r * ex[i], dy = ty - r * ey[i];
+    return dx * dx + dy * dy;
+  });
 }
 
 }  // namespace
