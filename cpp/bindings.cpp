@@ -792,28 +792,6 @@ NB_MODULE(_core, m) {
       "route at any inflation (points: the goal alone).");
 
   m.def(
-      "route_lengths",
-      [](Array<double> starts, Array<double> goals, double radius, double clearance, Array<double> obstacle_vertices,
-         Array<int64_t> obstacle_offsets, Array<double> out) {
-        const size_t n = out.size();
-        checked(starts, "starts", 2 * n);
-        checked(goals, "goals", 2 * n);
-        double* o = checked(out, "out", n);
-        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
-        const socialnav::PreparedObstacles walls =
-            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
-        const double *s = starts.data(), *g = goals.data();
-        nb::gil_scoped_release release;
-        for (size_t i = 0; i < n; ++i)
-          o[i] = socialnav::route_length(walls.view(), Vec2{s[2 * i], s[2 * i + 1]}, Vec2{g[2 * i], g[2 * i + 1]},
-                                         radius, clearance);
-      },
-      "starts"_a, "goals"_a, "radius"_a, "clearance"_a, "obstacle_vertices"_a, "obstacle_offsets"_a,
-      "out"_a.noconvert(),
-      "Lengths [m] of the shortest routes (plan_route) from starts (n, 2) to goals (n, 2), written into out (n,); "
-      "inf where there is none.");
-
-  m.def(
       "route_distances",
       [](Array<double> points, Array<double> goal, double radius, Array<double> obstacle_vertices,
          Array<int64_t> obstacle_offsets, Array<double> out) {

@@ -46,9 +46,8 @@ constexpr double kStandingSpeed = 0.1;
 // Where the robot heads: its goal, or among obstacles with routes (route_clearance >= 0) the first point
 // of the shortest route from where it stands (routes.hpp) around the walls and the people standing still
 // (the global planner's obstacle layer: a standing group or a person waiting at a corridor's end blocks a
-// passage as a wall does), planned afresh each step so that it needs no memory between calls; the point is
-// put as far along the line to it as the route is long (as RouteFollower::target), so the slow-down near
-// the target applies at the goal only.
+// passage as a wall does), planned afresh each step so that it needs no memory between calls, headed for as
+// a routed human heads for its route (heading_point).
 // `radius`: the robot's radius as its local planner inflates it; `margin`: what that planner adds to each
 // person's radius (ORCA's radius margin and safety space), which the route keeps too.
 Vec2 robot_target(const ObstacleView& walls, const ObservationView& obs, int b, Vec2 p, Vec2 goal, double radius,
@@ -69,11 +68,7 @@ Vec2 robot_target(const ObstacleView& walls, const ObservationView& obs, int b, 
   }
   plan_route_around(walls, centres.data(), radii.data(), static_cast<int>(centres.size()), p, goal, radius,
                     route_clearance, route);
-  if (!route.found || route.point.size() <= 1) return goal;
-  const Vec2 w = route.point[0];
-  const double to_point = norm(w - p);
-  if (to_point < 1e-9) return route.point[1];
-  return p + ((to_point + route.remaining[0]) / to_point) * (w - p);
+  return heading_point(route, 0, p, goal);
 }
 
 }  // namespace

@@ -429,12 +429,12 @@ void plan_route_around(const ObstacleView& walls, const Vec2* centres, const dou
   if (!out.found) plan_route(walls, start, goal, radius, clearance, out);
 }
 
-double route_length(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance) {
-  if (obstacles.count == 0) return norm(goal - start);
-  Route r;
-  plan_route(obstacles, start, goal, radius, clearance, r);
-  if (!r.found) return kInf;
-  return norm(r.point[0] - start) + r.remaining[0];
+Vec2 heading_point(const Route& route, int index, Vec2 position, Vec2 goal) {
+  if (!route.found || index + 1 >= static_cast<int>(route.point.size())) return goal;
+  const Vec2 w = route.point[index];
+  const double to_point = norm(w - position);
+  if (to_point < 1e-9) return route.point[index + 1];
+  return position + ((to_point + route.remaining[index]) / to_point) * (w - position);
 }
 
 void route_distances(const ObstacleView& obstacles, const Vec2* points, int n, Vec2 goal, double radius, double* out) {
@@ -598,11 +598,7 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
       if (!route.found) return goal;
     }
   }
-  if (index + 1 >= static_cast<int>(route.point.size())) return goal;
-  const Vec2 w = route.point[index];
-  const double to_point = norm(w - position);
-  if (to_point < 1e-9) return route.point[index + 1];
-  return position + ((to_point + route.remaining[index]) / to_point) * (w - position);
+  return heading_point(route, index, position, goal);
 }
 
 }  // namespace socialnav

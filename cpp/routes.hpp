@@ -95,8 +95,12 @@ void plan_route(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double rad
 void plan_route_around(const ObstacleView& walls, const Vec2* centres, const double* radii, int n, Vec2 start,
                        Vec2 goal, double radius, double clearance, Route& out);
 
-// The length of the shortest route from `start` to `goal` under plan_route's rule (inf when there is none).
-double route_length(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance);
+// The point an agent at `position` heading for point `index` of `route` hands its model's preferred-velocity
+// law (behaviour.hpp): the goal on the last leg (or without a route); before, a point beyond route point
+// `index` on the line to it, as far from the agent as the rest of the route is long, so that the law's
+// slow-down near its target applies at the goal, not at each corner. RouteFollower::target and the
+// route-following robot policies both head this way.
+Vec2 heading_point(const Route& route, int index, Vec2 position, Vec2 goal);
 
 // The lengths [m] of the shortest paths of a disc of `radius` from each of n points to `goal` (the free-space
 // geodesic distance: the visibility graph with inflation = radius, no clearance), written into out; inf where
@@ -136,10 +140,8 @@ struct RouteFollower {
   void plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance,
             std::shared_ptr<const void> map = nullptr);
   // The point to hand the behaviour's preferred-velocity law (behaviour.hpp) at step `step` of length dt
-  // [s] for agent `agent`: the goal once it is the point headed for; before, a point beyond the current
-  // route point on the line to it, as far from the agent as the rest of the route is long, so that the
-  // law's slow-down near its target applies at the goal, not at each corner; while giving way, a point
-  // behind it. Calls for the same step (a preview, then the step) advance the timers once.
+  // [s] for agent `agent`: heading_point of its route point; while giving way, a point behind it. Calls for the same
+  // step (a preview, then the step) advance the timers once.
   Vec2 target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance, int step,
               double dt, int agent);
 

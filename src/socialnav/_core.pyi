@@ -454,11 +454,6 @@ def plan_route(start: Annotated[NDArray[numpy.float64], dict(order='C', device='
     The shortest route (routes.hpp) of an agent of radius [m] from start to goal keeping clearance [m] from the walls where it can: (points, found, inflation), the points to pass with the goal last; found False: no route at any inflation (points: the goal alone).
     """
 
-def route_lengths(starts: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], goals: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, clearance: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
-    """
-    Lengths [m] of the shortest routes (plan_route) from starts (n, 2) to goals (n, 2), written into out (n,); inf where there is none.
-    """
-
 def route_distances(points: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], goal: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
     """
     Free-space distances [m] of a disc of radius from each of points (n, 2) to goal (2,) around the obstacles (the visibility graph inflated by the radius), written into out (n,); inf where the goal cannot be reached.
