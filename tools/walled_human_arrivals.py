@@ -13,6 +13,8 @@ force by default), over the protocol's test episodes:
   that ran to the cap (the robot reached its goal), since an episode that ends in a collision or a timeout
   stops its humans before they could arrive. ``--robot none`` skips it.
 
+Arrival is the ``human_arrival`` metric's rule (the centre within the human's radius of its goal).
+
     python tools/walled_human_arrivals.py [--episodes 500] [--models orca social_force] [--robot orca_route]
         [--routes shortest|none]
 
@@ -29,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from socialnav.metrics.progress import human_arrivals, humans_had_full_time
 from socialnav.presets import Preset, load_preset
 from socialnav.scenarios import make_scenario
 from socialnav.sim import World
@@ -37,23 +40,17 @@ from socialnav.trajectory import Trajectory
 FAR = 1000.0  # [m] where the robot is put for the crowd measurement
 
 
-def reached(tr: Trajectory, human: int) -> bool:
-    """Whether a human's centre came within its radius of its goal (episode or continuation)."""
-    seen = tr.positions[:, human] if tr.presence is None else tr.positions[:, human][tr.presence[:, human]]
-    if tr.continuation is not None:
-        seen = np.concatenate([seen, tr.continuation[:, human]])
-    return bool((np.linalg.norm(seen - tr.goals[human], axis=-1) <= tr.radii[human] + 1e-9).any())
-
-
 def count(trajectories: list[Trajectory], uncensored_only: bool = False) -> dict[str, float | int | None]:
-    """{humans, reached_goal, fraction} over the trajectories' humans."""
+    """{humans, reached_goal, fraction} over the trajectories' humans, as the ``human_arrival`` metric
+    counts them (socialnav.metrics.progress); ``uncensored_only``: the episodes whose humans had the
+    whole time to arrive."""
     total = hits = 0
     for tr in trajectories:
-        if uncensored_only and tr.outcome != "success":
+        if uncensored_only and not humans_had_full_time(tr):
             continue
-        for h in range(1, tr.n_agents):
-            total += 1
-            hits += reached(tr, h)
+        humans, reached = human_arrivals(tr)
+        total += humans
+        hits += reached
     return {"humans": total, "reached_goal": hits, "fraction": round(hits / total, 4) if total else None}
 
 
