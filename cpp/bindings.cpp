@@ -19,6 +19,7 @@
 #include "routes.hpp"
 #include "sarl_scorer.hpp"
 #include "scenario_gen.hpp"
+#include "sensing.hpp"
 #include "social_force.hpp"
 #include "world.hpp"
 
@@ -47,12 +48,13 @@ T* optional_checked(nb::object obj, const char* name, size_t expected) {
 }
 
 // (robot, humans, human_mask, active, time) arrays of `rows` rows from a Python sequence, or false for None.
-bool observation_buffers(nb::object arrays, const char* name, size_t rows, int humans,
+bool observation_buffers(nb::object arrays, const char* name, size_t rows, int humans, int lidar_beams,
                          socialnav::ObservationBuffers& out) {
   if (arrays.is_none()) return false;
   nb::sequence seq = nb::cast<nb::sequence>(arrays);
-  if (nb::len(seq) != 5)
-    throw std::invalid_argument(std::string(name) + ": expected (robot, humans, human_mask, active, time)");
+  const size_t given = nb::len(seq);
+  if (given != 5 && given != 6)
+    throw std::invalid_argument(std::string(name) + ": expected (robot, humans, human_mask, active, time[, lidar])");
   const size_t N = static_cast<size_t>(humans);
   out.robot = optional_checked<double>(seq[0], "robot", rows * socialnav::kRobotFeatures);
   out.humans = optional_checked<double>(seq[1], "humans", rows * N * socialnav::kHumanFeatures);
@@ -61,6 +63,9 @@ bool observation_buffers(nb::object arrays, const char* name, size_t rows, int h
   out.time = optional_checked<double>(seq[4], "time", rows);
   if (!out.robot || !out.humans || !out.human_mask || !out.active || !out.time)
     throw std::invalid_argument(std::string(name) + ": none of the five arrays may be None");
+  out.lidar = given == 6 ? optional_checked<float>(seq[5], "lidar", rows * static_cast<size_t>(lidar_beams)) : nullptr;
+  if (out.lidar && lidar_beams == 0)
+    throw std::invalid_argument(std::string(name) + ": a lidar array for a world without lidar");
   return true;
 }
 
@@ -134,6 +139,7 @@ void check_fits(const socialnav::ScenarioConfig& scenario, const socialnav::Worl
 struct PyWorld {
   nb::list keep_alive;
   nb::object given_velocity;  // the array of give_human_velocities
+  nb::object episode_seed;    // the array of set_sensing
   std::unique_ptr<socialnav::World> world;
 };
 
@@ -172,6 +178,22 @@ NB_MODULE(_core, m) {
         "The registered pedestrian behaviours in listing order: dicts of name, description and parameters "
         "(dicts of name, default, type 'float' or 'int', unit, description and the bounds gt, ge, lt, le, None "
         "where unbounded), as each behaviour declares them (cpp/behaviours/).");
+
+  using S = socialnav::SensingConfig;
+  nb::class_<S>(m, "SensingConfig")
+      .def(nb::init<>())
+      .def_rw("range", &S::range)
+      .def_rw("fov", &S::fov)
+      .def_rw("occlusion_walls", &S::occlusion_walls)
+      .def_rw("occlusion_humans", &S::occlusion_humans)
+      .def_rw("position_noise", &S::position_noise)
+      .def_rw("velocity_noise", &S::velocity_noise)
+      .def_rw("dropout", &S::dropout)
+      .def_rw("latency", &S::latency)
+      .def_rw("lidar_beams", &S::lidar_beams)
+      .def_rw("lidar_fov", &S::lidar_fov)
+      .def_rw("lidar_range", &S::lidar_range)
+      .def_rw("lidar_noise", &S::lidar_noise);
 
   using C = socialnav::WorldConfig;
   nb::class_<C>(m, "WorldConfig")
@@ -343,9 +365,10 @@ NB_MODULE(_core, m) {
             if (!final_observation.is_none())
               for (size_t b = 0; b < B; ++b) done += self.world->buffers().done[b] != 0;
             socialnav::ObservationBuffers obs{}, final_obs{};
-            const bool with_obs = observation_buffers(observation, "observation", B, c.agents - 1, obs);
+            const int beams = self.world->sensing().lidar_beams;
+            const bool with_obs = observation_buffers(observation, "observation", B, c.agents - 1, beams, obs);
             const bool with_final =
-                observation_buffers(final_observation, "final_observation", done, c.agents - 1, final_obs);
+                observation_buffers(final_observation, "final_observation", done, c.agents - 1, beams, final_obs);
             nb::gil_scoped_release release;
             return self.world->refill_done(scenario, indices.data(), seeds.data(), static_cast<int>(count), index, seed,
                                            f, with_obs ? &obs : nullptr, with_final ? &final_obs : nullptr);
@@ -407,7 +430,7 @@ NB_MODULE(_core, m) {
       .def(
           "observe",
           [](PyWorld& self, Array<double> robot, Array<double> humans, Array<bool> human_mask, Array<bool> active,
-             Array<double> time) {
+             Array<double> time, nb::object lidar) {
             const auto& c = self.world->config();
             const size_t B = static_cast<size_t>(c.batch), N = static_cast<size_t>(c.agents - 1);
             double* r = checked(robot, "robot", B * socialnav::kRobotFeatures);
@@ -415,11 +438,34 @@ NB_MODULE(_core, m) {
             auto* m = reinterpret_cast<uint8_t*>(checked(human_mask, "human_mask", B * N));
             auto* a = reinterpret_cast<uint8_t*>(checked(active, "active", B));
             double* t = checked(time, "time", B);
+            const int beams = self.world->sensing().lidar_beams;
+            float* l = optional_checked<float>(lidar, "lidar", B * static_cast<size_t>(beams));
+            if (l && beams == 0) throw std::invalid_argument("lidar: this world has no lidar (set_sensing)");
             nb::gil_scoped_release release;
-            self.world->observe(socialnav::ObservationBuffers{r, h, m, a, t});
+            self.world->observe(socialnav::ObservationBuffers{r, h, m, a, t, l});
           },
           "robot"_a.noconvert(), "humans"_a.noconvert(), "human_mask"_a.noconvert(), "active"_a.noconvert(),
-          "time"_a.noconvert(), "The observation of every slot, written into the given arrays.");
+          "time"_a.noconvert(), "lidar"_a.none() = nb::none(),
+          "The observation of every slot, written into the given arrays (lidar: (B, beams) float32 with a lidar).")
+      .def(
+          "set_sensing",
+          [](PyWorld& self, const socialnav::SensingConfig& sensing, Array<int64_t> episode_seed) {
+            const int64_t* seeds =
+                checked(episode_seed, "episode_seed", static_cast<size_t>(self.world->config().batch));
+            self.world->set_sensing(sensing, seeds);
+            self.episode_seed = nb::cast(episode_seed);  // kept alive while the world reads it
+          },
+          "sensing"_a, "episode_seed"_a.noconvert(),
+          "The robot's perception (SensingConfig); episode_seed (B,) keys its noise and dropout (read, not copied).")
+      .def(
+          "sensing_state", [](PyWorld& self, int slot) { return self.world->sensing_state(slot); }, "slot"_a,
+          "With latency: one slot's record of past states (a list of floats) for set_sensing_state.")
+      .def(
+          "set_sensing_state",
+          [](PyWorld& self, int slot, Array<double> state) {
+            self.world->set_sensing_state(slot, state.data(), state.size());
+          },
+          "slot"_a, "state"_a, "Puts back one slot's sensing state (sensing_state's).");
 
   nb::class_<socialnav::PreparedObstacleBatch>(m, "PreparedObstacleBatch")
       .def(
@@ -814,6 +860,53 @@ NB_MODULE(_core, m) {
       "Free-space distances [m] of a disc of radius from each of points (n, 2) to goal (2,) around the obstacles "
       "(the visibility graph inflated by the radius), written into out (n,); inf where the goal cannot be reached.");
 
+  m.def(
+      "lidar_scan",
+      [](Array<double> eye, double heading, int beams, double fov, double range, Array<double> disc_positions,
+         Array<double> disc_radii, Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets) {
+        if (beams < 1) throw std::invalid_argument("beams must be >= 1");
+        if (!(fov > 0.0 && fov <= 2.0 * M_PI)) throw std::invalid_argument("fov must be in (0, 2 pi]");
+        const size_t n = disc_radii.size();
+        checked(eye, "eye", 2);
+        checked(disc_positions, "disc_positions", 2 * n);
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        const std::vector<double> angles = socialnav::lidar_beam_angles(beams, fov);
+        std::vector<double> c(angles.size()), s(angles.size()), out(angles.size());
+        for (size_t i = 0; i < angles.size(); ++i) {
+          c[i] = std::cos(angles[i]);
+          s[i] = std::sin(angles[i]);
+        }
+        socialnav::lidar_scan(vec(eye), heading, c.data(), s.data(), beams, range, walls.view(), disc_positions.data(),
+                              disc_radii.data(), nullptr, static_cast<int>(n), out.data(), fov);
+        return out;
+      },
+      "eye"_a, "heading"_a, "beams"_a, "fov"_a, "range"_a, "disc_positions"_a, "disc_radii"_a, "obstacle_vertices"_a,
+      "obstacle_offsets"_a,
+      "One lidar scan from eye (the world's own, sensing.hpp): the distance along each beam (heading + "
+      "lidar_beam_angles) to the nearest wall edge or disc, range where none.");
+  m.def("lidar_beam_angles", &socialnav::lidar_beam_angles, "beams"_a, "fov"_a,
+        "The beams' angles relative to the heading: over a full circle -pi + i 2pi/n; over a sector -fov/2 + i "
+        "fov/(n-1).");
+  m.def(
+      "disc_in_sight",
+      [](Array<double> eye, Array<double> centre, double radius, Array<double> other_positions,
+         Array<double> other_radii, Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets) {
+        const size_t n = other_radii.size();
+        checked(eye, "eye", 2);
+        checked(centre, "centre", 2);
+        checked(other_positions, "other_positions", 2 * n);
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        return socialnav::disc_in_sight(vec(eye), vec(centre), radius, walls.view(), other_positions.data(),
+                                        other_radii.data(), nullptr, static_cast<int>(n));
+      },
+      "eye"_a, "centre"_a, "radius"_a, "other_positions"_a, "other_radii"_a, "obstacle_vertices"_a,
+      "obstacle_offsets"_a,
+      "Whether some point of the disc is in sight from eye past the walls and the other discs (the occlusion "
+      "rule of the robot's detections).");
   m.def("route_cache_size", &socialnav::route_cache_size, "Maps whose route graphs the process holds now.");
   m.def("clear_route_cache", &socialnav::clear_route_cache, "Drops every cached route graph.");
 }

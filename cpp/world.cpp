@@ -246,7 +246,10 @@ void World::step_episode(int b, const double* actions, int worker) {
   buf_.reward[b] = 0.0;
   if (status != kRunning && status != kContinuing) return;
   const bool running = status == kRunning;
-  if (buf_.steps[b] == 0) record(b, 0);
+  if (buf_.steps[b] == 0) {
+    record(b, 0);
+    if (sensing_.latency > 0) remember_for_sensing(b, 0);
+  }
 
   human_velocities(b, worker);
   double theta = buf_.theta[b];
@@ -269,6 +272,7 @@ void World::step_episode(int b, const double* actions, int worker) {
     buf_.done[b] = 1;
   }
   record(b, steps);
+  if (sensing_.latency > 0) remember_for_sensing(b, steps);
 }
 
 SOCIALNAV_PHASE Vec2 World::robot_velocity(int b, const double* actions, double& theta) const {
@@ -486,6 +490,8 @@ void World::observe_one(int b, const ObservationBuffers& o, int64_t row) const {
   }
   o.active[row] = buf_.status[b] == kRunning;
   o.time[row] = static_cast<double>(buf_.steps[b]) * config_.dt;
+  if (!detections_exact_) sense_humans(b, o, row);
+  if (o.lidar) scan_lidar(b, o.lidar + static_cast<size_t>(row) * sensing_.lidar_beams);
 }
 
 void World::observe(const ObservationBuffers& o) {

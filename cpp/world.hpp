@@ -16,6 +16,7 @@
 #include "obstacles.hpp"
 #include "routes.hpp"
 #include "scenario_gen.hpp"
+#include "sensing.hpp"
 #include "thread_pool.hpp"
 
 namespace socialnav {
@@ -88,11 +89,12 @@ struct WorldBuffers {
 
 // The policies' observation arrays (see World::observe).
 struct ObservationBuffers {
-  double* robot;        // (B, kRobotFeatures) (observation_layout.hpp)
-  double* humans;       // (B, N, kHumanFeatures)
-  uint8_t* human_mask;  // (B, N)
-  uint8_t* active;      // (B,)
-  double* time;         // (B,)
+  double* robot;           // (B, kRobotFeatures) (observation_layout.hpp)
+  double* humans;          // (B, N, kHumanFeatures)
+  uint8_t* human_mask;     // (B, N)
+  uint8_t* active;         // (B,)
+  double* time;            // (B,)
+  float* lidar = nullptr;  // (B, beams) with a lidar (World::set_sensing), else null
 };
 
 // What one step reports per slot, for the caller (each (B,), written for every slot).
@@ -142,6 +144,17 @@ class World {
   // malformed state.
   std::vector<double> route_state(int b) const;
   void set_route_state(int b, const double* state, size_t size);
+
+  // The robot's perception (sensing.hpp): observe() then gives the humans as the robot detects them and,
+  // with lidar beams, a scan; `episode_seed` (B,) keys the noise and dropout draws (caller-owned, it must
+  // outlive the world; the World's episode_seed array). Without a call, observations are exact. Throws
+  // std::invalid_argument on a setting out of range.
+  void set_sensing(const SensingConfig& sensing, const int64_t* episode_seed);
+  const SensingConfig& sensing() const { return sensing_; }
+  // With latency: slot b's last latency + 1 world states (what delayed detections are taken from), so that
+  // a run saved mid-episode resumes as it went on; empty without latency. set_sensing_state puts it back.
+  std::vector<double> sensing_state(int b) const;
+  void set_sensing_state(int b, const double* state, size_t size);
 
   // With human_behaviour "": the humans' velocities (B, A, 2) of the next step (or preview), written by
   // the caller before each call (a behaviour written in Python); entries of robots and empty slots are
@@ -201,6 +214,11 @@ class World {
   };
   void load_one(const ScenarioConfig& scenario, int64_t b, int64_t seed, int32_t* failure, GenerationScratch& scratch);
   void observe_one(int b, const ObservationBuffers& obs, int64_t row) const;  // slot b into obs row `row`
+  // world_sensing.cpp: the detected humans into obs row `row` (over the exact ones), the lidar scan, and
+  // the latency's record of the state after step `step`.
+  void sense_humans(int b, const ObservationBuffers& obs, int64_t row) const;
+  void scan_lidar(int b, float* out) const;
+  void remember_for_sensing(int b, int step);
 
   WorldConfig config_;
   WorldBuffers buf_;
@@ -220,7 +238,12 @@ class World {
   // for every slot.
   std::vector<std::shared_ptr<const PreparedObstacles>> slot_obstacles_;  // (B,)
   std::shared_ptr<const PreparedObstacles> last_obstacles_;
-  std::vector<double> last_vertices_;  // the flat polygons last_obstacles_ was prepared from
+  SensingConfig sensing_;
+  bool detections_exact_ = true;
+  const int64_t* episode_seed_ = nullptr;    // (B,), see set_sensing
+  std::vector<double> beam_cos_, beam_sin_;  // (beams,) relative to the sensor's heading
+  std::vector<double> sensed_history_;       // with latency: (B, latency + 1, 4A + 1) world states
+  std::vector<double> last_vertices_;        // the flat polygons last_obstacles_ was prepared from
   std::vector<int64_t> last_offsets_;
 };
 

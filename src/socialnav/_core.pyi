@@ -14,6 +14,81 @@ def human_behaviours() -> list:
     The registered pedestrian behaviours in listing order: dicts of name, description and parameters (dicts of name, default, type 'float' or 'int', unit, description and the bounds gt, ge, lt, le, None where unbounded), as each behaviour declares them (cpp/behaviours/).
     """
 
+class SensingConfig:
+    def __init__(self) -> None: ...
+
+    @property
+    def range(self) -> float: ...
+
+    @range.setter
+    def range(self, arg: float, /) -> None: ...
+
+    @property
+    def fov(self) -> float: ...
+
+    @fov.setter
+    def fov(self, arg: float, /) -> None: ...
+
+    @property
+    def occlusion_walls(self) -> bool: ...
+
+    @occlusion_walls.setter
+    def occlusion_walls(self, arg: bool, /) -> None: ...
+
+    @property
+    def occlusion_humans(self) -> bool: ...
+
+    @occlusion_humans.setter
+    def occlusion_humans(self, arg: bool, /) -> None: ...
+
+    @property
+    def position_noise(self) -> float: ...
+
+    @position_noise.setter
+    def position_noise(self, arg: float, /) -> None: ...
+
+    @property
+    def velocity_noise(self) -> float: ...
+
+    @velocity_noise.setter
+    def velocity_noise(self, arg: float, /) -> None: ...
+
+    @property
+    def dropout(self) -> float: ...
+
+    @dropout.setter
+    def dropout(self, arg: float, /) -> None: ...
+
+    @property
+    def latency(self) -> int: ...
+
+    @latency.setter
+    def latency(self, arg: int, /) -> None: ...
+
+    @property
+    def lidar_beams(self) -> int: ...
+
+    @lidar_beams.setter
+    def lidar_beams(self, arg: int, /) -> None: ...
+
+    @property
+    def lidar_fov(self) -> float: ...
+
+    @lidar_fov.setter
+    def lidar_fov(self, arg: float, /) -> None: ...
+
+    @property
+    def lidar_range(self) -> float: ...
+
+    @lidar_range.setter
+    def lidar_range(self, arg: float, /) -> None: ...
+
+    @property
+    def lidar_noise(self) -> float: ...
+
+    @lidar_noise.setter
+    def lidar_noise(self, arg: float, /) -> None: ...
+
 class WorldConfig:
     def __init__(self) -> None: ...
 
@@ -225,8 +300,23 @@ class World:
         Generates the episodes of seeds (a built-in scenario) straight into slots and starts them; failure[i] as generate_humans (a failed slot is left idle).
         """
 
-    def observe(self, robot: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], humans: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], human_mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], active: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], time: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
-        """The observation of every slot, written into the given arrays."""
+    def observe(self, robot: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], humans: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], human_mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], active: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], time: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], lidar: object | None = None) -> None:
+        """
+        The observation of every slot, written into the given arrays (lidar: (B, beams) float32 with a lidar).
+        """
+
+    def set_sensing(self, sensing: SensingConfig, episode_seed: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')]) -> None:
+        """
+        The robot's perception (SensingConfig); episode_seed (B,) keys its noise and dropout (read, not copied).
+        """
+
+    def sensing_state(self, slot: int) -> list[float]:
+        """
+        With latency: one slot's record of past states (a list of floats) for set_sensing_state.
+        """
+
+    def set_sensing_state(self, slot: int, state: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
+        """Puts back one slot's sensing state (sensing_state's)."""
 
 class PreparedObstacleBatch:
     def __init__(self, vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], polygon_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], episode_polygons: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')]) -> None:
@@ -457,6 +547,21 @@ def plan_route(start: Annotated[NDArray[numpy.float64], dict(order='C', device='
 def route_distances(points: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], goal: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
     """
     Free-space distances [m] of a disc of radius from each of points (n, 2) to goal (2,) around the obstacles (the visibility graph inflated by the radius), written into out (n,); inf where the goal cannot be reached.
+    """
+
+def lidar_scan(eye: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], heading: float, beams: int, fov: float, range: float, disc_positions: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], disc_radii: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')]) -> list[float]:
+    """
+    One lidar scan from eye (the world's own, sensing.hpp): the distance along each beam (heading + lidar_beam_angles) to the nearest wall edge or disc, range where none.
+    """
+
+def lidar_beam_angles(beams: int, fov: float) -> list[float]:
+    """
+    The beams' angles relative to the heading: over a full circle -pi + i 2pi/n; over a sector -fov/2 + i fov/(n-1).
+    """
+
+def disc_in_sight(eye: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], centre: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, other_positions: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], other_radii: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')]) -> bool:
+    """
+    Whether some point of the disc is in sight from eye past the walls and the other discs (the occlusion rule of the robot's detections).
     """
 
 def route_cache_size() -> int:

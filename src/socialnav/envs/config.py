@@ -41,7 +41,7 @@ REQUIRED_PARTS: tuple[str, ...] = ("robot", "humans")
 
 
 def raw_composition(
-    n_humans: int, kinematics: str, max_edges: int = 0, parts: Sequence[str] = RAW_PARTS
+    n_humans: int, kinematics: str, max_edges: int = 0, parts: Sequence[str] = RAW_PARTS, sensing: Any = None
 ) -> ObservationComposition:
     """The raw env's observation: ``parts`` in the world's own layout (world frame, SI units, float64).
 
@@ -55,7 +55,15 @@ def raw_composition(
     if missing:
         raise ValueError(f"observation_parts {list(parts)} lacks {', '.join(missing)}: the env's recorder "
                          "and the learner wrappers read the robot and the humans")
-    return ObservationComposition(parts, PartContext.for_raw_env(n_humans, kinematics, max_edges))
+    return ObservationComposition(parts, PartContext.for_raw_env(n_humans, kinematics, max_edges, sensing))
+
+
+def default_raw_parts(settings: WorldSettings) -> tuple[str, ...]:
+    """The raw env's parts when ``observation_parts`` is not given.
+
+    :data:`RAW_PARTS`, and ``lidar`` when the world has one.
+    """
+    return RAW_PARTS + (("lidar",) if settings.sensing.lidar_beams else ())
 
 
 def observation_and_action_spaces(
@@ -63,7 +71,8 @@ def observation_and_action_spaces(
     parts: Sequence[str] = RAW_PARTS,
 ):
     """The env's observation and action spaces (a SB3 model's saved spaces are checked against them)."""
-    observation_space = raw_composition(n_humans, settings.kinematics, max_edges, parts).single_space()
+    observation_space = raw_composition(n_humans, settings.kinematics, max_edges, parts,
+                                        settings.sensing).single_space()
     if action_set == "discrete":
         action_space: spaces.Space = spaces.Discrete(81)
     elif settings.kinematics == "holonomic":
@@ -147,10 +156,11 @@ class EnvConfig:
         self.action_set = action_set
         self.v_pref = float(self.scenario.robot_v_pref)
         self.table = discrete_actions(self.settings.kinematics, self.v_pref, self.settings.rotation_limit)
-        self.parts = RAW_PARTS if observation_parts is None else tuple(observation_parts)
+        given = observation_parts
+        self.parts = default_raw_parts(self.settings) if given is None else tuple(given)
         #: The env's observation: the parts, composed in the world's own layout.
         self.composition = raw_composition(self.scenario.n_humans, self.settings.kinematics, self.max_edges,
-                                           self.parts)
+                                           self.parts, self.settings.sensing)
         # Episodes available: a finite scenario's set, the val/test split's range, or endless (train).
         n = self.scenario.n_episodes
         if n is not None and split != "train" and n > SPLIT_SIZE:  # refused here, not at episode 1000

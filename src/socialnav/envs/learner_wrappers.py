@@ -21,6 +21,7 @@ from gymnasium.vector import VectorWrapper
 from gymnasium.vector.utils import batch_space
 
 from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
+from socialnav.sim.parts.base import sensor_arrays
 
 #: Version of the record a saved model carries (socialnav.integrations.sb3).
 RECORD_FORMAT = 1
@@ -63,7 +64,7 @@ def make_transform(cfg: Any, settings: ObservationSettings | dict[str, Any] | No
         )
     return ObservationTransform(
         settings, cfg.scenario.n_humans, cfg.settings.kinematics, cfg.action_set,
-        static_map=getattr(cfg, "static_map", None),
+        static_map=getattr(cfg, "static_map", None), sensing=cfg.settings.sensing,
     )
 
 
@@ -103,7 +104,7 @@ def training_record(cfg: Any, transform: ObservationTransform) -> dict[str, Any]
         "human_model": world.human_model,
         "visibility": world.visibility,
         "socialnav_version": __version__,
-    }
+    } | ({} if world.sensing.is_default else {"sensing": world.sensing.to_dict()})
 
 
 class LearnerObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
@@ -147,8 +148,9 @@ class LearnerObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
 
     def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self._robot = np.array(obs["robot"], dtype=np.float64)
+        sensors = {k: v[None] for k, v in sensor_arrays(obs).items()}
         out = self.transform(obs["robot"][None], obs["humans"][None], obs["human_mask"][None],
-                             observation_maps(self.env, self.transform))
+                             observation_maps(self.env, self.transform), sensors)
         return {k: v[0] for k, v in out.items()}
 
 
@@ -191,7 +193,8 @@ class LearnerObservationVector(VectorWrapper):
             for b in np.flatnonzero(info["_final_obs"]):
                 one = final[b]
                 converted = self.transform(one["robot"][None], one["humans"][None], one["human_mask"][None],
-                                           None if maps is None else [maps(int(b))])
+                                           None if maps is None else [maps(int(b))],
+                                           {k: v[None] for k, v in sensor_arrays(one).items()})
                 final[b] = {k: v[0] for k, v in converted.items()}
             info = {**info, "final_obs": final}
         return self._convert(obs), reward, terminated, truncated, info
@@ -203,7 +206,7 @@ class LearnerObservationVector(VectorWrapper):
     def _convert(self, obs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         self._robot = np.array(obs["robot"], dtype=np.float64)
         return self.transform(obs["robot"], obs["humans"], obs["human_mask"],
-                              observation_maps(self.env, self.transform))
+                              observation_maps(self.env, self.transform), sensor_arrays(obs))
 
     def _final_maps(self) -> Any:
         """Slot -> the static map of its ``final_obs`` (None: the transform's own map)."""

@@ -37,6 +37,7 @@ from socialnav.envs.registration import ENV_IDS
 from socialnav.envs.vector import SocialNavVectorEnv
 from socialnav.sim.learner_obs import ObservationSettings
 from socialnav.sim.observation import ROBOT_DIM
+from socialnav.sim.parts.base import sensor_arrays
 
 #: Attribute of an SB3 model under which :func:`save_model` stores the training record (SB3 saves
 #: a model's plain attributes in the zip's ``data`` JSON and restores them on load).
@@ -140,6 +141,7 @@ class SocialNavVecEnv(VecEnv):
                 np.stack([f["humans"] for f in finals]),
                 np.stack([f["human_mask"] for f in finals]),
                 [self.venv.final_observation_maps[int(b)] for b in done] if encodes_walls else None,
+                {k: np.stack([f[k] for f in finals]) for k in sensor_arrays(finals[0])},
             )
             final_info = info["final_info"]
             for k, b in enumerate(done):
@@ -225,7 +227,7 @@ class SocialNavVecEnv(VecEnv):
         self._robot = np.array(obs["robot"], dtype=np.float64)
         # each slot's own walls (a scenario's, or the env's static_map), as the evaluation gives them
         return self.transform(obs["robot"], obs["humans"], obs["human_mask"],
-                              observation_maps(self.venv, self.transform))
+                              observation_maps(self.venv, self.transform), sensor_arrays(obs))
 
     def _indices(self, indices: Iterable[int] | int | None) -> list[int]:
         if indices is None:

@@ -210,6 +210,19 @@ def _show_declared(declared: Any) -> str:
     return f"{kind}({declared.get('n', '')})"
 
 
+def recorded_sensing(record: dict[str, Any]) -> Any:
+    """The sensing settings a model's record holds (its lidar's beams and range), None: the defaults.
+
+    Raises:
+        ConfigError: A recorded sensing field is unknown or out of range (named).
+    """
+    from socialnav.settings import from_dict
+    from socialnav.sim.settings import SensingSettings
+
+    given = record.get("sensing")
+    return None if not given else from_dict(SensingSettings, given, "sensing")
+
+
 def record_spaces(path: Path, saved: dict[str, Any], record: dict[str, Any]) -> tuple[Any, Any]:
     """The observation and action spaces the record describes, checked against the file's declared ones."""
     from socialnav.envs.config import observation_and_action_spaces
@@ -218,7 +231,8 @@ def record_spaces(path: Path, saved: dict[str, Any], record: dict[str, Any]) -> 
     settings = ObservationSettings.from_dict(record["observation"])
     try:
         transform = ObservationTransform(
-            settings, int(record["observation"]["max_humans"]), record["kinematics"], record["action_set"]
+            settings, int(record["observation"]["max_humans"]), record["kinematics"], record["action_set"],
+            sensing=recorded_sensing(record),
         )
         # the two world settings an action space depends on, as the record stores them
         world = WorldSettings(kinematics=record["kinematics"], rotation_limit=float(record["rotation_limit"]))

@@ -42,6 +42,7 @@ from socialnav.integrations.sb3_files import (
     load_model,
     read_saved_data,
     record_spaces,
+    recorded_sensing,
     safe_custom_objects,
     same_space,
     saved_record,
@@ -89,7 +90,8 @@ class SB3Policy:
         self.model = model
         settings = ObservationSettings.from_dict(record["observation"])
         self.transform = ObservationTransform(
-            settings, settings.max_humans, record["kinematics"], record["action_set"]
+            settings, settings.max_humans, record["kinematics"], record["action_set"],
+            sensing=recorded_sensing(record),
         )
         self._table = None
         if record["action_set"] == "discrete":
@@ -115,7 +117,8 @@ class SB3Policy:
         robot = observation.robot[rows]
         walls = observation.obstacles
         maps = [None] * rows.size if walls is None else [walls.maps[int(b)] for b in rows]
-        obs = self.transform(robot, observation.humans[rows], observation.human_mask[rows], maps)
+        sensors = {} if observation.lidar is None else {"lidar": observation.lidar[rows]}
+        obs = self.transform(robot, observation.humans[rows], observation.human_mask[rows], maps, sensors)
         chosen, _ = self.model.predict(obs, deterministic=True)
         if self._table is not None:
             actions[rows] = self._table[np.asarray(chosen, dtype=np.int64).reshape(-1)]
@@ -272,7 +275,8 @@ def _check(path: Path, model: Any, record: dict[str, Any], preset: Any, asked: d
             f"{preset.robot.v_pref} under {where}"
         )
     transform = ObservationTransform(
-        ObservationSettings(**settings), settings["max_humans"], world.kinematics, record["action_set"]
+        ObservationSettings(**settings), settings["max_humans"], world.kinematics, record["action_set"],
+        sensing=recorded_sensing(record),
     )
     expected_obs = transform.single_space()
     if not same_space(model.observation_space, expected_obs):

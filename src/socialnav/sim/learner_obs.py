@@ -57,6 +57,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -140,8 +141,8 @@ class ObservationSettings:
             self.obstacle_points, float(self.obstacle_spacing), float(self.obstacle_range), 0.0
         )
 
-    def context(self, human_slots: int, kinematics: str) -> PartContext:
-        """The parts' layout under these settings with ``human_slots`` human slots."""
+    def context(self, human_slots: int, kinematics: str, sensing: Any = None) -> PartContext:
+        """The parts' layout with ``human_slots`` human slots (``sensing``: the world's sensors)."""
         return PartContext(
             frame=self.frame,
             length_scale=self.length_scale,
@@ -150,6 +151,7 @@ class ObservationSettings:
             human_slots=int(human_slots),
             kinematics=kinematics,
             obstacle_points=self.obstacle_encoding,
+            sensing=sensing,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -194,6 +196,7 @@ class ObservationTransform:
         kinematics: str,
         action_set: str = "continuous",
         static_map: StaticMap | None = None,
+        sensing: Any = None,
     ):
         if settings.max_humans is None:  # a crowd-free env keeps one (padded) slot: networks need inputs
             settings = dataclasses.replace(settings, max_humans=max(int(n_humans), 1))
@@ -211,7 +214,7 @@ class ObservationTransform:
         self.dtype = np.dtype(settings.dtype)
         self.static_map = static_map or None
         self.composition = ObservationComposition(
-            settings.parts, settings.context(int(settings.max_humans), kinematics)
+            settings.parts, settings.context(int(settings.max_humans), kinematics, sensing)
         )
 
     @property
@@ -224,14 +227,16 @@ class ObservationTransform:
         return self.composition.single_space()
 
     def __call__(
-        self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray, maps: Any = None
+        self, robot: np.ndarray, humans: np.ndarray, mask: np.ndarray, maps: Any = None,
+        sensors: Mapping[str, np.ndarray] | None = None,
     ) -> dict[str, np.ndarray]:
         """``robot`` (B, 9), ``humans`` (B, N, 5), ``mask`` (B, N) -> the learner's (B, …) arrays.
 
         ``maps``: each episode's :class:`~socialnav.maps.static_map.StaticMap` or None, (B,); None: the
         transform's own ``static_map`` for every episode (read by parts that need the walls).
+        ``sensors``: the raw observation's sensor readings (``sensor_arrays``: the lidar).
         """
-        return self.composition(PartInput.from_arrays(robot, humans, mask, maps, self.static_map))
+        return self.composition(PartInput.from_arrays(robot, humans, mask, maps, self.static_map, sensors))
 
     def actions_to_world(self, actions: np.ndarray, robot: np.ndarray) -> np.ndarray:
         """The simulator's actions for ``actions`` chosen on the observation of raw ``robot`` (B, 9).

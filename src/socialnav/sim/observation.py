@@ -127,6 +127,11 @@ class Observation:
         static_slots: how many of the last human slots are not humans but obstacle points appended
             by a value policy's obstacle encoding (:mod:`socialnav.sim.obstacle_points`); 0 in what
             the world observes.
+        lidar: (B, beams) float32 ranges [m] of the robot's lidar (``sensing.lidar_beams``; beam angles
+            ``socialnav.sim.lidar_beam_angles``), None without one.
+
+    With non-default ``sensing`` (docs/perception.md), ``humans`` and ``human_mask`` are the humans the
+    robot detects, as it detects them; the world's state and every metric stay exact.
     """
 
     robot: np.ndarray
@@ -139,6 +144,7 @@ class Observation:
     next_humans: np.ndarray | None = None
     obstacles: ObstacleArrays | None = None
     static_slots: int = 0
+    lidar: np.ndarray | None = None
 
     @property
     def batch_size(self) -> int:
@@ -149,9 +155,10 @@ class Observation:
         """Sub-batch of episodes (copies)."""
         nxt = None if self.next_humans is None else self.next_humans[index].copy()
         walls = None if self.obstacles is None else self.obstacles.take(index)
+        lidar = None if self.lidar is None else self.lidar[index].copy()
         return Observation(self.robot[index].copy(), self.humans[index].copy(), self.human_mask[index].copy(),
                            self.active[index].copy(), self.time[index].copy(), self.dt, self.kinematics, nxt,
-                           walls, self.static_slots)
+                           walls, self.static_slots, lidar)
 
 
 def build_observation(position: np.ndarray, velocity: np.ndarray, goal: np.ndarray, radius: np.ndarray,

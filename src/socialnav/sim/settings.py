@@ -63,6 +63,55 @@ class RewardSettings(Settings):
 
 
 @dataclass(frozen=True)
+class SensingSettings(Settings):
+    """What the robot perceives (docs/perception.md); the defaults are the world's exact state.
+
+    Detections (the ``humans`` the robot observes) and the lidar are the robot's view only: collisions,
+    rewards and every metric read the ground truth. Range and field of view apply to a human's centre
+    (CrowdNav++'s rule), occlusion to its whole disc (hidden when no point of it is in sight).
+    """
+
+    section: ClassVar[str] = "sensing"
+
+    range: float | None = setting(
+        None, "humans whose centre is farther are not detected; None: no limit", unit="m", gt=0
+    )
+    fov: float = setting(
+        2 * math.pi, "detection sector about the robot's heading (a holonomic robot: its direction of "
+        "travel, towards its goal while it stands)", unit="rad", gt=0, le=2 * math.pi,
+    )
+    occlusion_walls: bool = setting(False, "a human no point of whose disc is in sight past the walls is "
+                                    "not detected")
+    occlusion_humans: bool = setting(False, "a human hidden behind other humans' discs is not detected")
+    position_noise: float = setting(0.0, "std of the Gaussian noise on each detected position coordinate",
+                                    unit="m", ge=0, le=100.0)
+    velocity_noise: float = setting(0.0, "std of the Gaussian noise on each detected velocity coordinate",
+                                    unit="m/s", ge=0, le=100.0)
+    dropout: float = setting(0.0, "probability that a detectable human is missed in a step", ge=0, le=1)
+    latency: int = setting(0, "the detections are of the world this many steps ago", ge=0, le=1000)
+    lidar_beams: int = setting(0, "beams of the robot's 2-D lidar (the observation part lidar); 0: none",
+                               ge=0, le=100_000)
+    lidar_fov: float = setting(2 * math.pi, "the lidar's sector about the robot's heading", unit="rad", gt=0,
+                               le=2 * math.pi)
+    lidar_range: float = setting(10.0, "the lidar's maximum range (a beam that hits nothing reads it)",
+                                 unit="m", gt=0, le=1000.0)
+    lidar_noise: float = setting(0.0, "std of the Gaussian noise on each lidar return", unit="m", ge=0,
+                                 le=100.0)
+
+    @property
+    def exact(self) -> bool:
+        """Whether the robot detects every human exactly (the lidar aside)."""
+        return (self.range is None and self.fov >= 2 * math.pi and not self.occlusion_walls
+                and not self.occlusion_humans and self.position_noise == 0 and self.velocity_noise == 0
+                and self.dropout == 0 and self.latency == 0)
+
+    @property
+    def is_default(self) -> bool:
+        """Whether these are the defaults (exact detections, no lidar): the world then senses nothing."""
+        return self.exact and self.lidar_beams == 0
+
+
+@dataclass(frozen=True)
 class WorldSettings(Settings):
     """Everything that defines the simulator's behaviour (not the scenario, not the policy)."""
 
@@ -113,6 +162,9 @@ class WorldSettings(Settings):
     route_clearance: float = setting(
         0.2, "distance beyond their radius that routed humans keep from walls where the passage allows; left "
         "out of records while 0.2", unit="m", ge=0, le=10.0, record_default=False,
+    )
+    sensing: SensingSettings = setting(
+        default_factory=SensingSettings, record_default=False,
     )
 
     def cross_check(self) -> None:

@@ -38,6 +38,7 @@ from socialnav.sim.world_config import (
     OBSTACLE_VERTEX_BYTES,
     check_world_size,
     orca_params,
+    sensing_config,
     social_force_params,
     world_bytes,
     world_config,
@@ -56,7 +57,8 @@ __all__ = [
 ]
 
 #: (robot, humans, human_mask, active, time): the arrays an Observation starts with, filled by the core.
-ObservationArrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+#: (robot, humans, human_mask, active, time) and, with a lidar, its (B, beams) float32 scans.
+ObservationArrays = tuple[np.ndarray, ...]
 
 
 
@@ -188,6 +190,10 @@ class World(SlotFilling):
         self._native_scenario = native_config(scenario)
         # A behaviour written in Python gives the humans' velocities before each native step (or None).
         self._python_humans = python_humans(settings, self._native(), B, A)
+        # The robot's perception (docs/perception.md); the episode seeds key its noise and dropout.
+        sensing = sensing_config(settings)
+        if sensing is not None:
+            self._native().set_sensing(sensing, self.episode_seed)
 
     def close(self) -> None:
         """Releases the native world now (not whenever the cycle collector gets to this World).
@@ -246,6 +252,26 @@ class World(SlotFilling):
         """
         core = self._native()
         return [np.asarray(core.route_state(b), dtype=np.float64) for b in range(self.batch_size)]
+
+    def sensing_state(self) -> list[np.ndarray]:
+        """With ``sensing.latency``: each slot's record of the states its delayed detections come from.
+
+        Saved with the episodes in flight like :meth:`route_state`; empty arrays without latency.
+        """
+        core = self._native()
+        return [np.asarray(core.sensing_state(b), dtype=np.float64) for b in range(self.batch_size)]
+
+    def set_sensing_state(self, state: list[np.ndarray]) -> None:
+        """Puts back what :meth:`sensing_state` gave.
+
+        Raises:
+            ValueError: ``state`` does not have one entry per slot, or an entry has the wrong size.
+        """
+        if len(state) != self.batch_size:
+            raise ValueError(f"sensing state: {len(state)} entries for {self.batch_size} slots")
+        core = self._native()
+        for b, entry in enumerate(state):
+            core.set_sensing_state(b, np.ascontiguousarray(entry, dtype=np.float64))
 
     def set_route_state(self, state: list[np.ndarray]) -> None:
         """Puts back what :meth:`route_state` gave (after the slots' state and static maps).
@@ -343,14 +369,23 @@ class World(SlotFilling):
             # Fresh arrays every call: callers may keep an observation while the world steps on.
             arrays = self._observation_arrays()
             self._core.observe(*arrays)
-            obs = Observation(*arrays, self.settings.dt, self.settings.kinematics, obstacles=self.obstacles)
+            obs = self._as_observation(arrays, self.obstacles)
         if oracle:
             nxt = np.zeros((self.batch_size, self.n_agents - 1, 5))
             if self._python_humans is not None:
                 self._python_humans.give(self)
             self._native().preview_humans(nxt)
+            if not self.settings.sensing.exact:
+                nxt[~obs.human_mask] = 0.0  # the oracle's next states of the humans the robot detects only
             obs = dataclasses.replace(obs, next_humans=nxt)
         return obs
+
+    def _as_observation(self, arrays: ObservationArrays, walls: ObstacleArrays | None) -> Observation:
+        """The Observation of arrays the core filled (``_observation_arrays``')."""
+        robot, humans, human_mask, active, time = arrays[:5]
+        lidar = arrays[5] if len(arrays) > 5 else None
+        return Observation(robot, humans, human_mask, active, time, self.settings.dt, self.settings.kinematics,
+                           obstacles=walls, lidar=lidar)
 
     def _observation_arrays(self, rows: int | None = None) -> ObservationArrays:
         """Fresh (robot, humans, human_mask, active, time) arrays of ``rows`` rows (B by default).
@@ -359,13 +394,15 @@ class World(SlotFilling):
         world steps on.
         """
         b, n = self.batch_size if rows is None else rows, self.n_agents - 1
-        return (
+        arrays: ObservationArrays = (
             np.empty((b, ROBOT_DIM)),
             np.empty((b, n, HUMAN_DIM)),
             np.empty((b, n), dtype=bool),
             np.empty(b, dtype=bool),
             np.empty(b),
         )
+        beams = self.settings.sensing.lidar_beams
+        return arrays + (np.empty((b, beams), dtype=np.float32),) if beams else arrays
 
     def step(
         self, actions: np.ndarray, *, final_observation: bool = False, observe: bool = False
@@ -457,9 +494,8 @@ class World(SlotFilling):
             # The core wrote the failed episodes' indices into their slots too.
             slots = np.array([np.flatnonzero(self.episode_index == indices[j])[0] for j in rows])
             self._raise_on_load_failure(slots, indices[rows], seeds[rows], self._failure[rows])
-        dt, kinematics = self.settings.dt, self.settings.kinematics
         return (
-            None if final is None else Observation(*final, dt, kinematics, obstacles=final_walls),
-            None if nxt is None else Observation(*nxt, dt, kinematics, obstacles=walls),
+            None if final is None else self._as_observation(final, final_walls),
+            None if nxt is None else self._as_observation(nxt, walls),
         )
 

@@ -121,6 +121,21 @@ def world_config(
     return c
 
 
+def sensing_config(settings: WorldSettings) -> _core.SensingConfig | None:
+    """The core's sensing configuration of ``settings.sensing``; None for the defaults (exact, no lidar)."""
+    s = settings.sensing
+    if s.is_default:
+        return None
+    c = _core.SensingConfig()
+    c.range = float("inf") if s.range is None else s.range
+    c.fov, c.occlusion_walls, c.occlusion_humans = s.fov, s.occlusion_walls, s.occlusion_humans
+    c.position_noise, c.velocity_noise, c.dropout, c.latency = (s.position_noise, s.velocity_noise, s.dropout,
+                                                                s.latency)
+    c.lidar_beams, c.lidar_fov, c.lidar_range, c.lidar_noise = (s.lidar_beams, s.lidar_fov, s.lidar_range,
+                                                                s.lidar_noise)
+    return c
+
+
 def parameter_values(parameters: Settings) -> list[float]:
     """A behaviour's parameter values in declared order, as the core takes them.
 

@@ -29,7 +29,8 @@ import numpy as np
 from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.obstacle_points import ObstaclePoints
 
-__all__ = ["BOUND", "FRAMES", "NETWORK_PARTS", "ObservationPart", "PartContext", "PartInput"]
+__all__ = ["BOUND", "FRAMES", "NETWORK_PARTS", "SENSOR_KEYS", "ObservationPart", "PartContext", "PartInput",
+           "sensor_arrays"]
 
 #: Frames of a learner observation: the world's, or CrowdNav's agent-centric one (x-axis towards the goal).
 FRAMES = ("world", "robot")
@@ -38,6 +39,14 @@ BOUND = 1e6
 #: What the value networks and the PPO networks read by default: the robot's state, then the humans and
 #: the obstacle points as agents (``LearnedPolicySpec.observation_parts``).
 NETWORK_PARTS: tuple[str, ...] = ("robot", "humans", "obstacle_points")
+#: The keys of a raw observation that hold the robot's sensor readings (carried to the parts as
+#: ``PartInput.sensors`` by the learner wrappers and the SB3 adapter).
+SENSOR_KEYS: tuple[str, ...] = ("lidar",)
+
+
+def sensor_arrays(raw: Mapping[str, Any]) -> dict[str, Any]:
+    """The sensor readings of a raw dict observation (its :data:`SENSOR_KEYS` it has)."""
+    return {key: raw[key] for key in SENSOR_KEYS if key in raw}
 
 
 @dataclass(frozen=True)
@@ -55,6 +64,8 @@ class PartContext:
         max_edges: the edges of the ``obstacle_edges`` part (0: it adds nothing).
         raw: the raw Gymnasium env's layout: the world's own arrays in slot order (the humans not
             compacted, the scenario's own human count, possibly 0), world frame, SI units, float64.
+        sensing: the world's :class:`~socialnav.sim.settings.SensingSettings` (its sensors' sizes: the
+            ``lidar`` part's beams), None: the defaults (no lidar).
     """
 
     frame: str = "world"
@@ -66,11 +77,14 @@ class PartContext:
     obstacle_points: ObstaclePoints | None = None
     max_edges: int = 0
     raw: bool = False
+    sensing: Any = None
 
     @classmethod
-    def for_raw_env(cls, n_humans: int, kinematics: str, max_edges: int = 0) -> PartContext:
+    def for_raw_env(cls, n_humans: int, kinematics: str, max_edges: int = 0,
+                    sensing: Any = None) -> PartContext:
         """The raw env's layout (world frame, SI, float64, the scenario's own slots)."""
-        return cls("world", 1.0, 1.0, "float64", int(n_humans), kinematics, None, int(max_edges), True)
+        return cls("world", 1.0, 1.0, "float64", int(n_humans), kinematics, None, int(max_edges), True,
+                   sensing)
 
     @classmethod
     def for_networks(cls, obstacle_points: ObstaclePoints | None) -> PartContext:
@@ -96,6 +110,8 @@ class PartInput:
         default_map: the map of every episode when ``maps`` is None.
         observation: the world's :class:`~socialnav.sim.observation.Observation`, where the input is one
             (``time``, ``dt``, ``next_humans``, ... for parts that read more than the arrays).
+        sensors: the robot's raw sensor arrays by key (``lidar``: (B, beams) ranges [m]), from the world's
+            observation or a raw env's dict observation.
     """
 
     def __init__(
@@ -107,6 +123,7 @@ class PartInput:
         obstacles: ObstacleArrays | None = None,
         default_map: Any = None,
         observation: Observation | None = None,
+        sensors: Mapping[str, np.ndarray] | None = None,
     ):
         self.robot = robot
         self.humans = humans
@@ -115,6 +132,7 @@ class PartInput:
         self._obstacles = obstacles
         self._default_map = default_map or None
         self.observation = observation
+        self.sensors: Mapping[str, np.ndarray] = sensors or {}
         self._fixed: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     @classmethod
@@ -122,14 +140,15 @@ class PartInput:
         """The input of a world's observation (its arrays as they are, its maps)."""
         walls = obs.obstacles
         maps = walls.maps if walls is not None else None
-        return cls(obs.robot, obs.humans, obs.human_mask, maps, walls, observation=obs)
+        sensors = {} if obs.lidar is None else {"lidar": obs.lidar}
+        return cls(obs.robot, obs.humans, obs.human_mask, maps, walls, observation=obs, sensors=sensors)
 
     @classmethod
     def from_arrays(cls, robot: Any, humans: Any, mask: Any, maps: Sequence[Any] | None = None,
-                    default_map: Any = None) -> PartInput:
+                    default_map: Any = None, sensors: Mapping[str, Any] | None = None) -> PartInput:
         """The input of raw arrays (a Gymnasium dict observation's rows), as float64 and bool."""
         return cls(np.asarray(robot, dtype=np.float64), np.asarray(humans, dtype=np.float64),
-                   np.asarray(mask, dtype=bool), maps, default_map=default_map)
+                   np.asarray(mask, dtype=bool), maps, default_map=default_map, sensors=sensors)
 
     @property
     def batch_size(self) -> int:

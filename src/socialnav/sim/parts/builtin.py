@@ -1,4 +1,4 @@
-"""The built-in observation parts: ``robot``, ``humans``, ``obstacle_points`` and ``obstacle_edges``.
+"""The built-in observation parts: ``robot``, ``humans``, ``obstacle_points``, ``obstacle_edges``, ``lidar``.
 
 Each computes its arrays from the world's state (:class:`~socialnav.sim.parts.base.PartInput`) in the
 layout of a :class:`~socialnav.sim.parts.base.PartContext`; the columns are those of
@@ -15,6 +15,7 @@ obstacle_points   obstacle_points        (P, 2) px, py / (P, 3) px', py', distan
 obstacle_points   obstacle_point_mask    (P,) int8, 1 for a real point
 obstacle_edges    obstacles              (E, 4) x1, y1, x2, y2 (world frame only; the raw env's)
 obstacle_edges    obstacle_mask          (E,) int8, 1 for a real edge
+lidar             lidar                  (beams,) ranges along the beams (world.sensing), both frames
 ================  =====================  ===================================================
 
 Lengths are in units of ``length_scale``, speeds of ``speed_scale``, angles in radians; rot is the robot's
@@ -223,3 +224,47 @@ class ObstacleEdgesPart(ObservationPart):
         edges, mask = walls.padded_edges(e)
         edges = edges / ctx.length_scale if ctx.length_scale != 1.0 else edges.copy()
         return {"obstacles": edges.astype(ctx.np_dtype, copy=False), "obstacle_mask": mask.astype(np.int8)}
+
+
+@register_observation_part
+class LidarPart(ObservationPart):
+    """The robot's 2-D lidar scan (``world.sensing.lidar_beams`` beams; docs/perception.md)."""
+
+    name = "lidar"
+    description = "the robot's 2-D lidar: (beams,) ranges along the beams about its heading (world.sensing)"
+    columns = {"lidar": {"world": ("range",), "robot": ("range",)}}
+
+    def spaces(self, ctx: PartContext) -> dict[str, Any]:
+        """``lidar`` (beams,) in [0, lidar_range / length_scale], float32 in the raw env's layout too.
+
+        Raises:
+            ValueError: The world has no lidar (``sensing.lidar_beams`` is 0).
+        """
+        from gymnasium import spaces
+
+        sensing = _lidar_sensing(ctx)
+        dtype = np.float32 if ctx.raw else ctx.np_dtype
+        high = sensing.lidar_range / ctx.length_scale
+        return {"lidar": spaces.Box(0.0, high, shape=(sensing.lidar_beams,), dtype=dtype)}
+
+    def compute(self, data: PartInput, ctx: PartContext) -> dict[str, np.ndarray]:
+        """(B, beams) ranges divided by ``length_scale`` (the world's float32 scans as they are when raw).
+
+        Raises:
+            ValueError: The input carries no scan (a world without lidar).
+        """
+        scan = data.sensors.get("lidar")
+        if scan is None:
+            raise ValueError("observation part 'lidar': the observation has no lidar scan (set "
+                             "world.sensing.lidar_beams; docs/perception.md)")
+        if ctx.raw:
+            return {"lidar": np.asarray(scan, dtype=np.float32)}
+        return {"lidar": (np.asarray(scan, dtype=np.float64) / ctx.length_scale).astype(ctx.np_dtype)}
+
+
+def _lidar_sensing(ctx: PartContext) -> Any:
+    sensing = ctx.sensing
+    if sensing is None or not getattr(sensing, "lidar_beams", 0):
+        raise ValueError("observation part 'lidar' needs a world with a lidar (world.sensing.lidar_beams > "
+                         "0; docs/perception.md)")
+    return sensing

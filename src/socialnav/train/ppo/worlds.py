@@ -42,7 +42,8 @@ WORLD_STATE = (
 def world_snapshot(world: MultiWorld) -> list[dict[str, Any]]:
     """The state of every world's episodes in flight and its stream position (plain tensors).
 
-    Worlds with ``human_routes`` also save where their humans stand on their routes (``routes``).
+    Worlds with ``human_routes`` also save where their humans stand on their routes (``routes``), worlds
+    with ``sensing.latency`` the past states their delayed detections come from (``sensing``).
     """
     out = []
     for w in world.worlds:
@@ -50,6 +51,8 @@ def world_snapshot(world: MultiWorld) -> list[dict[str, Any]]:
         saved["next_index"] = int(w.stream.next_index)
         if w.settings.human_routes != "none":
             saved["routes"] = [torch.from_numpy(r) for r in w.route_state()]
+        if w.settings.sensing.latency:
+            saved["sensing"] = [torch.from_numpy(r) for r in w.sensing_state()]
         out.append(saved)
     return out
 
@@ -74,6 +77,8 @@ def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
                 w.set_static_map(int(slot), static_map)
         if "routes" in saved:  # after the maps: the routes' graphs are those of the slots' maps
             w.set_route_state([r.numpy() for r in saved["routes"]])
+        if "sensing" in saved:
+            w.set_sensing_state([r.numpy() for r in saved["sensing"]])
 
 
 def step_worlds(world: MultiWorld, actions: np.ndarray):
