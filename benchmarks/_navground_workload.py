@@ -26,6 +26,9 @@ With ``walls`` (a list of ``((x1, y1), (x2, y2))`` segments), the worlds also ho
 those walls (``navground.sim.Wall``); the agents' state estimation hands the ones in
 range to RVO2 as 2-vertex obstacles, with ``static_time_horizon`` 5 s (CrowdSim's
 ``timeHorizonObst``).
+
+With ``lidar`` beams, agent 0 also carries navground's ``LidarStateEstimation`` (that many
+beams over the full circle, ``lidar_range`` metres), updated every step with the others.
 """
 
 from __future__ import annotations
@@ -61,8 +64,9 @@ def _import_navground():
     return core, sim, ORCABehavior, OmnidirectionalKinematics, BoundedStateEstimation, WaypointsTask
 
 
-def make_circle_world(seed: int = 0, walls=()):
-    """A navground ``World`` with 6 ORCA agents crossing a 4 m circle (and ``walls``)."""
+def make_circle_world(seed: int = 0, walls=(), lidar: int = 0, lidar_range: float = 10.0):
+    """A navground ``World`` with 6 ORCA agents crossing a 4 m circle (and ``walls``, and a lidar on
+    agent 0 with ``lidar`` beams)."""
     import numpy as np
 
     (_core, sim, ORCABehavior, OmnidirectionalKinematics, BoundedStateEstimation,
@@ -86,6 +90,11 @@ def make_circle_world(seed: int = 0, walls=()):
             task=WaypointsTask(waypoints=[goal, start], loop=True, tolerance=GOAL_TOLERANCE),
             state_estimations=[BoundedStateEstimation(range=NEIGHBOR_RANGE)],
             control_period=0.0, id=i)
+        if lidar and i == 0:
+            from navground.sim.state_estimations import LidarStateEstimation
+
+            agent.state_estimations = [*agent.state_estimations, LidarStateEstimation(
+                range=lidar_range, start_angle=-math.pi, field_of_view=2 * math.pi, resolution=lidar)]
         agent.position = start
         agent.orientation = angle + math.pi
         world.add_agent(agent)
@@ -98,7 +107,8 @@ def _jammed(world) -> bool:
     return max(math.hypot(*a.velocity) for a in world.agents) < JAM_SPEED
 
 
-def navground_env_steps_per_s(n_worlds: int = 1, seconds: float = 3.0, seed: int = 0, walls=()) -> dict:
+def navground_env_steps_per_s(n_worlds: int = 1, seconds: float = 3.0, seed: int = 0, walls=(),
+                              lidar: int = 0, lidar_range: float = 10.0) -> dict:
     """Env-steps/s of navground stepping ``n_worlds`` 6-agent ORCA worlds.
 
     Worlds are stepped one after the other (single thread) with
@@ -114,7 +124,7 @@ def navground_env_steps_per_s(n_worlds: int = 1, seconds: float = 3.0, seed: int
     next_seed = seed
     worlds = []
     for _ in range(n_worlds):
-        worlds.append(make_circle_world(next_seed, walls))
+        worlds.append(make_circle_world(next_seed, walls, lidar, lidar_range))
         next_seed += 1
     # warm-up (first steps initialise navground's internal state/caches)
     for w in worlds:
@@ -130,7 +140,7 @@ def navground_env_steps_per_s(n_worlds: int = 1, seconds: float = 3.0, seed: int
             elapsed += time.perf_counter() - t0
             steps += CHUNK
             if _jammed(w):
-                worlds[k] = make_circle_world(next_seed, walls)
+                worlds[k] = make_circle_world(next_seed, walls, lidar, lidar_range)
                 next_seed += 1
                 resets += 1
     idle = sum(1 for w in worlds for a in w.agents if a.idle)

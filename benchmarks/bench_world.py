@@ -18,11 +18,15 @@ open world and against navground's ORCA with the same walls, all in the same run
 (goal >= 0.5) and ``ratio_vs_navground_obstacles`` (goal >= 3); and the same walls with routed
 humans (``human_routes: shortest``, issue #48) against them without routes,
 ``ratio_routed_vs_unrouted`` (goal >= 0.8), with what building the route graphs costs
-(``route_graph_ms_*``).
+(``route_graph_ms_*``). ``--lidar BEAMS`` (issue #49) adds the walled world with a BEAMS-beam lidar on
+the robot (range 10 m, the observation computed every step): ``lidar_cost`` (steps/s without it over
+with it; goal <= 1.5) and ``lidar_vs_navground`` (against navground's walled world with a
+``LidarStateEstimation`` of BEAMS beams on one agent; goal >= 8).
 
     python benchmarks/bench_world.py [--batch 4096] [--seconds 5] [--threads 0]
         [--scaling-threads 1 2] [--scaling-repeats 3] [--scaling-seconds 2] [--scaling-ceiling]
     python benchmarks/bench_world.py --obstacles [--batch 4096] [--seconds 3] [--repeats 3] [--map spokes]
+        [--lidar 360]
     python benchmarks/bench_world.py --obstacles --against DIR [--repeats 3] [--seconds 3]
 
 ``--against DIR`` compares two builds of the native core: the walled and the open-floor workloads
@@ -48,13 +52,14 @@ import numpy as np
 from socialnav.maps.static_map import StaticMap
 from socialnav.policies import make_policy
 from socialnav.scenarios import make_scenario
-from socialnav.sim.settings import WorldSettings
+from socialnav.sim.settings import SensingSettings, WorldSettings
 from socialnav.sim.world import World
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _machine import add_record_arguments, cpu_model, emit, run_record  # noqa: E402  (benchmarks/ is not a package)
 
 CROWDNAV_ENV_STEPS_PER_S = 4134  # CrowdNav's simulator on a 2-core machine (issue #2)
+LIDAR_RANGE = 10.0  # [m], --lidar: both simulators' lidar
 
 
 def spoke_walls() -> list[tuple[tuple[float, float], tuple[float, float]]]:
@@ -83,8 +88,10 @@ MAPS = {"spokes": spoke_walls, "room": room_walls}
 
 
 def measure_socialnav(batch: int, seconds: float, threads: int, static_map: StaticMap | None = None,
-                      routes: bool = False) -> dict:
-    settings = WorldSettings(time_limit=25.0, threads=threads, human_routes="shortest" if routes else "none")
+                      routes: bool = False, lidar: int = 0) -> dict:
+    sensing = SensingSettings(lidar_beams=lidar, lidar_range=LIDAR_RANGE)
+    settings = WorldSettings(time_limit=25.0, threads=threads, human_routes="shortest" if routes else "none",
+                             sensing=sensing)
     world = World(settings, make_scenario("circle_crossing", n_humans=5), batch, split="train", record=False,
                   static_map=static_map)
     policy = make_policy("orca", safety_space=0.0, threads=threads)
@@ -290,9 +297,17 @@ def main_obstacles(args: argparse.Namespace) -> None:
     sys.path.insert(0, os.path.dirname(__file__))
     from _navground_workload import navground_env_steps_per_s
 
-    best = {"obstacles": 0.0, "routed": 0.0, "open": 0.0, "navground_obstacles": 0.0, "navground_open": 0.0}
+    best = {"obstacles": 0.0, "routed": 0.0, "open": 0.0, "navground_obstacles": 0.0, "navground_open": 0.0,
+            "lidar": 0.0, "navground_lidar": 0.0}
     threads = None
     for _ in range(args.repeats):
+        if args.lidar:
+            with_lidar = measure_socialnav(args.batch, args.seconds, args.threads, static_map,
+                                           lidar=args.lidar)
+            best["lidar"] = max(best["lidar"], with_lidar["env_steps_per_s"])
+            ng_lidar = navground_env_steps_per_s(seconds=args.seconds, walls=walls, lidar=args.lidar,
+                                                 lidar_range=LIDAR_RANGE)
+            best["navground_lidar"] = max(best["navground_lidar"], ng_lidar["env_steps_per_s"])
         walled = measure_socialnav(args.batch, args.seconds, args.threads, static_map)
         threads = walled["threads"]
         best["obstacles"] = max(best["obstacles"], walled["env_steps_per_s"])
@@ -323,9 +338,20 @@ def main_obstacles(args: argparse.Namespace) -> None:
         "ratio_routed_vs_unrouted": best["routed"] / best["obstacles"],
         **route_graph_cost(static_map),
     }
+    if args.lidar:
+        result |= {
+            "lidar_beams": args.lidar,
+            "lidar_range_m": LIDAR_RANGE,
+            "env_steps_per_s_lidar": best["lidar"],
+            "navground_env_steps_per_s_lidar": best["navground_lidar"],
+            "lidar_vs_navground": best["lidar"] / best["navground_lidar"],
+            "lidar_cost": best["obstacles"] / best["lidar"],
+            "navground_lidar_cost": best["navground_obstacles"] / best["navground_lidar"],
+        }
     result["meets_target"] = bool(
         result["ratio_vs_open_world"] >= 0.5 and result["ratio_vs_navground_obstacles"] >= 3
         and result["ratio_routed_vs_unrouted"] >= 0.8
+        and (not args.lidar or (result["lidar_vs_navground"] >= 8 and result["lidar_cost"] <= 1.5))
     )
     result["load_average_1min"] = os.getloadavg()[0]
     print(f"socialnav with {len(walls)} walls: {best['obstacles']:,.0f} env-steps/s "
@@ -339,6 +365,11 @@ def main_obstacles(args: argparse.Namespace) -> None:
     print(f"route graphs: {result['route_graph_ms_bench_map']:.2f} ms for this map (both inflations), "
           f"{result['route_graph_ms_per_pillar_map']:.2f} ms per circle_crossing_obstacles map (mean of "
           f"{result['pillar_maps']})")
+    if args.lidar:
+        print(f"socialnav with the walls and a {args.lidar}-beam lidar: {best['lidar']:,.0f} env-steps/s "
+              f"-> lidar_cost {result['lidar_cost']:.2f} (goal <= 1.5); navground with its lidar: "
+              f"{best['navground_lidar']:,.0f} env-steps/s (its cost {result['navground_lidar_cost']:.2f}) "
+              f"-> lidar_vs_navground {result['lidar_vs_navground']:.1f}x (goal 8)")
     rounded = {k: round(v, 3) if isinstance(v, float) else v for k, v in result.items()}
     emit(run_record() | rounded, args)
 
@@ -359,6 +390,9 @@ def main() -> None:
     parser.add_argument("--map", choices=sorted(MAPS), default="spokes",
                         help="--obstacles: the 8 walls (spokes: radial, in the crowd's way; room: the room's "
                         "4 walls and 4 short ones)")
+    parser.add_argument("--lidar", type=int, default=0, metavar="BEAMS",
+                        help="--obstacles: also the walled world with a BEAMS-beam lidar on the robot, "
+                        "against it without and against navground's LidarStateEstimation (issue #49)")
     parser.add_argument("--against", metavar="DIR",
                         help="--obstacles: also measure the core in source tree DIR (A/B of two builds)")
     parser.add_argument("--measure-one", choices=["obstacles", "open"], help=argparse.SUPPRESS)

@@ -172,23 +172,100 @@ bool disc_in_sight(Vec2 eye, Vec2 centre, double radius, const ObstacleView& wal
 
 namespace {
 
-// The beams [i0, i1] whose angle may lie in [lo, hi] (relative to the heading, hi - lo <= pi), over the
-// beam layout of lidar_beam_angles: calls fn(i0, i1) for each contiguous run (a run wrapping past -pi
-// comes as a second call). A superset is enough: every beam is then tested exactly.
+// As cpp/orca.cpp's: the per-beam kernels get an AVX2 clone, chosen when the library loads (no FMA
+// contraction, -ffp-contract=off: the clones give the same bits).
+#define SOCIALNAV_SENSING_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
+
+// atan2 to within 1e-5 rad (a minimax polynomial of atan on [0, 1] and the octant symmetries): only
+// where a scan looks for the beams an occluder may cover, each of which is then tested exactly.
+inline double approx_atan2(double y, double x) {
+  const double ax = std::abs(x), ay = std::abs(y);
+  const double big = ax > ay ? ax : ay;
+  if (big == 0.0) return 0.0;
+  const double a = (ax > ay ? ay : ax) / big;
+  const double q = a * a;
+  double r = ((-0.0464964749 * q + 0.15931422) * q - 0.327622764) * q * a + a;
+  if (ay > ax) r = 0.5 * M_PI - r;
+  if (x < 0.0) r = M_PI - r;
+  return y < 0.0 ? -r : r;
+}
+
+// Covers the error of approx_atan2 and the rounding of the index arithmetic, well below a beam's spacing
+// at any count the settings allow.
+constexpr double kAngleMargin = 1e-4;
+
+struct BeamLayout {
+  int n;
+  double a0;        // angle of beam 0
+  double inv_step;  // beams per radian
+  bool full;        // beams over the whole circle (indices wrap)
+};
+
+inline BeamLayout beam_layout(int n, double fov) {
+  if (n == 1) return {1, 0.0, 0.0, false};
+  if (fov >= 2.0 * M_PI) return {n, -M_PI, n / (2.0 * M_PI), true};
+  return {n, -0.5 * fov, (n - 1) / fov, false};
+}
+
+// Calls fn(i0, i1) for the runs of beams whose angle may lie in [lo, hi] (relative to the heading,
+// hi - lo <= pi): a superset, since every beam is then tested exactly. Over a full circle a run that wraps
+// past -pi comes as two calls.
 template <class Fn>
-inline void for_beam_runs(double lo, double hi, int n, double fov, Fn fn) {
-  if (n == 1) {
+inline void for_beam_runs(double lo, double hi, const BeamLayout& b, Fn fn) {
+  if (b.n == 1) {
     fn(0, 0);
     return;
   }
-  const bool full = fov >= 2.0 * M_PI;
-  const double a0 = full ? -M_PI : -0.5 * fov;
-  const double step = full ? 2.0 * M_PI / n : fov / (n - 1);
-  for (double shift : {0.0, -2.0 * M_PI, 2.0 * M_PI}) {
-    const double from = std::floor((lo + shift - a0) / step);
-    const double to = std::ceil((hi + shift - a0) / step);
-    if (to < 0.0 || from > n - 1) continue;
-    fn(static_cast<int>(std::max(from, 0.0)), static_cast<int>(std::min(to, n - 1.0)));
+  if (!b.full) {  // a sector: the interval may reach the sector from either side of +-pi
+    for (double shift : {0.0, -2.0 * M_PI, 2.0 * M_PI}) {
+      const auto from = static_cast<int64_t>(std::floor((lo + shift - kAngleMargin - b.a0) * b.inv_step));
+      const auto to = static_cast<int64_t>(std::ceil((hi + shift + kAngleMargin - b.a0) * b.inv_step));
+      const int64_t i0 = std::max<int64_t>(from, 0), i1 = std::min<int64_t>(to, b.n - 1);
+      if (i0 <= i1) fn(static_cast<int>(i0), static_cast<int>(i1));
+    }
+    return;
+  }
+  const auto from = static_cast<int64_t>(std::floor((lo - kAngleMargin - b.a0) * b.inv_step));
+  const auto to = static_cast<int64_t>(std::ceil((hi + kAngleMargin - b.a0) * b.inv_step));
+  if (to - from + 1 >= b.n) {
+    fn(0, b.n - 1);
+    return;
+  }
+  const int64_t i0 = ((from % b.n) + b.n) % b.n;  // the run's first beam, then as far as it goes
+  const int64_t i1 = i0 + (to - from);
+  if (i1 < b.n) {
+    fn(static_cast<int>(i0), static_cast<int>(i1));
+  } else {
+    fn(static_cast<int>(i0), b.n - 1);
+    fn(0, static_cast<int>(i1 - b.n));
+  }
+}
+
+// Beams [i0, i1] against the segment from p along e (sensor frame): where a beam crosses it nearer than
+// what it has, the distance.
+SOCIALNAV_SENSING_AVX2_CLONE void segment_run(const double* __restrict cs, const double* __restrict sn,
+                                              double* __restrict out, int i0, int i1, double px, double py, double ex,
+                                              double ey) {
+  const double num = px * ey - py * ex;
+  for (int i = i0; i <= i1; ++i) {
+    const double denom = cs[i] * ey - sn[i] * ex;
+    const double t = num / denom;
+    const double s = (px * sn[i] - py * cs[i]) / denom;
+    const bool hit = (t >= 0.0) & (s >= 0.0) & (s <= 1.0) & (t < out[i]);
+    out[i] = hit ? t : out[i];
+  }
+}
+
+// Beams [i0, i1] against the disc at c (sensor frame, |c|^2 = dist_sq > r_sq, the eye outside).
+SOCIALNAV_SENSING_AVX2_CLONE void disc_run(const double* __restrict cs, const double* __restrict sn,
+                                           double* __restrict out, int i0, int i1, double cx, double cy, double dist_sq,
+                                           double r_sq) {
+  for (int i = i0; i <= i1; ++i) {
+    const double b = cs[i] * cx + sn[i] * cy;
+    const double q = r_sq - (dist_sq - b * b);
+    const double t = b - std::sqrt(q > 0.0 ? q : 0.0);
+    const bool hit = (b > 0.0) & (q >= 0.0) & (t < out[i]);
+    out[i] = hit ? t : out[i];
   }
 }
 
@@ -197,7 +274,8 @@ inline void for_beam_runs(double lo, double hi, int n, double fov, Fn fn) {
 void lidar_scan(Vec2 eye, double heading, const double* beam_cos, const double* beam_sin, int n, double range,
                 const ObstacleView& walls, const double* disc_pos, const double* disc_radius, const uint8_t* skip,
                 int n_discs, double* out, double fov) {
-  for (int i = 0; i < n; ++i) out[i] = range;
+  std::fill(out, out + n, range);
+  const BeamLayout layout = beam_layout(n, fov);
   const double ch = std::cos(heading);
   const double sh = std::sin(heading);
   // The sensor's frame: x along the heading, so the beams' directions are the fixed table.
@@ -214,20 +292,14 @@ void lidar_scan(Vec2 eye, double heading, const double* beam_cos, const double* 
     const Vec2 p = local(v.point);
     const Vec2 q = local(v.point + v.edge);
     if (segment_distance(Vec2{}, p, q) >= range) continue;
+    // The segment covers the angles from its clockwise end over the angle between its ends (< pi: the eye
+    // is not on it); the sides come from the exact cross product, not from two rounded angles.
+    const double turn = det(p, q);
+    const double lo = turn >= 0.0 ? approx_atan2(p.y, p.x) : approx_atan2(q.y, q.x);
+    const double sweep = approx_atan2(std::abs(turn), dot(p, q));
     const Vec2 e = q - p;
-    const double ap = std::atan2(p.y, p.x);
-    const double span = wrap_angle(std::atan2(q.y, q.x) - ap);
-    const double lo = span < 0.0 ? ap + span : ap;
-    const double num = det(p, e);
-    for_beam_runs(lo, lo + std::abs(span), n, fov, [&](int i0, int i1) {
-      for (int i = i0; i <= i1; ++i) {
-        const double denom = beam_cos[i] * e.y - beam_sin[i] * e.x;
-        const double t = num / denom;
-        const double s = (p.x * beam_sin[i] - p.y * beam_cos[i]) / denom;
-        const bool hit = t >= 0.0 && s >= 0.0 && s <= 1.0;
-        out[i] = hit && t < out[i] ? t : out[i];
-      }
-    });
+    for_beam_runs(lo, lo + sweep, layout,
+                  [&](int i0, int i1) { segment_run(beam_cos, beam_sin, out, i0, i1, p.x, p.y, e.x, e.y); });
   }
   for (int k = 0; k < n_discs; ++k) {
     if (skip && skip[k]) continue;
@@ -235,24 +307,28 @@ void lidar_scan(Vec2 eye, double heading, const double* beam_cos, const double* 
     const double r = disc_radius[k];
     const double dist_sq = abs_sq(c);
     if (dist_sq <= r * r) {
-      for (int i = 0; i < n; ++i) out[i] = 0.0;
+      std::fill(out, out + n, 0.0);
       return;
     }
     const double dist = std::sqrt(dist_sq);
     if (dist - r >= range) continue;
-    const double phi = std::atan2(c.y, c.x);
-    const double half = std::asin(r / dist);
-    for_beam_runs(phi - half, phi + half, n, fov, [&](int i0, int i1) {
-      for (int i = i0; i <= i1; ++i) {
-        const double b = beam_cos[i] * c.x + beam_sin[i] * c.y;
-        const double h_sq = dist_sq - b * b;
-        if (b <= 0.0 || h_sq > r * r) continue;
-        const double t = b - std::sqrt(r * r - h_sq);
-        out[i] = t < out[i] ? t : out[i];
-      }
-    });
+    // asin(r / d) <= (r / d) / sqrt(1 - (r / d)^2) = r / sqrt(d^2 - r^2): a bound without asin
+    const double half = r / std::sqrt(dist_sq - r * r);
+    const double phi = approx_atan2(c.y, c.x);
+    for_beam_runs(phi - half, phi + half, layout,
+                  [&](int i0, int i1) { disc_run(beam_cos, beam_sin, out, i0, i1, c.x, c.y, dist_sq, r * r); });
   }
 }
+
+namespace {
+
+SOCIALNAV_SENSING_AVX2_CLONE void to_float(const double* __restrict ranges, int n, float* __restrict out) {
+  for (int i = 0; i < n; ++i) out[i] = static_cast<float>(ranges[i]);
+}
+
+}  // namespace
+
+void store_ranges(const double* ranges, int n, float* out) { to_float(ranges, n, out); }
 
 double sensing_uniform(int64_t seed, int64_t step, int64_t index, uint64_t stream) {
   return static_cast<double>(draw_bits(seed, step, index, stream) >> 11) * 0x1.0p-53;

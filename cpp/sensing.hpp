@@ -61,6 +61,9 @@ void lidar_scan(Vec2 eye, double heading, const double* beam_cos, const double* 
                 const ObstacleView& walls, const double* disc_pos, const double* disc_radius, const uint8_t* skip,
                 int n_discs, double* out, double fov);
 
+// out[i] = ranges[i] as float32, for i < n (the observation's layout).
+void store_ranges(const double* ranges, int n, float* out);
+
 // Counter-based draws: uniform in [0, 1) and standard normal, for (seed, step, index, stream).
 double sensing_uniform(int64_t seed, int64_t step, int64_t index, uint64_t stream);
 double sensing_normal(int64_t seed, int64_t step, int64_t index, uint64_t stream);

@@ -180,7 +180,7 @@ void World::scan_lidar(int b, float* out) const {
         ranges[i] = std::clamp(ranges[i] + sigma * sensing_normal(seed, steps, i, kLidarStream), 0.0, range);
     }
   }
-  for (int i = 0; i < n; ++i) out[i] = static_cast<float>(ranges[i]);
+  store_ranges(ranges.data(), n, out);
 }
 
 }  // namespace socialnav

@@ -8,6 +8,8 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from tests.sim._walls import pillars_and_walls
 
 import socialnav  # noqa: F401  (registers the Gymnasium ids)
@@ -76,6 +78,46 @@ def test_max_range_a_heading_and_the_front_face_of_a_box():
     assert scan([box])[4] == pytest.approx(2.0)
     # a sector lidar sees only its sector: the wall behind is not returned
     assert np.all(scan([[[-2.0, -1.0], [-2.0, 1.0]]], beams=5, fov=math.pi / 2) == 10.0)
+
+
+def _brute_force_scan(segments, discs, beams, fov, heading, range_):
+    """Every beam against every segment and disc, in NumPy: what the native scan's beam ranges must equal."""
+    angles = heading + np.asarray(_core.lidar_beam_angles(beams, fov))
+    u = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    out = np.full(beams, range_)
+    for a, b in segments:
+        p, e = np.asarray(a, float), np.asarray(b, float) - np.asarray(a, float)
+        denom = u[:, 0] * e[1] - u[:, 1] * e[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (p[0] * e[1] - p[1] * e[0]) / denom
+            s = (p[0] * u[:, 1] - p[1] * u[:, 0]) / denom
+        hit = (t >= 0) & (s >= 0) & (s <= 1)
+        out = np.where(hit & (t < out), t, out)
+    for c, r in zip(*discs, strict=True):
+        b = u @ np.asarray(c, float)
+        q = r * r - (np.dot(c, c) - b * b)
+        t = b - np.sqrt(np.maximum(q, 0))
+        out = np.where((b > 0) & (q >= 0) & (t < out), t, out)
+    return out
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([1, 7, 90, 360, 1000]),
+       st.sampled_from([2 * math.pi, math.pi, 0.5]))
+def test_the_scan_equals_every_beam_against_every_occluder(seed, beams, fov):
+    # The native scan tests only the beams an occluder's angular extent may cover: it must find the same.
+    rng = np.random.default_rng(seed)
+    segments = [tuple(map(tuple, rng.uniform(-6, 6, (2, 2)))) for _ in range(int(rng.integers(0, 6)))]
+    segments = [(a, b) for a, b in segments if np.hypot(b[0] - a[0], b[1] - a[1]) > 1e-3
+                and abs((b[0] - a[0]) * a[1] - (b[1] - a[1]) * a[0]) > 1e-9]  # none through the eye
+    centres = rng.uniform(-6, 6, (int(rng.integers(0, 5)), 2))
+    radii = rng.uniform(0.1, 0.5, len(centres))
+    keep = np.hypot(centres[:, 0], centres[:, 1]) > radii + 1e-6
+    discs = (centres[keep], radii[keep])
+    heading = float(rng.uniform(-math.pi, math.pi))
+    got = scan([list(map(list, s)) for s in segments], discs, beams=beams, fov=fov, heading=heading,
+               range_=8.0)
+    np.testing.assert_allclose(got, _brute_force_scan(segments, discs, beams, fov, heading, 8.0), atol=1e-9)
 
 
 def test_a_disc_holding_the_eye_blinds_every_beam():
