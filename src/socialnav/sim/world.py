@@ -384,7 +384,8 @@ class World(SlotFilling):
         """The Observation of arrays the core filled (``_observation_arrays``')."""
         robot, humans, human_mask, active, time = arrays[:5]
         lidar = arrays[5] if len(arrays) > 5 else None
-        return Observation(robot, humans, human_mask, active, time, self.settings.dt, self.settings.kinematics,
+        settings = self.settings
+        return Observation(robot, humans, human_mask, active, time, settings.dt, settings.kinematics,
                            obstacles=walls, lidar=lidar)
 
     def _observation_arrays(self, rows: int | None = None) -> ObservationArrays:
