@@ -88,7 +88,8 @@ def simulate_chunk(
     Raises:
         PolicyError: The policy failed or returned unusable actions (:func:`checked_actions`).
     """
-    settings = cell_world_settings(preset, cell)
+    # a policy reading a sensor the world lacks (its lidar) brings it (docs/perception.md)
+    settings = cell_world_settings(preset, cell).with_sensors(getattr(policy, "sensors", None))
     world = World(
         settings,
         cell_scenario(preset, cell),

@@ -223,6 +223,25 @@ def mlp_actor_critic_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 
     )
 
 
+def lidar_net_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 0) -> dict[str, Any]:
+    """lidar_ppo's network arguments: its lidar (``lidar_beams``, ``lidar_range``) and MLP width.
+
+    The network perceives walls and people through its lidar alone, so ``n_humans`` and the obstacle
+    encoding's ``obstacle_slots`` size nothing of it.
+
+    Args:
+        settings: the run's PPO settings.
+        n_humans: the training mix's human slots (not read).
+        obstacle_slots: the obstacle encoding's point slots (not read).
+
+    Returns:
+        The LidarActorCritic keyword arguments.
+    """
+    return dict(lidar_beams=settings.lidar_beams, lidar_range=settings.lidar_range,
+                hidden=settings.mlp_hidden, normalize_obs=settings.normalize_obs,
+                log_std_init=settings.network.log_std_init)
+
+
 _NETS = "socialnav.policies.learned"
 _CROWDNAV_2019 = (
     "Chen, Liu, Kreiss, Alahi, \"Crowd-Robot Interaction: Crowd-aware Robot Navigation with "
@@ -322,6 +341,17 @@ BUILTIN: tuple[LearnedPolicySpec, ...] = (
         observes="robot state + the nearest humans' positions and velocities (constant-velocity predictions)",
         paper="none (a baseline for crowdnav_pp)",
         network_kwargs=mlp_actor_critic_kwargs,
+    ),
+    LearnedPolicySpec(
+        name="lidar_ppo",
+        network=f"{_NETS}.lidar_net:LidarActorCritic",
+        description="lidar actor-critic: the robot's state and goal and its 2-D lidar scan (circular 1-D "
+        "convolutions), continuous actions, trained with PPO; brings its lidar to the world it acts in",
+        label="Lidar (PPO)",
+        trainer="ppo",
+        observes="robot state + a 2-D lidar scan (no detections, no map; docs/perception.md)",
+        paper="in the manner of DRL-VO (Xie & Dames, T-RO 2023) and robot_sf's lidar policies",
+        network_kwargs=lidar_net_kwargs,
     ),
 )
 

@@ -64,6 +64,8 @@ class Recorder:
         }
         if s.human_routes != "none":  # recorded where routes are on only: other records stay as they were
             recorded.update(human_routes=s.human_routes, route_clearance=s.route_clearance)
+        if not s.sensing.is_default:  # what the robot perceived (docs/perception.md); likewise only when set
+            recorded["sensing"] = s.sensing.to_dict()
         per_episode = ("index", "seed", "collision_kind")  # set by collect()
         clash = sorted(set(tags) & {*recorded, *per_episode})
         if clash:

@@ -25,8 +25,9 @@ def _flat(static_map: StaticMap | None) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _discs(positions: Sequence | np.ndarray | None, radii: Sequence | np.ndarray | None):
-    pos = np.ascontiguousarray(np.zeros((0, 2)) if positions is None else positions, dtype=np.float64)
-    rad = np.ascontiguousarray(np.zeros(0) if radii is None else radii, dtype=np.float64)
+    # copies: the core takes writable C-contiguous arrays, and a trajectory's arrays are read-only views
+    pos = np.array(np.zeros((0, 2)) if positions is None else positions, dtype=np.float64).reshape(-1, 2)
+    rad = np.array(np.zeros(0) if radii is None else radii, dtype=np.float64)
     if pos.ndim != 2 or pos.shape[1] != 2 or rad.shape != (pos.shape[0],):
         raise ValueError(f"disc positions must be (n, 2) and radii (n,), got {pos.shape} and {rad.shape}")
     return pos, rad
@@ -66,7 +67,7 @@ def lidar_scan(eye: Sequence[float], heading: float, beams: int, static_map: Sta
     """
     vertices, offsets = _flat(static_map)
     pos, rad = _discs(disc_positions, disc_radii)
-    return np.asarray(_core.lidar_scan(np.asarray(eye, dtype=np.float64), float(heading), int(beams),
+    return np.asarray(_core.lidar_scan(np.array(eye, dtype=np.float64), float(heading), int(beams),
                                        float(fov), float(max_range), pos, rad, vertices, offsets))
 
 
@@ -80,5 +81,5 @@ def disc_in_sight(eye: Sequence[float], centre: Sequence[float], radius: float,
     """
     vertices, offsets = _flat(static_map)
     pos, rad = _discs(other_positions, other_radii)
-    return bool(_core.disc_in_sight(np.asarray(eye, dtype=np.float64), np.asarray(centre, dtype=np.float64),
+    return bool(_core.disc_in_sight(np.array(eye, dtype=np.float64), np.array(centre, dtype=np.float64),
                                     float(radius), pos, rad, vertices, offsets))

@@ -167,6 +167,25 @@ class WorldSettings(Settings):
         default_factory=SensingSettings, record_default=False,
     )
 
+    def with_sensors(self, sensors: Mapping[str, Any] | None) -> WorldSettings:
+        """These settings with the robot's sensors a policy brings (``sensing`` fields, e.g. its lidar).
+
+        A policy that reads a sensor the protocol's world lacks (``lidar_ppo``'s lidar, or a policy of
+        one's own declaring ``sensors = {"lidar_beams": 90}``) acts in the world with it added; the
+        detections, the humans and every metric are unchanged (docs/perception.md).
+
+        Raises:
+            ValueError: The world already has a lidar other than the one asked for.
+        """
+        if not sensors:
+            return self
+        current = self.sensing
+        clash = [k for k, v in sensors.items() if current.lidar_beams and getattr(current, k, v) != v]
+        if clash:
+            shown = ", ".join(f"{k} {getattr(current, k)!r} (world) vs {sensors[k]!r}" for k in clash)
+            raise ValueError(f"the policy brings a lidar the world already has in another form: {shown}")
+        return dataclasses.replace(self, sensing=dataclasses.replace(current, **dict(sensors)))
+
     def cross_check(self) -> None:
         """Resolves ``human_params``; refuses episodes longer than `MAX_STEPS` samples.
 

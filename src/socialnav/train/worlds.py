@@ -63,6 +63,11 @@ def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
     return {} if get_scenario(name).fixed_n_humans else {"n_humans": int(n_humans)}
 
 
+def concat_lidar(scans: list) -> np.ndarray | None:
+    """The worlds' lidar scans back to back (None where the worlds have no lidar)."""
+    return None if scans[0] is None else np.concatenate(scans)
+
+
 def mix_human_slots(preset: Preset, n_humans: int) -> int:
     """Human slots of the training mix's observations.
 
@@ -284,6 +289,7 @@ class MultiWorld:
             obs[0].kinematics,
             nxt,
             _concat_obstacles([o.obstacles for o in obs], self.sizes),
+            lidar=concat_lidar([o.lidar for o in obs]),
         )
 
     def step(self, actions: np.ndarray) -> MultiStep:

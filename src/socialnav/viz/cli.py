@@ -38,7 +38,8 @@ def add_viz_parsers(sub: argparse._SubParsersAction) -> None:
         "--overlay",
         nargs="+",
         default=[],
-        help="metric geometry: personal_space (M_I), velocity_rectangles (M_II), side_preference (M_VI), all",
+        help="metric geometry: personal_space (M_I), velocity_rectangles (M_II), side_preference (M_VI), "
+        "lidar (the robot's scan: its world's lidar, else 360 beams, 10 m), all",
     )
     rd.add_argument("--every", type=int, help="plots: steps between time-stamped discs (default ~8 stamps)")
     rd.add_argument("--stride", type=int, default=1, help="animations: show every n-th sample (default 1)")

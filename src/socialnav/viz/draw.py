@@ -199,6 +199,11 @@ def plot_trajectory(
         )
     if "side_preference" in overlays:
         _draw_side(ax, view)
+    if "lidar" in overlays:  # the scan at the robot's last sample (socialnav.viz.lidar)
+        from socialnav.viz.lidar import draw_scan, lidar_of
+
+        draw_scan(ax, view, view.n_main - 1)
+        ax.plot([], [], ".", color="#2a9d8f", label=f"lidar ({lidar_of(traj)[0]} beams) at the end")
     x0, x1, y0, y1 = scene_bounds(traj)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
@@ -312,6 +317,11 @@ class FrameRenderer:
             for _ in range(traj.n_agents)
         ]
         self.cross = ax.plot([], [], "x", color=VIOLATION, ms=14, mew=3)[0]
+        self.scan = None
+        if "lidar" in self.overlays:  # the robot's scan of each frame (socialnav.viz.lidar)
+            from socialnav.viz.lidar import draw_scan
+
+            self.scan = draw_scan(ax, self.view, 0)
         self.clock = ax.text(
             0.02,
             0.97,
@@ -348,6 +358,10 @@ class FrameRenderer:
                 patch.set_edgecolor(VIOLATION if (a == 0 and v.m2[k]) else agent_colour(a))
         hits = np.flatnonzero(v.collision[: k + 1])
         self.cross.set_data(pos[hits, 0, 0], pos[hits, 0, 1])
+        if self.scan is not None:
+            from socialnav.viz.lidar import move_scan
+
+            move_scan(self.scan, v, k)
         note = " (after arrival)" if k >= v.n_main else ""
         side = ""
         if "side_preference" in self.overlays and v.side is not None and k >= v.side[0]:

@@ -19,7 +19,7 @@ import numpy as np
 
 from socialnav.trajectory import Trajectory
 
-OVERLAYS = ("personal_space", "velocity_rectangles", "side_preference")
+OVERLAYS = ("personal_space", "velocity_rectangles", "side_preference", "lidar")
 OVERLAY_ALIASES = {"m1": "personal_space", "m2": "velocity_rectangles", "m6": "side_preference"}
 
 

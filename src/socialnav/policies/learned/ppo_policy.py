@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from socialnav.policies.learned.attn_graph import observation_tensors, squash_actions
+from socialnav.policies.learned.attn_graph import squash_actions
+from socialnav.policies.learned.ppo_inputs import network_inputs, network_sensors
 from socialnav.sim.observation import Observation
 from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.sim.parts.base import NETWORK_PARTS
@@ -72,6 +73,8 @@ class RecurrentActorPolicy:
             None if obstacle_encoding is None else ObstaclePoints.from_dict(obstacle_encoding)
         )
         self.observation_parts = tuple(observation_parts)
+        #: The sensing settings the network brings to the world it acts in (its lidar), {} for none.
+        self.sensors = network_sensors(network)
         self._h: torch.Tensor | None = None
 
     def reset(self) -> None:
@@ -93,9 +96,8 @@ class RecurrentActorPolicy:
         if self._h is None or self._h.shape[0] != b:
             self._h = net.initial_state(b, self.device)
         start = torch.as_tensor(observation.time == 0.0, device=self.device)
-        robot, humans, mask = observation_tensors(
-            observation, self.dt, net.prediction_steps, self.device, self.obstacle_encoding,
-            self.observation_parts,
+        robot, humans, mask = network_inputs(
+            net, observation, self.dt, self.device, self.obstacle_encoding, self.observation_parts
         )
         mean, _, self._h = net.step(robot, humans, mask, self._h, start)
         raw = mean
@@ -121,4 +123,5 @@ class RecurrentActorPolicy:
                 if self.obstacle_encoding is not None
                 else {}
             ),
+            **({"sensors": dict(self.sensors)} if self.sensors else {}),
         }

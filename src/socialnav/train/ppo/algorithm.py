@@ -246,17 +246,18 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     Returns:
         The rollout.
     """
-    from socialnav.policies.learned.attn_graph import ROBOT_FEATURES, observation_tensors, squash_actions
+    from socialnav.policies.learned.attn_graph import squash_actions
+    from socialnav.policies.learned.ppo_inputs import network_inputs, robot_width
 
     s, net, device, n_envs, n_slots = run.settings, run.net, run.device, run.n_envs, run.n_slots
     walls = run.obstacle_encoding
     dt, kinematics = run.preset.world.dt, run.preset.world.kinematics
     rotation_limit, success_reward = run.preset.world.rotation_limit, run.preset.world.reward.success_reward
-    T, steps_ahead = s.rollout_steps, net.prediction_steps
+    T = s.rollout_steps
     t0 = time.perf_counter()
     net.eval()
     h0, starts = state.h.clone(), torch.zeros(T, n_envs, dtype=torch.bool, device=device)
-    robots = torch.zeros(T, n_envs, ROBOT_FEATURES, device=device)
+    robots = torch.zeros(T, n_envs, robot_width(net), device=device)
     humans = torch.zeros(T, n_envs, n_slots, net.input_dim, device=device)
     masks = torch.zeros(T, n_envs, n_slots, dtype=torch.bool, device=device)
     raws, logps, values = (
@@ -271,7 +272,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     with torch.no_grad():
         for t in range(T):
             obs = state.obs
-            rf, hf, mk = observation_tensors(obs, dt, steps_ahead, device, walls)
+            rf, hf, mk = network_inputs(net, obs, dt, device, walls)
             robots[t], humans[t], masks[t], starts[t] = rf, hf, mk, state.start
             mean, value, state.h = net.step(rf, hf, mk, state.h, state.start)
             raw = mean + torch.randn(mean.shape, generator=run.action_gen).to(device) * net.log_std.exp()
@@ -286,7 +287,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             r = torch.as_tensor(shaped, dtype=torch.float32, device=device)
             if s.bootstrap_timeouts and trunc.any():
                 rows = np.flatnonzero(trunc)
-                frf, fhf, fmk = observation_tensors(final.take(rows), dt, steps_ahead, device, walls)
+                frf, fhf, fmk = network_inputs(net, final.take(rows), dt, device, walls)
                 _, v_final, _ = net.step(
                     frf, fhf, fmk, state.h[rows], torch.zeros(len(rows), dtype=torch.bool, device=device)
                 )
@@ -299,7 +300,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             state.returns_n += int(done.sum())
             state.episode_return[done] = 0.0
             state.episodes += int(done.sum())
-        rf, hf, mk = observation_tensors(state.obs, dt, steps_ahead, device, walls)
+        rf, hf, mk = network_inputs(net, state.obs, dt, device, walls)
         _, last_value, _ = net.step(rf, hf, mk, state.h, state.start)
         advantages, returns = gae(rewards, values, dones, last_value, s.gamma, s.gae_lambda)
     state.env_steps += n_envs * T

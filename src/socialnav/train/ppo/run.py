@@ -9,6 +9,7 @@ they and a resumed checkpoint have been checked.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import inspect
 import math
 import time
@@ -20,6 +21,7 @@ from typing import Any
 import torch
 
 from socialnav._progress import say_line
+from socialnav.policies.learned.ppo_inputs import network_sensors
 from socialnav.presets import Preset, load_preset
 from socialnav.settings import ConfigError
 from socialnav.sim.obstacle_points import ObstaclePoints
@@ -227,15 +229,16 @@ def setup_ppo_run(
     # the rollout's human slots: scenarios that fix their own crowd (francis2023) may exceed the preset's
     crowd = int(preset.training.n_humans)
     n_humans = mix_human_slots(preset, crowd)
-    config = run_record("ppo", {"ppo_policy": ppo_policy_config(preset)}, s.policy, preset, s, seeds,
-                        n_humans=n_humans, ppo_stream_offset=PPO_STREAM_OFFSET)
-    out = Path(out_dir)
-
-    encoding = config["ppo_policy"].get("obstacle_encoding")
+    encoding = ppo_policy_config(preset).get("obstacle_encoding")
     encoding = None if encoding is None else ObstaclePoints.from_dict(encoding)
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seeds["init"])
         net = build(s.policy, **_network_arguments(s, n_humans, encoding))
+    # A network that reads the robot's sensors (lidar_ppo) brings them to the worlds it trains in.
+    preset = dataclasses.replace(preset, world=preset.world.with_sensors(network_sensors(net)))
+    config = run_record("ppo", {"ppo_policy": ppo_policy_config(preset)}, s.policy, preset, s, seeds,
+                        n_humans=n_humans, ppo_stream_offset=PPO_STREAM_OFFSET)
+    out = Path(out_dir)
     net.to(device)
     optimizer = torch.optim.Adam(net.parameters(), lr=s.lr, eps=s.adam_eps)
     action_gen = torch.Generator().manual_seed(seeds["exploration"])

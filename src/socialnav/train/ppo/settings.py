@@ -113,6 +113,14 @@ class PPOSettings(Settings):
     )
     network: NetworkSettings = setting(default_factory=NetworkSettings)
     mlp_hidden: int = setting(256, "ppo_mlp's hidden width (two tanh layers each for actor and critic)", ge=1)
+    lidar_beams: int = setting(
+        180, "lidar_ppo's lidar: beams over the full circle, added to the training world's sensing (left out "
+        "of records while 180)", ge=4, le=4096, record_default=False,
+    )
+    lidar_range: float = setting(
+        10.0, "lidar_ppo's lidar: maximum range (left out of records while 10)", unit="m", gt=0, le=100.0,
+        record_default=False,
+    )
 
     def cross_check(self) -> None:
         """Refuses more minibatches than environments.

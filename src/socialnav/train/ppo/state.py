@@ -88,7 +88,7 @@ def initial_state(run: PPORun) -> PPOState:
     Returns:
         The state.
     """
-    from socialnav.policies.learned.attn_graph import observation_tensors
+    from socialnav.policies.learned.ppo_inputs import network_inputs
 
     n_envs, device, obs = run.n_envs, run.device, run.world.observe()
     saved = run.resumed
@@ -105,9 +105,8 @@ def initial_state(run: PPORun) -> PPOState:
             episode_return=np.zeros(n_envs),
         )
         if run.settings.normalize_obs:
-            steps_ahead = run.net.prediction_steps
             run.net.update_obs_stats(
-                *observation_tensors(obs, run.preset.world.dt, steps_ahead, device, run.obstacle_encoding)
+                *network_inputs(run.net, obs, run.preset.world.dt, device, run.obstacle_encoding)
             )
         return state
     window = saved["window"]

@@ -14,7 +14,7 @@ import torch
 from socialnav.settings import ConfigError
 from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.world import EpisodeStream
-from socialnav.train.worlds import MultiWorld, pad_humans
+from socialnav.train.worlds import MultiWorld, concat_lidar, pad_humans
 
 #: The World arrays that hold an episode's state (saved with last.pt so that a resumed run goes on
 #: with the same episodes in flight).
@@ -102,7 +102,8 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         res = w.step(actions[lo:hi], final_observation=True, observe=True)
         next_maps.extend(w.static_maps)
         nxt = res.observation
-        final = [nxt.robot.copy(), nxt.humans.copy(), nxt.human_mask.copy(), nxt.time.copy()]
+        final = [nxt.robot.copy(), nxt.humans.copy(), nxt.human_mask.copy(), nxt.time.copy(),
+                 None if nxt.lidar is None else nxt.lidar.copy()]
         done = np.flatnonzero(res.terminated | res.truncated)
         if done.size:
             fo = res.final_observation
@@ -112,9 +113,12 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
                 fo.human_mask,
                 fo.time,
             )
+            if final[4] is not None:
+                final[4][done] = fo.lidar
         final[1], final[2] = pad_humans(final[1], final[2], n)
         humans, mask = pad_humans(nxt.humans, nxt.human_mask, n)
-        nxt = Observation(nxt.robot, humans, mask, nxt.active, nxt.time, nxt.dt, nxt.kinematics)
+        nxt = Observation(nxt.robot, humans, mask, nxt.active, nxt.time, nxt.dt, nxt.kinematics,
+                          lidar=nxt.lidar)
         parts.append((res.reward, res.terminated, res.truncated, final, nxt))
     cat = np.concatenate
     reward, term, trunc = (cat([p[i] for p in parts]) for i in range(3))
@@ -126,6 +130,7 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         first.dt,
         first.kinematics,
         obstacles=ObstacleArrays.from_maps(stepped_maps),
+        lidar=concat_lidar([p[3][4] for p in parts]),
     )
     nxt = Observation(
         cat([p[4].robot for p in parts]),
@@ -136,6 +141,7 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         first.dt,
         first.kinematics,
         obstacles=ObstacleArrays.from_maps(next_maps),
+        lidar=concat_lidar([p[4].lidar for p in parts]),
     )
     return reward, term, trunc, final, nxt
 

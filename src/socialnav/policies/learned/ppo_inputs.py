@@ -1,0 +1,52 @@
+"""What a PPO network reads from a world's observation, for the trainer and the acting policy alike.
+
+Every PPO network takes (robot, humans, mask) tensors
+(:func:`~socialnav.policies.learned.attn_graph.observation_tensors`); a network that reads the robot's
+sensors (the lidar of ``sensing.lidar_beams``; :mod:`socialnav.policies.learned.lidar_net`) declares
+``sensors()``, the sensing settings it needs, and gets the readings as the last columns of the robot
+tensor, so the rollout, the update and the policy keep one tensor layout for every network.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import torch
+
+from socialnav.policies.learned.attn_graph import ROBOT_FEATURES, observation_tensors
+from socialnav.sim.observation import Observation
+from socialnav.sim.parts.base import NETWORK_PARTS
+
+__all__ = ["network_inputs", "network_sensors", "robot_width"]
+
+
+def network_sensors(net: Any) -> dict[str, Any]:
+    """The sensing settings ``net`` needs in its world (empty: it reads the world's detections only)."""
+    sensors = getattr(net, "sensors", None)
+    return dict(sensors()) if callable(sensors) else {}
+
+
+def robot_width(net: Any) -> int:
+    """The width of the robot tensor ``net`` reads: the robot's features, then its sensors' readings."""
+    return int(getattr(net, "robot_width", ROBOT_FEATURES))
+
+
+def network_inputs(net: Any, obs: Observation, dt: float, device: torch.device | str,
+                   encoding: Any = None, parts: Sequence[str] = NETWORK_PARTS
+                   ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """(robot, humans, mask) for ``net``: ``observation_tensors``, the lidar's readings after the robot's.
+
+    Raises:
+        ValueError: The network reads a lidar the observation does not have, or one of another size.
+    """
+    robot, humans, mask = observation_tensors(obs, dt, net.prediction_steps, device, encoding, parts)
+    beams = getattr(net, "lidar_beams", 0)
+    if beams:
+        scan = obs.lidar
+        if scan is None or scan.shape[1] != beams:
+            got = "no lidar" if scan is None else f"a {scan.shape[1]}-beam lidar"
+            raise ValueError(f"the network reads a {beams}-beam lidar, the observation has {got} (the "
+                             "world's sensing.lidar_beams; docs/perception.md)")
+        robot = torch.cat([robot, torch.as_tensor(scan, dtype=robot.dtype, device=robot.device)], -1)
+    return robot, humans, mask

@@ -1,0 +1,127 @@
+"""The lidar PPO policy (``lidar_ppo``): it reads the robot's state and its lidar scan, brings its lidar
+to the worlds it trains and acts in (the preset's own detections unchanged), trains and resumes as the
+other PPO networks do, and is refused where its scan is missing or another lidar is fitted."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from importlib import resources
+
+import numpy as np
+import pytest
+import torch
+
+from socialnav.cli import main
+from socialnav.policies.learned import load_checkpoint
+from socialnav.policies.learned.lidar_net import LidarActorCritic
+from socialnav.policies.learned.ppo_inputs import network_inputs, network_sensors, robot_width
+from socialnav.policies.learned_catalog import learned_policy_names
+from socialnav.scenarios import make_scenario
+from socialnav.sim import SensingSettings, World, WorldSettings
+from socialnav.train.ppo.algorithm import train_ppo
+from socialnav.train.ppo.settings import load_ppo_settings
+from tests.train.bit_identical_runs import run_digests
+from tests.train.walled_preset import write_walled_preset
+
+MIX = ["narrow_hallway", "circle_crossing_obstacles"]
+
+
+def _smoke():
+    path = resources.files("socialnav.configs.train") / "ppo_smoke.yaml"
+    return dataclasses.replace(load_ppo_settings(str(path)), policy="lidar_ppo", lidar_beams=36)
+
+
+@pytest.fixture()
+def walls_preset(tmp_path):
+    return write_walled_preset(tmp_path, "francis_lidar", MIX)
+
+
+def _observation(beams, batch=3):
+    settings = WorldSettings(threads=1, sensing=SensingSettings(lidar_beams=beams))
+    with World(settings, make_scenario("circle_crossing", n_humans=5), batch, count=batch) as world:
+        return world.reset()
+
+
+def test_the_network_reads_the_state_then_the_scan():
+    net = LidarActorCritic(lidar_beams=36, lidar_range=10.0)
+    assert "lidar_ppo" in learned_policy_names("ppo")
+    assert robot_width(net) == 9 + 36 and network_sensors(net) == {"lidar_beams": 36, "lidar_range": 10.0}
+    obs = _observation(36)
+    robot, humans, mask = network_inputs(net, obs, 0.25, "cpu")
+    assert robot.shape == (3, 45)
+    np.testing.assert_allclose(robot[:, 9:].numpy(), obs.lidar, rtol=0, atol=0)
+    mean, value, h = net.step(robot, humans, mask, net.initial_state(3), torch.ones(3, dtype=torch.bool))
+    means, values = net.sequence(robot[None], humans[None], mask[None], h, torch.ones(1, 3, dtype=torch.bool))
+    torch.testing.assert_close(means[0], mean)
+    torch.testing.assert_close(values[0], value)
+    # the scan moves the action: the network is not blind to it
+    farther = robot.clone()
+    farther[:, 9:] = 10.0
+    assert not torch.allclose(net.step(farther, humans, mask, h, torch.zeros(3, dtype=torch.bool))[0], mean)
+
+
+def test_a_missing_or_other_lidar_is_named():
+    net = LidarActorCritic(lidar_beams=36)
+    with pytest.raises(ValueError, match="36-beam lidar, the observation has no lidar"):
+        network_inputs(net, _observation(0), 0.25, "cpu")
+    with pytest.raises(ValueError, match="36-beam lidar, the observation has a 18-beam lidar"):
+        network_inputs(net, _observation(18), 0.25, "cpu")
+    world = WorldSettings(sensing=SensingSettings(lidar_beams=18))
+    with pytest.raises(ValueError, match="lidar_beams 18"):
+        world.with_sensors({"lidar_beams": 36})
+    added = WorldSettings(sensing=SensingSettings(range=5.0)).with_sensors({"lidar_beams": 36,
+                                                                            "lidar_range": 8.0})
+    assert added.sensing == SensingSettings(range=5.0, lidar_beams=36, lidar_range=8.0)
+    assert WorldSettings().with_sensors({}) == WorldSettings()
+
+
+def test_trained_among_walls_it_brings_its_lidar_to_the_evaluation(tmp_path, walls_preset, capsys):
+    out = tmp_path / "run"
+    summary = train_ppo(walls_preset, out, _smoke(), progress=False, log=lambda _: None)
+    assert summary.updates == 4
+    ck = load_checkpoint(out / "best.pt", "lidar_ppo", expected_input_dim=-1)
+    assert ck.model.model_kwargs()["lidar_beams"] == 36
+    assert ck.config["preset"]["world"]["sensing"]["lidar_beams"] == 36  # the worlds it trained in
+    ev = tmp_path / "eval"
+    rc = main(["evaluate", "--policy", "lidar_ppo", "--checkpoint", str(out / "best.pt"),
+               "--preset", "francis2023", "--scenario", "narrow_hallway", "--episodes", "2",
+               "--visibility", "invisible", "--out", str(ev), "--no-progress"])
+    assert rc == 0, capsys.readouterr().err
+    manifest = json.loads((ev / "manifest.json").read_text())
+    assert manifest["policy"]["sensors"] == {"lidar_beams": 36, "lidar_range": 10.0}
+    assert "sensing" not in manifest["preset"]["world"]  # the protocol's world is francis2023's own
+
+
+def test_a_lidar_run_resumed_mid_episode_ends_as_an_uninterrupted_one(tmp_path, walls_preset):
+    s = _smoke()
+    train_ppo(walls_preset, tmp_path / "whole", s, progress=False, log=lambda _: None)
+    train_ppo(walls_preset, tmp_path / "split", s, progress=False, stop_after=2, log=lambda _: None)
+    train_ppo(walls_preset, tmp_path / "split", s, progress=False, log=lambda _: None)
+    assert run_digests(tmp_path / "split") == run_digests(tmp_path / "whole")
+
+
+def test_latency_survives_a_resume_of_the_worlds():
+    from socialnav.presets import load_preset
+    from socialnav.train.ppo.worlds import restore_worlds, world_snapshot
+    from socialnav.train.worlds import MultiWorld
+
+    preset = load_preset("wang2022_partial")
+    preset = dataclasses.replace(preset, world=dataclasses.replace(
+        preset.world, sensing=SensingSettings(range=5.0, latency=2, position_noise=0.05)))
+    a = MultiWorld(preset, 5, 4, "train", 0)
+    b = MultiWorld(preset, 5, 4, "train", 0)
+    try:
+        a.reset()
+        b.reset()
+        for _ in range(7):
+            a.step(np.zeros((4, 2)))
+        restore_worlds(b, world_snapshot(a))
+        assert np.array_equal(a.observe().humans, b.observe().humans)
+        for _ in range(5):  # the delayed detections come from the restored record of past states
+            a.step(np.zeros((4, 2)))
+            b.step(np.zeros((4, 2)))
+            assert np.array_equal(a.observe().humans, b.observe().humans)
+    finally:
+        a.close()
+        b.close()
