@@ -14,6 +14,15 @@ the simulation-only reference (each about doubles the time of a slow policy's be
 
     python benchmarks/bench_protocol.py [--repeats 1] [--policy sarl] [--no-trajectory-comparison]
         [--no-simulation-reference]
+    python benchmarks/bench_protocol.py --exec [COMMAND] [--repeats 3]
+
+``--exec`` (issue #50) runs the full protocol driven by a planner program through the exec protocol
+(docs/exec_protocol.md; by default the C++ example ``examples/planners/straight_to_goal.cpp``, compiled
+here with the C++ compiler the build uses) and the same decisions in-process (the native ``linear``
+policy, which heads straight for the goal exactly as the example does: the two runs' results are
+identical), alternating, best of ``--repeats``; it prints ``exec_env_steps_per_s`` (the protocol's
+env-steps, continuation steps included, over the exec run's wall time; goal >= 50 000) and
+``exec_vs_native`` (the exec run's speed over the in-process run's).
 """
 
 from __future__ import annotations
@@ -26,6 +35,7 @@ import time
 import warnings
 from pathlib import Path
 
+from socialnav._core import STATUS_CONTINUING, STATUS_RUNNING
 from socialnav.evaluate.plan import cell_scenario, cell_world_settings, plan_cells
 from socialnav.evaluate.runner import run_protocol
 from socialnav.policies.building import build_policy
@@ -63,6 +73,71 @@ def simulate_only(preset, policy) -> float:
     return time.perf_counter() - start
 
 
+def protocol_env_steps(preset, policy) -> int:
+    """Env-steps of the whole protocol (every busy slot's step, continuations included) under ``policy``."""
+    steps = 0
+    for cell in plan_cells(preset):
+        world = World(cell_world_settings(preset, cell), cell_scenario(preset, cell),
+                      min(256, cell.episodes), split="test", count=cell.episodes, record=False)
+        world.reset()
+        while world.busy:
+            steps += int(((world.status == STATUS_RUNNING) | (world.status == STATUS_CONTINUING)).sum())
+            world.step(policy.act(world.observe()))
+        world.close()
+    return steps
+
+
+def build_example_planner(out_dir: str) -> str:
+    """Compiles examples/planners/straight_to_goal.cpp with the C++ compiler; the binary's path."""
+    import shutil
+    import subprocess
+
+    cxx = os.environ.get("CXX") or shutil.which("c++") or shutil.which("g++") or shutil.which("clang++")
+    if not cxx:
+        raise SystemExit("--exec: no C++ compiler found (set CXX)")
+    source = Path(__file__).resolve().parents[1] / "examples" / "planners" / "straight_to_goal.cpp"
+    binary = str(Path(out_dir) / "straight_to_goal")
+    subprocess.run([cxx, "-O2", "-std=c++17", "-o", binary, str(source)], check=True)
+    return binary
+
+
+def main_exec(args: argparse.Namespace) -> None:
+    """--exec: the protocol through a planner program against the same decisions in-process."""
+    preset = load_preset(args.preset)
+    with tempfile.TemporaryDirectory() as build:
+        command = args.exec if args.exec != "example" else build_example_planner(build)
+        exec_policy = build_policy(f"exec:{command}", preset)
+        native = build_policy("linear", preset)
+        best = {"exec": float("inf"), "native": float("inf")}
+        for _ in range(args.repeats):
+            for key, policy in (("exec", exec_policy), ("native", native)):
+                with tempfile.TemporaryDirectory() as out:
+                    start = time.perf_counter()
+                    result = run_protocol(policy, preset, out, progress=False)
+                    best[key] = min(best[key], time.perf_counter() - start)
+        exec_policy.close()
+    env_steps = protocol_env_steps(preset, native)
+    record = {
+        "preset": preset.name,
+        "planner": command if args.exec != "example" else "examples/planners/straight_to_goal.cpp (binary)",
+        "native_policy": "linear",
+        "episodes": len(result.rows),
+        "env_steps": env_steps,
+        "exec_seconds": round(best["exec"], 3),
+        "native_seconds": round(best["native"], 3),
+        "exec_env_steps_per_s": round(env_steps / best["exec"]),
+        "native_env_steps_per_s": round(env_steps / best["native"]),
+        "exec_vs_native": round(best["native"] / best["exec"], 3),
+        "meets_target": env_steps / best["exec"] >= 50_000,
+        "cpu_count": os.cpu_count(),
+        "load_average_1min": round(os.getloadavg()[0], 2),
+    }
+    print(f"{preset.name} protocol through the exec protocol: {env_steps:,} env-steps in {best['exec']:.2f} "
+          f"s ({record['exec_env_steps_per_s']:,} env-steps/s, goal 50,000); in-process "
+          f"{best['native']:.2f} s -> exec_vs_native {record['exec_vs_native']:.2f}")
+    emit(run_record() | record, args)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--repeats", type=int, default=1)
@@ -79,8 +154,14 @@ def main() -> None:
         action="store_true",
         help="skip simulating the protocol alone in this process (the simulator's share)",
     )
+    parser.add_argument("--exec", nargs="?", const="example", metavar="COMMAND",
+                        help="the protocol through a planner program (default: the C++ example, compiled "
+                        "here)")
     add_record_arguments(parser, "bench_protocol")
     args = parser.parse_args()
+    if args.exec:
+        main_exec(args)
+        return
     warnings.simplefilter("ignore")
     preset = load_preset(args.preset)
     policy = build_policy(args.policy, preset, args.checkpoint)

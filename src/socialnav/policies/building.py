@@ -28,7 +28,14 @@ from socialnav.policies.learned_catalog import (
     default_paper_row,
 )
 from socialnav.policies.native import NativePolicy
-from socialnav.policies.registry import SB3_PREFIX, Policy, accepts_any_keyword, get_policy_entry, make_policy
+from socialnav.policies.registry import (
+    EXEC_PREFIX,
+    SB3_PREFIX,
+    Policy,
+    accepts_any_keyword,
+    get_policy_entry,
+    make_policy,
+)
 from socialnav.presets import Preset
 from socialnav.settings import ConfigError
 
@@ -97,6 +104,13 @@ def _build(name: str, preset: Preset, checkpoint: str | Path | None, allow_prese
         if checkpoint is not None:
             raise ValueError(f"policy {name} names its model file itself and takes no --checkpoint")
         return entry.factory(preset=preset, allow_preset_mismatch=allow_preset_mismatch, **params)
+    if name.startswith(EXEC_PREFIX):
+        if checkpoint is not None:
+            raise ValueError(f"policy {name} is a program and takes no --checkpoint")
+        unknown = sorted(set(params) - set(entry.parameters))
+        if unknown:
+            raise ValueError(f"policy {name}: unknown parameter(s) {unknown}; an exec planner takes timeout")
+        return entry.factory(preset=preset, **params)
     if not entry.learned:
         if checkpoint is not None:
             raise ValueError(f"policy {name!r} is not learned and takes no --checkpoint")

@@ -176,6 +176,8 @@ def get_policy_entry(name: str) -> PolicyEntry:
         return _REGISTRY[name]
     if name.startswith(SB3_PREFIX):
         return _sb3_entry(name)
+    if name.startswith(EXEC_PREFIX):
+        return _exec_entry(name)
     if ":" in name:
         return _entry_from_path(name)
     _load_plugins()
@@ -184,7 +186,7 @@ def get_policy_entry(name: str) -> PolicyEntry:
         raise KeyError(
             f"unknown policy {name!r}{hint}; valid: {', '.join(sorted(_REGISTRY))}, or module.path:ClassName "
             f"(see docs/custom_policies.md), or sb3:PATH, a saved Stable-Baselines3 model "
-            f"(docs/train_your_own.md)"
+            f"(docs/train_your_own.md), or exec:COMMAND, a planner program (docs/exec_protocol.md)"
         )
     return _REGISTRY[name]
 
@@ -199,7 +201,7 @@ def make_policy(name: str, /, **params: Any) -> Policy:
         raise ValueError(f"policy {name!r} is learned: make_policy needs checkpoint=PATH (a file of "
                          f"`socialnav train`); build_policy({name!r}, preset) takes the checkpoint that "
                          "ships for a preset")
-    if not name.startswith(SB3_PREFIX):
+    if not name.startswith((SB3_PREFIX, EXEC_PREFIX)):
         from socialnav.policies.building import check_policy_parameters
 
         loading = ("checkpoint", "preset", "allow_preset_mismatch") if entry.learned else ()
@@ -233,6 +235,24 @@ def _sb3_entry(spec: str) -> PolicyEntry:
 
     description = "a saved Stable-Baselines3 model, deterministic actions"
     return PolicyEntry(spec, load, description, False, dict(PARAMETERS))
+
+
+#: ``exec:COMMAND`` names a planner program stepped over its stdin/stdout (socialnav.policies.exec_planner).
+EXEC_PREFIX = "exec:"
+
+
+def _exec_entry(spec: str) -> PolicyEntry:
+    command = spec[len(EXEC_PREFIX):]
+
+    def start(preset: Any = None, timeout: float = 10.0) -> Policy:
+        from socialnav.policies.exec_planner import ExecPlanner
+
+        world = getattr(preset, "world", None)
+        kinematics, dt = getattr(world, "kinematics", "holonomic"), getattr(world, "dt", 0.25)
+        return ExecPlanner(command, timeout=float(timeout), kinematics=kinematics, dt=dt)
+
+    return PolicyEntry(spec, start, "a planner program stepped over its stdin/stdout (docs/exec_protocol.md)",
+                       False, {"timeout": 10.0})
 
 
 def _entry_from_path(spec: str) -> PolicyEntry:
