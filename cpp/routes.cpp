@@ -27,6 +27,30 @@ constexpr double kMinClearance = 1e-6;
 
 inline Vec2 right_normal(Vec2 u) { return Vec2{u.y, -u.x}; }
 
+#define SOCIALNAV_INLINE __attribute__((always_inline))
+
+// Vectors of kEdgeLanes doubles (GCC's vector extension: each operation is the scalar one, lane by lane).
+// They never cross a call (the helpers below are always inlined), so the default clone's warning that
+// passing them would change the ABI does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+typedef double Lanes __attribute__((vector_size(kEdgeLanes * sizeof(double))));
+
+SOCIALNAV_INLINE inline Lanes load_lanes(const double* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+SOCIALNAV_INLINE inline Lanes lanes_of(double x) { return Lanes{} + x; }
+// std::min(a, b) and std::max(a, b), lane by lane
+SOCIALNAV_INLINE inline Lanes lane_min(Lanes a, Lanes b) { return b < a ? b : a; }
+SOCIALNAV_INLINE inline Lanes lane_max(Lanes a, Lanes b) { return a < b ? b : a; }
+SOCIALNAV_INLINE inline Lanes clamp01(Lanes t) { return lane_min(lane_max(t, lanes_of(0.0)), lanes_of(1.0)); }
+SOCIALNAV_INLINE inline double lanes_min(Lanes best) {
+  double m = best[0];
+  for (int l = 1; l < kEdgeLanes; ++l) m = std::min(m, best[l]);
+  return m;
+}
+
 // The points beside vertex i at distance >= d from both of its edges' lines, on the free side: the miter
 // point of the two offset lines where the corner is not sharp, else one point past each edge's end (a
 // wall's end gets two, one per face).
@@ -65,11 +89,14 @@ bool shortest_route(const RouteGraph& g, const ObstacleView& obs, Vec2 start, Ve
   // The start's and the goal's own clearance (a point inside a solid polygon sees nothing anyway: every
   // segment out of it crosses an edge).
   const EdgeSet& walls = g.walls;
-  auto visible = [&](Vec2 a, Vec2 b, double c) { return segment_clearance(walls, obs, a, b) >= c; };
-  const double c_start = std::max(std::min(d, edge_clearance(walls, start)) * (1.0 - 1e-9), kMinClearance);
-  const double c_goal = std::max(std::min(d, edge_clearance(walls, goal)) * (1.0 - 1e-9), kMinClearance);
+  auto visible = [&](Vec2 a, Vec2 b, double c) { return segment_clear(walls, obs, a, b, c); };  // c > 0 here
+  // the direct test's pass over the edges gives the start's and the goal's clearance too
+  double start_clearance, goal_clearance;
+  const double direct = segment_clearance(walls, obs, start, goal, start_clearance, goal_clearance);
+  const double c_start = std::max(std::min(d, start_clearance) * (1.0 - 1e-9), kMinClearance);
+  const double c_goal = std::max(std::min(d, goal_clearance) * (1.0 - 1e-9), kMinClearance);
   points.clear();
-  if (visible(start, goal, std::min(c_start, c_goal))) {
+  if (direct >= std::min(c_start, c_goal)) {
     points.push_back(goal);
     return true;
   }
@@ -77,37 +104,40 @@ bool shortest_route(const RouteGraph& g, const ObstacleView& obs, Vec2 start, Ve
   thread_local std::vector<int> prev;
   thread_local std::vector<uint8_t> settled;
   thread_local std::vector<Entry> heap;
+  thread_local std::vector<double> to_goal;  // the nodes' straight distances to the goal
   prev.assign(static_cast<size_t>(n), -1);
   settled.assign(static_cast<size_t>(n), 0);
+  to_goal.resize(static_cast<size_t>(n));
   heap.clear();
   const auto later = std::greater<Entry>();
   for (int i = 0; i < n; ++i) {
+    to_goal[i] = norm(goal - g.node[i]);
     const double g0 = norm(g.node[i] - start);
-    heap.push_back({g0 + norm(goal - g.node[i]), g0, i, -1});
+    heap.push_back({g0 + to_goal[i], g0, i, -1});
   }
   std::make_heap(heap.begin(), heap.end(), later);
   double best = kInf;
   int last = -1;
-  while (!heap.empty()) {
+  // The entry that stops the search (no route through the remaining nodes can be shorter) is looked at
+  // where it lies: taking it out would only cost a reordering.
+  while (!heap.empty() && !(heap.front().key >= best)) {
     std::pop_heap(heap.begin(), heap.end(), later);
     const Entry e = heap.back();
     heap.pop_back();
-    if (e.key >= best) break;  // no route through the remaining nodes can be shorter
     if (settled[e.node]) continue;
     const Vec2 p = g.node[e.node];
     if (e.pred < 0 && !visible(start, p, c_start)) continue;
     settled[e.node] = 1;
     prev[e.node] = e.pred;
-    const double to_goal = norm(goal - p);
-    if (e.g + to_goal < best && visible(p, goal, c_goal)) {
-      best = e.g + to_goal;
+    if (e.g + to_goal[e.node] < best && visible(p, goal, c_goal)) {
+      best = e.g + to_goal[e.node];
       last = e.node;
     }
     for (int k = g.first[e.node]; k < g.first[e.node + 1]; ++k) {
       const int j = g.neighbour[k];
       if (settled[j]) continue;
       const double gj = e.g + g.length[k];
-      heap.push_back({gj + norm(goal - g.node[j]), gj, j, e.node});
+      heap.push_back({gj + to_goal[j], gj, j, e.node});
       std::push_heap(heap.begin(), heap.end(), later);
     }
   }
@@ -156,8 +186,6 @@ std::string cache_key(const ObstacleView& obs, double inflation) {
 }  // namespace
 
 namespace {
-
-#define SOCIALNAV_INLINE __attribute__((always_inline))
 
 // The minimum of distance(i) over i in [0, n): the distances in chunks, then their minimum, so that the
 // compiler vectorises the first loop (a minimum reduction over doubles it would not, without -ffast-math).
@@ -210,6 +238,94 @@ SOCIALNAV_ROUTES_AVX2_CLONE double min_edge_distance_sq(const double* __restrict
   });
 }
 
+// min_edge_distance_sq and min_point_distance_sq over an EdgeSet's padded arrays, kEdgeLanes edges at a
+// time in vector types, the running minimum kept per lane: the chunked loop above spends most of its
+// instructions on a map's few edges in its scalar remainder and its separate minimum pass. Each lane
+// computes what the scalar code does, operation for operation (std::min and std::max spelt out as their
+// comparisons, no contraction), and the minimum of values that are never -0.0 (squares and 0.0; a NaN
+// distance, from a zero-length edge, is passed over as std::min(best, d) passes it over) does not depend
+// on the order it is taken in: the same doubles as min_edge_distance_sq(px, count, a, b).
+//
+// lane_edge_distances_sq gives the segment's squared distance and, with kEnds, a's and b's alone (the
+// point terms of the segment's distance are min_point_distance_sq's, operation for operation): an
+// agent's own clearance comes with its first segment test. With `stop` > 0 it may return early, a
+// segment distance whose square root is below stop, once the edges seen so far are that close.
+struct SegmentDistances {
+  double segment, a, b;
+};
+template <bool kEnds>
+SOCIALNAV_INLINE inline SegmentDistances lane_edge_distances_sq(const double* __restrict px, int stride, Vec2 a, Vec2 b,
+                                                                double stop = 0.0) {
+  const double* __restrict py = px + stride;
+  const double* __restrict ex_ = px + 2 * stride;
+  const double* __restrict ey_ = px + 3 * stride;
+  const double* __restrict inv_ = px + 4 * stride;
+  const double abx_ = b.x - a.x, aby_ = b.y - a.y;
+  const double ab_sq = abx_ * abx_ + aby_ * aby_;
+  const double inv_ab_ = ab_sq > 0.0 ? 1.0 / ab_sq : 0.0;
+  const Lanes abx = lanes_of(abx_), aby = lanes_of(aby_), inv_ab = lanes_of(inv_ab_);
+  const Lanes zero = lanes_of(0.0);
+  Lanes best = lanes_of(kInf), best_a = best, best_b = best;
+  for (int i = 0; i < stride; i += kEdgeLanes) {
+    const Lanes x = load_lanes(px + i), y = load_lanes(py + i);
+    const Lanes ex = load_lanes(ex_ + i), ey = load_lanes(ey_ + i), inv = load_lanes(inv_ + i);
+    const Lanes ax = a.x - x, ay = a.y - y;
+    const Lanes ta = clamp01((ax * ex + ay * ey) * inv);
+    const Lanes dax = ax - ta * ex, day = ay - ta * ey;
+    const Lanes bx = b.x - x, by = b.y - y;
+    const Lanes tb = clamp01((bx * ex + by * ey) * inv);
+    const Lanes dbx = bx - tb * ex, dby = by - tb * ey;
+    const Lanes sp = clamp01((-ax * abx - ay * aby) * inv_ab);
+    const Lanes dpx = -ax - sp * abx, dpy = -ay - sp * aby;
+    const Lanes qx = x + ex - a.x, qy = y + ey - a.y;
+    const Lanes sq = clamp01((qx * abx + qy * aby) * inv_ab);
+    const Lanes dqx = qx - sq * abx, dqy = qy - sq * aby;
+    const Lanes da = dax * dax + day * day, db = dbx * dbx + dby * dby;
+    const Lanes dist = lane_min(lane_min(da, db), lane_min(dpx * dpx + dpy * dpy, dqx * dqx + dqy * dqy));
+    const Lanes s1 = aby * ax - abx * ay, s2 = abx * qy - aby * qx;
+    const Lanes s3 = ex * ay - ey * ax, s4 = ex * by - ey * bx;
+    const auto crossing = (s1 * s2 < zero) & (s3 * s4 < zero);
+    best = lane_min(best, crossing ? zero : dist);
+    if (kEnds) {
+      best_a = lane_min(best_a, da);
+      best_b = lane_min(best_b, db);
+    }
+    if (stop > 0.0 && i + kEdgeLanes < stride && std::sqrt(lanes_min(best)) < stop) break;
+  }
+  return {lanes_min(best), kEnds ? lanes_min(best_a) : kInf, kEnds ? lanes_min(best_b) : kInf};
+}
+
+SOCIALNAV_ROUTES_AVX2_CLONE double lane_edge_distance_sq(const double* __restrict px, int stride, Vec2 a, Vec2 b) {
+  return lane_edge_distances_sq<false>(px, stride, a, b).segment;
+}
+
+// sqrt(lane_edge_distance_sq(px, stride, a, b)) >= c, answered as soon as the edges seen so far are closer
+// than c (the square root is monotone: the minimum can only fall further).
+SOCIALNAV_ROUTES_AVX2_CLONE bool lane_edges_clear(const double* __restrict px, int stride, Vec2 a, Vec2 b, double c) {
+  return std::sqrt(lane_edge_distances_sq<false>(px, stride, a, b, c).segment) >= c;
+}
+
+SOCIALNAV_ROUTES_AVX2_CLONE SegmentDistances lane_edge_end_distances_sq(const double* __restrict px, int stride, Vec2 a,
+                                                                        Vec2 b) {
+  return lane_edge_distances_sq<true>(px, stride, a, b);
+}
+
+SOCIALNAV_ROUTES_AVX2_CLONE double lane_point_distance_sq(const double* __restrict px, int stride, Vec2 p) {
+  const double* __restrict py = px + stride;
+  const double* __restrict ex_ = px + 2 * stride;
+  const double* __restrict ey_ = px + 3 * stride;
+  const double* __restrict inv_ = px + 4 * stride;
+  Lanes best = lanes_of(kInf);
+  for (int i = 0; i < stride; i += kEdgeLanes) {
+    const Lanes ex = load_lanes(ex_ + i), ey = load_lanes(ey_ + i);
+    const Lanes tx = p.x - load_lanes(px + i), ty = p.y - load_lanes(py + i);
+    const Lanes r = clamp01((tx * ex + ty * ey) * load_lanes(inv_ + i));
+    const Lanes dx = tx - r * ex, dy = ty - r * ey;
+    best = lane_min(best, dx * dx + dy * dy);
+  }
+  return lanes_min(best);
+}
+
 }  // namespace
 
 double segment_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b) {
@@ -229,14 +345,36 @@ EdgeSet compact_edges(const ObstacleView& obstacles) {
     if (v.own_edge) own.push_back(v);
   }
   e.count = static_cast<int>(own.size());
+  if (e.count > 0)
+    while (own.size() % kEdgeLanes != 0) own.push_back(own.front());
+  e.stride = static_cast<int>(own.size());
   e.soa.resize(5 * own.size());
-  build_edge_arrays(own.data(), e.count, e.soa.data());
+  build_edge_arrays(own.data(), e.stride, e.soa.data());
   return e;
 }
 
 double segment_clearance(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b) {
   if (edges.count == 0) return kInf;
-  const double best = std::sqrt(min_edge_distance_sq(edges.soa.data(), edges.count, a, b));
+  const double best = std::sqrt(lane_edge_distance_sq(edges.soa.data(), edges.stride, a, b));
+  return best > 0.0 && edges.has_solid && inside_solid(obstacles, b) ? 0.0 : best;
+}
+
+bool segment_clear(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b, double c) {
+  // segment_clearance >= c > 0 is a distance >= c and an end outside the solid polygons
+  if (edges.count == 0) return kInf >= c;
+  return lane_edges_clear(edges.soa.data(), edges.stride, a, b, c) && !(edges.has_solid && inside_solid(obstacles, b));
+}
+
+double segment_clearance(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b, double& a_clearance,
+                         double& b_clearance) {
+  if (edges.count == 0) {
+    a_clearance = b_clearance = kInf;
+    return kInf;
+  }
+  const SegmentDistances d = lane_edge_end_distances_sq(edges.soa.data(), edges.stride, a, b);
+  a_clearance = std::sqrt(d.a);
+  b_clearance = std::sqrt(d.b);
+  const double best = std::sqrt(d.segment);
   return best > 0.0 && edges.has_solid && inside_solid(obstacles, b) ? 0.0 : best;
 }
 
@@ -268,7 +406,7 @@ double edge_clearance(const ObstacleView& obstacles, Vec2 p) {
 }
 
 double edge_clearance(const EdgeSet& edges, Vec2 p) {
-  return edges.count == 0 ? kInf : std::sqrt(min_point_distance_sq(edges.soa.data(), edges.count, p));
+  return edges.count == 0 ? kInf : std::sqrt(lane_point_distance_sq(edges.soa.data(), edges.stride, p));
 }
 
 double obstacle_clearance(const ObstacleView& obstacles, Vec2 p) {
@@ -562,10 +700,10 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
   if (index + 1 < n && !(blocked_margin > 0.0 && norm(position - blocked_from) < blocked_margin)) {
     // Advance to the farthest point seen with half the planned clearance, or with the agent's own where a
     // neighbour pressed it closer to a wall than that.
-    own = edge_clearance(walls, position);
+    double next_clearance;  // (not needed)
+    double seen = segment_clearance(walls, obstacles, position, route.point[index + 1], own, next_clearance);
     const double c_advance = std::max(std::min(0.5 * (radius + route.inflation), 0.99 * own), kMinClearance);
-    while (index + 1 < n) {
-      const double seen = segment_clearance(walls, obstacles, position, route.point[index + 1]);
+    for (;;) {
       if (seen < c_advance) {
         // Hidden: it stays hidden while the agent moves less than this (the segment gains at most the
         // distance moved, c_advance loses at most 0.99 of it).
@@ -578,6 +716,8 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
       blocked_margin = -1.0;
       seen_from = position;
       seen_margin = seen - std::max(0.99 * radius, kMinClearance);
+      if (index + 1 == n) break;
+      seen = segment_clearance(walls, obstacles, position, route.point[index + 1]);
     }
   }
   // Pushed off the route (the point it heads for, the goal included, is behind a wall, or the way to it passes
@@ -587,8 +727,11 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
   // that distance of a point of the old one.
   if (!advanced && !(seen_margin >= 0.0 &&
                      dist_sq_point_segment(seen_from, route.point[index], position) <= seen_margin * seen_margin)) {
-    if (own < 0.0) own = edge_clearance(walls, position);
-    const double seen = segment_clearance(walls, obstacles, position, route.point[index]);
+    double seen, point_clearance;
+    if (own < 0.0)
+      seen = segment_clearance(walls, obstacles, position, route.point[index], own, point_clearance);
+    else
+      seen = segment_clearance(walls, obstacles, position, route.point[index]);
     if (seen >= std::max(0.99 * std::min(radius, own), kMinClearance)) {
       seen_from = position;
       seen_margin = seen - std::max(0.99 * radius, kMinClearance);

@@ -20,17 +20,26 @@
 
 namespace socialnav {
 
-// A map's own edges (a wall's return face left out) as five arrays of `count` doubles (point x, y, edge
-// x, y, 1 / |edge|^2): what the per-step visibility and clearance tests scan.
+// A map's own edges (a wall's return face left out) as five arrays of `stride` doubles (point x, y, edge
+// x, y, 1 / |edge|^2): what the per-step visibility and clearance tests scan. The arrays run on past
+// `count` to a multiple of kEdgeLanes with copies of the first edge, so that the tests take whole vectors
+// (a copy changes no minimum).
+constexpr int kEdgeLanes = 4;
 struct EdgeSet {
   std::vector<double> soa;
   int count = 0;
+  int stride = 0;
   bool has_solid = false;  // some polygon has an interior (then a segment's end may lie inside one)
 };
 EdgeSet compact_edges(const ObstacleView& obstacles);
 // segment_clearance and edge_clearance (below) over an EdgeSet of `obstacles` (the same map).
 double segment_clearance(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b);
 double edge_clearance(const EdgeSet& edges, Vec2 p);
+// segment_clearance(edges, obstacles, a, b) >= c for c > 0, without the rest of the edges once one is closer.
+bool segment_clear(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b, double c);
+// segment_clearance, and edge_clearance of a and of b from the same pass over the edges.
+double segment_clearance(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b, double& a_clearance,
+                         double& b_clearance);
 
 // One map's visibility graph for inflation d [m]: nodes and their edges (CSR: node i's neighbours are
 // neighbour[first[i]..first[i + 1]), with the segment lengths), and the map's edges.
