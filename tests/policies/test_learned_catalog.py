@@ -45,7 +45,7 @@ def test_the_shipped_records():
     assert catalog.learned_policy_names("value") == [
         "cadrl", "lstm_rl", "ga3c_cadrl", "sarl", "om_sarl", "rgl", "mp_rgl"
     ]
-    assert catalog.learned_policy_names("ppo") == ["crowdnav_pp", "ppo_mlp"]
+    assert catalog.learned_policy_names("ppo") == ["crowdnav_pp", "ppo_mlp", "lidar_ppo"]
     assert catalog.canonical_name("ga3c_cadrl") == "lstm_rl"
     mp = catalog.get_learned_spec("mp_rgl")
     assert mp.value_defaults == {

@@ -70,7 +70,10 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     recorded = PPOSettings().to_dict()
     assert recorded == PPO_DEFAULTS and list(recorded) == list(PPO_DEFAULTS)
     assert list(recorded["network"]) == list(NETWORK_DEFAULTS)
-    assert recorded == dataclasses.asdict(PPOSettings())
+    plain = dataclasses.asdict(PPOSettings())
+    # lidar_ppo's lidar, added later: left out of records while at its defaults
+    assert (plain.pop("lidar_beams"), plain.pop("lidar_range")) == (180, 10.0)
+    assert recorded == plain
 
 
 @pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke"])

@@ -243,7 +243,8 @@ def test_bad_overlay_and_format_mismatch_are_clear(run_dir, capsys):
         == 2
     )
     assert "does not end in .gif" in capsys.readouterr().err
-    assert parse_overlays(["m1,m2", "all"]) == ("personal_space", "velocity_rectangles", "side_preference")
+    assert parse_overlays(["m1,m2", "all"]) == ("personal_space", "velocity_rectangles", "side_preference",
+                                                 "lidar")
 
 
 @pytest.mark.parametrize(("extra", "message"), [
