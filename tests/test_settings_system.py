@@ -162,7 +162,8 @@ def test_to_dict_is_the_plain_dataclass_dict_that_manifests_hash(cls):
 
 
 #: Settings added after records were made, with a default other than None (it then means "as before").
-UNRECORDED_DEFAULTS = {"human_routes": "none", "route_clearance": 0.2, "lidar_beams": 180, "lidar_range": 10.0}
+UNRECORDED_DEFAULTS = {"human_routes": "none", "route_clearance": 0.2,
+                       "lidar_beams": 180, "lidar_range": 10.0}
 #: Sections declared with record_default=False: left out while they hold their defaults.
 UNRECORDED_SECTIONS = {"sensing": "SensingSettings"}
 
