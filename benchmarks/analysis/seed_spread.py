@@ -7,7 +7,10 @@ runs/train/wang2022-P-sS/best.pt`) and prints a Markdown table: one row per poli
 mean ± std (ddof 1) over the seeds present, beside the paper's row. The last line is one JSON object
 with every value.
 
-    python benchmarks/analysis/seed_spread.py [--results benchmarks/results]
+    python benchmarks/analysis/seed_spread.py [--results benchmarks/results] [--preset wang2022_partial]
+
+``--preset`` reads another preset's files (``<policy>_<preset>_summary.json``, ``..._s1_...``); the
+protocol must be ``wang2022``'s (its scenarios and columns), e.g. ``wang2022_partial``.
 """
 
 from __future__ import annotations
@@ -52,15 +55,16 @@ def pooled_values(path: Path) -> dict[str, float]:
     return out
 
 
-def seed_files(results: Path, policy: str) -> dict[int, Path]:
-    files = {0: results / f"{policy}_wang2022_summary.json"}
-    files.update({s: results / f"{policy}_wang2022_s{s}_summary.json" for s in (1, 2)})
+def seed_files(results: Path, policy: str, preset: str = "wang2022") -> dict[int, Path]:
+    files = {0: results / f"{policy}_{preset}_summary.json"}
+    files.update({s: results / f"{policy}_{preset}_s{s}_summary.json" for s in (1, 2)})
     return {s: p for s, p in files.items() if p.is_file()}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--results", default=str(Path(__file__).resolve().parents[1] / "results"))
+    ap.add_argument("--preset", default="wang2022", help="whose result files (default wang2022)")
     args = ap.parse_args()
     results = Path(args.results)
     header = ["Policy", "seed", *[c[0] for c in COLUMNS]]
@@ -68,7 +72,7 @@ def main() -> None:
     print("|" + "---|" * len(header))
     report: dict[str, dict] = {}
     for policy in POLICIES:
-        files = seed_files(results, policy)
+        files = seed_files(results, policy, args.preset)
         if not files:
             continue
         per_seed = {s: pooled_values(p) for s, p in sorted(files.items())}
