@@ -56,8 +56,8 @@ __all__ = [
     "world_bytes",
 ]
 
-#: (robot, humans, human_mask, active, time): the arrays an Observation starts with, filled by the core.
-#: (robot, humans, human_mask, active, time) and, with a lidar, its (B, beams) float32 scans.
+#: (robot, humans, human_mask, active, time): the arrays an Observation starts with, filled by the core,
+#: and, with a lidar, its (B, beams) float32 scans.
 ObservationArrays = tuple[np.ndarray, ...]
 
 
