@@ -117,6 +117,7 @@ def speed_block() -> str:
     world, walls = load("bench_world.json"), load("bench_world_obstacles.json")
     protocol, sarl = load("bench_protocol.json"), load("bench_protocol_sarl.json")
     train, ppo, sb3 = load("bench_train.json"), load("bench_ppo_trainer.json"), load("bench_ppo.json")
+    lidar, exec_ = load("bench_world_lidar.json"), load("bench_protocol_exec.json")
     rows = [
         (
             "World: 5 ORCA humans + ORCA robot, B = 4096",
@@ -130,9 +131,27 @@ def speed_block() -> str:
             f"**{walls['ratio_vs_navground_obstacles']:.1f}×** navground with the same walls",
         ),
         (
+            f"The same walls, a {lidar['lidar_beams']}-beam lidar on the robot",
+            f"{lidar['env_steps_per_s_lidar'] / 1e3:.0f} k env-steps/s",
+            f"the lidar costs {lidar['lidar_cost']:.2f}× (goal ≤ 1.5); "
+            f"**{lidar['lidar_vs_navground']:.1f}×** navground with its lidar "
+            f"(goal 8{'' if lidar['lidar_vs_navground'] >= 8 else ', not met'})",
+        ),
+        (
+            "The same walls, humans on routes",
+            f"{lidar['env_steps_per_s_routed'] / 1e3:.0f} k env-steps/s",
+            f"{lidar['ratio_routed_vs_unrouted']:.2f} of the speed without routes "
+            f"(goal 0.8{'' if lidar['ratio_routed_vs_unrouted'] >= 0.8 else ', not met'})",
+        ),
+        (
             f"Protocol: full `wang2022`, ORCA robot ({protocol['episodes']:,} episodes, scored, stored)",
             f"{protocol['seconds']:.1f} s",
             f"storing trajectories costs {protocol['trajectory_time_ratio']:.2f}× the run without them",
+        ),
+        (
+            "Protocol: full `wang2022` through the exec protocol (C++ example planner)",
+            f"{exec_['exec_env_steps_per_s']:,.0f} env-steps/s",
+            f"{exec_['exec_vs_native']:.2f}× the same decisions in-process (goal 50,000 env-steps/s)",
         ),
         (
             f"Protocol: full `wang2022`, shipped SARL ({sarl['episodes']:,} episodes)",
@@ -191,6 +210,15 @@ LOG: dict[str, tuple[str, str, Callable[[dict], str]]] = {
             f"{d['ratio_vs_open_world']} of the open floor"
         ),
     ),
+    "bench_world_lidar.json": (
+        "the walled world with a 360-beam lidar on the robot",
+        "python benchmarks/bench_world.py --obstacles --lidar 360",
+        lambda d: (
+            f"{_f(d['env_steps_per_s_lidar'])} env-steps/s; lidar_cost {d['lidar_cost']} (goal <= 1.5), "
+            f"lidar_vs_navground {d['lidar_vs_navground']} (goal >= 8); routed/unrouted "
+            f"{d['ratio_routed_vs_unrouted']} (goal >= 0.8)"
+        ),
+    ),
     "bench_world_obstacles_1thread.json": (
         "the same on 1 thread",
         "python benchmarks/bench_world.py --obstacles --threads 1",
@@ -218,6 +246,13 @@ LOG: dict[str, tuple[str, str, Callable[[dict], str]]] = {
         "francis2023 protocol (walls), ORCA robot",
         "python benchmarks/bench_protocol.py --preset francis2023",
         lambda d: f"{d['seconds']} s for {d['episodes']:,} episodes (goal {d['target_seconds']} s)",
+    ),
+    "bench_protocol_exec.json": (
+        "full wang2022 protocol through the exec protocol (C++ example planner)",
+        "python benchmarks/bench_protocol.py --exec",
+        lambda d: (
+            f"{_f(d['exec_env_steps_per_s'])} env-steps/s (goal 50,000), exec_vs_native {d['exec_vs_native']}"
+        ),
     ),
     "bench_protocol_sarl.json": (
         "full wang2022 protocol, shipped SARL",

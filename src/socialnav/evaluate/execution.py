@@ -386,8 +386,12 @@ def episode_progress(total: int, initial: int, enabled: bool) -> Any:
 def _policy_payload(policy: Policy, required: bool) -> bytes | None:
     """The pickled policy for simulation workers, or None when it cannot travel.
 
-    Native policies cannot, and their simulation is cheap anyway.
+    Native policies cannot, and their simulation is cheap anyway; a policy that says
+    ``simulates_in_process`` (an exec planner: its work runs in a program of its own) stays here unless
+    ``required``.
     """
+    if getattr(policy, "simulates_in_process", False) and not required:
+        return None
     device = str(getattr(getattr(policy, "value_policy", None), "device", "cpu"))
     if device != "cpu" and not required:
         return None  # one GPU serves one process best; workers would each hold a copy of the network

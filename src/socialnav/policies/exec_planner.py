@@ -62,6 +62,9 @@ class ExecPlanner:
     """
 
     information = "none"
+    #: The evaluation steps it in its own process (workers score): the planning runs in the program, so
+    #: simulation workers would only add their start-up and one more planner each.
+    simulates_in_process = True
 
     def __init__(self, command: str, timeout: float = 10.0, kinematics: str = "holonomic", dt: float = 0.25):
         argv = shlex.split(command)
