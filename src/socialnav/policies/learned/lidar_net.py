@@ -18,13 +18,8 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from socialnav.policies.learned.attn_graph import (
-    OBS_CLIP,
-    ROBOT_FEATURES,
-    ObservationStatistics,
-    _fold,
-    _init,
-)
+from socialnav.policies.learned.attn_graph import OBS_CLIP, ROBOT_FEATURES, ObservationStatistics, _fold
+from socialnav.policies.learned.ppo_mlp import actor_critic_mlps
 
 __all__ = ["LidarActorCritic"]
 
@@ -71,18 +66,7 @@ class LidarActorCritic(ObservationStatistics):
         )
         with torch.no_grad():
             scan_features = self.encoder(torch.zeros(1, 1, self.lidar_beams)).shape[1]
-        width = ROBOT_FEATURES + scan_features
-
-        def mlp(out: int, gain: float) -> nn.Sequential:
-            return nn.Sequential(
-                _init(nn.Linear(width, hidden)),
-                nn.Tanh(),
-                _init(nn.Linear(hidden, hidden)),
-                nn.Tanh(),
-                _init(nn.Linear(hidden, out), gain),
-            )
-
-        self.actor, self.critic = mlp(2, 0.01), mlp(1, 1.0)
+        self.actor, self.critic = actor_critic_mlps(ROBOT_FEATURES + scan_features, hidden)
         self.log_std = nn.Parameter(torch.full((2,), float(log_std_init)))
         self._init_obs_stats()
 

@@ -19,7 +19,25 @@ from torch import nn
 
 from socialnav.policies.learned.attn_graph import ROBOT_FEATURES, ObservationStatistics, _init
 
-__all__ = ["MLPActorCritic"]
+__all__ = ["MLPActorCritic", "actor_critic_mlps"]
+
+
+def actor_critic_mlps(width: int, hidden: int) -> tuple[nn.Sequential, nn.Sequential]:
+    """CleanRL's separate actor (2 outputs, gain 0.01) and critic (1 output) tanh MLPs over ``width`` inputs.
+
+    Built actor first, so a seeded initialisation gives the same weights wherever it is used.
+    """
+
+    def mlp(out: int, gain: float) -> nn.Sequential:
+        return nn.Sequential(
+            _init(nn.Linear(width, hidden)),
+            nn.Tanh(),
+            _init(nn.Linear(hidden, hidden)),
+            nn.Tanh(),
+            _init(nn.Linear(hidden, out), gain),
+        )
+
+    return mlp(2, 0.01), mlp(1, 1.0)
 
 
 class MLPActorCritic(ObservationStatistics):
@@ -56,17 +74,7 @@ class MLPActorCritic(ObservationStatistics):
         self.input_dim = 2 * (1 + prediction_steps)
         self.normalize_obs = normalize_obs
         width = ROBOT_FEATURES + (max_humans + obstacle_slots) * (self.input_dim + 1)
-
-        def mlp(out: int, gain: float) -> nn.Sequential:
-            return nn.Sequential(
-                _init(nn.Linear(width, hidden)),
-                nn.Tanh(),
-                _init(nn.Linear(hidden, hidden)),
-                nn.Tanh(),
-                _init(nn.Linear(hidden, out), gain),
-            )
-
-        self.actor, self.critic = mlp(2, 0.01), mlp(1, 1.0)
+        self.actor, self.critic = actor_critic_mlps(width, hidden)
         self.log_std = nn.Parameter(torch.full((2,), float(log_std_init)))
         self._init_obs_stats()
 
