@@ -128,3 +128,36 @@ def test_a_planner_of_another_protocol_is_refused_at_the_hello(tmp_path, capsys)
 def test_a_missing_program_is_named(tmp_path, capsys):
     assert _evaluate("exec:./no/such/planner", tmp_path / "run") != 0
     assert "exec planner './no/such/planner' could not start" in capsys.readouterr().err
+
+
+WALL_RECORDER = '''
+import json, sys
+out = sys.argv[1]
+json.loads(sys.stdin.readline())
+print(json.dumps({"protocol": "socialnav-exec", "version": 1, "format": "json"}), flush=True)
+walls = {}
+for line in sys.stdin:
+    frame = json.loads(line)
+    walls.update(frame.get("walls", {}))
+    print(json.dumps({"actions": [[0.0, 0.0] for _ in frame["robot"]]}), flush=True)
+    json.dump(walls, open(out, "w"))
+'''
+
+
+def test_the_walls_go_with_each_new_episodes_row(tmp_path):
+    from socialnav.scenarios import make_scenario
+    from socialnav.sim import World, WorldSettings
+
+    script, record = tmp_path / "walls.py", tmp_path / "walls.json"
+    script.write_text(WALL_RECORDER)
+    rc = main(["evaluate", "--policy", f"exec:{sys.executable} {script} {record}", "--preset", "francis2023",
+               "--scenario", "narrow_doorway", "--episodes", "2", "--visibility", "invisible",
+               "--out", str(tmp_path / "run"), "--no-progress"])
+    assert rc == 0
+    walls = json.loads(record.read_text())
+    with World(WorldSettings(threads=1), make_scenario("narrow_doorway"), 1, count=1) as world:
+        world.reset()
+        starts, ends = world.static_maps[0].edges()
+    assert sorted(walls) == ["0", "1"]  # both rows' episodes brought their walls
+    expected = [[*a, *b] for a, b in zip(starts.tolist(), ends.tolist(), strict=True)]
+    assert walls["0"] == expected  # the doorway's fixed layout, edge by edge
