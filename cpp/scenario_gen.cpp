@@ -6,13 +6,12 @@
 #include <initializer_list>
 #include <vector>
 
+#include "splitmix.hpp"
+
 namespace socialnav {
 
 namespace {
 
-constexpr uint64_t kGolden = 0x9E3779B97F4A7C15ULL;
-constexpr uint64_t kM1 = 0xBF58476D1CE4E5B9ULL;
-constexpr uint64_t kM2 = 0x94D049BB133111EBULL;
 constexpr double kTwoM53 = 1.0 / 9007199254740992.0;  // 2**-53
 
 // Draw-key streams (socialnav/scenarios/base.py).
@@ -21,33 +20,23 @@ constexpr int64_t kStreamSide = 2;
 constexpr int64_t kStreamStart = 3;
 constexpr int64_t kStreamGoal = 4;
 
-// random.py: _fmix_int / _fmix_array (splitmix64 finaliser; wrap-around is intended).
-inline uint64_t fmix(uint64_t z) {
-  z = (z ^ (z >> 30)) * kM1;
-  z = (z ^ (z >> 27)) * kM2;
-  return z ^ (z >> 31);
-}
-
-// random.py: _chain_int.
-inline uint64_t chain(uint64_t h, uint64_t word) { return fmix((h ^ word) + kGolden); }
-
 // random.py: EpisodeRandom for one episode.
 class EpisodeStream {
  public:
   EpisodeStream(uint64_t salt_prefix, int64_t seed)
-      : seed_hash_(fmix((static_cast<uint64_t>(seed) ^ salt_prefix) + kGolden)) {}
+      : seed_hash_(fmix64((static_cast<uint64_t>(seed) ^ salt_prefix) + kGolden)) {}
 
   // The hash of a draw's key (EpisodeRandom.bits), shared by the draw's elements.
   static uint64_t key_hash(std::initializer_list<int64_t> key) {
-    uint64_t kh = chain(0x5EED, key.size());
-    for (int64_t word : key) kh = chain(kh, static_cast<uint64_t>(word));
+    uint64_t kh = chain64(0x5EED, key.size());
+    for (int64_t word : key) kh = chain64(kh, static_cast<uint64_t>(word));
     return kh;
   }
 
   // EpisodeRandom.random(key, size)[element]: uniform in [0, 1) with 53 bits.
   double random(uint64_t key_hash, int element) const {
-    const uint64_t eh = chain(key_hash, static_cast<uint64_t>(element));
-    const uint64_t h = fmix((seed_hash_ ^ eh) + kGolden);
+    const uint64_t eh = chain64(key_hash, static_cast<uint64_t>(element));
+    const uint64_t h = fmix64((seed_hash_ ^ eh) + kGolden);
     return static_cast<double>(h >> 11) * kTwoM53;
   }
 

@@ -3,36 +3,23 @@
 #include <algorithm>
 #include <cmath>
 
+#include "splitmix.hpp"
+
 namespace socialnav {
 
 namespace {
 
-constexpr uint64_t kGolden = 0x9E3779B97F4A7C15ULL;
-
-// splitmix64's finaliser (Steele, Lea & Flood, OOPSLA 2014): a bijective mix of 64 bits.
-inline uint64_t fmix(uint64_t z) {
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-  return z ^ (z >> 31);
-}
-
+// The draw of (seed, step, index, stream): the four words chained into one hash (splitmix.hpp).
 inline uint64_t draw_bits(int64_t seed, int64_t step, int64_t index, uint64_t stream) {
-  uint64_t h = fmix(static_cast<uint64_t>(seed) + kGolden);
-  h = fmix((h ^ static_cast<uint64_t>(step)) + kGolden);
-  h = fmix((h ^ static_cast<uint64_t>(index)) + kGolden);
-  return fmix((h ^ stream) + kGolden);
+  const uint64_t h = chain64(chain64(chain64(0, static_cast<uint64_t>(seed)), static_cast<uint64_t>(step)),
+                             static_cast<uint64_t>(index));
+  return chain64(h, stream);
 }
 
 inline double wrap_angle(double a) { return std::remainder(a, 2.0 * M_PI); }
 
-// Distance from the origin `eye` to segment [p, q].
-inline double segment_distance(Vec2 eye, Vec2 p, Vec2 q) {
-  const Vec2 e = q - p;
-  const double len_sq = abs_sq(e);
-  double s = len_sq > 0.0 ? dot(eye - p, e) / len_sq : 0.0;
-  s = std::clamp(s, 0.0, 1.0);
-  return norm(p + s * e - eye);
-}
+// Distance from `eye` to the edge [p, q] (an edge has a length: the map's preparation refuses others).
+inline double segment_distance(Vec2 eye, Vec2 p, Vec2 q) { return std::sqrt(dist_sq_point_segment(p, q, eye)); }
 
 // Whether the ray eye + t u, 0 < t < t_max, crosses a wall edge or an occluding disc.
 bool ray_blocked(Vec2 eye, Vec2 u, double t_max, const ObstacleView& walls, const double* other_pos,
