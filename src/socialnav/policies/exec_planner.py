@@ -163,39 +163,30 @@ class ExecPlanner:
         except (BrokenPipeError, OSError):
             raise self._fail(f"stopped reading at step {self._step}") from None
 
-    def _read_exact(self, n: int, what: str) -> bytes:
-        assert self._proc is not None and self._proc.stdout is not None
-        fd = self._proc.stdout.fileno()
-        deadline = time.monotonic() + self.timeout
-        chunks, got = [], 0
-        with selectors.DefaultSelector() as sel:
-            sel.register(fd, selectors.EVENT_READ)
-            while got < n:
-                left = deadline - time.monotonic()
-                if left <= 0 or not sel.select(left):
-                    raise self._fail(f"did not answer {what} within {self.timeout:g} s (hung?)")
-                chunk = os.read(fd, n - got)
-                if not chunk:
-                    raise self._fail(f"closed its output before answering {what}")
-                chunks.append(chunk)
-                got += len(chunk)
-        return b"".join(chunks)
+    def _read(self, what: str, size: int | None) -> bytes:
+        """``size`` bytes of the planner's output, or up to a newline where ``size`` is None.
 
-    def _read_line(self, what: str) -> str:
+        Waits at most ``timeout`` seconds in all; a planner that says nothing for that long, or closes
+        its output, fails naming ``what`` it was answering.
+        """
         assert self._proc is not None and self._proc.stdout is not None
         fd = self._proc.stdout.fileno()
         deadline = time.monotonic() + self.timeout
         buf = bytearray()
         with selectors.DefaultSelector() as sel:
             sel.register(fd, selectors.EVENT_READ)
-            while not buf.endswith(b"\n"):
+            while (len(buf) < size) if size is not None else not buf.endswith(b"\n"):
                 left = deadline - time.monotonic()
                 if left <= 0 or not sel.select(left):
                     raise self._fail(f"did not answer {what} within {self.timeout:g} s (hung?)")
-                chunk = os.read(fd, 65536)
+                chunk = os.read(fd, 65536 if size is None else size - len(buf))
                 if not chunk:
                     raise self._fail(f"closed its output before answering {what}")
                 buf += chunk
+        return bytes(buf)
+
+    def _read_line(self, what: str) -> str:
+        buf = self._read(what, None)
         if buf.count(b"\n") > 1:
             raise self._fail(f"answered {what} with more than one line")
         return buf.decode(errors="replace").strip()
@@ -227,12 +218,12 @@ class ExecPlanner:
                                  "episodes (expected one [a0, a1] per episode)")
             return actions
         self._write(self._binary_frame(observation, walls))
-        magic, n = _ACT_HEADER.unpack(self._read_exact(_ACT_HEADER.size, what))
+        magic, n = _ACT_HEADER.unpack(self._read(what, _ACT_HEADER.size))
         if magic != ACT_MAGIC:
             raise self._fail(f"answered {what} with {magic!r}, not an action frame ({ACT_MAGIC!r})")
         if n != b:
             raise self._fail(f"answered {what} with {n} actions for a batch of {b} episodes")
-        return np.frombuffer(self._read_exact(16 * b, what), dtype="<f8").reshape(b, 2).astype(np.float64)
+        return np.frombuffer(self._read(what, 16 * b), dtype="<f8").reshape(b, 2).astype(np.float64)
 
     def _new_walls(self, obs: Any) -> dict[int, np.ndarray]:
         """Each row whose map is not the one last sent for it: its wall edges (E, 4)."""
