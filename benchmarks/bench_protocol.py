@@ -56,7 +56,10 @@ def _megabytes(path: Path) -> float:
     return sum(f.stat().st_size for f in path.rglob("*") if f.is_file()) / 1e6
 
 
-def simulate_only(preset, policy) -> float:
+def simulate_only(preset, policy) -> tuple[float, int]:
+    """Seconds to simulate every cell of the protocol in this process (recording, no scoring or writing),
+    and its env-steps (every busy slot's step, continuations included)."""
+    steps = 0
     start = time.perf_counter()
     for cell in plan_cells(preset):
         world = World(
@@ -69,22 +72,9 @@ def simulate_only(preset, policy) -> float:
         )
         world.reset()
         while world.busy:
-            world.step(policy.act(world.observe()))
-    return time.perf_counter() - start
-
-
-def protocol_env_steps(preset, policy) -> int:
-    """Env-steps of the whole protocol (every busy slot's step, continuations included) under ``policy``."""
-    steps = 0
-    for cell in plan_cells(preset):
-        world = World(cell_world_settings(preset, cell), cell_scenario(preset, cell),
-                      min(256, cell.episodes), split="test", count=cell.episodes, record=False)
-        world.reset()
-        while world.busy:
             steps += int(((world.status == STATUS_RUNNING) | (world.status == STATUS_CONTINUING)).sum())
             world.step(policy.act(world.observe()))
-        world.close()
-    return steps
+    return time.perf_counter() - start, steps
 
 
 def build_example_planner(out_dir: str) -> str:
@@ -116,7 +106,7 @@ def main_exec(args: argparse.Namespace) -> None:
                     result = run_protocol(policy, preset, out, progress=False)
                     best[key] = min(best[key], time.perf_counter() - start)
         exec_policy.close()
-    env_steps = protocol_env_steps(preset, native)
+    _, env_steps = simulate_only(preset, native)
     record = {
         "preset": preset.name,
         "planner": command if args.exec != "example" else "examples/planners/straight_to_goal.cpp (binary)",
@@ -180,7 +170,7 @@ def main() -> None:
                     results_mb = _megabytes(Path(out)) - traj_mb
     seconds = min(times[True])
     without = min(times[False]) if times[False] else None
-    sim = None if args.no_simulation_reference else simulate_only(preset, policy)
+    sim = None if args.no_simulation_reference else simulate_only(preset, policy)[0]
     episodes = len(result.rows)
     ratio = None if without is None else seconds / without
     compared = (
