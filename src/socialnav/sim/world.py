@@ -32,6 +32,7 @@ from socialnav.sim.recorder import Recorder
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.slot_filling import SlotFilling
 from socialnav.sim.slot_maps import SlotMaps, scenario_map
+from socialnav.sim.slot_memory import SlotMemory
 from socialnav.sim.step_result import StepResult
 from socialnav.sim.world_config import (
     MAX_WORLD_BYTES,
@@ -67,7 +68,7 @@ def walls_win_message(scenario: str) -> str:
     return (f"scenario {scenario!r} has walls of its own, which win over static_map: the given map is not "
             "used (docs/walls.md)")
 
-class World(SlotFilling):
+class World(SlotFilling, SlotMemory):
     """B episode slots of (1 robot + N humans) stepped in lockstep by the native core.
 
     Args:
@@ -242,48 +243,6 @@ class World(SlotFilling):
             raise IndexError(f"slot {slot} out of range: this world has {self.batch_size} slots (0 to "
                              f"{self.batch_size - 1})")
         self._maps.set(self._native(), slot, static_map)
-
-    def route_state(self) -> list[np.ndarray]:
-        """With ``human_routes``: where each slot's humans stand on their routes (one float array per slot).
-
-        What decides where a routed human heads next besides the arrays of the state (its route, the point
-        it heads for, its giving-way timers): saved with the episodes in flight, it lets a run resumed
-        mid-episode go on as the uninterrupted one (train/ppo/worlds.py). Empty arrays without routes.
-        """
-        core = self._native()
-        return [np.asarray(core.route_state(b), dtype=np.float64) for b in range(self.batch_size)]
-
-    def sensing_state(self) -> list[np.ndarray]:
-        """With ``sensing.latency``: each slot's record of the states its delayed detections come from.
-
-        Saved with the episodes in flight like :meth:`route_state`; empty arrays without latency.
-        """
-        core = self._native()
-        return [np.asarray(core.sensing_state(b), dtype=np.float64) for b in range(self.batch_size)]
-
-    def set_sensing_state(self, state: list[np.ndarray]) -> None:
-        """Puts back what :meth:`sensing_state` gave.
-
-        Raises:
-            ValueError: ``state`` does not have one entry per slot, or an entry has the wrong size.
-        """
-        if len(state) != self.batch_size:
-            raise ValueError(f"sensing state: {len(state)} entries for {self.batch_size} slots")
-        core = self._native()
-        for b, entry in enumerate(state):
-            core.set_sensing_state(b, np.ascontiguousarray(entry, dtype=np.float64))
-
-    def set_route_state(self, state: list[np.ndarray]) -> None:
-        """Puts back what :meth:`route_state` gave (after the slots' state and static maps).
-
-        Raises:
-            ValueError: ``state`` does not have one entry per slot, or an entry is malformed.
-        """
-        if len(state) != self.batch_size:
-            raise ValueError(f"route state: {len(state)} entries for {self.batch_size} slots")
-        core = self._native()
-        for b, entry in enumerate(state):
-            core.set_route_state(b, np.ascontiguousarray(entry, dtype=np.float64))
 
     @property
     def obstacles(self) -> ObstacleArrays | None:
