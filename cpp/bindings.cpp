@@ -207,6 +207,9 @@ NB_MODULE(_core, m) {
       .def_rw("robot_visible", &C::robot_visible)
       .def_rw("kinematics", &C::kinematics)
       .def_rw("rotation_limit", &C::rotation_limit)
+      .def_rw("max_linear_accel", &C::max_linear_accel)
+      .def_rw("max_angular_accel", &C::max_angular_accel)
+      .def_rw("max_reverse_speed", &C::max_reverse_speed)
       .def_rw("crowdsim_compat", &C::crowdsim_compat)
       .def_rw("discomfort_dist", &C::discomfort_dist)
       .def_rw("success_reward", &C::success_reward)
@@ -235,6 +238,7 @@ NB_MODULE(_core, m) {
   m.attr("COLLISION_OBSTACLE") = static_cast<int>(socialnav::kObstacleCollision);
   m.attr("HOLONOMIC") = static_cast<int>(socialnav::kHolonomic);
   m.attr("UNICYCLE") = static_cast<int>(socialnav::kUnicycle);
+  m.attr("DIFF_DRIVE") = static_cast<int>(socialnav::kDiffDrive);
 
   nb::class_<PyWorld>(m, "World")
       .def(
@@ -465,7 +469,27 @@ NB_MODULE(_core, m) {
           [](PyWorld& self, int slot, Array<double> state) {
             self.world->set_sensing_state(slot, state.data(), state.size());
           },
-          "slot"_a, "state"_a, "Puts back one slot's sensing state (sensing_state's).");
+          "slot"_a, "state"_a, "Puts back one slot's sensing state (sensing_state's).")
+      .def(
+          "robot_twist",
+          [](PyWorld& self, Array<double> out, bool new_at_rest) {
+            const socialnav::World& w = *self.world;
+            const size_t B = static_cast<size_t>(w.config().batch);
+            double* o = checked(out, "out", B * 2);
+            const std::vector<double>& twist = w.robot_twist();
+            for (size_t b = 0; b < B; ++b) {
+              const bool at_rest = new_at_rest && w.buffers().steps[b] == 0;  // an episode starts at rest
+              o[2 * b] = at_rest ? 0.0 : twist[2 * b];
+              o[2 * b + 1] = at_rest ? 0.0 : twist[2 * b + 1];
+            }
+          },
+          "out"_a.noconvert(), "new_at_rest"_a = true,
+          "A differential-drive robot's (v [m/s], omega [rad/s]) of the last step, written into out (B, 2); "
+          "new_at_rest: (0, 0) in slots whose episode has not stepped yet (false: what the slot last drove).")
+      .def(
+          "set_robot_twist",
+          [](PyWorld& self, int slot, double v, double omega) { self.world->set_robot_twist(slot, v, omega); },
+          "slot"_a, "v"_a, "omega"_a, "Puts back one slot's differential-drive (v, omega) (robot_twist's).");
 
   nb::class_<socialnav::PreparedObstacleBatch>(m, "PreparedObstacleBatch")
       .def(
@@ -551,7 +575,7 @@ NB_MODULE(_core, m) {
       [](const std::string& policy, Array<double> robot, Array<double> humans, Array<bool> mask, Array<bool> active,
          int kinematics, double rotation_limit, double dt, nb::object orca, double safety_space,
          nb::object social_force, socialnav::ThreadPool& pool, Array<double> out, nb::object obstacles,
-         double route_clearance) {
+         double route_clearance, double max_reverse_speed) {
         if (robot.ndim() != 2 || robot.shape(1) != socialnav::kRobotFeatures)
           throw std::invalid_argument("robot must be (B, " + std::to_string(socialnav::kRobotFeatures) + ")");
         const size_t B = robot.shape(0);
@@ -567,7 +591,7 @@ NB_MODULE(_core, m) {
                                              humans.data(),
                                              reinterpret_cast<const uint8_t*>(mask.data()),
                                              reinterpret_cast<const uint8_t*>(active.data())};
-        const socialnav::ActionFormat format{kinematics, rotation_limit};
+        const socialnav::ActionFormat format{kinematics, rotation_limit, max_reverse_speed};
         socialnav::ObstacleBatchView wall_view{};
         if (!obstacles.is_none()) {
           const auto& walls = nb::cast<const socialnav::PreparedObstacleBatch&>(obstacles);
@@ -585,7 +609,7 @@ NB_MODULE(_core, m) {
       },
       "policy"_a, "robot"_a, "humans"_a, "mask"_a, "active"_a, "kinematics"_a, "rotation_limit"_a, "dt"_a,
       "orca"_a.none(), "safety_space"_a, "social_force"_a.none(), "pool"_a, "out"_a.noconvert(),
-      "obstacles"_a.none() = nb::none(), "route_clearance"_a = 0.1,
+      "obstacles"_a.none() = nb::none(), "route_clearance"_a = 0.1, "max_reverse_speed"_a = 0.0,
       "Batched actions of a native robot policy ('linear', 'orca', 'orca_route', 'social_force' or "
       "'social_force_route'), written into out (B, 2). route_clearance [m]: the '_route' policies' clearance "
       "from the walls beyond their radius. "

@@ -13,7 +13,10 @@ namespace socialnav {
 namespace {
 
 // Turns a velocity command into the action format. A unicycle turns towards the commanded
-// velocity as far as its rotation limit allows and drives at the commanded speed.
+// velocity as far as its rotation limit allows and drives at the commanded speed (CrowdSim's rule). A
+// differential drive turns the same way but drives only the command's component along its heading,
+// |u| cos(error), so that it does not run off sideways while it turns; one that may reverse aligns whichever
+// of its front and back is nearer the command and backs up where the back is (docs/kinematics.md).
 void write_action(const ActionFormat& format, double theta, Vec2 v, double* out) {
   if (format.kinematics == 0) {
     out[0] = v.x;
@@ -21,13 +24,23 @@ void write_action(const ActionFormat& format, double theta, Vec2 v, double* out)
     return;
   }
   const double speed = norm(v);
-  double rot = 0.0;
+  double error = 0.0;
   if (speed > 1e-12) {
     const double a = std::atan2(v.y, v.x) - theta;
-    rot = std::atan2(std::sin(a), std::cos(a));
+    error = std::atan2(std::sin(a), std::cos(a));
   }
-  out[0] = speed;
-  out[1] = std::min(std::max(rot, -format.rotation_limit), format.rotation_limit);
+  double drive = speed;
+  if (format.kinematics == 2) {
+    drive = speed * std::cos(error);
+    if (format.max_reverse_speed > 0.0 && std::abs(error) > 0.5 * M_PI) {
+      error = error > 0.0 ? error - M_PI : error + M_PI;  // the back faces the command
+      drive = std::max(drive, -format.max_reverse_speed);
+    } else {
+      drive = std::max(drive, 0.0);
+    }
+  }
+  out[0] = drive;
+  out[1] = std::min(std::max(error, -format.rotation_limit), format.rotation_limit);
 }
 
 struct RobotRow {

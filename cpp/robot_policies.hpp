@@ -26,8 +26,9 @@ struct ObservationView {
 };
 
 struct ActionFormat {
-  int kinematics;         // 0 holonomic, 1 unicycle
-  double rotation_limit;  // [rad] per step, unicycle only
+  int kinematics;                  // 0 holonomic, 1 unicycle, 2 differential drive (world.hpp's Kinematics)
+  double rotation_limit;           // [rad] per step, unicycle and differential drive
+  double max_reverse_speed = 0.0;  // [m/s] differential drive: how fast it may back up
 };
 
 void linear_robot_actions(const ObservationView& obs, const ActionFormat& format, double dt, double* out);

@@ -47,6 +47,12 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
   else if (!config.human_params.empty())
     throw std::invalid_argument("human_params given without a human_behaviour");
   new_velocity_.assign(static_cast<size_t>(config.batch) * config.agents * 2, 0.0);
+  twist_.assign(static_cast<size_t>(config.batch) * 2, 0.0);
+  if (config.kinematics == kDiffDrive &&
+      !(config.max_linear_accel > 0.0 && config.max_angular_accel > 0.0 && config.max_reverse_speed >= 0.0))
+    throw std::invalid_argument(
+        "the differential drive's acceleration limits must be > 0 and its reverse "
+        "speed >= 0");
   preferred_.assign(threads, std::vector<Vec2>(config.agents));
   if (config.human_routes) {
     if (!(config.route_clearance >= 0.0) || !std::isfinite(config.route_clearance))
@@ -275,7 +281,7 @@ void World::step_episode(int b, const double* actions, int worker) {
   if (sensing_.latency > 0) remember_for_sensing(b, steps);
 }
 
-SOCIALNAV_PHASE Vec2 World::robot_velocity(int b, const double* actions, double& theta) const {
+SOCIALNAV_PHASE Vec2 World::robot_velocity(int b, const double* actions, double& theta) {
   const double v_max = buf_.v_pref[static_cast<size_t>(b) * config_.agents];
   if (config_.kinematics == kHolonomic) {
     Vec2 v_robot{actions[2 * b], actions[2 * b + 1]};
@@ -287,6 +293,7 @@ SOCIALNAV_PHASE Vec2 World::robot_velocity(int b, const double* actions, double&
     if (speed > v_max) v_robot = (v_max / speed) * v_robot;
     return v_robot;
   }
+  if (config_.kinematics == kDiffDrive) return diff_drive_velocity(b, actions, theta, v_max);
   const double v = std::min(std::max(actions[2 * b], -v_max), v_max);
   const double rot = std::min(std::max(actions[2 * b + 1], -config_.rotation_limit), config_.rotation_limit);
   // Wrapped to [0, 2*pi) as CrowdSim's Agent.step does: the learned policies' heading feature
@@ -294,6 +301,40 @@ SOCIALNAV_PHASE Vec2 World::robot_velocity(int b, const double* actions, double&
   theta = std::fmod(theta + rot, 2.0 * M_PI);
   if (theta < 0.0) theta += 2.0 * M_PI;
   return Vec2{v * std::cos(theta), v * std::sin(theta)};
+}
+
+// The differential drive: the command (v, d theta / dt) bounded to [-max_reverse_speed, v_pref] and
+// |omega| <= rotation_limit / dt, then reached from the last step's (v, omega) within the acceleration limits
+// (each bound on its own, as a velocity-space window: Fox, Burgard, Thrun, "The Dynamic Window Approach to
+// Collision Avoidance", IEEE RA Magazine 1997). The robot then drives the arc of constant (v, omega) over the
+// step exactly: its displacement is that arc's chord, of length v dt sinc(omega dt / 2) along the heading at
+// mid-step, which the swept contacts test as the straight segment it is.
+Vec2 World::diff_drive_velocity(int b, const double* actions, double& theta, double v_max) {
+  const double dt = config_.dt;
+  double* twist = twist_.data() + 2 * static_cast<size_t>(b);
+  const double v0 = buf_.steps[b] > 0 ? twist[0] : 0.0;  // every episode starts at rest
+  const double w0 = buf_.steps[b] > 0 ? twist[1] : 0.0;
+  const double w_max = config_.rotation_limit / dt;
+  const double v_cmd = std::min(std::max(actions[2 * b], -config_.max_reverse_speed), v_max);
+  const double w_cmd = std::min(std::max(actions[2 * b + 1] / dt, -w_max), w_max);
+  const double dv = config_.max_linear_accel * dt, dw = config_.max_angular_accel * dt;
+  const double v = std::min(std::max(v_cmd, v0 - dv), v0 + dv);
+  const double w = std::min(std::max(w_cmd, w0 - dw), w0 + dw);
+  twist[0] = v;
+  twist[1] = w;
+  const double half = 0.5 * w * dt;
+  const double chord = half == 0.0 ? 1.0 : std::sin(half) / half;
+  const double heading = theta + half;
+  theta = std::fmod(theta + w * dt, 2.0 * M_PI);
+  if (theta < 0.0) theta += 2.0 * M_PI;
+  return Vec2{v * chord * std::cos(heading), v * chord * std::sin(heading)};
+}
+
+void World::set_robot_twist(int b, double v, double omega) {
+  if (b < 0 || b >= config_.batch) throw std::invalid_argument("slot " + std::to_string(b) + " out of range");
+  if (!std::isfinite(v) || !std::isfinite(omega)) throw std::invalid_argument("robot twist must be finite");
+  twist_[2 * static_cast<size_t>(b)] = v;
+  twist_[2 * static_cast<size_t>(b) + 1] = omega;
 }
 
 SOCIALNAV_PHASE World::RobotContacts World::robot_contacts(int b, Vec2 v_robot) const {

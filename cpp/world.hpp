@@ -33,7 +33,9 @@ enum Status : int8_t {
 // Why a collision ended an episode (collision_kind buffers).
 enum CollisionKind : int8_t { kNoCollision = 0, kHumanCollision = 1, kObstacleCollision = 2 };
 
-enum Kinematics : int { kHolonomic = 0, kUnicycle = 1 };
+// kDiffDrive: a differential-drive robot, whose actions are the unicycle's (v, d theta) commands, reached
+// within acceleration limits from the (v, omega) it drove in the last step (World::diff_drive_twist).
+enum Kinematics : int { kHolonomic = 0, kUnicycle = 1, kDiffDrive = 2 };
 
 struct WorldConfig {
   int batch = 0;
@@ -46,7 +48,11 @@ struct WorldConfig {
   std::vector<double> human_params;
   bool robot_visible = false;
   int kinematics = kHolonomic;
-  double rotation_limit = 0.7853981633974483;  // |d theta| per step for the unicycle [rad]
+  double rotation_limit = 0.7853981633974483;  // |d theta| per step for the unicycle and diff drive [rad]
+  // The differential drive's limits: |dv/dt| [m/s^2], |d omega/dt| [rad/s^2], and the fastest it backs up.
+  double max_linear_accel = 2.5;
+  double max_angular_accel = 3.2;
+  double max_reverse_speed = 0.0;  // [m/s]
   bool crowdsim_compat = false;
   double discomfort_dist = 0.2;
   double success_reward = 1.0;
@@ -154,6 +160,10 @@ class World {
   // With latency: slot b's last latency + 1 world states (what delayed detections are taken from), so that
   // a run saved mid-episode resumes as it went on; empty without latency. set_sensing_state puts it back.
   std::vector<double> sensing_state(int b) const;
+  // A differential-drive robot's (v [m/s], omega [rad/s]) of the last step per slot, (B, 2) flat; an
+  // episode starts at rest (steps == 0 reads as (0, 0) whatever is stored). Restored with set_robot_twist.
+  const std::vector<double>& robot_twist() const { return twist_; }
+  void set_robot_twist(int b, double v, double omega);
   void set_sensing_state(int b, const double* state, size_t size);
 
   // With human_behaviour "": the humans' velocities (B, A, 2) of the next step (or preview), written by
@@ -195,8 +205,9 @@ class World {
   void step_episode(int b, const double* actions, int worker);
   // step_episode's phases (world.cpp), in the order it runs them.
   void human_velocities(int b, int worker);  // the humans' next velocities, into new_velocity_
-  const double* route_targets(int b, int worker, const SlotView& slot);    // human_routes: the route points
-  Vec2 robot_velocity(int b, const double* actions, double& theta) const;  // the action, clipped; turns theta
+  const double* route_targets(int b, int worker, const SlotView& slot);  // human_routes: the route points
+  Vec2 robot_velocity(int b, const double* actions, double& theta);      // the action, clipped; turns theta
+  Vec2 diff_drive_velocity(int b, const double* actions, double& theta, double v_max);  // within its limits
   struct RobotContacts {
     double dmin = std::numeric_limits<double>::infinity();  // swept clearance to the nearest human [m]
     bool hit_obstacle = false;                              // the swept disc touched a static obstacle
@@ -223,6 +234,7 @@ class World {
   WorldConfig config_;
   WorldBuffers buf_;
   std::vector<double> new_velocity_;           // (B, A, 2) scratch
+  std::vector<double> twist_;                  // (B, 2) the diff drive's (v, omega) of the last step
   std::unique_ptr<HumanBehaviour> behaviour_;  // null: the caller gives the velocities
   const double* given_velocity_ = nullptr;     // (B, A, 2), see give_human_velocities
   std::vector<std::vector<Vec2>> preferred_;   // (threads, A) the humans' preferred velocities

@@ -107,7 +107,7 @@ void World::sense_humans(int b, const ObservationBuffers& o, int64_t row) const 
   const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
   const Vec2 eye{pos[0], pos[1]};
   const double heading =
-      sensor_heading(config_.kinematics == kUnicycle, theta, Vec2{vel[0], vel[1]}, eye, Vec2{goal[0], goal[1]});
+      sensor_heading(config_.kinematics != kHolonomic, theta, Vec2{vel[0], vel[1]}, eye, Vec2{goal[0], goal[1]});
   const ObstacleView walls = sensing_.occlusion_walls ? obstacles(b) : ObstacleView{};
   thread_local std::vector<uint8_t> skip;
   skip.assign(static_cast<size_t>(N), 0);
@@ -160,8 +160,8 @@ void World::scan_lidar(int b, float* out) const {
   const double* goal = buf_.goal + static_cast<size_t>(b) * A * 2;
   const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
   const Vec2 eye{pos[0], pos[1]};
-  const double heading =
-      sensor_heading(config_.kinematics == kUnicycle, buf_.theta[b], Vec2{vel[0], vel[1]}, eye, Vec2{goal[0], goal[1]});
+  const double heading = sensor_heading(config_.kinematics != kHolonomic, buf_.theta[b], Vec2{vel[0], vel[1]}, eye,
+                                        Vec2{goal[0], goal[1]});
   thread_local std::vector<double> ranges;
   thread_local std::vector<uint8_t> skip;
   ranges.resize(static_cast<size_t>(n));

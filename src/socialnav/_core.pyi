@@ -147,6 +147,24 @@ class WorldConfig:
     def rotation_limit(self, arg: float, /) -> None: ...
 
     @property
+    def max_linear_accel(self) -> float: ...
+
+    @max_linear_accel.setter
+    def max_linear_accel(self, arg: float, /) -> None: ...
+
+    @property
+    def max_angular_accel(self) -> float: ...
+
+    @max_angular_accel.setter
+    def max_angular_accel(self, arg: float, /) -> None: ...
+
+    @property
+    def max_reverse_speed(self) -> float: ...
+
+    @max_reverse_speed.setter
+    def max_reverse_speed(self, arg: float, /) -> None: ...
+
+    @property
     def crowdsim_compat(self) -> bool: ...
 
     @crowdsim_compat.setter
@@ -256,6 +274,8 @@ HOLONOMIC: int = 0
 
 UNICYCLE: int = 1
 
+DIFF_DRIVE: int = 2
+
 class World:
     def __init__(self, config: WorldConfig, position: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], velocity: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], goal: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], v_pref: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.uint8], dict(order='C', device='cpu')], theta: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], steps: Annotated[NDArray[numpy.int32], dict(order='C', device='cpu')], status: Annotated[NDArray[numpy.int8], dict(order='C', device='cpu')], reward: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], dmin: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], done: Annotated[NDArray[numpy.uint8], dict(order='C', device='cpu')], overlaps: Annotated[NDArray[numpy.int32], dict(order='C', device='cpu')], arrival: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], end_step: Annotated[NDArray[numpy.int32], dict(order='C', device='cpu')], hist_position: object | None, hist_velocity: object | None, hist_dmin: object | None, pool: object | None = None, collision_kind: object | None = None) -> None: ...
 
@@ -318,6 +338,14 @@ class World:
     def set_sensing_state(self, slot: int, state: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
         """Puts back one slot's sensing state (sensing_state's)."""
 
+    def robot_twist(self, out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], new_at_rest: bool = True) -> None:
+        """
+        A differential-drive robot's (v [m/s], omega [rad/s]) of the last step, written into out (B, 2); new_at_rest: (0, 0) in slots whose episode has not stepped yet (false: what the slot last drove).
+        """
+
+    def set_robot_twist(self, slot: int, v: float, omega: float) -> None:
+        """Puts back one slot's differential-drive (v, omega) (robot_twist's)."""
+
 class PreparedObstacleBatch:
     def __init__(self, vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], polygon_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], episode_polygons: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')]) -> None:
         """
@@ -360,7 +388,7 @@ class SarlScorer:
     def values(self, joint: Annotated[NDArray[numpy.float32], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float32], dict(order='C', device='cpu')], pool: ThreadPool, states_per_tile: int = 32) -> None:
         """SARL values of M joint states, written into out (M,)."""
 
-def robot_actions(policy: str, robot: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], humans: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], active: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], kinematics: int, rotation_limit: float, dt: float, orca: object | None, safety_space: float, social_force: object | None, pool: ThreadPool, out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacles: object | None = None, route_clearance: float = 0.1) -> None:
+def robot_actions(policy: str, robot: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], humans: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], mask: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], active: Annotated[NDArray[numpy.bool_], dict(order='C', device='cpu')], kinematics: int, rotation_limit: float, dt: float, orca: object | None, safety_space: float, social_force: object | None, pool: ThreadPool, out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacles: object | None = None, route_clearance: float = 0.1, max_reverse_speed: float = 0.0) -> None:
     """
     Batched actions of a native robot policy ('linear', 'orca', 'orca_route', 'social_force' or 'social_force_route'), written into out (B, 2). route_clearance [m]: the '_route' policies' clearance from the walls beyond their radius. orca, social_force: the humans' behaviour parameters of that name (a dict by name, the values in declared order, or None for the defaults); safety_space [m]: the ORCA robot's own inflation. obstacles: None or the B episodes' static maps as PreparedObstacleBatch.
     """

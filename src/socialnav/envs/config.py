@@ -61,9 +61,10 @@ def raw_composition(
 def default_raw_parts(settings: WorldSettings) -> tuple[str, ...]:
     """The raw env's parts when ``observation_parts`` is not given.
 
-    :data:`RAW_PARTS`, and ``lidar`` when the world has one.
+    :data:`RAW_PARTS`, ``lidar`` when the world has one, ``robot_twist`` for a differential drive.
     """
-    return RAW_PARTS + (("lidar",) if settings.sensing.lidar_beams else ())
+    return (RAW_PARTS + (("lidar",) if settings.sensing.lidar_beams else ())
+            + (("robot_twist",) if settings.kinematics == "diff_drive" else ()))
 
 
 def observation_and_action_spaces(
@@ -77,9 +78,10 @@ def observation_and_action_spaces(
         action_space: spaces.Space = spaces.Discrete(81)
     elif settings.kinematics == "holonomic":
         action_space = spaces.Box(-v_pref, v_pref, shape=(2,), dtype=np.float64)
-    else:
+    else:  # (v, dθ); a differential drive backs up at most at its max_reverse_speed
+        low = -settings.diff_drive.max_reverse_speed if settings.kinematics == "diff_drive" else -v_pref
         action_space = spaces.Box(
-            np.array([-v_pref, -settings.rotation_limit]),
+            np.array([low, -settings.rotation_limit]),
             np.array([v_pref, settings.rotation_limit]),
             dtype=np.float64,
         )

@@ -50,6 +50,7 @@ from socialnav.integrations.sb3_files import (
 )
 from socialnav.sim.learner_obs import ObservationSettings, ObservationTransform
 from socialnav.sim.observation import Observation
+from socialnav.sim.parts.base import PartInput
 
 PREFIX = "sb3:"
 #: ``--policy-arg`` keys: the algorithm, the torch device, and observation settings, which must
@@ -117,7 +118,7 @@ class SB3Policy:
         robot = observation.robot[rows]
         walls = observation.obstacles
         maps = [None] * rows.size if walls is None else [walls.maps[int(b)] for b in rows]
-        sensors = {} if observation.lidar is None else {"lidar": observation.lidar[rows]}
+        sensors = {k: v[rows] for k, v in PartInput.from_observation(observation).sensors.items()}
         obs = self.transform(robot, observation.humans[rows], observation.human_mask[rows], maps, sensors)
         chosen, _ = self.model.predict(obs, deterministic=True)
         if self._table is not None:

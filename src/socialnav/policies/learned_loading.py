@@ -13,6 +13,7 @@ factory ``build_policy`` (:mod:`socialnav.policies.building`) calls.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from pathlib import Path
@@ -23,6 +24,7 @@ import numpy as np
 from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_specs
 from socialnav.policies.registry import is_registered, register_policy
 from socialnav.sim.observation import Observation, check_observation
+from socialnav.sim.settings import DiffDriveSettings
 
 
 class LearnedPolicy:
@@ -159,10 +161,10 @@ def _walls_mismatch(trained: Any, preset: Any) -> list[str]:
 def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
     """Where the world a checkpoint was trained for differs from ``preset``'s, one phrase each.
 
-    Compared: dt, kinematics, the unicycle rotation limit, the reward constants (the lookahead scores
-    actions with them), the robot's v_pref (it scales the action set), and walls (a checkpoint
-    trained without walls, evaluated on scenarios with walls). A difference makes the policy act on a
-    model of the world that is not the one simulated.
+    Compared: dt, kinematics, the rotation limit and a differential drive's limits, the reward constants
+    (the lookahead scores actions with them), the robot's v_pref (it scales the action set), and walls
+    (a checkpoint trained without walls, evaluated on scenarios with walls). A difference makes the policy
+    act on a model of the world that is not the one simulated.
     """
     # A value-based checkpoint records its world under value_policy, a PPO one under ppo_policy.
     vp = config.get("value_policy") or config.get("ppo_policy") or {}
@@ -172,8 +174,14 @@ def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
         ("dt", vp.get("dt"), world.dt),
         ("kinematics", vp.get("kinematics"), world.kinematics),
     ]
-    if "unicycle" in (vp.get("kinematics"), world.kinematics):
+    if {"unicycle", "diff_drive"} & {vp.get("kinematics"), world.kinematics}:
         pairs.append(("rotation_limit", vp.get("rotation_limit"), world.rotation_limit))
+    if "diff_drive" in (vp.get("kinematics"), world.kinematics):
+        # the limits a differential-drive policy learned to drive within (the trained preset's world)
+        trained_world = (config.get("preset") or {}).get("world") or {}
+        limits = trained_world.get("diff_drive") or {}
+        for key, value in dataclasses.asdict(world.diff_drive).items():
+            pairs.append((f"diff_drive.{key}", limits.get(key, getattr(DiffDriveSettings(), key)), value))
     for key in _REWARD_KEYS[:-1]:
         pairs.append((f"reward.{key}", reward.get(key), getattr(world.reward, key)))
     trained = config.get("preset", {})

@@ -13,6 +13,7 @@ from socialnav.sim.observation import Observation, check_observation
 from socialnav.sim.pool import shared_pool
 from socialnav.sim.settings import OrcaSettings, SocialForceSettings, WorldSettings
 from socialnav.sim.world import orca_params, social_force_params
+from socialnav.sim.world_config import KINEMATICS_CODES
 
 
 class NativePolicy:
@@ -25,6 +26,9 @@ class NativePolicy:
     The ``_route`` kinds head for the first point of the shortest route around the walls from where the
     robot stands (re-planned every step; docs/routes.md) instead of the goal itself: Francis et al.'s
     "global planner + local avoidance" baseline. On an open floor they act as their plain kinds.
+
+    Their command is a velocity; a unicycle turns towards it and drives at its speed (CrowdSim's rule), a
+    differential drive turns towards it and drives its component along the heading (docs/kinematics.md).
 
     Args:
         kind: "linear", "orca", "orca_route", "social_force" or "social_force_route".
@@ -69,9 +73,10 @@ class NativePolicy:
         self._orca = orca_params(settings)
         self._social_force = social_force_params(settings)
         self.rotation_limit = float(settings.rotation_limit)
+        self.max_reverse_speed = float(settings.diff_drive.max_reverse_speed)
 
     def use_world(self, world: WorldSettings) -> NativePolicy:
-        """Takes the world's ORCA and social-force parameters and rotation limit, as its humans use them.
+        """Takes the world's ORCA and social-force parameters, rotation limit and reverse speed.
 
         ``build_policy`` calls it with the preset's world; a policy made with ``make_policy`` for a
         ``World`` of other settings gets them with ``policy.use_world(world.settings)``.
@@ -88,7 +93,7 @@ class NativePolicy:
         B = observation.batch_size
         if self._out is None or self._out.shape[0] != B:
             self._out = np.zeros((B, 2))
-        kinematics = _core.HOLONOMIC if observation.kinematics == "holonomic" else _core.UNICYCLE
+        kinematics = KINEMATICS_CODES[observation.kinematics]
         _core.robot_actions(
             self.kind,
             np.ascontiguousarray(observation.robot),
@@ -105,6 +110,7 @@ class NativePolicy:
             self._out,
             None if observation.obstacles is None else observation.obstacles.native,
             self.route_clearance,
+            self.max_reverse_speed,
         )
         return self._out.copy()
 

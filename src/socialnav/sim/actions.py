@@ -17,8 +17,8 @@ def discrete_actions(kinematics: str, v_pref: float, rotation_limit: float = mat
                      speed_samples: int = 5, rotation_samples: int = 16) -> np.ndarray:
     """The 1 + speeds × rotations action set; row 0 is stop.
 
-    Holonomic rows are world-frame (vx, vy) with headings k·2π/16. Unicycle rows are (v, dθ) with
-    16 rotations spread evenly over [-limit, limit]; with an even count CrowdSim's
+    Holonomic rows are world-frame (vx, vy) with headings k·2π/16. Unicycle and diff_drive rows are (v, dθ)
+    with 16 rotations spread evenly over [-limit, limit]; with an even count CrowdSim's
     ``np.linspace(-limit, limit, 16)`` misses dθ = 0, so the grid used here is
     ``linspace(-limit, limit, 17)`` without its last point, which keeps 0 and 16 rotations.
 
@@ -26,11 +26,11 @@ def discrete_actions(kinematics: str, v_pref: float, rotation_limit: float = mat
         (1 + speed_samples·rotation_samples, 2) array, equal to
         ``socialnav.policies.learned.actions.discrete_actions`` (tested).
     """
-    if kinematics not in ("holonomic", "unicycle"):
-        raise ValueError(f"kinematics must be 'holonomic' or 'unicycle', got {kinematics!r}")
+    if kinematics not in ("holonomic", "unicycle", "diff_drive"):
+        raise ValueError(f"kinematics must be 'holonomic', 'unicycle' or 'diff_drive', got {kinematics!r}")
     if not (math.isfinite(v_pref) and v_pref > 0):
         raise ValueError(f"v_pref must be a finite speed > 0 [m/s], got {v_pref!r}")
-    if kinematics == "unicycle" and not (math.isfinite(rotation_limit) and rotation_limit > 0):
+    if kinematics != "holonomic" and not (math.isfinite(rotation_limit) and rotation_limit > 0):
         raise ValueError(f"rotation_limit must be a finite angle > 0 [rad], got {rotation_limit!r}")
     if speed_samples < 1 or rotation_samples < 1:
         raise ValueError(f"speed_samples and rotation_samples must be >= 1, got {speed_samples}, "

@@ -119,7 +119,7 @@ class Observation:
         active: (B,) bool, True where the robot still acts (running episodes).
         time: (B,) episode time [s].
         dt: step length [s].
-        kinematics: "holonomic" or "unicycle".
+        kinematics: "holonomic", "unicycle" or "diff_drive".
         next_humans: (B, N, 5) the simulator's exact next human states, present only when the
             observation was requested with the "oracle" information setting.
         obstacles: the episodes' static maps (:class:`ObstacleArrays`), or None when every episode
@@ -129,6 +129,9 @@ class Observation:
             the world observes.
         lidar: (B, beams) float32 ranges [m] of the robot's lidar (``sensing.lidar_beams``; beam angles
             ``socialnav.sim.lidar_beam_angles``), None without one.
+        robot_twist: (B, 2) a differential-drive robot's forward speed v [m/s] and turn rate ω [rad/s] of
+            its last step (its acceleration limits act from them; zero at an episode's start), None for the
+            other kinematics.
 
     With non-default ``sensing`` (docs/perception.md), ``humans`` and ``human_mask`` are the humans the
     robot detects, as it detects them; the world's state and every metric stay exact.
@@ -145,6 +148,7 @@ class Observation:
     obstacles: ObstacleArrays | None = None
     static_slots: int = 0
     lidar: np.ndarray | None = None
+    robot_twist: np.ndarray | None = None
 
     @property
     def batch_size(self) -> int:
@@ -156,9 +160,10 @@ class Observation:
         nxt = None if self.next_humans is None else self.next_humans[index].copy()
         walls = None if self.obstacles is None else self.obstacles.take(index)
         lidar = None if self.lidar is None else self.lidar[index].copy()
+        twist = None if self.robot_twist is None else self.robot_twist[index].copy()
         return Observation(self.robot[index].copy(), self.humans[index].copy(), self.human_mask[index].copy(),
                            self.active[index].copy(), self.time[index].copy(), self.dt, self.kinematics, nxt,
-                           walls, self.static_slots, lidar)
+                           walls, self.static_slots, lidar, twist)
 
 
 def build_observation(position: np.ndarray, velocity: np.ndarray, goal: np.ndarray, radius: np.ndarray,

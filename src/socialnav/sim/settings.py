@@ -20,7 +20,9 @@ from socialnav.sim.behaviours import HUMAN_MODELS, human_behaviour, native_setti
 
 ORCA_MODES = ("centralized", "decentralized")
 VISIBILITIES = ("invisible", "visible")
-KINEMATICS = ("holonomic", "unicycle")
+KINEMATICS = ("holonomic", "unicycle", "diff_drive")
+#: The kinematics whose actions are (v, dθ) and whose robot has a heading (the rest: holonomic (vx, vy)).
+HEADED_KINEMATICS = ("unicycle", "diff_drive")
 HUMAN_ROUTES = ("none", "shortest")
 
 # Bounds that keep one setting from exhausting the machine (docs/simulator.md, "Bounds"); checked
@@ -112,6 +114,26 @@ class SensingSettings(Settings):
 
 
 @dataclass(frozen=True)
+class DiffDriveSettings(Settings):
+    """The differential-drive robot's limits (``kinematics: diff_drive``; docs/kinematics.md).
+
+    Its actions are the unicycle's (v, dθ): v within [-max_reverse_speed, v_pref], dθ/dt within
+    ±rotation_limit/dt. Each step the robot reaches the commanded (v, ω) from the last step's as far as the
+    acceleration limits allow (a dynamic window), then drives that arc exactly. The defaults are ROS 2
+    Nav2's DWB controller defaults (acc_lim_x 2.5 m/s², acc_lim_theta 3.2 rad/s², no reversing).
+    """
+
+    section: ClassVar[str] = "diff_drive"
+
+    max_linear_acceleration: float = setting(2.5, "largest change of the forward speed", unit="m/s²", gt=0,
+                                             le=1000.0)
+    max_angular_acceleration: float = setting(3.2, "largest change of the turn rate", unit="rad/s²", gt=0,
+                                              le=1000.0)
+    max_reverse_speed: float = setting(0.0, "how fast the robot may back up; 0: never", unit="m/s", ge=0,
+                                       le=100.0)
+
+
+@dataclass(frozen=True)
 class WorldSettings(Settings):
     """Everything that defines the simulator's behaviour (not the scenario, not the policy)."""
 
@@ -129,7 +151,8 @@ class WorldSettings(Settings):
         "invisible", "whether the humans see (react to) the robot", choices=VISIBILITIES
     )
     kinematics: str = setting("holonomic", "the robot's kinematics", choices=KINEMATICS)
-    rotation_limit: float = setting(math.pi / 4, "heading change per step of a unicycle robot", unit="rad",
+    rotation_limit: float = setting(math.pi / 4, "heading change per step of a unicycle or diff_drive robot",
+                                    unit="rad",
                                     gt=0, le=math.pi)
     crowdsim_compat: bool = setting(False, "restore CrowdSim's quirks (docs/simulator.md)")
     reward: RewardSettings = setting(default_factory=RewardSettings)
@@ -166,6 +189,14 @@ class WorldSettings(Settings):
     sensing: SensingSettings = setting(
         default_factory=SensingSettings, record_default=False,
     )
+    diff_drive: DiffDriveSettings = setting(default_factory=DiffDriveSettings, record_default=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The settings' record; a differential drive's limits are in it always, at their defaults too."""
+        out = super().to_dict()
+        if self.kinematics == "diff_drive":
+            out["diff_drive"] = self.diff_drive.to_dict()
+        return out
 
     def with_sensors(self, sensors: Mapping[str, Any] | None) -> WorldSettings:
         """These settings with the robot's sensors a policy brings (``sensing`` fields, e.g. its lidar).

@@ -1,7 +1,8 @@
 """What a World's native slots remember of their episodes beyond the state arrays, to save and restore.
 
-Routed humans (``human_routes``) hold their routes and giving-way timers, and a delayed sensor
-(``sensing.latency``) holds the past states its detections come from. Saved with the episodes in flight
+Routed humans (``human_routes``) hold their routes and giving-way timers, a delayed sensor
+(``sensing.latency``) holds the past states its detections come from, and a differential-drive robot the
+(v, ω) it drove last, from which its acceleration limits act. Saved with the episodes in flight
 (train/ppo/worlds.py), they let a run resumed mid-episode go on as the uninterrupted one.
 """
 
@@ -13,6 +14,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from socialnav import _core
+    from socialnav.sim.settings import WorldSettings
 
 
 class SlotMemory:
@@ -20,6 +22,7 @@ class SlotMemory:
 
     # What the World holds and these methods read.
     batch_size: int
+    settings: WorldSettings
 
     if TYPE_CHECKING:  # the World's own method
 
@@ -66,3 +69,31 @@ class SlotMemory:
         core = self._native()
         for b, entry in enumerate(state):
             core.set_route_state(b, np.ascontiguousarray(entry, dtype=np.float64))
+
+    def robot_twist(self, new_at_rest: bool = True) -> np.ndarray | None:
+        """(B, 2) a differential-drive robot's (v [m/s], ω [rad/s]) of its last step; None otherwise.
+
+        Args:
+            new_at_rest: (0, 0) in slots whose episode has not stepped yet (every episode starts at rest);
+                False: what each slot's robot last drove, the finished episode's until the slot steps.
+        """
+        if self.settings.kinematics != "diff_drive":
+            return None
+        out = np.empty((self.batch_size, 2))
+        self._native().robot_twist(out, new_at_rest)
+        return out
+
+    def set_robot_twist(self, twist: np.ndarray) -> None:
+        """Puts back what :meth:`robot_twist` gave (``new_at_rest=False``) into every slot.
+
+        Raises:
+            ValueError: The robot is not a differential drive, or ``twist`` is not (B, 2) finite values.
+        """
+        if self.settings.kinematics != "diff_drive":
+            raise ValueError(f"robot twist: the robot is {self.settings.kinematics!r}, not diff_drive")
+        twist = np.asarray(twist, dtype=np.float64)
+        if twist.shape != (self.batch_size, 2):
+            raise ValueError(f"robot twist: shape {twist.shape} for {self.batch_size} slots, not (B, 2)")
+        core = self._native()
+        for b, (v, omega) in enumerate(twist):
+            core.set_robot_twist(b, float(v), float(omega))

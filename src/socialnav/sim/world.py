@@ -328,7 +328,7 @@ class World(SlotFilling, SlotMemory):
             # Fresh arrays every call: callers may keep an observation while the world steps on.
             arrays = self._observation_arrays()
             self._core.observe(*arrays)
-            obs = self._as_observation(arrays, self.obstacles)
+            obs = self._as_observation(arrays, self.obstacles, self.robot_twist())
         if oracle:
             nxt = np.zeros((self.batch_size, self.n_agents - 1, 5))
             if self._python_humans is not None:
@@ -339,13 +339,14 @@ class World(SlotFilling, SlotMemory):
             obs = dataclasses.replace(obs, next_humans=nxt)
         return obs
 
-    def _as_observation(self, arrays: ObservationArrays, walls: ObstacleArrays | None) -> Observation:
-        """The Observation of arrays the core filled (``_observation_arrays``')."""
+    def _as_observation(self, arrays: ObservationArrays, walls: ObstacleArrays | None,
+                        twist: np.ndarray | None) -> Observation:
+        """The Observation of arrays the core filled (``_observation_arrays``') and the robot's twist."""
         robot, humans, human_mask, active, time = arrays[:5]
         lidar = arrays[5] if len(arrays) > 5 else None
         settings = self.settings
         return Observation(robot, humans, human_mask, active, time, settings.dt, settings.kinematics,
-                           obstacles=walls, lidar=lidar)
+                           obstacles=walls, lidar=lidar, robot_twist=twist)
 
     def _observation_arrays(self, rows: int | None = None) -> ObservationArrays:
         """Fresh (robot, humans, human_mask, active, time) arrays of ``rows`` rows (B by default).
@@ -438,6 +439,11 @@ class World(SlotFilling, SlotMemory):
         """
         indices, seeds = self._next_episodes(n_done)
         final = self._observation_arrays(n_done) if final_observation and n_done else None
+        # The finished episodes' twist, read before their slots are refilled (the core's final rows are
+        # the finished slots in order).
+        final_twist = self.robot_twist(new_at_rest=False) if final is not None else None
+        if final_twist is not None:
+            final_twist = final_twist[self.done.view(bool)]
         nxt = self._observation_arrays() if observe else None
         walls = self.obstacles
         final_walls = None if walls is None or final is None or done_slots is None else walls.take(done_slots)
@@ -455,7 +461,7 @@ class World(SlotFilling, SlotMemory):
             slots = np.array([np.flatnonzero(self.episode_index == indices[j])[0] for j in rows])
             self._raise_on_load_failure(slots, indices[rows], seeds[rows], self._failure[rows])
         return (
-            None if final is None else self._as_observation(final, final_walls),
-            None if nxt is None else self._as_observation(nxt, walls),
+            None if final is None else self._as_observation(final, final_walls, final_twist),
+            None if nxt is None else self._as_observation(nxt, walls, self.robot_twist()),
         )
 

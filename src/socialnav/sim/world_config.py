@@ -22,6 +22,8 @@ MAX_WORLD_BYTES = 4 * 2**30
 #: bytes with its edge arrays) and in ORCA's split map (137 with the tree), whose split points add a few
 #: vertices per map (none to four in francis2023's): 320 allows half as many again.
 OBSTACLE_VERTEX_BYTES = 320
+#: The core's code of each kinematics (cpp/world.hpp, Kinematics).
+KINEMATICS_CODES = {"holonomic": _core.HOLONOMIC, "unicycle": _core.UNICYCLE, "diff_drive": _core.DIFF_DRIVE}
 
 
 def world_bytes(settings: WorldSettings, batch_size: int, n_agents: int, record: bool = True) -> int:
@@ -104,8 +106,11 @@ def world_config(
     else:  # a behaviour written in Python: the World gives the velocities (sim/python_humans.py)
         c.human_behaviour, c.human_params = "", []
     c.robot_visible = s.visibility == "visible"
-    c.kinematics = _core.HOLONOMIC if s.kinematics == "holonomic" else _core.UNICYCLE
+    c.kinematics = KINEMATICS_CODES[s.kinematics]
     c.rotation_limit = s.rotation_limit
+    c.max_linear_accel = s.diff_drive.max_linear_acceleration
+    c.max_angular_accel = s.diff_drive.max_angular_acceleration
+    c.max_reverse_speed = s.diff_drive.max_reverse_speed
     c.crowdsim_compat = s.crowdsim_compat
     c.discomfort_dist = s.reward.discomfort_dist
     c.success_reward = s.reward.success_reward

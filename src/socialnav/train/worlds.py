@@ -64,7 +64,7 @@ def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
 
 
 def concat_lidar(scans: list) -> np.ndarray | None:
-    """The worlds' lidar scans back to back (None where the worlds have no lidar)."""
+    """The worlds' per-slot arrays (lidar scans, robot twists) back to back (None where they have none)."""
     return None if scans[0] is None else np.concatenate(scans)
 
 
@@ -290,6 +290,7 @@ class MultiWorld:
             nxt,
             _concat_obstacles([o.obstacles for o in obs], self.sizes),
             lidar=concat_lidar([o.lidar for o in obs]),
+            robot_twist=concat_lidar([o.robot_twist for o in obs]),
         )
 
     def step(self, actions: np.ndarray) -> MultiStep:

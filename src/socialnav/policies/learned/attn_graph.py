@@ -169,11 +169,14 @@ class ObservationStatistics(nn.Module):
 
     input_dim: int
     normalize_obs: bool
+    #: Width of the robot features normalised here (the robot's features, and its twist where read).
+    robot_state_width: int = ROBOT_FEATURES
 
     def _init_obs_stats(self) -> None:
+        w = self.robot_state_width
         self.register_buffer("obs_count", torch.zeros((), dtype=torch.float64))
-        self.register_buffer("robot_mean", torch.zeros(ROBOT_FEATURES, dtype=torch.float64))
-        self.register_buffer("robot_var", torch.ones(ROBOT_FEATURES, dtype=torch.float64))
+        self.register_buffer("robot_mean", torch.zeros(w, dtype=torch.float64))
+        self.register_buffer("robot_var", torch.ones(w, dtype=torch.float64))
         self.register_buffer("human_count", torch.zeros((), dtype=torch.float64))
         self.register_buffer("human_mean", torch.zeros(self.input_dim, dtype=torch.float64))
         self.register_buffer("human_var", torch.ones(self.input_dim, dtype=torch.float64))
@@ -184,7 +187,7 @@ class ObservationStatistics(nn.Module):
 
         Padded human slots are left out.
         """
-        _fold(self.obs_count, self.robot_mean, self.robot_var, robot.reshape(-1, ROBOT_FEATURES))
+        _fold(self.obs_count, self.robot_mean, self.robot_var, robot.reshape(-1, self.robot_state_width))
         _fold(self.human_count, self.human_mean, self.human_var, humans[mask])
 
     def _normalized(self, robot: torch.Tensor, humans: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -200,7 +203,9 @@ class ObservationStatistics(nn.Module):
 class AttnGraphNet(ObservationStatistics):
     """CrowdNav++'s attention-graph actor-critic (module docstring); sizes default to the repository's.
 
-    ``input_dim`` is the per-human feature size, 2(1 + prediction_steps).
+    ``input_dim`` is the per-human feature size, 2(1 + prediction_steps). With ``twist_features`` (a
+    differential-drive robot, whose acceleration limits act from the (v, ω) it last drove) the robot's
+    features are followed by that twist (``Observation.robot_twist``; ppo_inputs.network_inputs).
     """
 
     def __init__(
@@ -219,6 +224,7 @@ class AttnGraphNet(ObservationStatistics):
         self_attention: bool = True,
         normalize_obs: bool = True,
         log_std_init: float = 0.0,
+        twist_features: bool = False,
     ) -> None:
         super().__init__()
         if prediction_steps < 0:
@@ -239,11 +245,15 @@ class AttnGraphNet(ObservationStatistics):
             normalize_obs=normalize_obs,
             log_std_init=log_std_init,
         )
+        if twist_features:  # recorded only when set: the holonomic checkpoints' records stay as they are
+            self._kwargs["twist_features"] = True
+        self.twist_features = bool(twist_features)
+        self.robot_state_width = ROBOT_FEATURES + (2 if twist_features else 0)
         self.prediction_steps = prediction_steps
         self.input_dim = 2 * (1 + prediction_steps)
         self.gru_hidden = gru_hidden
         self.normalize_obs = normalize_obs
-        self.robot_embed = nn.Sequential(_init(nn.Linear(ROBOT_FEATURES, robot_embed)), nn.ReLU())
+        self.robot_embed = nn.Sequential(_init(nn.Linear(self.robot_state_width, robot_embed)), nn.ReLU())
         if self_attention:
             self.human_embed = nn.Sequential(
                 _init(nn.Linear(self.input_dim, human_hidden)),
@@ -359,6 +369,8 @@ def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotatio
 
     Holonomic (v_x, v_y): scaled radially onto the disc of radius v_pref where it leaves it (the
     direction kept). Unicycle (v, dθ): v clipped to [0, v_pref], dθ to [-rotation_limit, rotation_limit].
+    Differential drive: as the unicycle but v clipped to [-v_pref, v_pref]; the world bounds a backward v
+    by its ``diff_drive.max_reverse_speed`` (0: it stands instead).
     """
     raw = np.asarray(raw, dtype=np.float64)
     v_pref = np.asarray(v_pref, dtype=np.float64)
@@ -366,8 +378,9 @@ def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotatio
         speed = np.hypot(raw[:, 0], raw[:, 1])
         scale = np.where(speed > v_pref, v_pref / np.maximum(speed, 1e-300), 1.0)
         return raw * scale[:, None]
-    if kinematics == "unicycle":
+    if kinematics in ("unicycle", "diff_drive"):
+        low = 0.0 if kinematics == "unicycle" else -v_pref
         return np.stack(
-            [np.clip(raw[:, 0], 0.0, v_pref), np.clip(raw[:, 1], -rotation_limit, rotation_limit)], 1
+            [np.clip(raw[:, 0], low, v_pref), np.clip(raw[:, 1], -rotation_limit, rotation_limit)], 1
         )
-    raise ValueError(f"kinematics must be 'holonomic' or 'unicycle', got {kinematics!r}")
+    raise ValueError(f"kinematics must be 'holonomic', 'unicycle' or 'diff_drive', got {kinematics!r}")

@@ -4,7 +4,8 @@ Every PPO network takes (robot, humans, mask) tensors
 (:func:`~socialnav.policies.learned.attn_graph.observation_tensors`); a network that reads the robot's
 sensors (the lidar of ``sensing.lidar_beams``; :mod:`socialnav.policies.learned.lidar_net`) declares
 ``sensors()``, the sensing settings it needs, and gets the readings as the last columns of the robot
-tensor, so the rollout, the update and the policy keep one tensor layout for every network.
+tensor, so the rollout, the update and the policy keep one tensor layout for every network. A network
+with ``twist_features`` (a differential-drive robot's) gets the robot's (v, ω) right after its features.
 """
 
 from __future__ import annotations
@@ -29,18 +30,25 @@ def network_sensors(net: Any) -> dict[str, Any]:
 
 def robot_width(net: Any) -> int:
     """The width of the robot tensor ``net`` reads: the robot's features, then its sensors' readings."""
-    return int(getattr(net, "robot_width", ROBOT_FEATURES))
+    return int(getattr(net, "robot_width", getattr(net, "robot_state_width", ROBOT_FEATURES)))
 
 
 def network_inputs(net: Any, obs: Observation, dt: float, device: torch.device | str,
                    encoding: Any = None, parts: Sequence[str] = NETWORK_PARTS
                    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """(robot, humans, mask) for ``net``: ``observation_tensors``, the lidar's readings after the robot's.
+    """(robot, humans, mask) for ``net``: ``observation_tensors``, the twist and lidar after the robot's.
 
     Raises:
-        ValueError: The network reads a lidar the observation does not have, or one of another size.
+        ValueError: The network reads a lidar the observation does not have, or one of another size; or
+            it reads a differential drive's twist and the observation is of another robot.
     """
     robot, humans, mask = observation_tensors(obs, dt, net.prediction_steps, device, encoding, parts)
+    if getattr(net, "twist_features", False):
+        if obs.robot_twist is None:
+            raise ValueError(f"the network reads a differential-drive robot's (v, ω); the observation is "
+                             f"of a {obs.kinematics} robot (docs/kinematics.md)")
+        twist = torch.as_tensor(obs.robot_twist, dtype=robot.dtype, device=robot.device)
+        robot = torch.cat([robot, twist], -1)
     beams = getattr(net, "lidar_beams", 0)
     if beams:
         scan = obs.lidar

@@ -144,7 +144,7 @@ def rotate(
     dg = torch.sqrt(dx * dx + dy * dy)
     vx = r[..., 2] * c + r[..., 3] * s
     vy = r[..., 3] * c - r[..., 2] * s
-    theta = r[..., 8] - rot if kinematics == "unicycle" else torch.zeros_like(rot)
+    theta = r[..., 8] - rot if kinematics in ("unicycle", "diff_drive") else torch.zeros_like(rot)
     hx = humans[..., 0] - r[..., 0]
     hy = humans[..., 1] - r[..., 1]
     px1 = hx * c + hy * s

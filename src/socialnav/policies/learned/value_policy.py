@@ -137,6 +137,12 @@ class ValuePolicy:
         obstacle_encoding: ObstaclePoints | dict | None = None,
         observation_parts: Sequence[str] = NETWORK_PARTS,
     ) -> None:
+        if kinematics == "diff_drive":
+            # The lookahead moves the robot as the action says; a differential drive reaches it only within
+            # its acceleration limits, from a twist the value networks do not read (docs/kinematics.md).
+            raise ValueError("the value-based policies do not drive a diff_drive robot (their one-step "
+                             "lookahead does not model its acceleration limits); use crowdnav_pp, or the "
+                             "unicycle")
         if kinematics not in ("holonomic", "unicycle"):
             raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic' or 'unicycle'")
         if information not in INFORMATION:

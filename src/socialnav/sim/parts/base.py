@@ -41,7 +41,7 @@ BOUND = 1e6
 NETWORK_PARTS: tuple[str, ...] = ("robot", "humans", "obstacle_points")
 #: The keys of a raw observation that hold the robot's sensor readings (carried to the parts as
 #: ``PartInput.sensors`` by the learner wrappers and the SB3 adapter).
-SENSOR_KEYS: tuple[str, ...] = ("lidar",)
+SENSOR_KEYS: tuple[str, ...] = ("lidar", "robot_twist")
 
 
 def sensor_arrays(raw: Mapping[str, Any]) -> dict[str, Any]:
@@ -59,7 +59,7 @@ class PartContext:
         speed_scale: speeds [m/s] are divided by it.
         dtype: "float32" or "float64", of the feature arrays (masks are int8).
         human_slots: K, the human slots of the ``humans`` part.
-        kinematics: "holonomic" or "unicycle" (the robot frame's heading column).
+        kinematics: "holonomic", "unicycle" or "diff_drive" (the robot frame's heading column).
         obstacle_points: the encoding of the ``obstacle_points`` part, None: the part adds nothing.
         max_edges: the edges of the ``obstacle_edges`` part (0: it adds nothing).
         raw: the raw Gymnasium env's layout: the world's own arrays in slot order (the humans not
@@ -110,8 +110,8 @@ class PartInput:
         default_map: the map of every episode when ``maps`` is None.
         observation: the world's :class:`~socialnav.sim.observation.Observation`, where the input is one
             (``time``, ``dt``, ``next_humans``, ... for parts that read more than the arrays).
-        sensors: the robot's raw sensor arrays by key (``lidar``: (B, beams) ranges [m]), from the world's
-            observation or a raw env's dict observation.
+        sensors: the robot's raw sensor arrays by key (``lidar``: (B, beams) ranges [m]; ``robot_twist``:
+            (B, 2) a differential drive's (v, ω)), from the world's observation or a raw env's dict one.
     """
 
     def __init__(
@@ -140,7 +140,7 @@ class PartInput:
         """The input of a world's observation (its arrays as they are, its maps)."""
         walls = obs.obstacles
         maps = walls.maps if walls is not None else None
-        sensors = {} if obs.lidar is None else {"lidar": obs.lidar}
+        sensors = {key: getattr(obs, key) for key in SENSOR_KEYS if getattr(obs, key) is not None}
         return cls(obs.robot, obs.humans, obs.human_mask, maps, walls, observation=obs, sensors=sensors)
 
     @classmethod

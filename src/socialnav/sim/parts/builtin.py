@@ -1,4 +1,4 @@
-"""The built-in observation parts: ``robot``, ``humans``, ``obstacle_points``, ``obstacle_edges``, ``lidar``.
+"""The built-in observation parts: robot, humans, obstacle points and edges, lidar, robot_twist.
 
 Each computes its arrays from the world's state (:class:`~socialnav.sim.parts.base.PartInput`) in the
 layout of a :class:`~socialnav.sim.parts.base.PartContext`; the columns are those of
@@ -16,6 +16,7 @@ obstacle_points   obstacle_point_mask    (P,) int8, 1 for a real point
 obstacle_edges    obstacles              (E, 4) x1, y1, x2, y2 (world frame only; the raw env's)
 obstacle_edges    obstacle_mask          (E,) int8, 1 for a real edge
 lidar             lidar                  (beams,) ranges along the beams (world.sensing), both frames
+robot_twist       robot_twist            (2,) a diff_drive robot's v, ω of its last step, both frames
 ================  =====================  ===================================================
 
 Lengths are in units of ``length_scale``, speeds of ``speed_scale``, angles in radians; rot is the robot's
@@ -32,6 +33,7 @@ import numpy as np
 from socialnav.sim.observation import HUMAN_COLUMNS, ROBOT_COLUMNS
 from socialnav.sim.parts.base import BOUND, ObservationPart, PartContext, PartInput
 from socialnav.sim.parts.registry import register_observation_part
+from socialnav.sim.settings import HEADED_KINEMATICS
 
 #: The obstacle points' columns (:mod:`socialnav.sim.obstacle_points`; as agents they take the humans').
 OBSTACLE_COLUMNS = {"world": ("px", "py"), "robot": ("px", "py", "distance")}
@@ -67,7 +69,7 @@ class RobotPart(ObservationPart):
         else:
             rot, c, s = data.goal_frame
             dx, dy = robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1]
-            theta = robot[:, 8] - rot if ctx.kinematics == "unicycle" else np.zeros_like(rot)
+            theta = robot[:, 8] - rot if ctx.kinematics in HEADED_KINEMATICS else np.zeros_like(rot)
             r = np.stack(
                 [
                     np.hypot(dx, dy),
@@ -268,3 +270,46 @@ def _lidar_sensing(ctx: PartContext) -> Any:
         raise ValueError("observation part 'lidar' needs a world with a lidar (world.sensing.lidar_beams > "
                          "0; docs/perception.md)")
     return sensing
+
+
+@register_observation_part
+class RobotTwistPart(ObservationPart):
+    """A differential-drive robot's forward speed and turn rate of its last step (docs/kinematics.md).
+
+    Its acceleration limits act from them, so a policy needs them to know what it can do next.
+    """
+
+    name = "robot_twist"
+    description = "a diff_drive robot's (v, ω) of its last step, from which its acceleration limits act"
+    columns = {"robot_twist": {"world": ("v", "omega"), "robot": ("v", "omega")}}
+
+    def spaces(self, ctx: PartContext) -> dict[str, Any]:
+        """``robot_twist`` (2,): v [m/s] divided by ``speed_scale``, ω [rad/s].
+
+        Raises:
+            ValueError: The robot is not a differential drive.
+        """
+        from gymnasium import spaces
+
+        if ctx.kinematics != "diff_drive":
+            raise ValueError("observation part 'robot_twist' needs a diff_drive robot (world.kinematics; "
+                             f"docs/kinematics.md), not a {ctx.kinematics} one")
+        dtype = np.float64 if ctx.raw else ctx.np_dtype
+        return {"robot_twist": spaces.Box(-BOUND, BOUND, shape=(2,), dtype=dtype)}
+
+    def compute(self, data: PartInput, ctx: PartContext) -> dict[str, np.ndarray]:
+        """(B, 2) v / ``speed_scale`` and ω (the world's float64 values as they are when raw).
+
+        Raises:
+            ValueError: The input carries no twist (a robot of other kinematics).
+        """
+        twist = data.sensors.get("robot_twist")
+        if twist is None:
+            raise ValueError("observation part 'robot_twist': the observation has no twist (a diff_drive "
+                             "robot's; docs/kinematics.md)")
+        twist = np.asarray(twist, dtype=np.float64)
+        if ctx.raw:
+            return {"robot_twist": twist}
+        out = twist.copy()
+        out[:, 0] /= ctx.speed_scale
+        return {"robot_twist": out.astype(ctx.np_dtype)}

@@ -141,23 +141,38 @@ class PPORun(RunFiles):
         save_checkpoint(path, self.settings.policy, self.net, config=self.config, extra=extra)
 
 
-def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints | None) -> dict[str, Any]:
-    """The network's arguments from the policy's record; among walls with the point slots."""
+def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints | None,
+                       kinematics: str = "holonomic") -> dict[str, Any]:
+    """The network's arguments from the policy's record.
+
+    Among walls with the point slots; for a differential drive with its twist (the (v, ω) its
+    acceleration limits act from).
+
+    Raises:
+        ConfigError: The policy's network cannot read the walls, or a differential drive's twist.
+    """
     from socialnav.policies.learned_catalog import get_learned_spec
     from socialnav.train.worlds import check_observation_parts
 
     check_observation_parts(s.policy)
-    network_kwargs = get_learned_spec(s.policy).network_kwargs
+    spec = get_learned_spec(s.policy)
+    twist: dict[str, Any] = {}
+    if kinematics == "diff_drive":
+        if "twist_features" not in inspect.signature(spec.network_factory()).parameters:
+            raise ConfigError(f"policy {s.policy!r}: its network cannot read a differential drive's (v, ω), "
+                              "which its acceleration limits act from; crowdnav_pp can (docs/kinematics.md)")
+        twist = {"twist_features": True}
+    network_kwargs = spec.network_kwargs
     assert network_kwargs is not None  # a PPO record always has one (LearnedPolicySpec checks)
     if encoding is None:
-        return network_kwargs(s, n_humans)
+        return {**network_kwargs(s, n_humans), **twist}
     params = inspect.signature(network_kwargs).parameters.values()
     if not any(p.name == "obstacle_slots" or p.kind is p.VAR_KEYWORD for p in params):
         raise ConfigError(
             f"policy {s.policy!r}: its record's network_kwargs takes no obstacle_slots, so its network "
             "cannot read the obstacles of a training mix with walls (docs/ppo.md, 'Among walls')"
         )
-    return network_kwargs(s, n_humans, obstacle_slots=encoding.count)
+    return {**network_kwargs(s, n_humans, obstacle_slots=encoding.count), **twist}
 
 
 def resume_diff(saved: dict[str, Any], config: dict[str, Any]) -> list[str]:
@@ -233,7 +248,7 @@ def setup_ppo_run(
     encoding = None if encoding is None else ObstaclePoints.from_dict(encoding)
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seeds["init"])
-        net = build(s.policy, **_network_arguments(s, n_humans, encoding))
+        net = build(s.policy, **_network_arguments(s, n_humans, encoding, preset.world.kinematics))
     # A network that reads the robot's sensors (lidar_ppo) brings them to the worlds it trains in.
     preset = dataclasses.replace(preset, world=preset.world.with_sensors(network_sensors(net)))
     config = run_record("ppo", {"ppo_policy": ppo_policy_config(preset)}, s.policy, preset, s, seeds,

@@ -43,7 +43,8 @@ def world_snapshot(world: MultiWorld) -> list[dict[str, Any]]:
     """The state of every world's episodes in flight and its stream position (plain tensors).
 
     Worlds with ``human_routes`` also save where their humans stand on their routes (``routes``), worlds
-    with ``sensing.latency`` the past states their delayed detections come from (``sensing``).
+    with ``sensing.latency`` the past states their delayed detections come from (``sensing``), a
+    differential-drive robot the (v, ω) it last drove (``twist``).
     """
     out = []
     for w in world.worlds:
@@ -53,6 +54,9 @@ def world_snapshot(world: MultiWorld) -> list[dict[str, Any]]:
             saved["routes"] = [torch.from_numpy(r) for r in w.route_state()]
         if w.settings.sensing.latency:
             saved["sensing"] = [torch.from_numpy(r) for r in w.sensing_state()]
+        twist = w.robot_twist(new_at_rest=False)
+        if twist is not None:
+            saved["twist"] = torch.from_numpy(twist)
         out.append(saved)
     return out
 
@@ -79,6 +83,8 @@ def restore_worlds(world: MultiWorld, snapshot: list[dict[str, Any]]) -> None:
             w.set_route_state([r.numpy() for r in saved["routes"]])
         if "sensing" in saved:
             w.set_sensing_state([r.numpy() for r in saved["sensing"]])
+        if "twist" in saved:
+            w.set_robot_twist(saved["twist"].numpy())
 
 
 def step_worlds(world: MultiWorld, actions: np.ndarray):
@@ -103,7 +109,8 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         next_maps.extend(w.static_maps)
         nxt = res.observation
         final = [nxt.robot.copy(), nxt.humans.copy(), nxt.human_mask.copy(), nxt.time.copy(),
-                 None if nxt.lidar is None else nxt.lidar.copy()]
+                 None if nxt.lidar is None else nxt.lidar.copy(),
+                 None if nxt.robot_twist is None else nxt.robot_twist.copy()]
         done = np.flatnonzero(res.terminated | res.truncated)
         if done.size:
             fo = res.final_observation
@@ -115,10 +122,12 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
             )
             if final[4] is not None:
                 final[4][done] = fo.lidar
+            if final[5] is not None:
+                final[5][done] = fo.robot_twist
         final[1], final[2] = pad_humans(final[1], final[2], n)
         humans, mask = pad_humans(nxt.humans, nxt.human_mask, n)
         nxt = Observation(nxt.robot, humans, mask, nxt.active, nxt.time, nxt.dt, nxt.kinematics,
-                          lidar=nxt.lidar)
+                          lidar=nxt.lidar, robot_twist=nxt.robot_twist)
         parts.append((res.reward, res.terminated, res.truncated, final, nxt))
     cat = np.concatenate
     reward, term, trunc = (cat([p[i] for p in parts]) for i in range(3))
@@ -131,6 +140,7 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         first.kinematics,
         obstacles=ObstacleArrays.from_maps(stepped_maps),
         lidar=concat_lidar([p[3][4] for p in parts]),
+        robot_twist=concat_lidar([p[3][5] for p in parts]),
     )
     nxt = Observation(
         cat([p[4].robot for p in parts]),
@@ -142,6 +152,7 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         first.kinematics,
         obstacles=ObstacleArrays.from_maps(next_maps),
         lidar=concat_lidar([p[4].lidar for p in parts]),
+        robot_twist=concat_lidar([p[4].robot_twist for p in parts]),
     )
     return reward, term, trunc, final, nxt
 
