@@ -339,8 +339,9 @@ def _factory(name: str):
 
 #: What a PPO checkpoint's ``ppo_policy`` holds (the world the actor was trained for).
 PPO_POLICY_KEYS = ("kinematics", "rotation_limit", "dt", "reward")
-#: What it may hold besides: the obstacle encoding of a network trained among walls (absent otherwise).
-PPO_POLICY_OPTIONAL_KEYS = ("obstacle_encoding",)
+#: What it may hold besides: the obstacle encoding of a network trained among walls, a differential
+#: drive's limits (its actions are shares of their dynamic window).
+PPO_POLICY_OPTIONAL_KEYS = ("obstacle_encoding", "diff_drive")
 
 
 def _ppo_obstacle_encoding(settings: dict[str, Any], model: Any, where: str) -> Any:
@@ -407,7 +408,7 @@ def load_ppo_policy(
         name, ckpt.model, kinematics=settings["kinematics"], rotation_limit=settings["rotation_limit"],
         dt=settings["dt"], device=device, deterministic=deterministic, checkpoint=Path(checkpoint),
         preset_mismatch=mismatch, obstacle_encoding=encoding,
-        observation_parts=get_learned_spec(name).observation_parts,
+        observation_parts=get_learned_spec(name).observation_parts, diff_drive=settings.get("diff_drive"),
     )
 
 

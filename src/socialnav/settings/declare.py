@@ -180,10 +180,15 @@ class Settings:
 
 
 def _drop_unrecorded(obj: Any, data: dict[str, Any]) -> dict[str, Any]:
-    """``data`` (``asdict(obj)``) less the fields of ``obj`` that are not recorded at their default."""
+    """``data`` (``asdict(obj)``) less the fields of ``obj`` that are not recorded at their default.
+
+    A settings class keeps some of them at their default too where its ``recorded_at_default()`` names
+    them (WorldSettings: a differential drive's limits).
+    """
+    keep = obj.recorded_at_default() if hasattr(obj, "recorded_at_default") else ()
     for f in dataclasses.fields(obj):
         value = getattr(obj, f.name)
-        if not f.metadata.get("record_default", True):
+        if not f.metadata.get("record_default", True) and f.name not in keep:
             default = f.default_factory() if f.default_factory is not dataclasses.MISSING else f.default
             if value == default:
                 del data[f.name]

@@ -191,12 +191,9 @@ class WorldSettings(Settings):
     )
     diff_drive: DiffDriveSettings = setting(default_factory=DiffDriveSettings, record_default=False)
 
-    def to_dict(self) -> dict[str, Any]:
-        """The settings' record; a differential drive's limits are in it always, at their defaults too."""
-        out = super().to_dict()
-        if self.kinematics == "diff_drive":
-            out["diff_drive"] = self.diff_drive.to_dict()
-        return out
+    def recorded_at_default(self) -> tuple[str, ...]:
+        """Fields recorded even at their default: a differential drive's limits, which define its robot."""
+        return ("diff_drive",) if self.kinematics == "diff_drive" else ()
 
     def with_sensors(self, sensors: Mapping[str, Any] | None) -> WorldSettings:
         """These settings with the robot's sensors a policy brings (``sensing`` fields, e.g. its lidar).

@@ -357,7 +357,8 @@ def ppo_policy_config(preset: Preset) -> dict[str, Any]:
         preset: the preset trained under.
 
     Returns:
-        Plain data: kinematics, rotation limit, dt, reward constants (and ``obstacle_encoding``).
+        Plain data: kinematics, rotation limit, dt, reward constants (and ``obstacle_encoding``, and a
+        differential drive's limits ``diff_drive``).
     """
     w = preset.world
     return {
@@ -366,4 +367,6 @@ def ppo_policy_config(preset: Preset) -> dict[str, Any]:
         "dt": w.dt,
         "reward": reward_config(w),
         **obstacle_encoding_entry(preset),
+        # a differential drive's actions are shares of its dynamic window (attn_graph.squash_actions)
+        **({"diff_drive": w.diff_drive.to_dict()} if w.kinematics == "diff_drive" else {}),
     }

@@ -42,7 +42,8 @@ the trainer updates them after each update with that rollout's observations (:me
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -54,6 +55,7 @@ from socialnav.sim.parts.base import NETWORK_PARTS
 
 __all__ = [
     "AttnGraphNet",
+    "DynamicWindow",
     "ObservationStatistics",
     "ROBOT_FEATURES",
     "robot_features",
@@ -364,13 +366,40 @@ def _fold(count: torch.Tensor, mean: torch.Tensor, var: torch.Tensor, x: torch.T
     count.copy_(total)
 
 
-def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotation_limit: float) -> np.ndarray:
+@dataclass(frozen=True)
+class DynamicWindow:
+    """How far a differential drive's (v, ω) can change in one step: its acceleration limits times dt.
+
+    Attributes:
+        dv: a·dt [m/s]. dw: α·dt [rad/s]. dt: the step [s].
+    """
+
+    dv: float
+    dw: float
+    dt: float
+
+    @classmethod
+    def of(cls, limits: Mapping[str, Any], dt: float) -> DynamicWindow:
+        """The window of a ``diff_drive`` record (``DiffDriveSettings.to_dict()``) and step ``dt``."""
+        return cls(float(limits["max_linear_acceleration"]) * dt,
+                   float(limits["max_angular_acceleration"]) * dt, float(dt))
+
+
+def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotation_limit: float,
+                   twist: np.ndarray | None = None, window: DynamicWindow | None = None) -> np.ndarray:
     """The world action of a raw Gaussian sample (the log-probability is that of ``raw``).
 
     Holonomic (v_x, v_y): scaled radially onto the disc of radius v_pref where it leaves it (the
     direction kept). Unicycle (v, dθ): v clipped to [0, v_pref], dθ to [-rotation_limit, rotation_limit].
-    Differential drive: as the unicycle but v clipped to [-v_pref, v_pref]; the world bounds a backward v
-    by its ``diff_drive.max_reverse_speed`` (0: it stands instead).
+    Differential drive: the sample, clipped to [-1, 1], is the share of the largest change of v and of ω
+    that its acceleration limits allow in one step (``window``), from the robot's ``twist`` (B, 2): the
+    action is (v + u_v·dv, (ω + u_ω·dw)·dt), v within [-v_pref, v_pref] (the world bounds a backward v by
+    its max_reverse_speed) and dθ within ±rotation_limit. Every sample then moves the robot, and the
+    untrained network's zero mean keeps the robot's twist (docs/kinematics.md: a network choosing (v, dθ)
+    itself stood still behind the window's dead zone).
+
+    Raises:
+        ValueError: A differential drive without its twist and window.
     """
     raw = np.asarray(raw, dtype=np.float64)
     v_pref = np.asarray(v_pref, dtype=np.float64)
@@ -378,9 +407,15 @@ def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotatio
         speed = np.hypot(raw[:, 0], raw[:, 1])
         scale = np.where(speed > v_pref, v_pref / np.maximum(speed, 1e-300), 1.0)
         return raw * scale[:, None]
-    if kinematics in ("unicycle", "diff_drive"):
-        low = 0.0 if kinematics == "unicycle" else -v_pref
+    if kinematics == "unicycle":
         return np.stack(
-            [np.clip(raw[:, 0], low, v_pref), np.clip(raw[:, 1], -rotation_limit, rotation_limit)], 1
+            [np.clip(raw[:, 0], 0.0, v_pref), np.clip(raw[:, 1], -rotation_limit, rotation_limit)], 1
         )
+    if kinematics == "diff_drive":
+        if twist is None or window is None:
+            raise ValueError("a diff_drive action needs the robot's twist and its dynamic window")
+        u = np.clip(raw, -1.0, 1.0)
+        v = np.clip(twist[:, 0] + u[:, 0] * window.dv, -v_pref, v_pref)
+        dtheta = np.clip((twist[:, 1] + u[:, 1] * window.dw) * window.dt, -rotation_limit, rotation_limit)
+        return np.stack([v, dtheta], 1)
     raise ValueError(f"kinematics must be 'holonomic', 'unicycle' or 'diff_drive', got {kinematics!r}")

@@ -12,14 +12,14 @@ in the observation; on an open floor its point slots are all masked.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
 
-from socialnav.policies.learned.attn_graph import squash_actions
+from socialnav.policies.learned.attn_graph import DynamicWindow, squash_actions
 from socialnav.policies.learned.ppo_inputs import network_inputs, network_sensors
 from socialnav.sim.observation import Observation
 from socialnav.sim.obstacle_points import ObstaclePoints
@@ -33,6 +33,8 @@ class RecurrentActorPolicy:
         name: the registered policy name.
         network: the actor-critic.
         kinematics, rotation_limit, dt: the world the network was trained for.
+        diff_drive: a differential drive's limits (``DiffDriveSettings.to_dict()``), required for one: its
+            actions are shares of their dynamic window (``squash_actions``).
         deterministic: act with the mean action (evaluation); False samples from the Gaussian with
             ``generator``.
         obstacle_encoding: the obstacle points the network reads
@@ -57,7 +59,11 @@ class RecurrentActorPolicy:
         preset_mismatch: list[str] | None = None,
         obstacle_encoding: ObstaclePoints | dict | None = None,
         observation_parts: Sequence[str] = NETWORK_PARTS,
+        diff_drive: Mapping[str, Any] | None = None,
     ) -> None:
+        if kinematics == "diff_drive" and diff_drive is None:
+            raise ValueError("a diff_drive actor needs the robot's diff_drive limits (its dynamic window)")
+        self.window = DynamicWindow.of(diff_drive, dt) if kinematics == "diff_drive" and diff_drive else None
         self.name = name
         self.network = network
         self.kinematics = kinematics
@@ -105,7 +111,8 @@ class RecurrentActorPolicy:
             noise = torch.randn(mean.shape, generator=self.generator, dtype=mean.dtype)
             raw = mean + noise.to(self.device) * net.log_std.exp()
         actions = squash_actions(
-            raw.double().cpu().numpy(), self.kinematics, observation.robot[:, 7], self.rotation_limit
+            raw.double().cpu().numpy(), self.kinematics, observation.robot[:, 7], self.rotation_limit,
+            observation.robot_twist, self.window,
         )
         actions[~observation.active] = 0.0
         return actions

@@ -122,7 +122,7 @@ def train_ppo(
         w = run.preset.world
         actor = RecurrentActorPolicy(
             run.settings.policy, run.net, kinematics=w.kinematics, rotation_limit=w.rotation_limit, dt=w.dt,
-            device=run.device, obstacle_encoding=run.obstacle_encoding,
+            device=run.device, obstacle_encoding=run.obstacle_encoding, diff_drive=w.diff_drive.to_dict(),
         )
         state = initial_state(run)
         if run.resumed is not None and state.update > run.n_updates:
@@ -246,13 +246,15 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     Returns:
         The rollout.
     """
-    from socialnav.policies.learned.attn_graph import squash_actions
+    from socialnav.policies.learned.attn_graph import DynamicWindow, squash_actions
     from socialnav.policies.learned.ppo_inputs import network_inputs, robot_width
 
     s, net, device, n_envs, n_slots = run.settings, run.net, run.device, run.n_envs, run.n_slots
     walls = run.obstacle_encoding
     dt, kinematics = run.preset.world.dt, run.preset.world.kinematics
     rotation_limit, success_reward = run.preset.world.rotation_limit, run.preset.world.reward.success_reward
+    limits = run.preset.world.diff_drive.to_dict()
+    window = DynamicWindow.of(limits, dt) if kinematics == "diff_drive" else None
     T = s.rollout_steps
     t0 = time.perf_counter()
     net.eval()
@@ -278,7 +280,8 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             raw = mean + torch.randn(mean.shape, generator=run.action_gen).to(device) * net.log_std.exp()
             raws[t], values[t] = raw, value
             logps[t] = gaussian_log_prob(raw, mean, net.log_std)
-            action = squash_actions(raw.double().cpu().numpy(), kinematics, obs.robot[:, 7], rotation_limit)
+            action = squash_actions(raw.double().cpu().numpy(), kinematics, obs.robot[:, 7], rotation_limit,
+                                    obs.robot_twist, window)
             goal_before = goal_distance(obs.robot)
             reward, term, trunc, final, state.obs = step_worlds(run.world, action)
             done = term | trunc
