@@ -340,7 +340,7 @@ def _factory(name: str):
 #: What a PPO checkpoint's ``ppo_policy`` holds (the world the actor was trained for).
 PPO_POLICY_KEYS = ("kinematics", "rotation_limit", "dt", "reward")
 #: What it may hold besides: the obstacle encoding of a network trained among walls, a differential
-#: drive's limits (its actions are shares of their dynamic window).
+#: drive's limits (its actions span its speeds, reversing included).
 PPO_POLICY_OPTIONAL_KEYS = ("obstacle_encoding", "diff_drive")
 
 

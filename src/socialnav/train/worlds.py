@@ -367,6 +367,6 @@ def ppo_policy_config(preset: Preset) -> dict[str, Any]:
         "dt": w.dt,
         "reward": reward_config(w),
         **obstacle_encoding_entry(preset),
-        # a differential drive's actions are shares of its dynamic window (attn_graph.squash_actions)
+        # a differential drive's actions span its speeds, reversing included (attn_graph.squash_actions)
         **({"diff_drive": w.diff_drive.to_dict()} if w.kinematics == "diff_drive" else {}),
     }

@@ -42,8 +42,7 @@ the trainer updates them after each update with that rollout's observations (:me
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -55,7 +54,6 @@ from socialnav.sim.parts.base import NETWORK_PARTS
 
 __all__ = [
     "AttnGraphNet",
-    "DynamicWindow",
     "ObservationStatistics",
     "ROBOT_FEATURES",
     "robot_features",
@@ -366,40 +364,17 @@ def _fold(count: torch.Tensor, mean: torch.Tensor, var: torch.Tensor, x: torch.T
     count.copy_(total)
 
 
-@dataclass(frozen=True)
-class DynamicWindow:
-    """How far a differential drive's (v, ω) can change in one step: its acceleration limits times dt.
-
-    Attributes:
-        dv: a·dt [m/s]. dw: α·dt [rad/s]. dt: the step [s].
-    """
-
-    dv: float
-    dw: float
-    dt: float
-
-    @classmethod
-    def of(cls, limits: Mapping[str, Any], dt: float) -> DynamicWindow:
-        """The window of a ``diff_drive`` record (``DiffDriveSettings.to_dict()``) and step ``dt``."""
-        return cls(float(limits["max_linear_acceleration"]) * dt,
-                   float(limits["max_angular_acceleration"]) * dt, float(dt))
-
-
 def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotation_limit: float,
-                   twist: np.ndarray | None = None, window: DynamicWindow | None = None) -> np.ndarray:
+                   max_reverse_speed: float = 0.0) -> np.ndarray:
     """The world action of a raw Gaussian sample (the log-probability is that of ``raw``).
 
     Holonomic (v_x, v_y): scaled radially onto the disc of radius v_pref where it leaves it (the
     direction kept). Unicycle (v, dθ): v clipped to [0, v_pref], dθ to [-rotation_limit, rotation_limit].
-    Differential drive: the sample, clipped to [-1, 1], is the share of the largest change of v and of ω
-    that its acceleration limits allow in one step (``window``), from the robot's ``twist`` (B, 2): the
-    action is (v + u_v·dv, (ω + u_ω·dw)·dt), v within [-v_pref, v_pref] (the world bounds a backward v by
-    its max_reverse_speed) and dθ within ±rotation_limit. Every sample then moves the robot, and the
-    untrained network's zero mean keeps the robot's twist (docs/kinematics.md: a network choosing (v, dθ)
-    itself stood still behind the window's dead zone).
-
-    Raises:
-        ValueError: A differential drive without its twist and window.
+    Differential drive: the sample, clipped to [-1, 1], spans the commands the robot accepts: v from
+    -max_reverse_speed (-1) to v_pref (1), dθ from -rotation_limit to rotation_limit; the world reaches
+    them within its acceleration limits. The untrained network's zero mean is then half speed straight
+    ahead, and no share of the samples is a command the world cuts off (docs/kinematics.md: with the
+    unicycle's squash, half the speed samples meant "stand", and the network learned to stand).
     """
     raw = np.asarray(raw, dtype=np.float64)
     v_pref = np.asarray(v_pref, dtype=np.float64)
@@ -412,10 +387,7 @@ def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotatio
             [np.clip(raw[:, 0], 0.0, v_pref), np.clip(raw[:, 1], -rotation_limit, rotation_limit)], 1
         )
     if kinematics == "diff_drive":
-        if twist is None or window is None:
-            raise ValueError("a diff_drive action needs the robot's twist and its dynamic window")
         u = np.clip(raw, -1.0, 1.0)
-        v = np.clip(twist[:, 0] + u[:, 0] * window.dv, -v_pref, v_pref)
-        dtheta = np.clip((twist[:, 1] + u[:, 1] * window.dw) * window.dt, -rotation_limit, rotation_limit)
-        return np.stack([v, dtheta], 1)
+        v = -max_reverse_speed + (u[:, 0] + 1.0) * 0.5 * (v_pref + max_reverse_speed)
+        return np.stack([v, u[:, 1] * rotation_limit], 1)
     raise ValueError(f"kinematics must be 'holonomic', 'unicycle' or 'diff_drive', got {kinematics!r}")

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from socialnav.policies.learned.attn_graph import DynamicWindow, squash_actions
+from socialnav.policies.learned.attn_graph import squash_actions
 from socialnav.policies.learned.ppo_inputs import network_inputs, network_sensors
 from socialnav.sim.observation import Observation
 from socialnav.sim.obstacle_points import ObstaclePoints
@@ -34,7 +34,7 @@ class RecurrentActorPolicy:
         network: the actor-critic.
         kinematics, rotation_limit, dt: the world the network was trained for.
         diff_drive: a differential drive's limits (``DiffDriveSettings.to_dict()``), required for one: its
-            actions are shares of their dynamic window (``squash_actions``).
+            actions span [-max_reverse_speed, v_pref] (``squash_actions``).
         deterministic: act with the mean action (evaluation); False samples from the Gaussian with
             ``generator``.
         obstacle_encoding: the obstacle points the network reads
@@ -62,8 +62,8 @@ class RecurrentActorPolicy:
         diff_drive: Mapping[str, Any] | None = None,
     ) -> None:
         if kinematics == "diff_drive" and diff_drive is None:
-            raise ValueError("a diff_drive actor needs the robot's diff_drive limits (its dynamic window)")
-        self.window = DynamicWindow.of(diff_drive, dt) if kinematics == "diff_drive" and diff_drive else None
+            raise ValueError("a diff_drive actor needs the robot's diff_drive limits (its reverse speed)")
+        self.max_reverse_speed = float((diff_drive or {}).get("max_reverse_speed", 0.0))
         self.name = name
         self.network = network
         self.kinematics = kinematics
@@ -112,7 +112,7 @@ class RecurrentActorPolicy:
             raw = mean + noise.to(self.device) * net.log_std.exp()
         actions = squash_actions(
             raw.double().cpu().numpy(), self.kinematics, observation.robot[:, 7], self.rotation_limit,
-            observation.robot_twist, self.window,
+            self.max_reverse_speed,
         )
         actions[~observation.active] = 0.0
         return actions

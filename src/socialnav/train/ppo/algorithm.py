@@ -246,15 +246,14 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     Returns:
         The rollout.
     """
-    from socialnav.policies.learned.attn_graph import DynamicWindow, squash_actions
+    from socialnav.policies.learned.attn_graph import squash_actions
     from socialnav.policies.learned.ppo_inputs import network_inputs, robot_width
 
     s, net, device, n_envs, n_slots = run.settings, run.net, run.device, run.n_envs, run.n_slots
     walls = run.obstacle_encoding
     dt, kinematics = run.preset.world.dt, run.preset.world.kinematics
     rotation_limit, success_reward = run.preset.world.rotation_limit, run.preset.world.reward.success_reward
-    limits = run.preset.world.diff_drive.to_dict()
-    window = DynamicWindow.of(limits, dt) if kinematics == "diff_drive" else None
+    reverse = run.preset.world.diff_drive.max_reverse_speed
     T = s.rollout_steps
     t0 = time.perf_counter()
     net.eval()
@@ -281,7 +280,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             raws[t], values[t] = raw, value
             logps[t] = gaussian_log_prob(raw, mean, net.log_std)
             action = squash_actions(raw.double().cpu().numpy(), kinematics, obs.robot[:, 7], rotation_limit,
-                                    obs.robot_twist, window)
+                                    reverse)
             goal_before = goal_distance(obs.robot)
             reward, term, trunc, final, state.obs = step_worlds(run.world, action)
             done = term | trunc
