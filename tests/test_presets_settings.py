@@ -21,7 +21,7 @@ from socialnav.presets import (
 )
 from socialnav.scenarios import SPLIT_BASES, episode_seeds
 from socialnav.settings import ConfigError
-from socialnav.sim import SensingSettings
+from socialnav.sim import DiffDriveSettings, SensingSettings
 
 
 @pytest.mark.parametrize(
@@ -107,6 +107,7 @@ def test_the_recorded_keys_and_defaults_are_unchanged():
     assert plain["world"].pop("human_routes") == "none"
     assert plain["world"].pop("route_clearance") == 0.2
     assert plain["world"].pop("sensing") == dataclasses.asdict(SensingSettings())
+    assert plain["world"].pop("diff_drive") == dataclasses.asdict(DiffDriveSettings())  # a diff drive's only
     assert preset == plain
 
 
