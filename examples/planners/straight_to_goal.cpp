@@ -34,11 +34,12 @@ int main() {
     return 2;
   }
   const double dt = json_number(hello, "dt");
-  const bool unicycle = hello.find("\"unicycle\"") != std::string::npos;
+  const bool diff_drive = hello.find("\"diff_drive\"") != std::string::npos;
+  const bool unicycle = diff_drive || hello.find("\"unicycle\"") != std::string::npos;
   std::printf("{\"protocol\": \"socialnav-exec\", \"version\": 1, \"format\": \"binary\", \"name\": \"straight_to_goal.cpp\"}\n");
   std::fflush(stdout);
 
-  std::vector<double> robot, humans, time, walls, actions;
+  std::vector<double> robot, humans, time, walls, twist, actions;
   std::vector<uint8_t> mask, active;
   for (;;) {
     char magic[4];
@@ -53,9 +54,11 @@ int main() {
     active.resize(B);
     time.resize(B);
     walls.resize(W * 5);
+    twist.resize(diff_drive ? B * 2 : 0);  // a differential drive's (v, omega) per row, after the walls
     if (!read_exact(robot.data(), robot.size() * 8) || !read_exact(humans.data(), humans.size() * 8) ||
         !read_exact(mask.data(), mask.size()) || !read_exact(active.data(), active.size()) ||
-        !read_exact(time.data(), time.size() * 8) || !read_exact(walls.data(), walls.size() * 8))
+        !read_exact(time.data(), time.size() * 8) || !read_exact(walls.data(), walls.size() * 8) ||
+        !read_exact(twist.data(), twist.size() * 8))
       return 4;
     actions.assign(B * 2, 0.0);
     for (size_t b = 0; b < B; ++b) {
@@ -64,8 +67,10 @@ int main() {
       const double d = std::hypot(dx, dy);
       const double speed = std::min(r[7], d / dt);
       if (unicycle) {  // (v, d theta): turn towards the goal, then drive
-        actions[2 * b] = speed;
-        actions[2 * b + 1] = std::remainder(std::atan2(dy, dx) - r[8], 2.0 * M_PI);
+        const double turn = std::remainder(std::atan2(dy, dx) - r[8], 2.0 * M_PI);
+        // a differential drive drives only the speed along its heading (the world's limits apply)
+        actions[2 * b] = diff_drive ? std::max(speed * std::cos(turn), 0.0) : speed;
+        actions[2 * b + 1] = turn;
       } else if (d > 1e-9) {
         actions[2 * b] = speed * dx / d;
         actions[2 * b + 1] = speed * dy / d;

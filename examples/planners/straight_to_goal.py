@@ -18,7 +18,8 @@ def main() -> None:
     hello = json.loads(sys.stdin.readline())
     if hello.get("protocol") != "socialnav-exec" or hello.get("version") != 1:
         sys.exit(f"unsupported protocol {hello.get('protocol')!r} version {hello.get('version')!r}")
-    dt, unicycle = hello["dt"], hello["kinematics"] == "unicycle"
+    dt, kinematics = hello["dt"], hello["kinematics"]
+    unicycle = kinematics in ("unicycle", "diff_drive")
     print(json.dumps({"protocol": "socialnav-exec", "version": 1, "format": "json",
                       "name": "straight_to_goal.py"}), flush=True)
     for line in sys.stdin:
@@ -30,6 +31,8 @@ def main() -> None:
             speed = min(robot[7], d / dt)
             if unicycle:  # (v, d theta): turn towards the goal as far as one step allows, then drive
                 turn = math.remainder(math.atan2(dy, dx) - robot[8], 2 * math.pi)
+                if kinematics == "diff_drive":  # only the speed along the heading (the world's limits apply)
+                    speed = max(speed * math.cos(turn), 0.0)
                 actions.append([speed, turn])
             else:
                 actions.append([speed * dx / d, speed * dy / d] if d > 1e-9 else [0.0, 0.0])

@@ -21,6 +21,8 @@ PY_EXAMPLE = ROOT / "examples" / "planners" / "straight_to_goal.py"
 CPP_EXAMPLE = ROOT / "examples" / "planners" / "straight_to_goal.cpp"
 ARGS = ["--preset", "wang2022", "--scenario", "circle_crossing", "passing", "--episodes", "6",
         "--visibility", "invisible", "--no-progress"]
+#: The robots the examples drive: holonomic, and a differential drive (its twist in the frames).
+ROBOTS = ["wang2022", "wang2022_diffdrive"]
 
 
 def _outcomes(out: Path) -> list:
@@ -28,21 +30,24 @@ def _outcomes(out: Path) -> list:
     return sorted((r["scenario"], r["success_rate"], r["collision_rate"], r["nav_time_s"]) for r in rows)
 
 
-def _evaluate(policy: str, out: Path, *extra: str) -> int:
-    return main(["evaluate", "--policy", policy, *ARGS, "--out", str(out), *extra])
+def _evaluate(policy: str, out: Path, *extra: str, preset: str = "wang2022") -> int:
+    args = list(ARGS)
+    args[1] = preset
+    return main(["evaluate", "--policy", policy, *args, "--out", str(out), *extra])
 
 
-@pytest.fixture(scope="module")
-def linear_results(tmp_path_factory):
+@pytest.fixture(scope="module", params=ROBOTS)
+def linear_results(request, tmp_path_factory):
     out = tmp_path_factory.mktemp("linear")
-    assert _evaluate("linear", out) == 0
-    return _outcomes(out)
+    assert _evaluate("linear", out, preset=request.param) == 0
+    return request.param, _outcomes(out)
 
 
 def test_the_python_example_is_the_linear_policy(tmp_path, linear_results):
+    preset, expected = linear_results
     out = tmp_path / "py"
-    assert _evaluate(f"exec:{sys.executable} {PY_EXAMPLE}", out) == 0
-    assert _outcomes(out) == linear_results
+    assert _evaluate(f"exec:{sys.executable} {PY_EXAMPLE}", out, preset=preset) == 0
+    assert _outcomes(out) == expected
     manifest = json.loads((out / "manifest.json").read_text())
     assert manifest["policy"]["protocol_version"] == 1 and manifest["policy"]["command"].endswith(".py")
 
@@ -52,9 +57,10 @@ def test_the_cpp_example_built_here_is_the_linear_policy(tmp_path, linear_result
     assert cxx, "the core's build needs a C++ compiler, so the tests have one"
     binary = tmp_path / "straight_to_goal"
     subprocess.run([cxx, "-O2", "-std=c++17", "-o", str(binary), str(CPP_EXAMPLE)], check=True)
+    preset, expected = linear_results
     out = tmp_path / "cpp"
-    assert _evaluate(f"exec:{binary}", out) == 0
-    assert _outcomes(out) == linear_results
+    assert _evaluate(f"exec:{binary}", out, preset=preset) == 0
+    assert _outcomes(out) == expected
 
 
 BAD_PLANNER = '''
@@ -161,3 +167,33 @@ def test_the_walls_go_with_each_new_episodes_row(tmp_path):
     assert sorted(walls) == ["0", "1"]  # both rows' episodes brought their walls
     expected = [[*a, *b] for a, b in zip(starts.tolist(), ends.tolist(), strict=True)]
     assert walls["0"] == expected  # the doorway's fixed layout, edge by edge
+
+
+TWIST_RECORDER = '''
+import json, sys
+out = sys.argv[1]
+hello = json.loads(sys.stdin.readline())
+print(json.dumps({"protocol": "socialnav-exec", "version": 1, "format": "json"}), flush=True)
+twists = []
+for line in sys.stdin:
+    frame = json.loads(line)
+    twists.append(frame["robot_twist"][0])
+    print(json.dumps({"actions": [[1.0, 0.1] for _ in frame["robot"]]}), flush=True)
+    json.dump({"hello": hello, "twists": twists}, open(out, "w"))
+'''
+
+
+def test_a_diff_drive_planner_gets_its_limits_and_twist(tmp_path):
+    script, record = tmp_path / "twist.py", tmp_path / "twist.json"
+    script.write_text(TWIST_RECORDER)
+    rc = main(["evaluate", "--policy", f"exec:{sys.executable} {script} {record}", "--preset",
+               "wang2022_diffdrive", "--scenario", "circle_crossing", "--episodes", "1", "--visibility",
+               "invisible", "--out", str(tmp_path / "run"), "--no-progress"])
+    assert rc == 0
+    seen = json.loads(record.read_text())
+    assert seen["hello"]["kinematics"] == "diff_drive"
+    assert seen["hello"]["diff_drive"] == {"max_linear_acceleration": 2.5, "max_angular_acceleration": 3.2,
+                                           "max_reverse_speed": 0.0}
+    assert seen["hello"]["rotation_limit"] == pytest.approx(1.0471975511965976)
+    # from rest, 0.625 m/s more per step up to 1 m/s; the command's 0.4 rad/s is within the window
+    assert seen["twists"][:3] == [[0.0, 0.0], [0.625, 0.4], [1.0, 0.4]]

@@ -59,6 +59,8 @@ class ExecPlanner:
         timeout: Seconds the planner may take to answer the hello and each step.
         kinematics: The robot's kinematics (sent in the hello).
         dt: The step length [s] (sent in the hello).
+        robot_limits: What the hello adds about the robot: ``rotation_limit`` [rad] for a unicycle or
+            a differential drive, ``diff_drive`` (its acceleration limits and reverse speed) for the latter.
     """
 
     information = "none"
@@ -66,7 +68,8 @@ class ExecPlanner:
     #: simulation workers would only add their start-up and one more planner each.
     simulates_in_process = True
 
-    def __init__(self, command: str, timeout: float = 10.0, kinematics: str = "holonomic", dt: float = 0.25):
+    def __init__(self, command: str, timeout: float = 10.0, kinematics: str = "holonomic", dt: float = 0.25,
+                 robot_limits: dict[str, Any] | None = None):
         argv = shlex.split(command)
         if not argv:
             raise ValueError("exec: give the planner's command after 'exec:', e.g. exec:'./planner --fast'")
@@ -74,6 +77,7 @@ class ExecPlanner:
             raise ValueError(f"exec planner timeout must be > 0 s, got {timeout!r}")
         self.command, self.argv, self.timeout = command, argv, float(timeout)
         self.kinematics, self.dt = kinematics, float(dt)
+        self.robot_limits = dict(robot_limits or {})
         self.name = EXEC_PREFIX + command
         self.format: str | None = None
         self.planner_name: str | None = None
@@ -120,7 +124,7 @@ class ExecPlanner:
         self._sent_maps = []
         hello = {"protocol": PROTOCOL, "version": VERSION, "kinematics": self.kinematics, "dt": self.dt,
                  "robot_columns": list(ROBOT_COLUMNS["world"]), "human_columns": list(HUMAN_COLUMNS["world"]),
-                 "formats": ["json", "binary"]}
+                 "formats": ["json", "binary"], **self.robot_limits}
         self._write((json.dumps(hello) + "\n").encode())
         line = self._read_line("its hello")
         try:
@@ -248,6 +252,8 @@ class ExecPlanner:
         }
         if walls:
             frame["walls"] = {str(row): edges.tolist() for row, edges in walls.items()}
+        if obs.robot_twist is not None:  # a differential drive: the (v, ω) its limits act from
+            frame["robot_twist"] = obs.robot_twist.tolist()
         return (json.dumps(frame) + "\n").encode()
 
     def _binary_frame(self, obs: Any, walls: dict[int, np.ndarray]) -> bytes:
@@ -263,6 +269,8 @@ class ExecPlanner:
             np.ascontiguousarray(obs.time, dtype="<f8").tobytes(),
             np.ascontiguousarray(wall_rows, dtype="<f8").tobytes(),
         ]
+        if obs.robot_twist is not None:  # a differential drive: (v, ω) per row, after the walls
+            parts.append(np.ascontiguousarray(obs.robot_twist, dtype="<f8").tobytes())
         return b"".join(parts)
 
     def describe(self) -> dict[str, Any]:

@@ -249,7 +249,12 @@ def _exec_entry(spec: str) -> PolicyEntry:
 
         world = getattr(preset, "world", None)
         kinematics, dt = getattr(world, "kinematics", "holonomic"), getattr(world, "dt", 0.25)
-        return ExecPlanner(command, timeout=float(timeout), kinematics=kinematics, dt=dt)
+        limits: dict[str, Any] = {}
+        if world is not None and kinematics != "holonomic":
+            limits["rotation_limit"] = world.rotation_limit
+        if world is not None and kinematics == "diff_drive":
+            limits["diff_drive"] = world.diff_drive.to_dict()
+        return ExecPlanner(command, timeout=float(timeout), kinematics=kinematics, dt=dt, robot_limits=limits)
 
     return PolicyEntry(spec, start, "a planner program stepped over its stdin/stdout (docs/exec_protocol.md)",
                        False, {"timeout": 10.0})
