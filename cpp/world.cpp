@@ -50,9 +50,7 @@ World::World(const WorldConfig& config, const WorldBuffers& buffers, ThreadPool*
   twist_.assign(static_cast<size_t>(config.batch) * 2, 0.0);
   if (config.kinematics == kDiffDrive &&
       !(config.max_linear_accel > 0.0 && config.max_angular_accel > 0.0 && config.max_reverse_speed >= 0.0))
-    throw std::invalid_argument(
-        "the differential drive's acceleration limits must be > 0 and its reverse "
-        "speed >= 0");
+    throw std::invalid_argument("the differential drive's acceleration limits must be > 0, its reverse speed >= 0");
   preferred_.assign(threads, std::vector<Vec2>(config.agents));
   if (config.human_routes) {
     if (!(config.route_clearance >= 0.0) || !std::isfinite(config.route_clearance))

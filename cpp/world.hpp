@@ -34,7 +34,7 @@ enum Status : int8_t {
 enum CollisionKind : int8_t { kNoCollision = 0, kHumanCollision = 1, kObstacleCollision = 2 };
 
 // kDiffDrive: a differential-drive robot, whose actions are the unicycle's (v, d theta) commands, reached
-// within acceleration limits from the (v, omega) it drove in the last step (World::diff_drive_twist).
+// within acceleration limits from the (v, omega) it drove in the last step (World::diff_drive_velocity).
 enum Kinematics : int { kHolonomic = 0, kUnicycle = 1, kDiffDrive = 2 };
 
 struct WorldConfig {
