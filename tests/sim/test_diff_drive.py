@@ -164,10 +164,37 @@ def test_the_env_passes_check_env_with_the_twist_and_bounds_reversing():
     assert obs["robot_twist"][0] == pytest.approx(0.625)
 
 
-def test_value_policies_refuse_a_diff_drive():
-    pytest.importorskip("torch")
+def test_the_value_lookahead_moves_the_robot_as_the_world_does():
+    torch = pytest.importorskip("torch")
+    from socialnav.policies.learned.actions import discrete_actions
     from socialnav.policies.learned.sarl import SARL
+    from socialnav.policies.learned.state import DiffDriveLimits, propagate_robot
     from socialnav.policies.learned.value_policy import ValuePolicy
 
-    with pytest.raises(ValueError, match="diff_drive"):
+    limits = DiffDriveSettings(max_reverse_speed=0.2)
+    base = diff_world(max_reverse_speed=0.2)
+    for action in ([1.0, 0.3], [0.4, -0.6]):  # a twist to start from
+        base.step(np.array([action]))
+    obs = base.observe()
+    robot = torch.as_tensor(np.concatenate([obs.robot, obs.robot_twist], 1))
+    actions = discrete_actions("diff_drive", robot[:, 7], math.pi / 4)  # (1, 81, 2)
+    actions[0, 1] = torch.tensor([-1.0, 0.0])  # one candidate backs up
+    predicted = propagate_robot(robot, actions, "diff_drive", 0.25,
+                                DiffDriveLimits.of(limits.to_dict(), math.pi / 4))[0]
+    for k in range(0, 81, 7):
+        w = diff_world(max_reverse_speed=0.2)
+        for key in ("position", "velocity", "theta", "steps"):
+            np.copyto(getattr(w, key), getattr(base, key))
+        w.set_robot_twist(obs.robot_twist)
+        w.step(actions[0, k].numpy()[None])
+        world_state = [*w.position[0, 0], *w.velocity[0, 0]]
+        np.testing.assert_allclose(predicted[k, 0:4].numpy(), world_state, atol=1e-12)
+        assert math.remainder(predicted[k, 8].item() - w.theta[0], 2 * math.pi) == pytest.approx(0, abs=1e-12)
+        np.testing.assert_allclose(predicted[k, 9:].numpy(), w.robot_twist()[0], atol=1e-12)
+    with pytest.raises(ValueError, match="diff_drive limits"):
         ValuePolicy(SARL(), kinematics="diff_drive")
+    policy = ValuePolicy(SARL(), kinematics="diff_drive", diff_drive=limits.to_dict())
+    _, chosen = policy.act(obs)
+    assert chosen.shape == (1, 2)
+    with pytest.raises(ValueError, match="robot_twist"):
+        policy.act({"robot": obs.robot, "humans": obs.humans, "human_mask": obs.human_mask})

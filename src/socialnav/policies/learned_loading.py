@@ -110,6 +110,7 @@ _VALUE_POLICY_KEYS = (
     "planning_width",
     "reward_rule",
     "obstacle_encoding",
+    "diff_drive",
 )
 _REWARD_KEYS = (
     "success_reward",

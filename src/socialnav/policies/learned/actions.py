@@ -26,7 +26,7 @@ from typing import Literal
 
 import torch
 
-Kinematics = Literal["holonomic", "unicycle"]
+Kinematics = Literal["holonomic", "unicycle", "diff_drive"]
 
 __all__ = ["Kinematics", "discrete_actions", "speed_fractions", "headings", "num_actions"]
 
@@ -64,7 +64,7 @@ def headings(
     k = torch.arange(rotation_samples, dtype=dtype, device=device)
     if kinematics == "holonomic":
         return k * (2.0 * math.pi / rotation_samples)
-    if kinematics == "unicycle":
+    if kinematics in ("unicycle", "diff_drive"):  # a differential drive takes the unicycle's commands
         if rotation_samples % 2:
             raise ValueError(
                 f"rotation_samples must be even so that dθ = 0 is in the set, got {rotation_samples}"
@@ -73,7 +73,7 @@ def headings(
         out = k * step - rotation_limit
         out[rotation_samples // 2] = 0.0  # exactly zero, not a rounding residue
         return out
-    raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic' or 'unicycle'")
+    raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic', 'unicycle' or 'diff_drive'")
 
 
 def discrete_actions(

@@ -22,6 +22,7 @@ from socialnav.policies.learned.actions import Kinematics
 from socialnav.sim.observation import HUMAN_COLUMNS, HUMAN_DIM, ROBOT_COLUMNS, ROBOT_DIM
 
 __all__ = [
+    "DiffDriveLimits",
     "ROBOT_DIM",
     "HUMAN_DIM",
     "JOINT_DIM",
@@ -62,24 +63,51 @@ class RewardParams:
     time_step: float = 0.25
 
 
+@dataclass(frozen=True)
+class DiffDriveLimits:
+    """A differential drive's limits, as the world applies them (docs/kinematics.md)."""
+
+    max_linear_acceleration: float  # [m/s²]
+    max_angular_acceleration: float  # [rad/s²]
+    max_reverse_speed: float  # [m/s]
+    rotation_limit: float  # [rad] per step
+
+    @classmethod
+    def of(cls, diff_drive: dict, rotation_limit: float) -> DiffDriveLimits:
+        """From a ``diff_drive`` record (``DiffDriveSettings.to_dict()``) and the rotation limit."""
+        return cls(float(diff_drive["max_linear_acceleration"]),
+                   float(diff_drive["max_angular_acceleration"]), float(diff_drive["max_reverse_speed"]),
+                   float(rotation_limit))
+
+
 def propagate_robot(
-    robot: torch.Tensor, actions: torch.Tensor, kinematics: Kinematics, dt: float
+    robot: torch.Tensor, actions: torch.Tensor, kinematics: Kinematics, dt: float,
+    limits: DiffDriveLimits | None = None,
 ) -> torch.Tensor:
     """Next robot full state for each candidate action (CrowdNav's ``propagate`` for a FullState).
 
     Holonomic: velocity := (vx, vy) of the action, p += v·dt, heading unchanged.
     Unicycle: θ' = θ + dθ, v' = v (cos θ', sin θ'), p += v'·dt.
+    Differential drive: the robot rows carry two more columns, the (v, ω) of the last step; the command
+    is reached within the acceleration ``limits`` and the arc driven exactly, as the world does
+    (cpp/world.cpp, ``diff_drive_velocity``), and the next rows carry the (v, ω) reached.
 
     Args:
-        robot: (B, 9) robot full states.
-        actions: (B, K, 2) actions, holonomic (vx, vy) [m/s] or unicycle (v [m/s], dθ [rad]).
-        kinematics: "holonomic" or "unicycle".
+        robot: (B, 9) robot full states ((B, 11) with v, ω for a differential drive).
+        actions: (B, K, 2) actions, holonomic (vx, vy) [m/s] or unicycle / diff drive (v [m/s], dθ [rad]).
+        kinematics: "holonomic", "unicycle" or "diff_drive".
         dt: time step [s].
+        limits: a differential drive's limits (required for one).
 
     Returns:
-        (B, K, 9) next robot full states.
+        (B, K, 9) next robot full states ((B, K, 11) for a differential drive).
+
+    Raises:
+        ValueError: A differential drive without its limits or its (v, ω) columns.
     """
     k = actions.shape[-2]
+    if kinematics == "diff_drive":
+        return _propagate_diff_drive(robot, actions, dt, limits)
     nxt = robot.unsqueeze(-2).expand(*robot.shape[:-1], k, ROBOT_DIM).clone()
     if kinematics == "holonomic":
         vx, vy = actions[..., 0], actions[..., 1]
@@ -94,6 +122,31 @@ def propagate_robot(
     nxt[..., 1] = nxt[..., 1] + vy * dt
     nxt[..., 2] = vx
     nxt[..., 3] = vy
+    return nxt
+
+
+def _propagate_diff_drive(robot: torch.Tensor, actions: torch.Tensor, dt: float,
+                          limits: DiffDriveLimits | None) -> torch.Tensor:
+    if limits is None or robot.shape[-1] != ROBOT_DIM + 2:
+        raise ValueError("a diff_drive lookahead needs the robot's limits and its (v, ω) after its 9 columns")
+    nxt = robot.unsqueeze(-2).expand(*robot.shape[:-1], actions.shape[-2], ROBOT_DIM + 2).clone()
+    v_pref, v0, w0 = robot[..., 7:8], robot[..., 9:10], robot[..., 10:11]
+    w_max = limits.rotation_limit / dt
+    v_cmd = torch.minimum(actions[..., 0].clamp(min=-limits.max_reverse_speed), v_pref)
+    w_cmd = (actions[..., 1] / dt).clamp(-w_max, w_max)
+    dv, dw = limits.max_linear_acceleration * dt, limits.max_angular_acceleration * dt
+    v = torch.minimum(torch.maximum(v_cmd, v0 - dv), v0 + dv)
+    w = torch.minimum(torch.maximum(w_cmd, w0 - dw), w0 + dw)
+    half = 0.5 * w * dt
+    safe = torch.where(half == 0, torch.ones_like(half), half)
+    chord = torch.where(half == 0, torch.ones_like(half), torch.sin(safe) / safe)  # sinc(ω·dt/2)
+    heading = nxt[..., 8] + half
+    vx, vy = v * chord * torch.cos(heading), v * chord * torch.sin(heading)
+    nxt[..., 0] = nxt[..., 0] + vx * dt
+    nxt[..., 1] = nxt[..., 1] + vy * dt
+    nxt[..., 2], nxt[..., 3] = vx, vy
+    nxt[..., 8] = nxt[..., 8] + w * dt
+    nxt[..., 9], nxt[..., 10] = v, w
     return nxt
 
 

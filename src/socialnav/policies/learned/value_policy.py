@@ -46,7 +46,7 @@ lookahead. Every level is batched over episodes and actions (B·w^level·K state
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -54,6 +54,7 @@ import torch
 
 from socialnav.policies.learned.actions import Kinematics, discrete_actions, num_actions
 from socialnav.policies.learned.lookahead_inputs import (
+    LookaheadInputs,
     encode_observation,
     encode_state_arrays,
     lookahead_inputs,
@@ -68,6 +69,7 @@ from socialnav.policies.learned.native_scoring import (
 )
 from socialnav.policies.learned.networks import ValueNetwork
 from socialnav.policies.learned.state import (
+    DiffDriveLimits,
     RewardParams,
     occupancy_map,
     propagate_humans_constant_velocity,
@@ -89,7 +91,7 @@ class ValuePolicy:
 
     Args:
         network: a :class:`ValueNetwork` (CADRL, LSTMRL, SARL, OM-SARL).
-        kinematics: "holonomic" or "unicycle".
+        kinematics: "holonomic", "unicycle" or "diff_drive" (needs ``diff_drive``).
         gamma: discount per second of travel at v_pref (the lookahead uses γ^(dt·v_pref)).
         reward_params: reward constants for r̂.
         information: "constant_velocity", "oracle" or "learned" (needs ``predictor``).
@@ -114,6 +116,9 @@ class ValuePolicy:
         observation_parts: the named observation parts the network reads (its record's
             ``observation_parts``): the robot's state, then sets of agents read like humans
             (:func:`~socialnav.policies.learned.lookahead_inputs.network_composition`).
+        diff_drive: a differential drive's limits (``DiffDriveSettings.to_dict()``): the lookahead
+            reaches each command within them from the observation's ``robot_twist`` and drives the arc, as
+            the world does; the network values the states reached (not their twist).
     """
 
     def __init__(
@@ -136,15 +141,19 @@ class ValuePolicy:
         scorer: str = "torch",
         obstacle_encoding: ObstaclePoints | dict | None = None,
         observation_parts: Sequence[str] = NETWORK_PARTS,
+        diff_drive: Mapping[str, Any] | None = None,
     ) -> None:
-        if kinematics == "diff_drive":
-            # The lookahead moves the robot as the action says; a differential drive reaches it only within
-            # its acceleration limits, from a twist the value networks do not read (docs/kinematics.md).
-            raise ValueError("the value-based policies do not drive a diff_drive robot (their one-step "
-                             "lookahead does not model its acceleration limits); use crowdnav_pp, or the "
-                             "unicycle")
-        if kinematics not in ("holonomic", "unicycle"):
-            raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic' or 'unicycle'")
+        if kinematics not in ("holonomic", "unicycle", "diff_drive"):
+            raise ValueError(f"unknown kinematics {kinematics!r}; expected 'holonomic', 'unicycle' or "
+                             "'diff_drive'")
+        if kinematics == "diff_drive" and diff_drive is None:
+            raise ValueError("a diff_drive value policy needs the robot's diff_drive limits: its lookahead "
+                             "reaches each command within them (docs/kinematics.md)")
+        #: The differential drive's limits the lookahead applies (None for the other kinematics).
+        self.diff_drive_limits = (
+            DiffDriveLimits.of(dict(diff_drive), rotation_limit) if kinematics == "diff_drive" and diff_drive
+            else None
+        )
         if information not in INFORMATION:
             raise ValueError(
                 f"unknown information setting {information!r}; expected one of {', '.join(INFORMATION)}"
@@ -301,7 +310,8 @@ class ValuePolicy:
         actions = discrete_actions(
             self.kinematics, robot[:, 7], self.rotation_limit, self.speed_samples, self.rotation_samples
         )  # (B, K, 2)
-        robot_next = propagate_robot(robot, actions, self.kinematics, dt)  # (B, K, 9)
+        # (B, K, 9), or (B, K, 11) with a differential drive's (v, ω)
+        robot_next = propagate_robot(robot, actions, self.kinematics, dt, self.diff_drive_limits)
         humans_next = self.predict_humans(robot, humans, mask, dt, nh, static)  # (B, N, 5)
         r = lookahead_reward(
             robot, robot_next, humans, humans_next, mask, static, self.reward_rule, self.reward_params
@@ -399,6 +409,23 @@ class ValuePolicy:
             return self.network.value(joint, mask)
         return torch.cat([self.network.value(joint[s : s + c], mask[s : s + c]) for s in range(0, total, c)])
 
+    def _lookahead_inputs(self, obs: Any, next_humans: Any) -> LookaheadInputs:
+        """The observation as tensors; a differential drive's rows with its (v, ω) appended.
+
+        Raises:
+            ValueError: A differential drive's observation without ``robot_twist``.
+        """
+        inputs = lookahead_inputs(self.encode(obs), next_humans, self.device, self.dt)
+        if self.diff_drive_limits is None:
+            return inputs
+        twist = obs.get("robot_twist") if isinstance(obs, Mapping) else getattr(obs, "robot_twist", None)
+        if twist is None:
+            raise ValueError("a diff_drive value policy needs the observation's robot_twist, the (v, ω) its "
+                             "acceleration limits act from (docs/kinematics.md)")
+        twist = torch.as_tensor(np.asarray(twist) if not torch.is_tensor(twist) else twist)
+        robot = torch.cat([inputs.robot, twist.to(device=self.device, dtype=inputs.robot.dtype)], -1)
+        return inputs._replace(robot=robot)
+
     # ------------------------------------------------------------------ public API
     def values(self, obs: Any, next_humans: Any = None) -> np.ndarray | torch.Tensor:
         """Lookahead values of every discrete action.
@@ -411,9 +438,7 @@ class ValuePolicy:
         Returns:
             (B, K) values, NumPy if the observation was NumPy.
         """
-        robot, humans, mask, nh, dt, as_numpy, static = lookahead_inputs(
-            self.encode(obs), next_humans, self.device, self.dt
-        )
+        robot, humans, mask, nh, dt, as_numpy, static = self._lookahead_inputs(obs, next_humans)
         q, _ = self._values(robot, humans, mask, nh, dt, static)
         return q.cpu().numpy() if as_numpy else q
 
@@ -436,9 +461,7 @@ class ValuePolicy:
             action_index (B,) int64 and action (B, 2) (holonomic (vx, vy) or unicycle (v, dθ)),
             NumPy if the observation was NumPy.
         """
-        robot, humans, mask, nh, dt, as_numpy, static = lookahead_inputs(
-            self.encode(obs), next_humans, self.device, self.dt
-        )
+        robot, humans, mask, nh, dt, as_numpy, static = self._lookahead_inputs(obs, next_humans)
         b = robot.shape[0]
         if epsilon >= 1.0:  # no need to score anything
             actions = discrete_actions(

@@ -138,7 +138,8 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
         settings: the resolved training settings.
 
     Returns:
-        Plain data: kinematics, gamma, lookahead settings, reward constants (and obstacle encoding).
+        Plain data: kinematics, gamma, lookahead settings, reward constants (and obstacle encoding, and a
+        differential drive's limits).
     """
     w = preset.world
     return {
@@ -152,6 +153,8 @@ def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, An
         "dt": w.dt,
         "reward": reward_config(w),
         **obstacle_encoding_entry(preset),
+        # a differential drive's limits, which the lookahead applies (docs/kinematics.md)
+        **({"diff_drive": w.diff_drive.to_dict()} if w.kinematics == "diff_drive" else {}),
     }
 
 
@@ -263,6 +266,7 @@ def setup_run(
         reward_rule=settings.reward_rule,
         predictor=predictor,
         obstacle_encoding=vp_config.get("obstacle_encoding"),
+        diff_drive=vp_config.get("diff_drive"),
     )
     target = build(name).to(device)
     explore_gen = torch.Generator().manual_seed(seeds["exploration"])
