@@ -373,8 +373,8 @@ def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotatio
     Differential drive: the sample, clipped to [-1, 1], spans the commands the robot accepts: v from
     -max_reverse_speed (-1) to v_pref (1), dθ from -rotation_limit to rotation_limit; the world reaches
     them within its acceleration limits. The untrained network's zero mean is then half speed straight
-    ahead, and no share of the samples is a command the world cuts off (docs/kinematics.md: with the
-    unicycle's squash, half the speed samples meant "stand", and the network learned to stand).
+    ahead, and no share of the samples is a command the world cuts off (with the run's initial σ e⁻¹;
+    docs/kinematics.md says what else was tried).
     """
     raw = np.asarray(raw, dtype=np.float64)
     v_pref = np.asarray(v_pref, dtype=np.float64)
