@@ -198,3 +198,15 @@ def test_the_value_lookahead_moves_the_robot_as_the_world_does():
     assert chosen.shape == (1, 2)
     with pytest.raises(ValueError, match="robot_twist"):
         policy.act({"robot": obs.robot, "humans": obs.humans, "human_mask": obs.human_mask})
+
+
+@pytest.mark.parametrize("preset", ["wang2022_unicycle", "wang2022_diffdrive"])
+def test_the_kinematics_presets_find_their_shipped_crowdnav_pp(preset):
+    pytest.importorskip("torch")
+    from socialnav.policies.building import build_policy, shipped_checkpoint
+    from socialnav.presets import load_preset
+
+    path = shipped_checkpoint("crowdnav_pp", preset)
+    assert path is not None and path.name == f"crowdnav_pp_{preset}.pt"
+    policy = build_policy("crowdnav_pp", load_preset(preset))  # no --checkpoint
+    assert policy.checkpoint == path and policy.kinematics == load_preset(preset).world.kinematics
