@@ -185,7 +185,7 @@ def test_evaluate_all_under_a_preset_without_checkpoints_says_so(tmp_path, capsy
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert "note: no checkpoint ships for preset 'my_wang' (checkpoints ship for crowdnav, francis2023, " \
-           "wang2022), so only the native policies run" in err
+           "wang2022, wang2022_diffdrive, wang2022_unicycle), so only the native policies run" in err
     ran = sorted(p.name for p in (tmp_path / "out" / "policies").iterdir())
     assert ran == ["linear", "orca", "social_force"]
     shipped = ["evaluate", "--policy", "all", "--scenario", "passing", "--episodes", "1", "--out",
