@@ -24,7 +24,7 @@ import numpy as np
 from socialnav.policies.learned_catalog import get_learned_spec, learned_policy_specs
 from socialnav.policies.registry import is_registered, register_policy
 from socialnav.sim.observation import Observation, check_observation
-from socialnav.sim.settings import DiffDriveSettings
+from socialnav.sim.settings import HEADED_KINEMATICS, DiffDriveSettings
 
 
 class LearnedPolicy:
@@ -175,7 +175,7 @@ def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
         ("dt", vp.get("dt"), world.dt),
         ("kinematics", vp.get("kinematics"), world.kinematics),
     ]
-    if {"unicycle", "diff_drive"} & {vp.get("kinematics"), world.kinematics}:
+    if set(HEADED_KINEMATICS) & {vp.get("kinematics"), world.kinematics}:
         pairs.append(("rotation_limit", vp.get("rotation_limit"), world.rotation_limit))
     if "diff_drive" in (vp.get("kinematics"), world.kinematics):
         # the limits a differential-drive policy learned to drive within (the trained preset's world)

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from socialnav.sim.settings import KINEMATICS
+
 
 def action_speeds(v_pref: float, samples: int = 5) -> np.ndarray:
     """Exponentially spaced speeds (e^{(i+1)/5} - 1)/(e - 1)·v_pref, i = 0..samples-1 [m/s]."""
@@ -26,7 +28,7 @@ def discrete_actions(kinematics: str, v_pref: float, rotation_limit: float = mat
         (1 + speed_samples·rotation_samples, 2) array, equal to
         ``socialnav.policies.learned.actions.discrete_actions`` (tested).
     """
-    if kinematics not in ("holonomic", "unicycle", "diff_drive"):
+    if kinematics not in KINEMATICS:
         raise ValueError(f"kinematics must be 'holonomic', 'unicycle' or 'diff_drive', got {kinematics!r}")
     if not (math.isfinite(v_pref) and v_pref > 0):
         raise ValueError(f"v_pref must be a finite speed > 0 [m/s], got {v_pref!r}")

@@ -63,7 +63,7 @@ def scenario_crowd(name: str, n_humans: int) -> dict[str, int]:
     return {} if get_scenario(name).fixed_n_humans else {"n_humans": int(n_humans)}
 
 
-def concat_lidar(scans: list) -> np.ndarray | None:
+def concat_optional(scans: list) -> np.ndarray | None:
     """The worlds' per-slot arrays (lidar scans, robot twists) back to back (None where they have none)."""
     return None if scans[0] is None else np.concatenate(scans)
 
@@ -289,8 +289,8 @@ class MultiWorld:
             obs[0].kinematics,
             nxt,
             _concat_obstacles([o.obstacles for o in obs], self.sizes),
-            lidar=concat_lidar([o.lidar for o in obs]),
-            robot_twist=concat_lidar([o.robot_twist for o in obs]),
+            lidar=concat_optional([o.lidar for o in obs]),
+            robot_twist=concat_optional([o.robot_twist for o in obs]),
         )
 
     def step(self, actions: np.ndarray) -> MultiStep:

@@ -26,6 +26,8 @@ from typing import Literal
 
 import torch
 
+from socialnav.sim.settings import HEADED_KINEMATICS
+
 Kinematics = Literal["holonomic", "unicycle", "diff_drive"]
 
 __all__ = ["Kinematics", "discrete_actions", "speed_fractions", "headings", "num_actions"]
@@ -64,7 +66,7 @@ def headings(
     k = torch.arange(rotation_samples, dtype=dtype, device=device)
     if kinematics == "holonomic":
         return k * (2.0 * math.pi / rotation_samples)
-    if kinematics in ("unicycle", "diff_drive"):  # a differential drive takes the unicycle's commands
+    if kinematics in HEADED_KINEMATICS:  # a differential drive takes the unicycle's commands
         if rotation_samples % 2:
             raise ValueError(
                 f"rotation_samples must be even so that dθ = 0 is in the set, got {rotation_samples}"

@@ -20,6 +20,7 @@ import torch
 
 from socialnav.policies.learned.actions import Kinematics
 from socialnav.sim.observation import HUMAN_COLUMNS, HUMAN_DIM, ROBOT_COLUMNS, ROBOT_DIM
+from socialnav.sim.settings import HEADED_KINEMATICS
 
 __all__ = [
     "DiffDriveLimits",
@@ -197,7 +198,7 @@ def rotate(
     dg = torch.sqrt(dx * dx + dy * dy)
     vx = r[..., 2] * c + r[..., 3] * s
     vy = r[..., 3] * c - r[..., 2] * s
-    theta = r[..., 8] - rot if kinematics in ("unicycle", "diff_drive") else torch.zeros_like(rot)
+    theta = r[..., 8] - rot if kinematics in HEADED_KINEMATICS else torch.zeros_like(rot)
     hx = humans[..., 0] - r[..., 0]
     hy = humans[..., 1] - r[..., 1]
     px1 = hx * c + hy * s

@@ -59,6 +59,7 @@ from socialnav.policies.learned.lookahead_inputs import (
     encode_state_arrays,
     lookahead_inputs,
     network_composition,
+    to_tensor,
 )
 from socialnav.policies.learned.lookahead_reward import REWARD_RULES, lookahead_reward
 from socialnav.policies.learned.native_scoring import (
@@ -422,8 +423,7 @@ class ValuePolicy:
         if twist is None:
             raise ValueError("a diff_drive value policy needs the observation's robot_twist, the (v, ω) its "
                              "acceleration limits act from (docs/kinematics.md)")
-        twist = torch.as_tensor(np.asarray(twist) if not torch.is_tensor(twist) else twist)
-        robot = torch.cat([inputs.robot, twist.to(device=self.device, dtype=inputs.robot.dtype)], -1)
+        robot = torch.cat([inputs.robot, to_tensor(twist, self.device, inputs.robot.dtype)], -1)
         return inputs._replace(robot=robot)
 
     # ------------------------------------------------------------------ public API

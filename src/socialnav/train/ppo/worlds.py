@@ -14,7 +14,7 @@ import torch
 from socialnav.settings import ConfigError
 from socialnav.sim.observation import Observation, ObstacleArrays
 from socialnav.sim.world import EpisodeStream
-from socialnav.train.worlds import MultiWorld, concat_lidar, pad_humans
+from socialnav.train.worlds import MultiWorld, concat_optional, pad_humans
 
 #: The World arrays that hold an episode's state (saved with last.pt so that a resumed run goes on
 #: with the same episodes in flight).
@@ -139,8 +139,8 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         first.dt,
         first.kinematics,
         obstacles=ObstacleArrays.from_maps(stepped_maps),
-        lidar=concat_lidar([p[3][4] for p in parts]),
-        robot_twist=concat_lidar([p[3][5] for p in parts]),
+        lidar=concat_optional([p[3][4] for p in parts]),
+        robot_twist=concat_optional([p[3][5] for p in parts]),
     )
     nxt = Observation(
         cat([p[4].robot for p in parts]),
@@ -151,8 +151,8 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
         first.dt,
         first.kinematics,
         obstacles=ObstacleArrays.from_maps(next_maps),
-        lidar=concat_lidar([p[4].lidar for p in parts]),
-        robot_twist=concat_lidar([p[4].robot_twist for p in parts]),
+        lidar=concat_optional([p[4].lidar for p in parts]),
+        robot_twist=concat_optional([p[4].robot_twist for p in parts]),
     )
     return reward, term, trunc, final, nxt
 
