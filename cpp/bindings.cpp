@@ -474,13 +474,12 @@ NB_MODULE(_core, m) {
           "robot_twist",
           [](PyWorld& self, Array<double> out, bool new_at_rest) {
             const socialnav::World& w = *self.world;
-            const size_t B = static_cast<size_t>(w.config().batch);
-            double* o = checked(out, "out", B * 2);
-            const std::vector<double>& twist = w.robot_twist();
-            for (size_t b = 0; b < B; ++b) {
-              const bool at_rest = new_at_rest && w.buffers().steps[b] == 0;  // an episode starts at rest
-              o[2 * b] = at_rest ? 0.0 : twist[2 * b];
-              o[2 * b + 1] = at_rest ? 0.0 : twist[2 * b + 1];
+            const int B = w.config().batch;
+            double* o = checked(out, "out", static_cast<size_t>(B) * 2);
+            for (int b = 0; b < B; ++b) {
+              const socialnav::Vec2 twist = w.robot_twist(b, new_at_rest);
+              o[2 * b] = twist.x;
+              o[2 * b + 1] = twist.y;
             }
           },
           "out"_a.noconvert(), "new_at_rest"_a = true,

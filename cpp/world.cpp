@@ -309,23 +309,27 @@ SOCIALNAV_PHASE Vec2 World::robot_velocity(int b, const double* actions, double&
 // mid-step, which the swept contacts test as the straight segment it is.
 Vec2 World::diff_drive_velocity(int b, const double* actions, double& theta, double v_max) {
   const double dt = config_.dt;
-  double* twist = twist_.data() + 2 * static_cast<size_t>(b);
-  const double v0 = buf_.steps[b] > 0 ? twist[0] : 0.0;  // every episode starts at rest
-  const double w0 = buf_.steps[b] > 0 ? twist[1] : 0.0;
+  const Vec2 last = robot_twist(b);
+  const double v0 = last.x, w0 = last.y;
   const double w_max = config_.rotation_limit / dt;
   const double v_cmd = std::min(std::max(actions[2 * b], -config_.max_reverse_speed), v_max);
   const double w_cmd = std::min(std::max(actions[2 * b + 1] / dt, -w_max), w_max);
   const double dv = config_.max_linear_accel * dt, dw = config_.max_angular_accel * dt;
   const double v = std::min(std::max(v_cmd, v0 - dv), v0 + dv);
   const double w = std::min(std::max(w_cmd, w0 - dw), w0 + dw);
-  twist[0] = v;
-  twist[1] = w;
+  twist_[2 * static_cast<size_t>(b)] = v;
+  twist_[2 * static_cast<size_t>(b) + 1] = w;
   const double half = 0.5 * w * dt;
   const double chord = half == 0.0 ? 1.0 : std::sin(half) / half;
   const double heading = theta + half;
   theta = std::fmod(theta + w * dt, 2.0 * M_PI);
   if (theta < 0.0) theta += 2.0 * M_PI;
   return Vec2{v * chord * std::cos(heading), v * chord * std::sin(heading)};
+}
+
+Vec2 World::robot_twist(int b, bool new_at_rest) const {
+  if (new_at_rest && buf_.steps[b] == 0) return Vec2{};
+  return Vec2{twist_[2 * static_cast<size_t>(b)], twist_[2 * static_cast<size_t>(b) + 1]};
 }
 
 void World::set_robot_twist(int b, double v, double omega) {

@@ -160,9 +160,10 @@ class World {
   // With latency: slot b's last latency + 1 world states (what delayed detections are taken from), so that
   // a run saved mid-episode resumes as it went on; empty without latency. set_sensing_state puts it back.
   std::vector<double> sensing_state(int b) const;
-  // A differential-drive robot's (v [m/s], omega [rad/s]) of the last step per slot, (B, 2) flat; an
-  // episode starts at rest (steps == 0 reads as (0, 0) whatever is stored). Restored with set_robot_twist.
-  const std::vector<double>& robot_twist() const { return twist_; }
+  // A differential-drive robot's (v [m/s], omega [rad/s]) of slot b's last step. Every episode starts at
+  // rest: with new_at_rest, a slot whose episode has not stepped yet reads (0, 0) whatever it drove before
+  // (false: what it last drove, a finished episode's until the slot steps). Restored with set_robot_twist.
+  Vec2 robot_twist(int b, bool new_at_rest = true) const;
   void set_robot_twist(int b, double v, double omega);
   void set_sensing_state(int b, const double* state, size_t size);
 
