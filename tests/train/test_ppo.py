@@ -317,8 +317,30 @@ def test_squashed_actions_stay_in_the_action_set():
     hol = squash_actions(raw, "holonomic", np.array([1.0, 1.0, 1.5]), math.pi / 4)
     assert hol[0].tolist() == pytest.approx([0.6, 0.8]) and hol[1].tolist() == [0.3, -0.4]
     assert np.hypot(*hol[2]) == pytest.approx(1.5)
+    # a unicycle's sample, clipped to [-1, 1], spans v in [0, v_pref] and dθ in ±rotation_limit
     uni = squash_actions(raw, "unicycle", np.array([1.0, 1.0, 1.5]), math.pi / 4)
-    np.testing.assert_allclose(uni, [[1.0, math.pi / 4], [0.3, -0.4], [0.0, math.pi / 4]])
+    np.testing.assert_allclose(uni, [[1.0, math.pi / 4], [0.65, -0.1 * math.pi], [0.0, math.pi / 4]])
+    assert squash_actions(np.zeros((1, 2)), "unicycle", np.array([1.2]), 1.0).tolist() == [[0.6, 0.0]]
+    # the older unicycle squash, which records without action_squash load with
+    clip = squash_actions(raw, "unicycle", np.array([1.0, 1.0, 1.5]), math.pi / 4, squash="clip")
+    np.testing.assert_allclose(clip, [[1.0, math.pi / 4], [0.3, -0.4], [0.0, math.pi / 4]])
+
+
+def test_a_records_action_squash_reads_old_unicycle_records_as_clipped():
+    from socialnav.policies.learned.attn_graph import recorded_action_squash
+    from socialnav.presets import load_preset
+    from socialnav.train.worlds import ppo_policy_config
+
+    new = ppo_policy_config(load_preset("wang2022_unicycle"))
+    assert new["action_squash"] == "span" and recorded_action_squash("unicycle", new) == "span"
+    assert recorded_action_squash("unicycle", {}) == "clip"
+    # holonomic and differential-drive records are as before (their shipped checkpoints unchanged)
+    assert "action_squash" not in ppo_policy_config(load_preset("wang2022"))
+    assert "action_squash" not in ppo_policy_config(load_preset("wang2022_diffdrive"))
+    assert recorded_action_squash("holonomic", {}) == "radial"
+    assert recorded_action_squash("diff_drive", {}) == "span"
+    with pytest.raises(ValueError, match="action_squash 'clip' is not one for a diff_drive robot"):
+        recorded_action_squash("diff_drive", {"action_squash": "clip"})
 
 
 def test_cuda_device_is_refused_clearly_without_a_gpu(tmp_path, capsys):

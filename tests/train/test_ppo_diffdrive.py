@@ -68,7 +68,7 @@ def test_trained_resumed_and_evaluated_on_the_diff_drive(tmp_path, capsys):
     assert run_digests(tmp_path / "split") == run_digests(tmp_path / "whole")
     ck = load_checkpoint(tmp_path / "whole" / "best.pt", "crowdnav_pp", expected_input_dim=-1)
     assert ck.model.model_kwargs()["twist_features"] is True
-    assert ck.model.model_kwargs()["log_std_init"] == -1.0  # diff_drive_log_std_init: σ e⁻¹ at the start
+    assert ck.model.model_kwargs()["log_std_init"] == -1.0  # nonholonomic_log_std_init: σ e⁻¹ at the start
     assert ck.config["preset"]["world"]["diff_drive"]["max_linear_acceleration"] == 2.5
     ev = tmp_path / "eval"
     rc = main(["evaluate", "--policy", "crowdnav_pp", "--checkpoint", str(tmp_path / "whole" / "best.pt"),

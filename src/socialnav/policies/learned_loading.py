@@ -341,8 +341,9 @@ def _factory(name: str):
 #: What a PPO checkpoint's ``ppo_policy`` holds (the world the actor was trained for).
 PPO_POLICY_KEYS = ("kinematics", "rotation_limit", "dt", "reward")
 #: What it may hold besides: the obstacle encoding of a network trained among walls, a differential
-#: drive's limits (its actions span its speeds, reversing included).
-PPO_POLICY_OPTIONAL_KEYS = ("obstacle_encoding", "diff_drive")
+#: drive's limits (its actions span its speeds, reversing included), a unicycle's action squash
+#: (``span``; a unicycle record without it clipped: ``attn_graph.recorded_action_squash``).
+PPO_POLICY_OPTIONAL_KEYS = ("obstacle_encoding", "diff_drive", "action_squash")
 
 
 def _ppo_obstacle_encoding(settings: dict[str, Any], model: Any, where: str) -> Any:
@@ -387,6 +388,7 @@ def load_ppo_policy(
         PresetMismatchError: trained for another world than ``preset`` (unless ``allow_preset_mismatch``).
     """
     from socialnav.policies.learned import load_checkpoint
+    from socialnav.policies.learned.attn_graph import recorded_action_squash
     from socialnav.policies.learned.checkpoint import CheckpointError
     from socialnav.policies.learned.ppo_policy import RecurrentActorPolicy
 
@@ -404,12 +406,17 @@ def load_ppo_policy(
             f"`socialnav train --policy {name}`), got {settings!r}"
         )
     encoding = _ppo_obstacle_encoding(settings, ckpt.model, where)
+    try:
+        squash = recorded_action_squash(settings["kinematics"], settings)
+    except ValueError as e:
+        raise CheckpointError(f"{where}: {e}") from None
     mismatch = checked_preset_mismatches(checkpoint, ckpt.config, preset, allow_preset_mismatch)
     return RecurrentActorPolicy(
         name, ckpt.model, kinematics=settings["kinematics"], rotation_limit=settings["rotation_limit"],
         dt=settings["dt"], device=device, deterministic=deterministic, checkpoint=Path(checkpoint),
         preset_mismatch=mismatch, obstacle_encoding=encoding,
         observation_parts=get_learned_spec(name).observation_parts, diff_drive=settings.get("diff_drive"),
+        action_squash=squash,
     )
 
 

@@ -42,7 +42,7 @@ the trainer updates them after each update with that rollout's observations (:me
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -364,30 +364,72 @@ def _fold(count: torch.Tensor, mean: torch.Tensor, var: torch.Tensor, x: torch.T
     count.copy_(total)
 
 
+#: How a Gaussian sample becomes a world action: ``radial`` (holonomic: onto the disc of radius v_pref),
+#: ``span`` (unicycle and differential drive: [-1, 1] spans the commands) and ``clip`` (the unicycle's
+#: until PPO record version 2: v clipped to [0, v_pref]; kept to load checkpoints that recorded none).
+ACTION_SQUASHES = ("radial", "span", "clip")
+
+
+def trained_action_squash(kinematics: str) -> str:
+    """The squash PPO trains a robot of ``kinematics`` with (recorded as ``ppo_policy.action_squash``)."""
+    return "radial" if kinematics == "holonomic" else "span"
+
+
+def recorded_action_squash(kinematics: str, record: Mapping[str, Any]) -> str:
+    """The squash a checkpoint's ``ppo_policy`` record was trained with.
+
+    A unicycle record without ``action_squash`` was written before the unicycle spanned its commands, so
+    its actor clipped (docs/kinematics.md, "PPO on a unicycle").
+
+    Raises:
+        ValueError: an ``action_squash`` that is not one of :data:`ACTION_SQUASHES`, or not the
+            kinematics' own.
+    """
+    squash = record.get("action_squash")
+    if squash is None:
+        return "clip" if kinematics == "unicycle" else trained_action_squash(kinematics)
+    allowed = ("span", "clip") if kinematics == "unicycle" else (trained_action_squash(kinematics),)
+    if squash not in allowed:
+        raise ValueError(f"action_squash {squash!r} is not one for a {kinematics} robot (one of {allowed})")
+    return str(squash)
+
+
 def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotation_limit: float,
-                   max_reverse_speed: float = 0.0) -> np.ndarray:
+                   max_reverse_speed: float = 0.0, squash: str | None = None) -> np.ndarray:
     """The world action of a raw Gaussian sample (the log-probability is that of ``raw``).
 
-    Holonomic (v_x, v_y): scaled radially onto the disc of radius v_pref where it leaves it (the
-    direction kept). Unicycle (v, dθ): v clipped to [0, v_pref], dθ to [-rotation_limit, rotation_limit].
-    Differential drive: the sample, clipped to [-1, 1], spans the commands the robot accepts: v from
-    -max_reverse_speed (-1) to v_pref (1), dθ from -rotation_limit to rotation_limit; the world reaches
-    them within its acceleration limits. The untrained network's zero mean is then half speed straight
+    Holonomic (v_x, v_y), ``radial``: scaled radially onto the disc of radius v_pref where it leaves it
+    (the direction kept). Unicycle and differential drive (v, dθ), ``span``: the sample, clipped to
+    [-1, 1], spans the commands the robot accepts: v from -max_reverse_speed (-1; 0 for a unicycle) to
+    v_pref (1), dθ from -rotation_limit to rotation_limit (a differential drive's world then reaches them
+    within its acceleration limits). The untrained network's zero mean is then half speed straight
     ahead, and no share of the samples is a command the world cuts off (with the run's initial σ e⁻¹;
-    docs/kinematics.md says what else was tried).
+    docs/kinematics.md says what else was tried). The unicycle's older ``clip``: v clipped to
+    [0, v_pref], dθ to [-rotation_limit, rotation_limit].
+
+    Args:
+        raw: (B, 2) Gaussian samples (or means).
+        kinematics: the robot's kinematics.
+        v_pref: (B,) the robots' preferred speeds [m/s].
+        rotation_limit: the largest heading change per step [rad].
+        max_reverse_speed: a differential drive's reverse speed [m/s] (0 for a unicycle).
+        squash: one of :data:`ACTION_SQUASHES`; None for :func:`trained_action_squash`.
     """
     raw = np.asarray(raw, dtype=np.float64)
     v_pref = np.asarray(v_pref, dtype=np.float64)
-    if kinematics == "holonomic":
+    if kinematics not in ("holonomic", "unicycle", "diff_drive"):
+        raise ValueError(f"kinematics must be 'holonomic', 'unicycle' or 'diff_drive', got {kinematics!r}")
+    squash = trained_action_squash(kinematics) if squash is None else squash
+    if squash == "radial":
         speed = np.hypot(raw[:, 0], raw[:, 1])
         scale = np.where(speed > v_pref, v_pref / np.maximum(speed, 1e-300), 1.0)
         return raw * scale[:, None]
-    if kinematics == "unicycle":
+    if squash == "clip":
         return np.stack(
             [np.clip(raw[:, 0], 0.0, v_pref), np.clip(raw[:, 1], -rotation_limit, rotation_limit)], 1
         )
-    if kinematics == "diff_drive":
+    if squash == "span":
         u = np.clip(raw, -1.0, 1.0)
         v = -max_reverse_speed + (u[:, 0] + 1.0) * 0.5 * (v_pref + max_reverse_speed)
         return np.stack([v, u[:, 1] * rotation_limit], 1)
-    raise ValueError(f"kinematics must be 'holonomic', 'unicycle' or 'diff_drive', got {kinematics!r}")
+    raise ValueError(f"squash must be one of {ACTION_SQUASHES}, got {squash!r}")

@@ -35,6 +35,8 @@ class RecurrentActorPolicy:
         kinematics, rotation_limit, dt: the world the network was trained for.
         diff_drive: a differential drive's limits (``DiffDriveSettings.to_dict()``), required for one: its
             actions span [-max_reverse_speed, v_pref] (``squash_actions``).
+        action_squash: how a sample becomes an action (``attn_graph.ACTION_SQUASHES``; the record's
+            ``recorded_action_squash``), None for the one PPO trains ``kinematics`` with.
         deterministic: act with the mean action (evaluation); False samples from the Gaussian with
             ``generator``.
         obstacle_encoding: the obstacle points the network reads
@@ -60,6 +62,7 @@ class RecurrentActorPolicy:
         obstacle_encoding: ObstaclePoints | dict | None = None,
         observation_parts: Sequence[str] = NETWORK_PARTS,
         diff_drive: Mapping[str, Any] | None = None,
+        action_squash: str | None = None,
     ) -> None:
         if kinematics == "diff_drive" and diff_drive is None:
             raise ValueError("a diff_drive actor needs the robot's diff_drive limits (its reverse speed)")
@@ -67,6 +70,7 @@ class RecurrentActorPolicy:
         self.name = name
         self.network = network
         self.kinematics = kinematics
+        self.action_squash = action_squash
         self.rotation_limit = float(rotation_limit)
         self.dt = float(dt)
         self.device = torch.device(device)
@@ -112,7 +116,7 @@ class RecurrentActorPolicy:
             raw = mean + noise.to(self.device) * net.log_std.exp()
         actions = squash_actions(
             raw.double().cpu().numpy(), self.kinematics, observation.robot[:, 7], self.rotation_limit,
-            self.max_reverse_speed,
+            self.max_reverse_speed, self.action_squash,
         )
         actions[~observation.active] = 0.0
         return actions

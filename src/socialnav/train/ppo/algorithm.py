@@ -253,7 +253,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     walls = run.obstacle_encoding
     dt, kinematics = run.preset.world.dt, run.preset.world.kinematics
     rotation_limit, success_reward = run.preset.world.rotation_limit, run.preset.world.reward.success_reward
-    reverse = run.preset.world.diff_drive.max_reverse_speed
+    reverse = run.preset.world.diff_drive.max_reverse_speed if kinematics == "diff_drive" else 0.0
     T = s.rollout_steps
     t0 = time.perf_counter()
     net.eval()

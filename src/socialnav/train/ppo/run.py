@@ -145,8 +145,9 @@ def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints |
                        kinematics: str = "holonomic") -> dict[str, Any]:
     """The network's arguments from the policy's record.
 
-    Among walls with the point slots; for a differential drive with its twist (the (v, ω) its
-    acceleration limits act from) and its own initial σ (``diff_drive_log_std_init``).
+    Among walls with the point slots; for a unicycle or a differential drive with its own initial σ
+    (``nonholonomic_log_std_init``), and for a differential drive with its twist (the (v, ω) its
+    acceleration limits act from).
 
     Raises:
         ConfigError: The policy's network cannot read the walls, or a differential drive's twist.
@@ -157,11 +158,13 @@ def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints |
     check_observation_parts(s.policy)
     spec = get_learned_spec(s.policy)
     twist: dict[str, Any] = {}
+    if kinematics == "unicycle":
+        twist = {"log_std_init": s.nonholonomic_log_std_init}
     if kinematics == "diff_drive":
         if "twist_features" not in inspect.signature(spec.network_factory()).parameters:
             raise ConfigError(f"policy {s.policy!r}: its network cannot read a differential drive's (v, ω), "
                               "which its acceleration limits act from; crowdnav_pp can (docs/kinematics.md)")
-        twist = {"twist_features": True, "log_std_init": s.diff_drive_log_std_init}
+        twist = {"twist_features": True, "log_std_init": s.nonholonomic_log_std_init}
     network_kwargs = spec.network_kwargs
     assert network_kwargs is not None  # a PPO record always has one (LearnedPolicySpec checks)
     if encoding is None:

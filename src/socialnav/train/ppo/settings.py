@@ -121,9 +121,10 @@ class PPOSettings(Settings):
         10.0, "lidar_ppo's lidar: maximum range (left out of records while 10)", unit="m", gt=0, le=100.0,
         record_default=False,
     )
-    diff_drive_log_std_init: float = setting(
-        -1.0, "initial log σ of the Gaussian action on a diff_drive robot, in place of network.log_std_init "
-        "(its acceleration limits integrate the noise; docs/kinematics.md; left out of records while -1)",
+    nonholonomic_log_std_init: float = setting(
+        -1.0, "initial log σ of the Gaussian action on a unicycle or diff_drive robot, in place of "
+        "network.log_std_init (its actions span the commands; docs/kinematics.md; left out of records while "
+        "-1)",
         ge=-10.0, le=2.0, record_default=False,
     )
 
