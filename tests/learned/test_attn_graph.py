@@ -126,7 +126,7 @@ def test_observation_statistics_leave_padding_out():
     np.testing.assert_allclose(net.human_var.numpy(), [8 / 3, 8 / 3])
 
 
-def _obs(time, b=2):
+def _obs(time, b=2, kinematics="holonomic"):
     robot = np.tile([0.0, -4.0, 0.0, 0.0, 0.3, 0.0, 4.0, 1.5, math.pi / 2], (b, 1))
     humans = np.zeros((b, 2, 5))
     humans[:, 0] = [1.0, 0.0, 0.0, 0.0, 0.3]
@@ -137,7 +137,7 @@ def _obs(time, b=2):
         np.ones(b, bool),
         np.asarray(time, float),
         0.25,
-        "holonomic",
+        kinematics,
     )
 
 
@@ -182,3 +182,36 @@ def test_checkpoint_round_trip_through_the_policy_registry(tmp_path):
     save_checkpoint(tmp_path / "b.pt", "crowdnav_pp", net, config={})
     with pytest.raises(CheckpointError, match="ppo_policy"):
         build_policy("crowdnav_pp", preset, tmp_path / "b.pt")
+
+
+def test_unicycle_checkpoints_act_with_the_squash_they_were_trained_with(tmp_path):
+    """A unicycle record with ``action_squash: span`` spans the commands; one without it (trained
+    before the unicycle spanned them) clips v to [0, v_pref], so old checkpoints keep their results."""
+    from socialnav.policies.building import build_policy
+    from socialnav.policies.learned import save_checkpoint
+    from socialnav.policies.learned.ppo_inputs import network_inputs
+    from socialnav.presets import load_preset
+    from socialnav.train.worlds import ppo_policy_config
+
+    preset = load_preset("wang2022_unicycle")
+    net = _net(seed=3)
+    record = ppo_policy_config(preset)
+    legacy = {k: v for k, v in record.items() if k != "action_squash"}
+    for name, ppo_policy in (("span.pt", record), ("clip.pt", legacy)):
+        save_checkpoint(tmp_path / name, "crowdnav_pp", net,
+                        config={"ppo_policy": ppo_policy, "preset": preset.to_dict()})
+    obs = _obs([0.0, 0.0], kinematics="unicycle")
+    with torch.no_grad():
+        robot, humans, mask = network_inputs(net, obs, 0.25, "cpu")
+        start = torch.ones(2, dtype=torch.bool)
+        mean, _, _ = net.step(robot, humans, mask, net.initial_state(2, "cpu"), start)
+    raw = mean.double().numpy()
+    limit = preset.world.rotation_limit
+    spanned = build_policy("crowdnav_pp", preset, tmp_path / "span.pt").act(obs)
+    clipped = build_policy("crowdnav_pp", preset, tmp_path / "clip.pt").act(obs)
+    u = np.clip(raw, -1.0, 1.0)
+    np.testing.assert_allclose(spanned, np.stack([(u[:, 0] + 1) / 2 * 1.5, u[:, 1] * limit], 1), rtol=1e-6)
+    np.testing.assert_allclose(
+        clipped, np.stack([np.clip(raw[:, 0], 0, 1.5), np.clip(raw[:, 1], -limit, limit)], 1), rtol=1e-6
+    )
+    assert not np.allclose(spanned, clipped)
