@@ -86,3 +86,34 @@ def test_trained_resumed_and_evaluated_on_the_diff_drive(tmp_path, capsys):
                "--visibility", "invisible", "--out", str(tmp_path / "eval2"), "--no-progress"])
     err = capsys.readouterr().err
     assert rc != 0 and "diff_drive.max_linear_acceleration 2.5 in the checkpoint" in err
+
+
+@pytest.mark.parametrize("preset", ["wang2022_unicycle", "wang2022_diffdrive"])
+def test_turn_penalty_takes_the_commanded_turn_squared_from_each_reward(tmp_path, preset):
+    """CrowdNav++'s rotational penalty: the same first rollout (rewards do not steer it) with
+    ``turn_penalty`` 0.05 has every reward lower by 0.05·dθ², dθ the heading change the world was sent."""
+    import contextlib
+
+    from socialnav.policies.learned.attn_graph import squash_actions
+    from socialnav.train.ppo.algorithm import collect_rollout
+    from socialnav.train.ppo.run import setup_ppo_run
+    from socialnav.train.ppo.state import initial_state
+
+    rollouts = []
+    for penalty in (0.0, 0.05):
+        s = dataclasses.replace(_smoke(), turn_penalty=penalty, bootstrap_timeouts=False)
+        with contextlib.ExitStack() as stack:
+            run = setup_ppo_run(preset, tmp_path / f"run{penalty}", s, stack, progress=False,
+                                log=lambda _: None)
+            rollouts.append((collect_rollout(run, initial_state(run)), run))
+    (plain, run), (penalised, _) = rollouts
+    torch.testing.assert_close(plain.raws, penalised.raws, rtol=0, atol=0)
+    w = run.preset.world
+    # the heading change does not depend on v_pref
+    turns = np.stack([
+        squash_actions(raw.double().numpy(), w.kinematics, np.ones(len(raw)), w.rotation_limit)[:, 1]
+        for raw in plain.raws
+    ])
+    assert (np.abs(turns) > 0.05).mean() > 0.5  # the penalty has turns to act on
+    lower = (plain.rewards - penalised.rewards).numpy()
+    np.testing.assert_allclose(lower, 0.05 * turns**2, rtol=1e-5, atol=1e-7)
