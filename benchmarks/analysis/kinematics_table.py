@@ -5,9 +5,11 @@ Reads the full-protocol results of each (preset, policy) in ``benchmarks/results
 
 - ``orca_<preset>_summary.json``: the ORCA robot (one row; it has no seeds);
 - ``crowdnav_pp_<preset>_summary.json`` (seed 0), ``..._s1_summary.json``, ``..._s2_summary.json``;
-- RGL: ``rgl_wang2022_summary.json`` and its ``_s1``/``_s2`` on the holonomic robot, and
-  ``rgl_unicycle_wang2022_s0_summary.json`` on the unicycle (the value-based policies do not drive the
-  differential drive: docs/kinematics.md).
+- RGL the same way (``rgl_<preset>_summary.json``, ``_s1``, ``_s2``), except the unicycle's seed 0,
+  ``rgl_unicycle_wang2022_s0_summary.json``.
+
+The unicycle's PPO seeds trained before its actions spanned the commands are
+``crowdnav_pp_wang2022_unicycle_clip_*`` and not in the table (docs/kinematics.md).
 
 Prints one Markdown table (Table II's pooled columns, then M_VI as the share of labelled passes on the
 left in passing, overtaking and crossing), a row per (kinematics, policy): the value of a single run or
@@ -47,8 +49,9 @@ def run_files(results: Path, policy: str, preset: str) -> list[Path]:
     """The seeds' summary files of ``policy`` under ``preset`` that exist (seed 0 first)."""
     if policy == "orca":
         names = [f"orca_{preset}_summary.json"]
-    elif policy == "rgl" and preset == "wang2022_unicycle":
-        names = ["rgl_unicycle_wang2022_s0_summary.json"]
+    elif policy == "rgl" and preset == "wang2022_unicycle":  # seed 0 predates the unicycle preset's name
+        names = ["rgl_unicycle_wang2022_s0_summary.json",
+                 *(f"rgl_{preset}_s{s}_summary.json" for s in (1, 2))]
     else:
         names = [f"{policy}_{preset}_summary.json", *(f"{policy}_{preset}_s{s}_summary.json" for s in (1, 2))]
     return [results / n for n in names if (results / n).is_file()]
