@@ -369,6 +369,6 @@ def ppo_policy_config(preset: Preset) -> dict[str, Any]:
         **obstacle_encoding_entry(preset),
         # a differential drive's actions span its speeds, reversing included (attn_graph.squash_actions)
         **({"diff_drive": w.diff_drive.to_dict()} if w.kinematics == "diff_drive" else {}),
-        # a unicycle's actions span its commands since record version 2 (its older records clipped)
+        # a unicycle's actions span its commands (records without the key are older ones, which clipped)
         **({"action_squash": "span"} if w.kinematics == "unicycle" else {}),
     }

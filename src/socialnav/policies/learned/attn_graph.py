@@ -366,7 +366,7 @@ def _fold(count: torch.Tensor, mean: torch.Tensor, var: torch.Tensor, x: torch.T
 
 #: How a Gaussian sample becomes a world action: ``radial`` (holonomic: onto the disc of radius v_pref),
 #: ``span`` (unicycle and differential drive: [-1, 1] spans the commands) and ``clip`` (the unicycle's
-#: until PPO record version 2: v clipped to [0, v_pref]; kept to load checkpoints that recorded none).
+#: until records named their squash: v clipped to [0, v_pref]; kept to load the checkpoints that name none).
 ACTION_SQUASHES = ("radial", "span", "clip")
 
 
@@ -379,7 +379,7 @@ def recorded_action_squash(kinematics: str, record: Mapping[str, Any]) -> str:
     """The squash a checkpoint's ``ppo_policy`` record was trained with.
 
     A unicycle record without ``action_squash`` was written before the unicycle spanned its commands, so
-    its actor clipped (docs/kinematics.md, "PPO on a unicycle").
+    its actor clipped (docs/kinematics.md, "PPO on a unicycle and a differential drive").
 
     Raises:
         ValueError: an ``action_squash`` that is not one of :data:`ACTION_SQUASHES`, or not the
