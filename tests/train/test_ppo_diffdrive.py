@@ -106,6 +106,7 @@ def test_turn_penalty_takes_the_commanded_turn_squared_from_each_reward(tmp_path
             run = setup_ppo_run(preset, tmp_path / f"run{penalty}", s, stack, progress=False,
                                 log=lambda _: None)
             rollouts.append((collect_rollout(run, initial_state(run)), run))
+            assert run.config["train"]["turn_penalty"] == penalty  # recorded at any value
     (plain, run), (penalised, _) = rollouts
     torch.testing.assert_close(plain.raws, penalised.raws, rtol=0, atol=0)
     w = run.preset.world
@@ -117,3 +118,13 @@ def test_turn_penalty_takes_the_commanded_turn_squared_from_each_reward(tmp_path
     assert (np.abs(turns) > 0.05).mean() > 0.5  # the penalty has turns to act on
     lower = (plain.rewards - penalised.rewards).numpy()
     np.testing.assert_allclose(lower, 0.05 * turns**2, rtol=1e-5, atol=1e-7)
+
+
+def test_a_holonomic_run_neither_records_nor_uses_the_turn_penalty(tmp_path):
+    import contextlib
+
+    from socialnav.train.ppo.run import setup_ppo_run
+
+    with contextlib.ExitStack() as stack:
+        run = setup_ppo_run("wang2022", tmp_path / "run", _smoke(), stack, progress=False, log=lambda _: None)
+        assert "turn_penalty" not in run.config["train"] and run.settings.turn_penalty == 0.05625

@@ -236,7 +236,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     """Steps every environment ``rollout_steps`` times with the stochastic policy, then computes GAE.
 
     Rewards get CrowdNav++'s potential term (``goal_shaping`` × metres gained towards the goal), on a
-    unicycle or differential drive its rotational penalty (``turn_penalty`` × dθ², off by default) and,
+    unicycle or differential drive its rotational penalty (``turn_penalty`` × dθ²) and,
     with ``bootstrap_timeouts``, γ·V(final state) on a timeout.
 
     Args:
@@ -288,7 +288,8 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             # CrowdNav++'s potential term: goal_shaping x (metres gained towards the goal this step)
             shaped = reward + s.goal_shaping * (goal_before - goal_distance(final.robot))
             if s.turn_penalty and kinematics != "holonomic":
-                # CrowdNav++'s rotational penalty on a unicycle, on the heading change commanded
+                # CrowdNav++'s rotational penalty on a unicycle, on the heading change commanded: without
+                # it the network can learn to weave between its turn limits (docs/kinematics.md)
                 shaped = shaped - s.turn_penalty * action[:, 1] ** 2
             r = torch.as_tensor(shaped, dtype=torch.float32, device=device)
             if s.bootstrap_timeouts and trunc.any():

@@ -256,6 +256,9 @@ def setup_ppo_run(
     preset = dataclasses.replace(preset, world=preset.world.with_sensors(network_sensors(net)))
     config = run_record("ppo", {"ppo_policy": ppo_policy_config(preset)}, s.policy, preset, s, seeds,
                         n_humans=n_humans, ppo_stream_offset=PPO_STREAM_OFFSET)
+    if preset.world.kinematics != "holonomic":
+        # recorded even at its default: a run from before the penalty (no key) is not resumed with it
+        config["train"]["turn_penalty"] = s.turn_penalty
     out = Path(out_dir)
     net.to(device)
     optimizer = torch.optim.Adam(net.parameters(), lr=s.lr, eps=s.adam_eps)

@@ -102,10 +102,10 @@ class PPOSettings(Settings):
         "(0: CrowdSim's reward alone; docs/ppo.md, \"Reward\")", unit="1/m", ge=0,
     )
     turn_penalty: float = setting(
-        0.0, "weight of CrowdNav++'s rotational penalty on a unicycle or diff_drive robot, training only: "
-        "-turn_penalty·dθ² per step, dθ the commanded heading change (its 4.5 against a -20 collision is "
-        "0.05625 at wang2022's -0.25; left out of records while 0)", unit="1/rad²", ge=0,
-        record_default=False,
+        0.05625, "weight of CrowdNav++'s rotational penalty on a unicycle or diff_drive robot, training "
+        "only: -turn_penalty·dθ² per step, dθ the commanded heading change (its 4.5 against a -20 collision, "
+        "scaled to wang2022's -0.25; docs/kinematics.md); a holonomic robot's runs neither use nor record it",
+        unit="1/rad²", ge=0, record_default=False,
     )
     bootstrap_timeouts: bool = setting(True, "a timeout's last reward adds γ·V(final state) (a truncation)")
     validate_every: int = setting(50, "deterministic validation period [updates]", ge=1)
