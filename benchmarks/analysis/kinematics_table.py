@@ -8,8 +8,9 @@ Reads the full-protocol results of each (preset, policy) in ``benchmarks/results
 - RGL the same way (``rgl_<preset>_summary.json``, ``_s1``, ``_s2``), except the unicycle's seed 0,
   ``rgl_unicycle_wang2022_s0_summary.json``.
 
-The unicycle's PPO seeds trained before its actions spanned the commands are
-``crowdnav_pp_wang2022_unicycle_clip_*`` and not in the table (docs/kinematics.md).
+PPO's earlier recipes have rows of their own (``PPO_RECIPES``): ``crowdnav_pp_<preset>_span_*`` (outputs
+spanning the commands, σ e⁻¹, no turn penalty) and ``crowdnav_pp_<preset>_clip_*`` (the unicycle's v
+clipped to [0, v_pref], σ 1); the default's files have no suffix (docs/kinematics.md).
 
 Prints one Markdown table (Table II's pooled columns, then M_VI as the share of labelled passes on the
 left in passing, overtaking and crossing), a row per (kinematics, policy): the value of a single run or
@@ -45,15 +46,22 @@ def side_values(path: Path) -> dict[str, float]:
     return out
 
 
-def run_files(results: Path, policy: str, preset: str) -> list[Path]:
-    """The seeds' summary files of ``policy`` under ``preset`` that exist (seed 0 first)."""
+#: The PPO rows: the file suffix of each recipe and its label; "" is the default (docs/kinematics.md).
+PPO_RECIPES = (("", "crowdnav_pp"), ("_span", "crowdnav_pp, no turn penalty"),
+               ("_clip", "crowdnav_pp, v clipped, σ 1"))
+
+
+def run_files(results: Path, policy: str, preset: str, recipe: str = "") -> list[Path]:
+    """The seeds' summary files of ``policy`` (its ``recipe`` suffix) under ``preset`` that exist, seed 0
+    first."""
     if policy == "orca":
         names = [f"orca_{preset}_summary.json"]
     elif policy == "rgl" and preset == "wang2022_unicycle":  # seed 0 predates the unicycle preset's name
         names = ["rgl_unicycle_wang2022_s0_summary.json",
                  *(f"rgl_{preset}_s{s}_summary.json" for s in (1, 2))]
     else:
-        names = [f"{policy}_{preset}_summary.json", *(f"{policy}_{preset}_s{s}_summary.json" for s in (1, 2))]
+        stem = f"{policy}_{preset}{recipe}"
+        names = [f"{stem}_summary.json", *(f"{stem}_s{s}_summary.json" for s in (1, 2))]
     return [results / n for n in names if (results / n).is_file()]
 
 
@@ -66,8 +74,9 @@ def main() -> None:
     print("|" + "---|" * (len(columns) + 3))
     report: dict[str, dict] = {}
     for label, preset in ROBOTS:
-        for policy in ("orca", "rgl", "crowdnav_pp"):
-            files = run_files(results, policy, preset)
+        rows = [("orca", "", "orca"), ("rgl", "", "rgl"), *(("crowdnav_pp", r, n) for r, n in PPO_RECIPES)]
+        for policy, recipe, name in rows:
+            files = run_files(results, policy, preset, recipe)
             if not files:
                 continue
             runs = [{**pooled_values(p), **side_values(p)} for p in files]
@@ -79,10 +88,10 @@ def main() -> None:
                 stats[column] = {"mean": mean, "std": std}  # NaN: no value (written as null)
             cells = ["–" if math.isnan(s["mean"]) else f"{s['mean']:.2f}" if math.isnan(s["std"])
                      else f"{s['mean']:.2f} ± {s['std']:.2f}" for s in stats.values()]
-            print(f"| {label} | {policy} | {len(runs)} | " + " | ".join(cells) + " |")
+            print(f"| {label} | {name} | {len(runs)} | " + " | ".join(cells) + " |")
             plain = {c: {k: None if math.isnan(v) else v for k, v in s.items()} for c, s in stats.items()}
             names = [p.name for p in files]
-            report[f"{preset}/{policy}"] = {"runs": len(runs), "files": names, "stats": plain}
+            report[f"{preset}/{policy}{recipe}"] = {"runs": len(runs), "files": names, "stats": plain}
     print(json.dumps(report))
 
 
