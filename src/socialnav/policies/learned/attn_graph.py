@@ -51,6 +51,7 @@ from torch import nn
 
 from socialnav.policies.learned.lookahead_inputs import encode_observation
 from socialnav.sim.parts.base import NETWORK_PARTS
+from socialnav.sim.settings import KINEMATICS
 
 __all__ = [
     "AttnGraphNet",
@@ -417,7 +418,7 @@ def squash_actions(raw: np.ndarray, kinematics: str, v_pref: np.ndarray, rotatio
     """
     raw = np.asarray(raw, dtype=np.float64)
     v_pref = np.asarray(v_pref, dtype=np.float64)
-    if kinematics not in ("holonomic", "unicycle", "diff_drive"):
+    if kinematics not in KINEMATICS:
         raise ValueError(f"kinematics must be 'holonomic', 'unicycle' or 'diff_drive', got {kinematics!r}")
     squash = trained_action_squash(kinematics) if squash is None else squash
     if squash == "radial":

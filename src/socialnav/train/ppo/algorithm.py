@@ -39,6 +39,7 @@ import torch
 
 from socialnav._progress import progress_bar
 from socialnav.presets import Preset
+from socialnav.sim.settings import HEADED_KINEMATICS
 from socialnav.train.optim import TrainingDiverged
 from socialnav.train.ppo.run import PPO_CURVE_COLUMNS, PPO_STREAM_OFFSET, PPORun, setup_ppo_run
 from socialnav.train.ppo.settings import PPOSettings
@@ -287,7 +288,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             done = term | trunc
             # CrowdNav++'s potential term: goal_shaping x (metres gained towards the goal this step)
             shaped = reward + s.goal_shaping * (goal_before - goal_distance(final.robot))
-            if s.turn_penalty and kinematics != "holonomic":
+            if s.turn_penalty and kinematics in HEADED_KINEMATICS:
                 # CrowdNav++'s rotational penalty on a unicycle, on the heading change commanded: without
                 # it the network can learn to weave between its turn limits (docs/kinematics.md)
                 shaped = shaped - s.turn_penalty * action[:, 1] ** 2

@@ -25,6 +25,7 @@ from socialnav.policies.learned.ppo_inputs import network_sensors
 from socialnav.presets import Preset, load_preset
 from socialnav.settings import ConfigError
 from socialnav.sim.obstacle_points import ObstaclePoints
+from socialnav.sim.settings import HEADED_KINEMATICS
 from socialnav.train.curves import Curves
 from socialnav.train.optim import load_optimizer_state
 from socialnav.train.ppo.settings import PPO_RESUMABLE_CHANGES, PPOSettings
@@ -157,25 +158,25 @@ def _network_arguments(s: PPOSettings, n_humans: int, encoding: ObstaclePoints |
 
     check_observation_parts(s.policy)
     spec = get_learned_spec(s.policy)
-    twist: dict[str, Any] = {}
-    if kinematics == "unicycle":
-        twist = {"log_std_init": s.nonholonomic_log_std_init}
+    headed: dict[str, Any] = {}
+    if kinematics in HEADED_KINEMATICS:
+        headed = {"log_std_init": s.nonholonomic_log_std_init}
     if kinematics == "diff_drive":
         if "twist_features" not in inspect.signature(spec.network_factory()).parameters:
             raise ConfigError(f"policy {s.policy!r}: its network cannot read a differential drive's (v, ω), "
                               "which its acceleration limits act from; crowdnav_pp can (docs/kinematics.md)")
-        twist = {"twist_features": True, "log_std_init": s.nonholonomic_log_std_init}
+        headed = {"twist_features": True, **headed}
     network_kwargs = spec.network_kwargs
     assert network_kwargs is not None  # a PPO record always has one (LearnedPolicySpec checks)
     if encoding is None:
-        return {**network_kwargs(s, n_humans), **twist}
+        return {**network_kwargs(s, n_humans), **headed}
     params = inspect.signature(network_kwargs).parameters.values()
     if not any(p.name == "obstacle_slots" or p.kind is p.VAR_KEYWORD for p in params):
         raise ConfigError(
             f"policy {s.policy!r}: its record's network_kwargs takes no obstacle_slots, so its network "
             "cannot read the obstacles of a training mix with walls (docs/ppo.md, 'Among walls')"
         )
-    return {**network_kwargs(s, n_humans, obstacle_slots=encoding.count), **twist}
+    return {**network_kwargs(s, n_humans, obstacle_slots=encoding.count), **headed}
 
 
 def resume_diff(saved: dict[str, Any], config: dict[str, Any]) -> list[str]:
@@ -256,7 +257,7 @@ def setup_ppo_run(
     preset = dataclasses.replace(preset, world=preset.world.with_sensors(network_sensors(net)))
     config = run_record("ppo", {"ppo_policy": ppo_policy_config(preset)}, s.policy, preset, s, seeds,
                         n_humans=n_humans, ppo_stream_offset=PPO_STREAM_OFFSET)
-    if preset.world.kinematics != "holonomic":
+    if preset.world.kinematics in HEADED_KINEMATICS:
         # recorded even at its default: a run from before the penalty (no key) is not resumed with it
         config["train"]["turn_penalty"] = s.turn_penalty
     out = Path(out_dir)
