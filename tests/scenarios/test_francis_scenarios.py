@@ -130,9 +130,11 @@ def test_geometry_by_hand() -> None:
                      [[0.8, -5.0], [3.8, -5.0]], [[0.8, 5.0], [3.8, 5.0]]]
     bare = _batches("narrow_hallway", corridor_width=1.6, end_wall=0.0)
     assert len(bare.static_maps[0]) == 2  # a free-standing corridor
-    # head-on, and out of the corridor (1 m past its 5 m half-length) instead of at the robot's start
+    # head-on, and out into the hall (3 m past its 5 m half-length) instead of at the robot's start
     np.testing.assert_array_equal(hallway.human_goal[:, 0, 0], hallway.human_start[:, 0, 0])
-    np.testing.assert_array_equal(hallway.human_goal[:, 0, 1], -6.0)
+    np.testing.assert_array_equal(hallway.human_goal[:, 0, 1], -8.0)
+    moved = _batches("narrow_hallway", exit_distance=1.0)
+    np.testing.assert_array_equal(moved.human_goal[:, 0, 1], -6.0)
     assert np.all(np.abs(hallway.human_start[:, 0, 0]) <= 0.2)
     assert np.all(np.abs(hallway.human_start[:, 0, 1] - 4) <= 0.5)
     door = make_scenario("narrow_doorway", door_width=0.9).layout

@@ -88,6 +88,7 @@ class _Hallway(WalledScenario):
     start_jitter: float = param(0.5, "human start distance R ± U(-j, j) along the corridor", unit="m", ge=0)
     end_wall: float = param(3.0, "length of the hall walls at each end of the corridor, each side (0: none)",
                             unit="m", ge=0)
+    exit_distance: float = param(3.0, "how far past the corridor's end the human's goal lies", unit="m", gt=0)
 
     def cross_check(self) -> None:
         """Also refuses jitter that draws the human beyond the corridor's walls."""
@@ -98,11 +99,13 @@ class _Hallway(WalledScenario):
         return _corridor_walls(self.corridor_width, self.corridor_length, self.end_wall)
 
     def flows(self) -> list[Flow]:
-        # The human walks the corridor's whole length and leaves it (1 m past its end): a goal at the
-        # robot's start, as in the open-floor `passing`, would park the human in the corridor, where
-        # it blocks the robot for the rest of the episode.
+        # The human walks the corridor's whole length and on into the hall (exit_distance past its end):
+        # a goal at the robot's start, as in the open-floor `passing`, would park the human in the
+        # corridor, and one just past its end (1 m, before 2026-11-29) parks it in the corridor's mouth,
+        # where it leaves less room beside the corner than a robot keeping its safety space needs
+        # (docs/walls_maps.md); either blocks the robot for the rest of the episode.
         r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
-        beyond = self.corridor_length / 2 + 1
+        beyond = self.corridor_length / 2 + self.exit_distance
         return [Flow((-o, o, r - s, r + s), goal=lambda start: np.stack(
             [start[:, 0], np.full(len(start), -beyond)], axis=1))]
 
