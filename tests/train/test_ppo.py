@@ -152,6 +152,27 @@ def _curve_rows(path):
     ]
 
 
+def test_validation_does_not_change_what_is_trained(tmp_path):
+    """The default schedule validates on 1 000 episodes to choose best.pt; the training itself (the network
+    after every update) is the same whatever the validation's size and period, so a seed trained with
+    another validation differs only in the checkpoint it chose (docs/ppo.md)."""
+    from socialnav.policies.learned import load_checkpoint
+    from socialnav.train.ppo.algorithm import train_ppo
+
+    s = _tiny(n_envs=8, rollout_steps=8, total_env_steps=8 * 8 * 4, epochs=2, minibatches=2, checkpoint_every=5)
+    runs = {}
+    for name, every, episodes in (("rare", 4, 2), ("often", 1, 12)):
+        out = tmp_path / name
+        train_ppo("wang2022", out, dataclasses.replace(s, validate_every=every, val_episodes=episodes),
+                  progress=False, log=lambda _: None)
+        runs[name] = load_checkpoint(out / "last.pt", "crowdnav_pp", -1).model.state_dict()
+        validated = [r for r in csv.DictReader(open(out / "curves.csv")) if r["val_success"]]
+        assert len(validated) == 4 // every
+    for key, value in runs["rare"].items():
+        assert torch.equal(value, runs["often"][key]), key
+    assert load_ppo_settings("ppo").val_episodes == 1000
+
+
 def test_a_resumed_budget_may_not_fall_below_the_updates_done_and_an_extension_says_its_lr(tmp_path):
     from socialnav.train.ppo.algorithm import train_ppo
 
