@@ -159,7 +159,8 @@ def test_validation_does_not_change_what_is_trained(tmp_path):
     from socialnav.policies.learned import load_checkpoint
     from socialnav.train.ppo.algorithm import train_ppo
 
-    s = _tiny(n_envs=8, rollout_steps=8, total_env_steps=8 * 8 * 4, epochs=2, minibatches=2, checkpoint_every=5)
+    s = _tiny(n_envs=8, rollout_steps=8, total_env_steps=8 * 8 * 4, epochs=2, minibatches=2,
+              checkpoint_every=5)
     runs = {}
     for name, every, episodes in (("rare", 4, 2), ("often", 1, 12)):
         out = tmp_path / name
