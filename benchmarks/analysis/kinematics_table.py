@@ -8,9 +8,10 @@ Reads the full-protocol results of each (preset, policy) in ``benchmarks/results
 - RGL the same way (``rgl_<preset>_summary.json``, ``_s1``, ``_s2``), except the unicycle's seed 0,
   ``rgl_unicycle_wang2022_s0_summary.json``.
 
-PPO's earlier recipes have rows of their own (``PPO_RECIPES``): ``crowdnav_pp_<preset>_span_*`` (outputs
-spanning the commands, σ e⁻¹, no turn penalty) and ``crowdnav_pp_<preset>_clip_*`` (the unicycle's v
-clipped to [0, v_pref], σ 1); the default's files have no suffix (docs/kinematics.md).
+PPO's earlier recipes have rows of their own (``PPO_RECIPES``): ``crowdnav_pp_<preset>_val100_*`` (the
+default's training with ``best.pt`` chosen on 100 validation episodes), ``crowdnav_pp_<preset>_span_*``
+(outputs spanning the commands, σ e⁻¹, no turn penalty) and ``crowdnav_pp_<preset>_clip_*`` (the
+unicycle's v clipped to [0, v_pref], σ 1); the default's files have no suffix (docs/kinematics.md).
 
 Prints one Markdown table (Table II's pooled columns, then M_VI as the share of labelled passes on the
 left in passing, overtaking and crossing), a row per (kinematics, policy): the value of a single run or
@@ -47,8 +48,8 @@ def side_values(path: Path) -> dict[str, float]:
 
 
 #: The PPO rows: the file suffix of each recipe and its label; "" is the default (docs/kinematics.md).
-PPO_RECIPES = (("", "crowdnav_pp"), ("_span", "crowdnav_pp, no turn penalty"),
-               ("_clip", "crowdnav_pp, v clipped, σ 1"))
+PPO_RECIPES = (("", "crowdnav_pp"), ("_val100", "crowdnav_pp, 100 validation episodes"),
+               ("_span", "crowdnav_pp, no turn penalty"), ("_clip", "crowdnav_pp, v clipped, σ 1"))
 
 
 def run_files(results: Path, policy: str, preset: str, recipe: str = "") -> list[Path]:
