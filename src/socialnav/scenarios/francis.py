@@ -101,7 +101,7 @@ class _Hallway(WalledScenario):
     def flows(self) -> list[Flow]:
         # The human walks the corridor's whole length and on into the hall (exit_distance past its end):
         # a goal at the robot's start, as in the open-floor `passing`, would park the human in the
-        # corridor, and one just past its end (1 m, before 2026-11-29) parks it in the corridor's mouth,
+        # corridor, and one just past its end (1 m, the earlier goal) parks it in the corridor's mouth,
         # where it leaves less room beside the corner than a robot keeping its safety space needs
         # (docs/walls_maps.md); either blocks the robot for the rest of the episode.
         r, o, s = self.circle_radius, self.lateral_jitter, self.start_jitter
