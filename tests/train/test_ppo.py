@@ -167,7 +167,7 @@ def test_validation_does_not_change_what_is_trained(tmp_path):
         train_ppo("wang2022", out, dataclasses.replace(s, validate_every=every, val_episodes=episodes),
                   progress=False, log=lambda _: None)
         runs[name] = load_checkpoint(out / "last.pt", "crowdnav_pp", -1).model.state_dict()
-        validated = [r for r in csv.DictReader(open(out / "curves.csv")) if r["val_success"]]
+        validated = [r for r in _curve_rows(out / "curves.csv") if r["val_success"]]
         assert len(validated) == 4 // every
     for key, value in runs["rare"].items():
         assert torch.equal(value, runs["often"][key]), key
