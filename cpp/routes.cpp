@@ -76,8 +76,68 @@ struct Entry {
   double g;    // route length from the start
   int node;
   int pred;  // the node it is reached from; -1: straight from the start, not yet checked
-  bool operator>(const Entry& o) const { return key > o.key || (key == o.key && node > o.node); }
 };
+
+// The search's queue: a binary heap (J. W. J. Williams, "Algorithm 232: Heapsort", Commun. ACM 7(6), 1964)
+// whose removal sifts the hole down to a leaf along the earlier child, then the last entry up into it
+// (R. W. Floyd, "Algorithm 245: Treesort 3", Commun. ACM 7(12), 1964; Knuth, TAOCP vol. 3, ex. 5.2.3-18).
+// Entries of equal key and node (one node reached by two routes of exactly equal length, as collinear
+// corners give on symmetric maps) come out in the order this layout gives, so the order of every
+// comparison and move below is part of which route is chosen: it is the order of GCC's std::push_heap and
+// std::pop_heap, which planned the recorded routes (tests/sim/test_routes.py), and it is spelt out here so
+// that another standard library plans the same routes. The comparisons are branch-free: a search pushes
+// tens of entries, and mispredicted sift branches were most of its time.
+SOCIALNAV_INLINE inline bool later(const Entry& a, const Entry& b) {
+  return (a.key > b.key) | ((a.key == b.key) & (a.node > b.node));
+}
+
+// Moves `value` up from `hole`, not above `top`.
+SOCIALNAV_INLINE inline void sift_up(Entry* h, int hole, int top, const Entry& value) {
+  int parent = (hole - 1) / 2;
+  while (hole > top && later(h[parent], value)) {
+    h[hole] = h[parent];
+    hole = parent;
+    parent = (hole - 1) / 2;
+  }
+  h[hole] = value;
+}
+
+// Fills `hole` from below (the earlier child each time, down to a leaf), then puts `value` in from there.
+SOCIALNAV_INLINE inline void sift_down(Entry* h, int hole, int len, const Entry& value) {
+  const int top = hole;
+  int child = hole;
+  while (child < (len - 1) / 2) {
+    child = 2 * (child + 1);
+    child -= static_cast<int>(later(h[child], h[child - 1]));
+    h[hole] = h[child];
+    hole = child;
+  }
+  if ((len & 1) == 0 && child == (len - 2) / 2) {
+    child = 2 * (child + 1);
+    h[hole] = h[child - 1];
+    hole = child - 1;
+  }
+  sift_up(h, hole, top, value);
+}
+
+void make_queue(std::vector<Entry>& heap) {
+  const int len = static_cast<int>(heap.size());
+  for (int parent = (len - 2) / 2; parent >= 0; --parent) sift_down(heap.data(), parent, len, Entry(heap[parent]));
+}
+
+SOCIALNAV_INLINE inline void push_queue(std::vector<Entry>& heap, const Entry& e) {
+  heap.push_back(e);
+  sift_up(heap.data(), static_cast<int>(heap.size()) - 1, 0, e);
+}
+
+// Removes and returns the first entry.
+SOCIALNAV_INLINE inline Entry pop_queue(std::vector<Entry>& heap) {
+  const Entry first = heap.front();
+  const Entry value = heap.back();
+  heap.pop_back();
+  if (!heap.empty()) sift_down(heap.data(), 0, static_cast<int>(heap.size()), value);
+  return first;
+}
 
 // A* from `start` to `goal` over graph g; writes the route's points (the goal last) and returns true, or
 // returns false where the graph joins them nowhere. The start's and the goal's segments to the nodes are
@@ -109,21 +169,18 @@ bool shortest_route(const RouteGraph& g, const ObstacleView& obs, Vec2 start, Ve
   settled.assign(static_cast<size_t>(n), 0);
   to_goal.resize(static_cast<size_t>(n));
   heap.clear();
-  const auto later = std::greater<Entry>();
   for (int i = 0; i < n; ++i) {
     to_goal[i] = norm(goal - g.node[i]);
     const double g0 = norm(g.node[i] - start);
     heap.push_back({g0 + to_goal[i], g0, i, -1});
   }
-  std::make_heap(heap.begin(), heap.end(), later);
+  make_queue(heap);
   double best = kInf;
   int last = -1;
   // The entry that stops the search (no route through the remaining nodes can be shorter) is looked at
   // where it lies: taking it out would only cost a reordering.
   while (!heap.empty() && !(heap.front().key >= best)) {
-    std::pop_heap(heap.begin(), heap.end(), later);
-    const Entry e = heap.back();
-    heap.pop_back();
+    const Entry e = pop_queue(heap);
     if (settled[e.node]) continue;
     const Vec2 p = g.node[e.node];
     if (e.pred < 0 && !visible(start, p, c_start)) continue;
@@ -137,8 +194,7 @@ bool shortest_route(const RouteGraph& g, const ObstacleView& obs, Vec2 start, Ve
       const int j = g.neighbour[k];
       if (settled[j]) continue;
       const double gj = e.g + g.length[k];
-      heap.push_back({gj + to_goal[j], gj, j, e.node});
-      std::push_heap(heap.begin(), heap.end(), later);
+      push_queue(heap, {gj + to_goal[j], gj, j, e.node});
     }
   }
   if (last < 0) return false;
@@ -567,12 +623,16 @@ void plan_route_around(const ObstacleView& walls, const Vec2* centres, const dou
   if (!out.found) plan_route(walls, start, goal, radius, clearance, out);
 }
 
+Vec2 heading_point(bool last_leg, Vec2 w, double w_remaining, Vec2 next, Vec2 position, Vec2 goal) {
+  if (last_leg) return goal;
+  const double to_point = norm(w - position);
+  if (to_point < 1e-9) return next;
+  return position + ((to_point + w_remaining) / to_point) * (w - position);
+}
+
 Vec2 heading_point(const Route& route, int index, Vec2 position, Vec2 goal) {
   if (!route.found || index + 1 >= static_cast<int>(route.point.size())) return goal;
-  const Vec2 w = route.point[index];
-  const double to_point = norm(w - position);
-  if (to_point < 1e-9) return route.point[index + 1];
-  return position + ((to_point + route.remaining[index]) / to_point) * (w - position);
+  return heading_point(false, route.point[index], route.remaining[index], route.point[index + 1], position, goal);
 }
 
 void route_distances(const ObstacleView& obstacles, const Vec2* points, int n, Vec2 goal, double radius, double* out) {
@@ -658,13 +718,23 @@ void RouteFollower::replan(const ObstacleView& obstacles, Vec2 start, Vec2 goal,
   plan_with_tiers(obstacles, graph, start, goal, radius, clearance, route);
   index = 0;
   seen_margin = blocked_margin = -1.0;
+  sync();
+}
+
+void RouteFollower::sync() {
+  const int n = static_cast<int>(route.point.size());
+  points = n;
+  if (index < 0 || index >= n) return;  // (no route yet)
+  aim = route.point[index];
+  aim_remaining = route.remaining[index];
+  next_aim = index + 1 < n ? route.point[index + 1] : aim;
 }
 
 Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance,
                            int step, double dt, int agent) {
   const Vec2 ahead = route_target(obstacles, position, goal, radius, clearance);
   if (!route.found) return ahead;
-  const double remaining = norm(route.point[index] - position) + route.remaining[index];
+  const double remaining = norm(aim - position) + aim_remaining;
   if (step != last_step) {
     last_step = step;
     if (yielding > 0.0) {
@@ -683,7 +753,7 @@ Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 go
     }
   }
   if (yielding <= 0.0) return ahead;
-  const Vec2 away = position - route.point[index];
+  const Vec2 away = position - aim;
   const double len = norm(away);
   return len > 1e-9 ? position + (1.0 / len) * away : ahead;
 }
@@ -692,7 +762,7 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
                                  double clearance) {
   if (!route.found) return goal;
   const EdgeSet& walls = wide_graph->walls;  // planned: the graph is held
-  const int n = static_cast<int>(route.point.size());
+  const int n = points;
   // The two tests below are skipped where their answer is known from an earlier step: a segment's clearance,
   // and the agent's own, change by at most as much as the agent moved (both are 1-Lipschitz in its position).
   bool advanced = false;
@@ -701,7 +771,7 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
     // Advance to the farthest point seen with half the planned clearance, or with the agent's own where a
     // neighbour pressed it closer to a wall than that.
     double next_clearance;  // (not needed)
-    double seen = segment_clearance(walls, obstacles, position, route.point[index + 1], own, next_clearance);
+    double seen = segment_clearance(walls, obstacles, position, next_aim, own, next_clearance);
     const double c_advance = std::max(std::min(0.5 * (radius + route.inflation), 0.99 * own), kMinClearance);
     for (;;) {
       if (seen < c_advance) {
@@ -719,6 +789,7 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
       if (index + 1 == n) break;
       seen = segment_clearance(walls, obstacles, position, route.point[index + 1]);
     }
+    if (advanced) sync();
   }
   // Pushed off the route (the point it heads for, the goal included, is behind a wall, or the way to it passes
   // a wall closer than the agent's radius, or than its own clearance where it is closer): re-plan from here,
@@ -726,12 +797,12 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
   // less than seen_margin from the segment it saw it along: every point of the new segment is then within
   // that distance of a point of the old one.
   if (!advanced && !(seen_margin >= 0.0 &&
-                     dist_sq_point_segment(seen_from, route.point[index], position) <= seen_margin * seen_margin)) {
+                     dist_sq_point_segment(seen_from, aim, position) <= seen_margin * seen_margin)) {
     double seen, point_clearance;
     if (own < 0.0)
-      seen = segment_clearance(walls, obstacles, position, route.point[index], own, point_clearance);
+      seen = segment_clearance(walls, obstacles, position, aim, own, point_clearance);
     else
-      seen = segment_clearance(walls, obstacles, position, route.point[index]);
+      seen = segment_clearance(walls, obstacles, position, aim);
     if (seen >= std::max(0.99 * std::min(radius, own), kMinClearance)) {
       seen_from = position;
       seen_margin = seen - std::max(0.99 * radius, kMinClearance);
@@ -741,7 +812,7 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
       if (!route.found) return goal;
     }
   }
-  return heading_point(route, index, position, goal);
+  return heading_point(index + 1 >= points, aim, aim_remaining, next_aim, position, goal);
 }
 
 }  // namespace socialnav

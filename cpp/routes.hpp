@@ -110,6 +110,9 @@ void plan_route_around(const ObstacleView& walls, const Vec2* centres, const dou
 // slow-down near its target applies at the goal, not at each corner. RouteFollower::target and the
 // route-following robot policies both head this way.
 Vec2 heading_point(const Route& route, int index, Vec2 position, Vec2 goal);
+// heading_point given route point `index` (w), its remaining length and whether it is the last leg: the same
+// arithmetic, for a caller that holds them.
+Vec2 heading_point(bool last_leg, Vec2 w, double w_remaining, Vec2 next, Vec2 position, Vec2 goal);
 
 // The lengths [m] of the shortest paths of a disc of `radius` from each of n points to `goal` (the free-space
 // geodesic distance: the visibility graph with inflation = radius, no clearance), written into out; inf where
@@ -143,6 +146,15 @@ struct RouteFollower {
   // seen_margin to spare, from blocked_from the next one was hidden by blocked_margin (< 0: not known).
   Vec2 seen_from, blocked_from;
   double seen_margin = -1.0, blocked_margin = -1.0;
+  // route.point[index], route.remaining[index] and route.point[index + 1] (the goal where there is none),
+  // held here: a step that neither advances nor re-plans reads no route array (each follower's arrays are
+  // heap blocks of their own, a cache miss apiece at a batch's scale). sync() sets them from the route.
+  Vec2 aim, next_aim;
+  double aim_remaining = 0.0;
+  int points = 0;  // route.point.size()
+
+  // Refreshes the copies above after `route` or `index` were set from outside (a restored state).
+  void sync();
 
   // `map`: the object that owns `obstacles` where the caller has one (the world's slot map); a follower
   // planning again on the same one keeps the graphs it holds instead of looking them up.

@@ -226,6 +226,7 @@ void World::set_route_state(int b, const double* state, size_t size) {
     const double* pts = h + kHeader;
     for (size_t j = 0; j < k; ++j) f.route.point.push_back(Vec2{pts[2 * j], pts[2 * j + 1]});
     f.route.remaining.assign(pts + 2 * k, pts + 3 * k);
+    f.sync();
     if (f.route.found) {  // the graphs of this slot's map, for its re-plans and tests
       const ObstacleView walls = obstacles(b);
       const double radius = buf_.radius[row + i];
