@@ -796,8 +796,8 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
   // as on a new route (the giving-way timers start afresh). It surely still sees the point while it strays
   // less than seen_margin from the segment it saw it along: every point of the new segment is then within
   // that distance of a point of the old one.
-  if (!advanced && !(seen_margin >= 0.0 &&
-                     dist_sq_point_segment(seen_from, aim, position) <= seen_margin * seen_margin)) {
+  if (!advanced &&
+      !(seen_margin >= 0.0 && dist_sq_point_segment(seen_from, aim, position) <= seen_margin * seen_margin)) {
     double seen, point_clearance;
     if (own < 0.0)
       seen = segment_clearance(walls, obstacles, position, aim, own, point_clearance);
