@@ -61,6 +61,50 @@ def test_the_network_reads_the_state_then_the_scan():
     assert not torch.allclose(net.step(farther, humans, mask, h, torch.zeros(3, dtype=torch.bool))[0], mean)
 
 
+def test_the_history_is_the_earlier_scans_and_sequence_replays_step():
+    torch.manual_seed(0)
+    net = LidarActorCritic(lidar_beams=36, lidar_history=3)
+    assert net.model_kwargs()["lidar_history"] == 3 and net.gru_hidden == 2 * 36
+    assert "lidar_history" not in LidarActorCritic(lidar_beams=36).model_kwargs()  # older checkpoints' layout
+    b, t = 2, 5
+    robot = torch.rand(t, b, 9 + 36) * 10.0
+    humans, mask = torch.zeros(t, b, 1, 2), torch.zeros(t, b, 1, dtype=torch.bool)
+    starts = torch.zeros(t, b, dtype=torch.bool)
+    starts[0, :] = True
+    starts[3, 1] = True  # episode 1 restarts at step 3
+    h, means = net.initial_state(b), []
+    for i in range(t):
+        mean, _, h_next = net.step(robot[i], humans[i], mask[i], h, starts[i])
+        means.append(mean)
+        if i == 2:
+            # the state holds this step's scan and the one before it, newest first
+            torch.testing.assert_close(h_next.view(b, 2, 36)[:, 0], robot[2, :, 9:])
+            torch.testing.assert_close(h_next.view(b, 2, 36)[:, 1], robot[1, :, 9:])
+        h = h_next
+    seq_means, _ = net.sequence(robot, humans, mask, net.initial_state(b), starts)
+    torch.testing.assert_close(seq_means, torch.stack(means))
+    # an episode's first step sees its own scan three times: the earlier state is ignored
+    first, later = torch.ones(b, dtype=torch.bool), torch.zeros(b, dtype=torch.bool)
+    fresh = net.step(robot[3], humans[3], mask[3], torch.full((b, 72), 5.0), first)[0]
+    again = net.step(robot[3], humans[3], mask[3], torch.zeros(b, 72), first)[0]
+    torch.testing.assert_close(fresh, again)
+    # the earlier scans move the action: a person that moved is not a person that stood
+    moved = net.step(robot[3], humans[3], mask[3], torch.full((b, 72), 5.0), later)[0]
+    assert not torch.allclose(moved, fresh)
+
+
+def test_a_single_scan_network_reads_as_before():
+    torch.manual_seed(1)
+    net = LidarActorCritic(lidar_beams=36)
+    robot = torch.rand(4, 9 + 36) * 10.0
+    expected_scan = net.encoder((robot[:, 9:] / 10.0).unsqueeze(1))
+    torch.testing.assert_close(net.features(robot)[:, 9:], expected_scan, rtol=0, atol=0)
+    h = net.initial_state(4)
+    assert h.shape == (4, 1)
+    _, _, h_next = net.step(robot, None, None, h, torch.zeros(4, dtype=torch.bool))
+    assert h_next is h
+
+
 def test_a_missing_or_other_lidar_is_named():
     net = LidarActorCritic(lidar_beams=36)
     with pytest.raises(ValueError, match="36-beam lidar, the observation has no lidar"):
@@ -82,6 +126,7 @@ def test_trained_among_walls_it_brings_its_lidar_to_the_evaluation(tmp_path, wal
     assert summary.updates == 4
     ck = load_checkpoint(out / "best.pt", "lidar_ppo", expected_input_dim=-1)
     assert ck.model.model_kwargs()["lidar_beams"] == 36
+    assert ck.model.model_kwargs()["lidar_history"] == 3  # the default: the scan and the two before it
     assert ck.config["preset"]["world"]["sensing"]["lidar_beams"] == 36  # the worlds it trained in
     ev = tmp_path / "eval"
     rc = main(["evaluate", "--policy", "lidar_ppo", "--checkpoint", str(out / "best.pt"),

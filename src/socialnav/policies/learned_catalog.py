@@ -224,7 +224,9 @@ def mlp_actor_critic_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 
 
 
 def lidar_net_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 0) -> dict[str, Any]:
-    """lidar_ppo's network arguments: its lidar (``lidar_beams``, ``lidar_range``) and MLP width.
+    """lidar_ppo's network arguments: its lidar, the scans it reads each step, and MLP width.
+
+    ``lidar_beams`` and ``lidar_range`` size its lidar, ``lidar_history`` the scans it reads.
 
     The network perceives walls and people through its lidar alone, so ``n_humans`` and the obstacle
     encoding's ``obstacle_slots`` size nothing of it.
@@ -238,6 +240,7 @@ def lidar_net_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 0) -> d
         The LidarActorCritic keyword arguments.
     """
     return dict(lidar_beams=settings.lidar_beams, lidar_range=settings.lidar_range,
+                lidar_history=settings.lidar_history,
                 hidden=settings.mlp_hidden, normalize_obs=settings.normalize_obs,
                 log_std_init=settings.network.log_std_init)
 

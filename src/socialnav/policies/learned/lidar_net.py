@@ -6,7 +6,14 @@ Velocity Obstacles", T-RO 2023), robot_sf and social-jym do: no detections, no m
 ``lidar_beams`` readings, divided by ``lidar_range``) goes through two circular 1-D convolutions
 (a beam's neighbours on both sides, the scan wrapping round behind the robot), whose output joins the
 normalised robot features in two tanh MLPs, the actor's and the critic's (CleanRL's continuous-action
-PPO agent). No recurrence: the trainer's recurrent state is a dummy the network passes through.
+PPO agent).
+
+One scan shows where people are, not where they go. With ``lidar_history`` k > 1 the convolutions read
+the last k scans as k channels (the current one first), as DRL-VO reads its scan history: a person's
+motion is the shift of its returns between channels. The earlier scans are the network's recurrent
+state, which the trainer already stores, resets and replays for its recurrent networks: at an episode's
+first step the history is the first scan repeated (nothing has moved yet). With k = 1 the state is a
+dummy the network passes through.
 
 The trainer and :class:`~socialnav.policies.learned.ppo_policy.RecurrentActorPolicy` hand the scan in
 as the last ``lidar_beams`` columns of the robot tensor (:mod:`socialnav.policies.learned.ppo_inputs`);
@@ -30,13 +37,13 @@ class LidarActorCritic(ObservationStatistics):
     Args:
         lidar_beams: the scan's readings (the world's ``sensing.lidar_beams`` it acts in).
         lidar_range: the lidar's maximum range [m] (readings are divided by it).
+        lidar_history: the scans read each step, the current one and the k - 1 before it.
         channels: the convolutions' channels.
         hidden: the MLPs' width.
         normalize_obs: normalise the robot's features by their running statistics.
         log_std_init: the Gaussian's initial log standard deviation.
     """
 
-    gru_hidden = 1  # the trainer's recurrent state: unused
     prediction_steps = 0  # reads no human slots: none are predicted
     input_dim = 2  # the (unread) human slots' width the trainer allocates
 
@@ -44,28 +51,34 @@ class LidarActorCritic(ObservationStatistics):
         self,
         lidar_beams: int = 180,
         lidar_range: float = 10.0,
+        lidar_history: int = 1,
         channels: int = 16,
         hidden: int = 256,
         normalize_obs: bool = True,
         log_std_init: float = 0.0,
     ) -> None:
         super().__init__()
-        if lidar_beams < 4 or not lidar_range > 0 or channels < 1 or hidden < 1:
-            raise ValueError(f"lidar_beams must be >= 4, lidar_range > 0, channels and hidden >= 1, got "
-                             f"{lidar_beams}, {lidar_range}, {channels}, {hidden}")
+        if lidar_beams < 4 or not lidar_range > 0 or lidar_history < 1 or channels < 1 or hidden < 1:
+            raise ValueError(f"lidar_beams must be >= 4, lidar_range > 0, lidar_history, channels and hidden "
+                             f">= 1, got {lidar_beams}, {lidar_range}, {lidar_history}, {channels}, {hidden}")
         self._kwargs = dict(lidar_beams=lidar_beams, lidar_range=float(lidar_range), channels=channels,
                             hidden=hidden, normalize_obs=normalize_obs, log_std_init=log_std_init)
+        if lidar_history > 1:  # (the networks trained before it existed are rebuilt without the key)
+            self._kwargs["lidar_history"] = lidar_history
         self.lidar_beams, self.lidar_range = int(lidar_beams), float(lidar_range)
+        self.lidar_history = int(lidar_history)
+        # the trainer's recurrent state: the k - 1 earlier scans (a dummy column without a history)
+        self.gru_hidden = max(1, (self.lidar_history - 1) * self.lidar_beams)
         self.normalize_obs = normalize_obs
         self.encoder = nn.Sequential(
-            nn.Conv1d(1, channels, 5, stride=2, padding=2, padding_mode="circular"),
+            nn.Conv1d(self.lidar_history, channels, 5, stride=2, padding=2, padding_mode="circular"),
             nn.ReLU(),
             nn.Conv1d(channels, channels, 3, stride=2, padding=1, padding_mode="circular"),
             nn.ReLU(),
             nn.Flatten(),
         )
         with torch.no_grad():
-            scan_features = self.encoder(torch.zeros(1, 1, self.lidar_beams)).shape[1]
+            scan_features = self.encoder(torch.zeros(1, self.lidar_history, self.lidar_beams)).shape[1]
         self.actor, self.critic = actor_critic_mlps(ROBOT_FEATURES + scan_features, hidden)
         self.log_std = nn.Parameter(torch.full((2,), float(log_std_init)))
         self._init_obs_stats()
@@ -84,8 +97,8 @@ class LidarActorCritic(ObservationStatistics):
         return {"lidar_beams": self.lidar_beams, "lidar_range": self.lidar_range}
 
     def initial_state(self, batch: int, device: torch.device | str = "cpu") -> torch.Tensor:
-        """A placeholder recurrent state, (batch, 1) zeros."""
-        return torch.zeros(batch, 1, device=device)
+        """The recurrent state before any step, (batch, gru_hidden) zeros (replaced at the first step)."""
+        return torch.zeros(batch, self.gru_hidden, device=device)
 
     @torch.no_grad()
     def update_obs_stats(self, robot: torch.Tensor, humans: torch.Tensor, mask: torch.Tensor) -> None:
@@ -93,25 +106,68 @@ class LidarActorCritic(ObservationStatistics):
         state = robot[..., :ROBOT_FEATURES].reshape(-1, ROBOT_FEATURES)
         _fold(self.obs_count, self.robot_mean, self.robot_var, state)
 
-    def features(self, robot: torch.Tensor) -> torch.Tensor:
-        """(M, width): the normalised robot features and the scan's encoding."""
-        state, scan = robot[:, :ROBOT_FEATURES], robot[:, ROBOT_FEATURES:]
-        if scan.shape[1] != self.lidar_beams:
-            raise ValueError(f"the network reads a {self.lidar_beams}-beam scan, got {scan.shape[1]} "
+    def _scan(self, robot: torch.Tensor) -> torch.Tensor:
+        scan = robot[..., ROBOT_FEATURES:]
+        if scan.shape[-1] != self.lidar_beams:
+            raise ValueError(f"the network reads a {self.lidar_beams}-beam scan, got {scan.shape[-1]} "
                              "readings")
+        return scan
+
+    def _history(self, scan: torch.Tensor, h: torch.Tensor, start: torch.Tensor) -> torch.Tensor:
+        """(B, k, beams): this step's scan, then the k - 1 before it.
+
+        Where an episode starts, its first scan stands for the earlier ones.
+        """
+        k, b = self.lidar_history, scan.shape[0]
+        if k == 1:
+            return scan.unsqueeze(1)
+        earlier = h.reshape(b, k - 1, self.lidar_beams).to(scan.dtype)
+        earlier = torch.where(start.reshape(b, 1, 1), scan.unsqueeze(1).expand(b, k - 1, -1), earlier)
+        return torch.cat([scan.unsqueeze(1), earlier], 1)
+
+    def _next_state(self, scans: torch.Tensor, h: torch.Tensor) -> torch.Tensor:
+        if self.lidar_history == 1:
+            return h
+        return scans[:, :-1].reshape(scans.shape[0], -1).to(h.dtype)
+
+    def features(self, robot: torch.Tensor, scans: torch.Tensor | None = None) -> torch.Tensor:
+        """(M, width): the normalised robot features and the encoding of the scans (M, k, beams).
+
+        Without ``scans``, the robot tensor's own scan is encoded (a network without a history).
+        """
+        state = robot[:, :ROBOT_FEATURES]
+        if scans is None:
+            scans = self._scan(robot).unsqueeze(1)
         if self.normalize_obs:
             mean, var = self.robot_mean.to(state.dtype), self.robot_var.to(state.dtype)
             state = ((state - mean) / torch.sqrt(var + 1e-8)).clamp(-OBS_CLIP, OBS_CLIP)
-        encoded = self.encoder((scan / self.lidar_range).unsqueeze(1))
+        encoded = self.encoder(scans / self.lidar_range)
         return torch.cat([state, encoded], -1)
 
     def step(self, robot, humans, mask, h, start):
-        """Action mean (B, 2), value (B,) and the unchanged dummy state (the trainer's interface)."""
-        x = self.features(robot)
-        return self.actor(x), self.critic(x).squeeze(-1), h
+        """Action mean (B, 2), value (B,) and the next recurrent state (the trainer's interface).
+
+        The state is the scans the next step reads as its earlier ones.
+        """
+        scans = self._history(self._scan(robot), h, start)
+        x = self.features(robot, scans)
+        return self.actor(x), self.critic(x).squeeze(-1), self._next_state(scans, h)
 
     def sequence(self, robot, humans, mask, h0, starts):
-        """Means (T, B, 2) and values (T, B) of T steps of B episodes (no recurrence)."""
+        """Means (T, B, 2) and values (T, B) of T steps of B episodes.
+
+        The scan history is rebuilt step by step from h0, as ``step`` builds it.
+        """
         t, b = robot.shape[:2]
-        x = self.features(robot.reshape(t * b, -1))
+        scan = self._scan(robot)
+        if self.lidar_history == 1:
+            scans = scan.reshape(t * b, 1, -1)
+        else:
+            h, stacked = h0, []
+            for i in range(t):
+                s_i = self._history(scan[i], h, starts[i])
+                stacked.append(s_i)
+                h = self._next_state(s_i, h)
+            scans = torch.stack(stacked).reshape(t * b, self.lidar_history, -1)
+        x = self.features(robot.reshape(t * b, -1), scans)
         return self.actor(x).view(t, b, 2), self.critic(x).view(t, b)

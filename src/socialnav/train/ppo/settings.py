@@ -127,6 +127,11 @@ class PPOSettings(Settings):
         10.0, "lidar_ppo's lidar: maximum range (left out of records while 10)", unit="m", gt=0, le=100.0,
         record_default=False,
     )
+    lidar_history: int = setting(
+        3, "lidar_ppo's scans read each step: the current one and the ones before it, as the convolutions' "
+        "channels (motion is the shift between them; 1: the current scan alone; left out of records while 3)",
+        ge=1, le=16, record_default=False,
+    )
     nonholonomic_log_std_init: float = setting(
         -1.0, "initial log σ of the Gaussian action on a unicycle or diff_drive robot, in place of "
         "network.log_std_init (its actions span the commands; docs/kinematics.md; left out of records while "
