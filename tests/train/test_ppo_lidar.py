@@ -126,7 +126,7 @@ def test_trained_among_walls_it_brings_its_lidar_to_the_evaluation(tmp_path, wal
     assert summary.updates == 4
     ck = load_checkpoint(out / "best.pt", "lidar_ppo", expected_input_dim=-1)
     assert ck.model.model_kwargs()["lidar_beams"] == 36
-    assert ck.model.model_kwargs()["lidar_history"] == 3  # the default: the scan and the two before it
+    assert "lidar_history" not in ck.model.model_kwargs()  # the default: the current scan alone
     assert ck.config["preset"]["world"]["sensing"]["lidar_beams"] == 36  # the worlds it trained in
     ev = tmp_path / "eval"
     rc = main(["evaluate", "--policy", "lidar_ppo", "--checkpoint", str(out / "best.pt"),
@@ -138,12 +138,15 @@ def test_trained_among_walls_it_brings_its_lidar_to_the_evaluation(tmp_path, wal
     assert "sensing" not in manifest["preset"]["world"]  # the protocol's world is francis2023's own
 
 
-def test_a_lidar_run_resumed_mid_episode_ends_as_an_uninterrupted_one(tmp_path, walls_preset):
-    s = _smoke()
+@pytest.mark.parametrize("history", [1, 3])
+def test_a_lidar_run_resumed_mid_episode_ends_as_an_uninterrupted_one(tmp_path, walls_preset, history):
+    s = dataclasses.replace(_smoke(), lidar_history=history)  # 3: the scan history is the resumed state
     train_ppo(walls_preset, tmp_path / "whole", s, progress=False, log=lambda _: None)
     train_ppo(walls_preset, tmp_path / "split", s, progress=False, stop_after=2, log=lambda _: None)
     train_ppo(walls_preset, tmp_path / "split", s, progress=False, log=lambda _: None)
     assert run_digests(tmp_path / "split") == run_digests(tmp_path / "whole")
+    net = load_checkpoint(tmp_path / "whole" / "best.pt", "lidar_ppo", expected_input_dim=-1).model
+    assert net.lidar_history == history
 
 
 def test_latency_survives_a_resume_of_the_worlds():

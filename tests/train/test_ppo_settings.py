@@ -73,7 +73,7 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     plain = dataclasses.asdict(PPOSettings())
     # lidar_ppo's lidar, added later: left out of records while at its defaults
     assert (plain.pop("lidar_beams"), plain.pop("lidar_range")) == (180, 10.0)
-    assert plain.pop("lidar_history") == 3  # its scan history, added later
+    assert plain.pop("lidar_history") == 1  # its scan history, added later
     assert plain.pop("nonholonomic_log_std_init") == -1.0  # the differential drive's, added later
     assert plain.pop("turn_penalty") == 0.05625  # a unicycle's and differential drive's, added later
     assert recorded == plain

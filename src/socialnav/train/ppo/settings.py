@@ -128,8 +128,8 @@ class PPOSettings(Settings):
         record_default=False,
     )
     lidar_history: int = setting(
-        3, "lidar_ppo's scans read each step: the current one and the ones before it, as the convolutions' "
-        "channels (motion is the shift between them; 1: the current scan alone; left out of records while 3)",
+        1, "lidar_ppo's scans read each step: the current one and the ones before it, as the convolutions' "
+        "channels (motion is the shift between them; 1: the current scan alone; left out of records while 1)",
         ge=1, le=16, record_default=False,
     )
     nonholonomic_log_std_init: float = setting(
