@@ -723,7 +723,6 @@ void RouteFollower::replan(const ObstacleView& obstacles, Vec2 start, Vec2 goal,
 
 void RouteFollower::sync() {
   const int n = static_cast<int>(route.point.size());
-  points = n;
   if (index < 0 || index >= n) return;  // (no route yet)
   aim = route.point[index];
   aim_remaining = route.remaining[index];
@@ -762,7 +761,7 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
                                  double clearance) {
   if (!route.found) return goal;
   const EdgeSet& walls = wide_graph->walls;  // planned: the graph is held
-  const int n = points;
+  const int n = static_cast<int>(route.point.size());
   // The two tests below are skipped where their answer is known from an earlier step: a segment's clearance,
   // and the agent's own, change by at most as much as the agent moved (both are 1-Lipschitz in its position).
   bool advanced = false;
@@ -812,7 +811,8 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
       if (!route.found) return goal;
     }
   }
-  return heading_point(index + 1 >= points, aim, aim_remaining, next_aim, position, goal);
+  // (after a re-plan, a route of another length)
+  return heading_point(index + 1 >= static_cast<int>(route.point.size()), aim, aim_remaining, next_aim, position, goal);
 }
 
 }  // namespace socialnav

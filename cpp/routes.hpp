@@ -151,7 +151,6 @@ struct RouteFollower {
   // heap blocks of their own, a cache miss apiece at a batch's scale). sync() sets them from the route.
   Vec2 aim, next_aim;
   double aim_remaining = 0.0;
-  int points = 0;  // route.point.size()
 
   // Refreshes the copies above after `route` or `index` were set from outside (a restored state).
   void sync();

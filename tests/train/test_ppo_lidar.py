@@ -98,11 +98,13 @@ def test_a_single_scan_network_reads_as_before():
     net = LidarActorCritic(lidar_beams=36)
     robot = torch.rand(4, 9 + 36) * 10.0
     expected_scan = net.encoder((robot[:, 9:] / 10.0).unsqueeze(1))
-    torch.testing.assert_close(net.features(robot)[:, 9:], expected_scan, rtol=0, atol=0)
+    features = net.features(robot, robot[:, 9:].unsqueeze(1))
+    torch.testing.assert_close(features[:, 9:], expected_scan, rtol=0, atol=0)
     h = net.initial_state(4)
     assert h.shape == (4, 1)
-    _, _, h_next = net.step(robot, None, None, h, torch.zeros(4, dtype=torch.bool))
+    mean, _, h_next = net.step(robot, None, None, h, torch.zeros(4, dtype=torch.bool))
     assert h_next is h
+    torch.testing.assert_close(mean, net.actor(features), rtol=0, atol=0)  # step reads the scan alone
 
 
 def test_a_missing_or_other_lidar_is_named():

@@ -130,14 +130,9 @@ class LidarActorCritic(ObservationStatistics):
             return h
         return scans[:, :-1].reshape(scans.shape[0], -1).to(h.dtype)
 
-    def features(self, robot: torch.Tensor, scans: torch.Tensor | None = None) -> torch.Tensor:
-        """(M, width): the normalised robot features and the encoding of the scans (M, k, beams).
-
-        Without ``scans``, the robot tensor's own scan is encoded (a network without a history).
-        """
+    def features(self, robot: torch.Tensor, scans: torch.Tensor) -> torch.Tensor:
+        """(M, width): the normalised robot features and the encoding of the scans (M, k, beams)."""
         state = robot[:, :ROBOT_FEATURES]
-        if scans is None:
-            scans = self._scan(robot).unsqueeze(1)
         if self.normalize_obs:
             mean, var = self.robot_mean.to(state.dtype), self.robot_var.to(state.dtype)
             state = ((state - mean) / torch.sqrt(var + 1e-8)).clamp(-OBS_CLIP, OBS_CLIP)
