@@ -616,6 +616,30 @@ NB_MODULE(_core, m) {
       "declared order, or None for the defaults); safety_space [m]: the ORCA robot's own inflation. obstacles: "
       "None or the B episodes' static maps as PreparedObstacleBatch.");
 
+  m.def(
+      "robot_route_goals",
+      [](Array<double> robot, nb::object obstacles, double route_clearance, Array<double> out) {
+        if (robot.ndim() != 2 || robot.shape(1) != socialnav::kRobotFeatures)
+          throw std::invalid_argument("robot must be (B, " + std::to_string(socialnav::kRobotFeatures) + ")");
+        if (!(route_clearance >= 0.0)) throw std::invalid_argument("route_clearance must be >= 0");
+        const size_t B = robot.shape(0);
+        double* o = checked(out, "out", B * 2);
+        socialnav::ObstacleBatchView wall_view{};
+        if (!obstacles.is_none()) {
+          const auto& walls = nb::cast<const socialnav::PreparedObstacleBatch&>(obstacles);
+          if (walls.first.size() != B)
+            throw std::invalid_argument("obstacles: prepared for " + std::to_string(walls.first.size()) +
+                                        " episodes, the robot rows are " + std::to_string(B));
+          wall_view = walls.view();
+        }
+        nb::gil_scoped_release release;
+        socialnav::robot_route_goals(robot.data(), static_cast<int>(B), wall_view, route_clearance, o);
+      },
+      "robot"_a.noconvert(), "obstacles"_a.none(), "route_clearance"_a, "out"_a.noconvert(),
+      "The point each robot's route around the walls heads for (the goal on an open floor or in sight), written "
+      "into out (B, 2): robot (B, 9) rows, obstacles None or the B episodes' PreparedObstacleBatch, "
+      "route_clearance [m] kept from the walls beyond the robot's radius.");
+
   using SC = socialnav::ScenarioConfig;
   nb::class_<SC>(m, "ScenarioConfig")
       .def(nb::init<>())

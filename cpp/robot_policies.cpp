@@ -156,6 +156,23 @@ void social_force_robot_actions(const ObservationView& obs, const ActionFormat& 
   });
 }
 
+void robot_route_goals(const double* robot, int batch, const ObstacleBatchView& obstacles, double route_clearance,
+                       double* out) {
+  thread_local Route route;
+  for (int b = 0; b < batch; ++b) {
+    const double* r = robot + static_cast<size_t>(b) * kRobotFeatures;
+    const Vec2 p{r[0], r[1]}, goal{r[5], r[6]};
+    Vec2 target = goal;
+    const ObstacleView walls = obstacles.episode(b);
+    if (walls.count > 0) {
+      plan_route(walls, p, goal, r[4], route_clearance, route);
+      target = heading_point(route, 0, p, goal);
+    }
+    out[2 * b] = target.x;
+    out[2 * b + 1] = target.y;
+  }
+}
+
 void robot_actions(const std::string& policy, const ObservationView& obs, const ActionFormat& format, double dt,
                    const OrcaValues& orca, double safety_space, const SocialForceParams& social_force, ThreadPool& pool,
                    double* out, const ObstacleBatchView& obstacles, double route_clearance) {

@@ -46,6 +46,15 @@ void social_force_robot_actions(const ObservationView& obs, const ActionFormat& 
                                 const ObstacleBatchView& obstacles = ObstacleBatchView{},
                                 double route_clearance = -1.0);
 
+// The robot's global plan for a learned policy that reads it (lidar_ppo's route_goal; Xie & Dames' DRL-VO
+// reads a global planner's sub-goal the same way): per row of B robot rows (kRobotFeatures columns), the
+// point its route around the walls alone hands the preferred-velocity law (heading_point: towards the
+// route's first point, as far as the route is long), planned afresh from where it stands for its radius +
+// route_clearance [m] (the cached graphs of its map); the goal itself on an open floor or with the goal in
+// sight. Written into out (B, 2).
+void robot_route_goals(const double* robot, int batch, const ObstacleBatchView& obstacles, double route_clearance,
+                       double* out);
+
 // The native robot policy named `policy` ("linear", "orca", "orca_route", "social_force" or
 // "social_force_route"; std::invalid_argument otherwise): the ORCA one configured as the ORCA humans are
 // (orca: that behaviour's values) with the robot's own safety_space [m], the social-force one with the

@@ -151,6 +151,76 @@ def test_a_lidar_run_resumed_mid_episode_ends_as_an_uninterrupted_one(tmp_path, 
     assert net.lidar_history == history
 
 
+def _door_observation(robot_xy, goal_xy):
+    from socialnav.maps.static_map import StaticMap
+    from socialnav.sim.observation import ObstacleArrays
+
+    obs = _observation(36, batch=2)
+    door = StaticMap(([[-20.0, 0.0], [-0.6, 0.0]], [[0.6, 0.0], [20.0, 0.0]]))
+    robot = obs.robot.copy()
+    robot[:, 0:2], robot[:, 5:7] = robot_xy, goal_xy
+    return dataclasses.replace(obs, robot=robot, obstacles=ObstacleArrays.from_maps([door, None])), door
+
+
+def test_route_goal_is_the_point_the_route_heads_for():
+    from socialnav.maps.routes import ROBOT_CLEARANCE, plan_route, route_goals
+
+    obs, door = _door_observation((3.0, -3.0), (3.0, 3.0))
+    goals = route_goals(obs.robot, obs.obstacles.native)
+    route = plan_route(door, (3.0, -3.0), (3.0, 3.0), radius=0.3, clearance=ROBOT_CLEARANCE)
+    # through the door: towards the route's first corner, as far as the route is long
+    first = route.points[0] - np.array([3.0, -3.0])
+    length = np.linalg.norm(first) + route.length
+    assert len(route.points) == 3 and abs(route.points[0][0]) < 0.6 and length > 6.0 + 1.0
+    offset = goals[0] - np.array([3.0, -3.0])
+    np.testing.assert_allclose(np.linalg.norm(offset), length, rtol=1e-12)
+    np.testing.assert_allclose(offset / np.linalg.norm(offset), first / np.linalg.norm(first), rtol=1e-12)
+    np.testing.assert_array_equal(goals[1], (3.0, 3.0))  # an open floor: the goal itself
+    from socialnav.train.ppo.worlds import route_distance
+
+    # the trainer's potential term of a route-goal network: the metres still to walk along the route
+    np.testing.assert_allclose(route_distance(obs), [length, 6.0], rtol=1e-12)
+    in_sight, _ = _door_observation((0.0, -3.0), (0.0, 3.0))  # straight through the door
+    np.testing.assert_array_equal(route_goals(in_sight.robot, in_sight.obstacles.native)[0], (0.0, 3.0))
+    with pytest.raises(ValueError, match="prepared for 2 episodes, the robot rows are 1"):
+        route_goals(obs.robot[:1], obs.obstacles.native)
+
+
+def test_a_route_goal_network_reads_the_route_goal_as_its_goal():
+    obs, _ = _door_observation((3.0, -3.0), (3.0, 3.0))
+    plain = LidarActorCritic(lidar_beams=36)
+    routed = LidarActorCritic(lidar_beams=36, route_goal=True)
+    assert routed.model_kwargs()["route_goal"] and "route_goal" not in plain.model_kwargs()
+    a, _, _ = network_inputs(plain, obs, 0.25, "cpu")
+    b, _, _ = network_inputs(routed, obs, 0.25, "cpu")
+    from socialnav.maps.routes import route_goals
+
+    goal = route_goals(obs.robot, obs.obstacles.native)
+    offset = (goal - obs.robot[:, 0:2]).astype(np.float32)
+    np.testing.assert_allclose(b[:, 0:2].numpy(), offset, rtol=0, atol=0)
+    assert not torch.equal(a[0, :3], b[0, :3])  # behind the wall: another goal
+    torch.testing.assert_close(a[1], b[1], rtol=0, atol=0)  # the open floor's episode: the goal itself
+    torch.testing.assert_close(a[:, 3:], b[:, 3:], rtol=0, atol=0)  # the rest as it was
+    assert obs.robot[0, 5] == 3.0 and obs.robot[0, 6] == 3.0  # the observation is not changed
+
+
+def test_a_route_goal_run_trains_resumes_and_keeps_its_setting(tmp_path, walls_preset):
+    s = dataclasses.replace(_smoke(), lidar_route_goal=True)
+    train_ppo(walls_preset, tmp_path / "whole", s, progress=False, log=lambda _: None)
+    train_ppo(walls_preset, tmp_path / "split", s, progress=False, stop_after=2, log=lambda _: None)
+    train_ppo(walls_preset, tmp_path / "split", s, progress=False, log=lambda _: None)
+    assert run_digests(tmp_path / "split") == run_digests(tmp_path / "whole")
+    ck = load_checkpoint(tmp_path / "whole" / "best.pt", "lidar_ppo", expected_input_dim=-1)
+    assert ck.model.route_goal and ck.config["train"]["lidar_route_goal"] is True
+    plain = run_digests(_train_plain(tmp_path, walls_preset))
+    assert plain != run_digests(tmp_path / "whole")  # the setting reaches the network
+
+
+def _train_plain(tmp_path, preset):
+    train_ppo(preset, tmp_path / "plain", _smoke(), progress=False, log=lambda _: None)
+    return tmp_path / "plain"
+
+
 def test_latency_survives_a_resume_of_the_worlds():
     from socialnav.presets import load_preset
     from socialnav.train.ppo.worlds import restore_worlds, world_snapshot

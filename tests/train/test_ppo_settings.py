@@ -74,12 +74,13 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     # lidar_ppo's lidar, added later: left out of records while at its defaults
     assert (plain.pop("lidar_beams"), plain.pop("lidar_range")) == (180, 10.0)
     assert plain.pop("lidar_history") == 1  # its scan history, added later
+    assert plain.pop("lidar_route_goal") is False  # its route's goal, added later
     assert plain.pop("nonholonomic_log_std_init") == -1.0  # the differential drive's, added later
     assert plain.pop("turn_penalty") == 0.05625  # a unicycle's and differential drive's, added later
     assert recorded == plain
 
 
-@pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke"])
+@pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route"])
 def test_shipped_configs_round_trip_through_to_dict(name):
     settings = load_ppo_settings(name)
     again = PPOSettings.from_dict(settings.to_dict())

@@ -24,10 +24,12 @@ import numpy as np
 from socialnav import _core
 from socialnav.maps.static_map import StaticMap
 
-__all__ = ["DEFAULT_CLEARANCE", "Route", "plan_route", "route_distances"]
+__all__ = ["DEFAULT_CLEARANCE", "ROBOT_CLEARANCE", "Route", "plan_route", "route_distances", "route_goals"]
 
 #: The clearance [m] beyond their radius that routed humans keep from walls (WorldSettings.route_clearance).
 DEFAULT_CLEARANCE = 0.2
+#: The clearance [m] beyond its radius that a robot's route keeps from walls (orca_route's default).
+ROBOT_CLEARANCE = 0.1
 
 
 @dataclass(frozen=True)
@@ -109,4 +111,29 @@ def route_distances(static_map: StaticMap | None, points: np.ndarray, goal: obje
     vertices, offsets = _flat(static_map)
     out = np.empty(len(pts))
     _core.route_distances(pts, _point(goal, "goal"), float(radius), vertices, offsets, out)
+    return out
+
+
+def route_goals(robot: np.ndarray, obstacles: object, clearance: float = ROBOT_CLEARANCE) -> np.ndarray:
+    """Where each robot's shortest route around its episode's walls heads, for B episodes at once.
+
+    The route is planned from where the robot stands for its radius plus ``clearance`` (cached graphs:
+    a few microseconds each), and the point returned is the one a routed human hands its preferred-velocity
+    law: on the line to the route's first point, as far from the robot as the route is long (so that its
+    distance is the distance still to walk); the goal itself on an open floor or with the goal in sight.
+    ``orca_route`` heads the same way (around the people standing still too).
+
+    Args:
+        robot: (B, 9) robot rows of an :class:`~socialnav.sim.observation.Observation` (position,
+            radius and goal are read).
+        obstacles: the episodes' maps prepared for the core (``ObstacleArrays.native``), or None (open
+            floors).
+        clearance: distance [m] kept from the walls beyond the radius where the passage allows, >= 0.
+
+    Returns:
+        (B, 2) the points [m], world frame.
+    """
+    robot = np.ascontiguousarray(robot, dtype=np.float64)
+    out = np.empty((robot.shape[0], 2))
+    _core.robot_route_goals(robot, obstacles, float(clearance), out)
     return out

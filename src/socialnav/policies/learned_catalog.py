@@ -226,7 +226,8 @@ def mlp_actor_critic_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 
 def lidar_net_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 0) -> dict[str, Any]:
     """lidar_ppo's network arguments: its lidar, the scans it reads each step, and MLP width.
 
-    ``lidar_beams`` and ``lidar_range`` size its lidar, ``lidar_history`` the scans it reads.
+    ``lidar_beams`` and ``lidar_range`` size its lidar, ``lidar_history`` the scans it reads,
+    ``lidar_route_goal`` whether its goal is its route's.
 
     The network perceives walls and people through its lidar alone, so ``n_humans`` and the obstacle
     encoding's ``obstacle_slots`` size nothing of it.
@@ -240,7 +241,7 @@ def lidar_net_kwargs(settings: Any, n_humans: int, obstacle_slots: int = 0) -> d
         The LidarActorCritic keyword arguments.
     """
     return dict(lidar_beams=settings.lidar_beams, lidar_range=settings.lidar_range,
-                lidar_history=settings.lidar_history,
+                lidar_history=settings.lidar_history, route_goal=settings.lidar_route_goal,
                 hidden=settings.mlp_hidden, normalize_obs=settings.normalize_obs,
                 log_std_init=settings.network.log_std_init)
 

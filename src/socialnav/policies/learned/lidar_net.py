@@ -15,6 +15,12 @@ state, which the trainer already stores, resets and replays for its recurrent ne
 first step the history is the first scan repeated (nothing has moved yet). With k = 1 the state is a
 dummy the network passes through.
 
+With ``route_goal`` the goal the robot's features describe is its global planner's: the point its shortest
+route around the map's walls heads for (:func:`socialnav.maps.routes.route_goals`: towards the route's
+first corner, as far as the route is long; the goal itself once in sight), planned afresh each step, as
+DRL-VO reads the sub-goal of a global path planner on the map. Walls and people are still perceived
+through the lidar alone; the map gives the way through rooms and doors, which a scan cannot show.
+
 The trainer and :class:`~socialnav.policies.learned.ppo_policy.RecurrentActorPolicy` hand the scan in
 as the last ``lidar_beams`` columns of the robot tensor (:mod:`socialnav.policies.learned.ppo_inputs`);
 the human slots they also pass are not read.
@@ -38,6 +44,7 @@ class LidarActorCritic(ObservationStatistics):
         lidar_beams: the scan's readings (the world's ``sensing.lidar_beams`` it acts in).
         lidar_range: the lidar's maximum range [m] (readings are divided by it).
         lidar_history: the scans read each step, the current one and the k - 1 before it.
+        route_goal: read the goal as the robot's route around the walls heads for it (module docstring).
         channels: the convolutions' channels.
         hidden: the MLPs' width.
         normalize_obs: normalise the robot's features by their running statistics.
@@ -52,6 +59,7 @@ class LidarActorCritic(ObservationStatistics):
         lidar_beams: int = 180,
         lidar_range: float = 10.0,
         lidar_history: int = 1,
+        route_goal: bool = False,
         channels: int = 16,
         hidden: int = 256,
         normalize_obs: bool = True,
@@ -65,6 +73,9 @@ class LidarActorCritic(ObservationStatistics):
                             hidden=hidden, normalize_obs=normalize_obs, log_std_init=log_std_init)
         if lidar_history > 1:  # (the networks trained before it existed are rebuilt without the key)
             self._kwargs["lidar_history"] = lidar_history
+        if route_goal:
+            self._kwargs["route_goal"] = True
+        self.route_goal = bool(route_goal)
         self.lidar_beams, self.lidar_range = int(lidar_beams), float(lidar_range)
         self.lidar_history = int(lidar_history)
         # the trainer's recurrent state: the k - 1 earlier scans (a dummy column without a history)

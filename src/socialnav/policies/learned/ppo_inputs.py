@@ -6,20 +6,25 @@ sensors (the lidar of ``sensing.lidar_beams``; :mod:`socialnav.policies.learned.
 ``sensors()``, the sensing settings it needs, and gets the readings as the last columns of the robot
 tensor, so the rollout, the update and the policy keep one tensor layout for every network. A network
 with ``twist_features`` (a differential-drive robot's) gets the robot's (v, ω) right after its features.
+A network with ``route_goal`` reads its goal as the robot's route around the walls heads for it
+(:func:`socialnav.maps.routes.route_goals`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
 import torch
 
+from socialnav.maps.routes import route_goals
 from socialnav.policies.learned.attn_graph import ROBOT_FEATURES, observation_tensors
 from socialnav.sim.observation import Observation
 from socialnav.sim.parts.base import NETWORK_PARTS
 
-__all__ = ["network_inputs", "network_sensors", "robot_width"]
+__all__ = ["network_inputs", "network_sensors", "robot_width", "with_route_goals"]
 
 
 def network_sensors(net: Any) -> dict[str, Any]:
@@ -33,6 +38,13 @@ def robot_width(net: Any) -> int:
     return int(getattr(net, "robot_width", getattr(net, "robot_state_width", ROBOT_FEATURES)))
 
 
+def with_route_goals(obs: Observation) -> Observation:
+    """``obs`` with each robot's goal replaced by the point its route around the walls heads for."""
+    robot = np.array(obs.robot, dtype=np.float64)
+    robot[:, 5:7] = route_goals(robot, None if obs.obstacles is None else obs.obstacles.native)
+    return dataclasses.replace(obs, robot=robot)
+
+
 def network_inputs(net: Any, obs: Observation, dt: float, device: torch.device | str,
                    encoding: Any = None, parts: Sequence[str] = NETWORK_PARTS
                    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -42,6 +54,8 @@ def network_inputs(net: Any, obs: Observation, dt: float, device: torch.device |
         ValueError: The network reads a lidar the observation does not have, or one of another size; or
             it reads a differential drive's twist and the observation is of another robot.
     """
+    if getattr(net, "route_goal", False) and obs.obstacles is not None:
+        obs = with_route_goals(obs)
     robot, humans, mask = observation_tensors(obs, dt, net.prediction_steps, device, encoding, parts)
     if getattr(net, "twist_features", False):
         if obs.robot_twist is None:

@@ -45,7 +45,7 @@ from socialnav.train.ppo.run import PPO_CURVE_COLUMNS, PPO_STREAM_OFFSET, PPORun
 from socialnav.train.ppo.settings import PPOSettings
 from socialnav.train.ppo.state import PPOState, initial_state, save_last
 from socialnav.train.ppo.validation import validate_if_due, write_row_if_due
-from socialnav.train.ppo.worlds import goal_distance, step_worlds
+from socialnav.train.ppo.worlds import goal_distance, route_distance, step_worlds
 
 __all__ = ["PPOResult", "train_ppo", "train_ppo_policy", "PPO_CURVE_COLUMNS", "PPO_STREAM_OFFSET"]
 
@@ -236,8 +236,9 @@ class Rollout:
 def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     """Steps every environment ``rollout_steps`` times with the stochastic policy, then computes GAE.
 
-    Rewards get CrowdNav++'s potential term (``goal_shaping`` × metres gained towards the goal), on a
-    unicycle or differential drive its rotational penalty (``turn_penalty`` × dθ²) and,
+    Rewards get CrowdNav++'s potential term (``goal_shaping`` × metres gained towards the goal; along
+    its route around the walls for a network with ``route_goal``), on a unicycle or differential drive
+    its rotational penalty (``turn_penalty`` × dθ²) and,
     with ``bootstrap_timeouts``, γ·V(final state) on a timeout.
 
     Args:
@@ -257,6 +258,8 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     rotation_limit, success_reward = run.preset.world.rotation_limit, run.preset.world.reward.success_reward
     reverse = run.preset.world.diff_drive.max_reverse_speed if kinematics == "diff_drive" else 0.0
     T = s.rollout_steps
+    # a network heading along its route gains the metres it walks along the route
+    distance = route_distance if getattr(net, "route_goal", False) else (lambda o: goal_distance(o.robot))
     t0 = time.perf_counter()
     net.eval()
     h0, starts = state.h.clone(), torch.zeros(T, n_envs, dtype=torch.bool, device=device)
@@ -283,11 +286,11 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             logps[t] = gaussian_log_prob(raw, mean, net.log_std)
             action = squash_actions(raw.double().cpu().numpy(), kinematics, obs.robot[:, 7], rotation_limit,
                                     reverse)
-            goal_before = goal_distance(obs.robot)
+            goal_before = distance(obs)
             reward, term, trunc, final, state.obs = step_worlds(run.world, action)
             done = term | trunc
             # CrowdNav++'s potential term: goal_shaping x (metres gained towards the goal this step)
-            shaped = reward + s.goal_shaping * (goal_before - goal_distance(final.robot))
+            shaped = reward + s.goal_shaping * (goal_before - distance(final))
             if s.turn_penalty and kinematics in HEADED_KINEMATICS:
                 # CrowdNav++'s rotational penalty on a unicycle, on the heading change commanded: without
                 # it the network can learn to weave between its turn limits (docs/kinematics.md)

@@ -132,6 +132,11 @@ class PPOSettings(Settings):
         "channels (motion is the shift between them; 1: the current scan alone; left out of records while 1)",
         ge=1, le=16, record_default=False,
     )
+    lidar_route_goal: bool = setting(
+        False, "lidar_ppo reads its goal as its shortest route around the map's walls heads for it (a global "
+        "planner's sub-goal, as DRL-VO's; docs/ppo.md; left out of records while false)",
+        record_default=False,
+    )
     nonholonomic_log_std_init: float = setting(
         -1.0, "initial log σ of the Gaussian action on a unicycle or diff_drive robot, in place of "
         "network.log_std_init (its actions span the commands; docs/kinematics.md; left out of records while "

@@ -160,3 +160,14 @@ def step_worlds(world: MultiWorld, actions: np.ndarray):
 def goal_distance(robot: np.ndarray) -> np.ndarray:
     """(B,) distance from the robot to its goal [m] of (B, 9) observation rows."""
     return np.hypot(robot[:, 5] - robot[:, 0], robot[:, 6] - robot[:, 1])
+
+
+def route_distance(obs: Observation) -> np.ndarray:
+    """(B,) the length [m] of each robot's route to its goal around its walls (goal_distance on open floors).
+
+    The point a route heads for stands as far from the robot as the route is long
+    (:func:`socialnav.maps.routes.route_goals`).
+    """
+    from socialnav.policies.learned.ppo_inputs import with_route_goals
+
+    return goal_distance(with_route_goals(obs).robot if obs.obstacles is not None else obs.robot)
