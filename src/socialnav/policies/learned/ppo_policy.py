@@ -135,4 +135,6 @@ class RecurrentActorPolicy:
                 else {}
             ),
             **({"sensors": dict(self.sensors)} if self.sensors else {}),
+            # its goal is its global route's (lidar_ppo's route_goal): a map-based planner it relies on
+            **({"route_goal": True} if getattr(self.network, "route_goal", False) else {}),
         }
