@@ -393,6 +393,11 @@ def robot_actions(policy: str, robot: Annotated[NDArray[numpy.float64], dict(ord
     Batched actions of a native robot policy ('linear', 'orca', 'orca_route', 'social_force' or 'social_force_route'), written into out (B, 2). route_clearance [m]: the '_route' policies' clearance from the walls beyond their radius. orca, social_force: the humans' behaviour parameters of that name (a dict by name, the values in declared order, or None for the defaults); safety_space [m]: the ORCA robot's own inflation. obstacles: None or the B episodes' static maps as PreparedObstacleBatch.
     """
 
+def robot_route_goals(robot: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacles: object | None, route_clearance: float, out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
+    """
+    The point each robot's route around the walls heads for (the goal on an open floor or in sight), written into out (B, 2): robot (B, 9) rows, obstacles None or the B episodes' PreparedObstacleBatch, route_clearance [m] kept from the walls beyond the robot's radius.
+    """
+
 class ScenarioConfig:
     def __init__(self) -> None: ...
 
