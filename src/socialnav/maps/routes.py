@@ -118,9 +118,10 @@ def route_goals(robot: np.ndarray, obstacles: object, clearance: float = ROBOT_C
     """Where each robot's shortest route around its episode's walls heads, for B episodes at once.
 
     The route is planned from where the robot stands for its radius plus ``clearance`` (on the map's
-    cached graphs: about 0.6 µs per robot on a door map), and the point returned is the one a routed human hands its preferred-velocity
-    law: on the line to the route's first point, as far from the robot as the route is long (so that its
-    distance is the distance still to walk); the goal itself on an open floor or with the goal in sight.
+    cached graphs: about 0.6 µs per robot on a door map), and the point returned is the one a routed
+    human hands its preferred-velocity law: on the line to the route's first point, as far from the
+    robot as the route is long (so that its distance is the distance still to walk); the goal itself on
+    an open floor or with the goal in sight.
     ``orca_route`` heads the same way (around the people standing still too).
 
     Args:
