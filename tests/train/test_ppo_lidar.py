@@ -212,12 +212,12 @@ def test_a_route_goal_run_trains_resumes_and_keeps_its_setting(tmp_path, walls_p
     assert run_digests(tmp_path / "split") == run_digests(tmp_path / "whole")
     ck = load_checkpoint(tmp_path / "whole" / "best.pt", "lidar_ppo", expected_input_dim=-1)
     assert ck.model.route_goal and ck.config["train"]["lidar_route_goal"] is True
-    assert load_policy_record(tmp_path / "whole" / "best.pt")["route_goal"] is True  # in results manifests
+    assert _policy_record(tmp_path / "whole" / "best.pt")["route_goal"] is True  # in results manifests
     plain = run_digests(_train_plain(tmp_path, walls_preset))
     assert plain != run_digests(tmp_path / "whole")  # the setting reaches the network
 
 
-def load_policy_record(checkpoint):
+def _policy_record(checkpoint):
     from socialnav.policies.registry import make_policy
 
     return make_policy("lidar_ppo", checkpoint=str(checkpoint)).describe()
