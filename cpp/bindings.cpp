@@ -160,6 +160,17 @@ int polygon_count(const Array<double>& vertices, const Array<int64_t>& offsets) 
 }
 
 // The B episodes' maps prepared once (obstacles.hpp), after the flat arrays' checks.
+// The view of B episodes' prepared maps (a PreparedObstacleBatch), empty for None; a batch prepared for another
+// number of episodes is refused, the message ending "<what> B".
+socialnav::ObstacleBatchView batch_walls(const nb::object& obstacles, size_t B, const char* what) {
+  if (obstacles.is_none()) return socialnav::ObstacleBatchView{};
+  const auto& walls = nb::cast<const socialnav::PreparedObstacleBatch&>(obstacles);
+  if (walls.first.size() != B)
+    throw std::invalid_argument("obstacles: prepared for " + std::to_string(walls.first.size()) + " episodes, " + what +
+                                std::to_string(B));
+  return walls.view();
+}
+
 socialnav::PreparedObstacleBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>& offsets,
                                                const Array<int64_t>& episode_polygons, size_t B) {
   const int P = polygon_count(vertices, offsets);
@@ -591,14 +602,7 @@ NB_MODULE(_core, m) {
                                              reinterpret_cast<const uint8_t*>(mask.data()),
                                              reinterpret_cast<const uint8_t*>(active.data())};
         const socialnav::ActionFormat format{kinematics, rotation_limit, max_reverse_speed};
-        socialnav::ObstacleBatchView wall_view{};
-        if (!obstacles.is_none()) {
-          const auto& walls = nb::cast<const socialnav::PreparedObstacleBatch&>(obstacles);
-          if (walls.first.size() != B)
-            throw std::invalid_argument("obstacles: prepared for " + std::to_string(walls.first.size()) +
-                                        " episodes, the observation has " + std::to_string(B));
-          wall_view = walls.view();
-        }
+        const socialnav::ObstacleBatchView wall_view = batch_walls(obstacles, B, "the observation has ");
         const socialnav::OrcaValues orca_values = socialnav::orca_values(behaviour_values("orca", orca));
         const socialnav::SocialForceParams sf_values =
             socialnav::social_force_values(behaviour_values("social_force", social_force));
@@ -624,14 +628,7 @@ NB_MODULE(_core, m) {
         if (!(route_clearance >= 0.0)) throw std::invalid_argument("route_clearance must be >= 0");
         const size_t B = robot.shape(0);
         double* o = checked(out, "out", B * 2);
-        socialnav::ObstacleBatchView wall_view{};
-        if (!obstacles.is_none()) {
-          const auto& walls = nb::cast<const socialnav::PreparedObstacleBatch&>(obstacles);
-          if (walls.first.size() != B)
-            throw std::invalid_argument("obstacles: prepared for " + std::to_string(walls.first.size()) +
-                                        " episodes, the robot rows are " + std::to_string(B));
-          wall_view = walls.view();
-        }
+        const socialnav::ObstacleBatchView wall_view = batch_walls(obstacles, B, "the robot rows are ");
         nb::gil_scoped_release release;
         socialnav::robot_route_goals(robot.data(), static_cast<int>(B), wall_view, route_clearance, o);
       },

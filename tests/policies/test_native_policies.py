@@ -61,3 +61,15 @@ def test_a_non_finite_real_human_is_refused_not_dropped():
     for name in ("linear", "orca", "social_force"):
         with pytest.raises(ValueError, match=r"observation humans\[1, 0\] \(a real human\) is not finite"):
             build_policy(name, load_preset("wang2022")).act(dataclasses.replace(obs, humans=humans))
+
+
+def test_maps_prepared_for_another_batch_are_refused_by_name():
+    from socialnav import _core
+    from socialnav.maps.static_map import StaticMap
+    from socialnav.sim.observation import ObstacleArrays
+
+    walls = ObstacleArrays.from_maps([StaticMap(([[0.0, 0.0], [1.0, 0.0]],))] * 2).native
+    with pytest.raises(ValueError, match="obstacles: prepared for 2 episodes, the observation has 3"):
+        _core.robot_actions("orca", np.zeros((3, 9)), np.zeros((3, 1, 5)), np.zeros((3, 1), bool),
+                            np.ones(3, bool), 0, 1.0, 0.25, None, 0.0, None, _core.ThreadPool(1),
+                            np.zeros((3, 2)), walls)
