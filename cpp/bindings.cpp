@@ -159,7 +159,6 @@ int polygon_count(const Array<double>& vertices, const Array<int64_t>& offsets) 
   return static_cast<int>(P);
 }
 
-// The B episodes' maps prepared once (obstacles.hpp), after the flat arrays' checks.
 // The view of B episodes' prepared maps (a PreparedObstacleBatch), empty for None; a batch prepared for another
 // number of episodes is refused, the message ending "<what> B".
 socialnav::ObstacleBatchView batch_walls(const nb::object& obstacles, size_t B, const char* what) {
@@ -171,6 +170,7 @@ socialnav::ObstacleBatchView batch_walls(const nb::object& obstacles, size_t B, 
   return walls.view();
 }
 
+// The B episodes' maps prepared once (obstacles.hpp), after the flat arrays' checks.
 socialnav::PreparedObstacleBatch prepare_batch(const Array<double>& vertices, const Array<int64_t>& offsets,
                                                const Array<int64_t>& episode_polygons, size_t B) {
   const int P = polygon_count(vertices, offsets);

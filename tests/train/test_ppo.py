@@ -13,7 +13,8 @@ import torch
 import yaml
 
 from socialnav.settings import ConfigError
-from socialnav.train.ppo.algorithm import gae, gaussian_entropy, gaussian_log_prob, ppo_loss
+from socialnav.train.ppo.algorithm import gae
+from socialnav.train.ppo.loss import gaussian_entropy, gaussian_log_prob, ppo_loss
 from socialnav.train.ppo.settings import NetworkSettings, PPOSettings, load_ppo_settings
 from tests.learned.helpers import SMALL_ATTN_GRAPH
 
