@@ -77,10 +77,11 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     assert plain.pop("lidar_route_goal") is False  # its route's goal, added later
     assert plain.pop("nonholonomic_log_std_init") == -1.0  # the differential drive's, added later
     assert plain.pop("turn_penalty") == 0.05625  # a unicycle's and differential drive's, added later
+    assert plain.pop("collision_penalty") is None  # training's collision reward, added later
     assert recorded == plain
 
 
-@pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route"])
+@pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route", "ppo_lidar_safe"])
 def test_shipped_configs_round_trip_through_to_dict(name):
     settings = load_ppo_settings(name)
     again = PPOSettings.from_dict(settings.to_dict())

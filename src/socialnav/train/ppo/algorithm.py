@@ -238,7 +238,8 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
 
     Rewards get CrowdNav++'s potential term (``goal_shaping`` × metres gained towards the goal; along
     its route around the walls for a network with ``route_goal``), on a unicycle or differential drive
-    its rotational penalty (``turn_penalty`` × dθ²) and,
+    its rotational penalty (``turn_penalty`` × dθ²), with ``collision_penalty`` set that reward on a
+    collision in place of the preset's, and,
     with ``bootstrap_timeouts``, γ·V(final state) on a timeout.
 
     Args:
@@ -291,6 +292,10 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             done = term | trunc
             # CrowdNav++'s potential term: goal_shaping x (metres gained towards the goal this step)
             shaped = reward + s.goal_shaping * (goal_before - distance(final))
+            if s.collision_penalty is not None:
+                # a terminal step that is not a success is a collision (a person's or a wall's)
+                collided = term & (reward != success_reward)
+                shaped[collided] += s.collision_penalty - reward[collided]
             if s.turn_penalty and kinematics in HEADED_KINEMATICS:
                 # CrowdNav++'s rotational penalty on a unicycle, on the heading change commanded: without
                 # it the network can learn to weave between its turn limits (docs/kinematics.md)

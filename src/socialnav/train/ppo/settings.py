@@ -107,6 +107,11 @@ class PPOSettings(Settings):
         "scaled to wang2022's -0.25; docs/kinematics.md); a holonomic robot's runs neither use nor record it",
         unit="1/rad²", ge=0, record_default=False,
     )
+    collision_penalty: float | None = setting(
+        None, "training only: the reward of a step that ends in a collision (with a person or a wall) in "
+        "place of the preset's (null: the preset's; docs/ppo.md, \"Reward\"; left out of records while null)",
+        le=0, record_default=False,
+    )
     bootstrap_timeouts: bool = setting(True, "a timeout's last reward adds γ·V(final state) (a truncation)")
     validate_every: int = setting(50, "deterministic validation period [updates]", ge=1)
     val_episodes: int = setting(100, "validation episodes (val split, split over the training mix)", ge=1)
