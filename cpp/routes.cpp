@@ -71,85 +71,97 @@ void corner_nodes(const ObstacleView& obs, int i, double d, std::vector<Vec2>& o
   }
 }
 
-struct Entry {
-  double key;  // g + the straight distance to the goal (A*'s admissible, consistent estimate)
-  double g;    // route length from the start
-  int node;
-  int pred;  // the node it is reached from; -1: straight from the start, not yet checked
+// The search's scratch arrays, one set per thread (one thread-local lookup per search).
+struct SearchScratch {
+  std::vector<int> prev;
+  std::vector<uint8_t> settled;
+  std::vector<double> to_goal;    // the nodes' straight distances to the goal
+  std::vector<double> start_key;  // a node's entry straight from the start (+inf once tested and hidden)
+  std::vector<double> start_g;    // its route length (the straight distance)
+  std::vector<double> graph_key;  // a node's best entry through the graph so far (+inf: none)
+  std::vector<double> graph_g;
+  std::vector<int> graph_pred;
+  std::vector<double> key;  // min(start_key, graph_key) of an unsettled node, +inf once settled
 };
 
-// The search's queue: a binary heap (J. W. J. Williams, "Algorithm 232: Heapsort", Commun. ACM 7(6), 1964)
-// whose removal sifts the hole down to a leaf along the earlier child, then the last entry up into it
-// (R. W. Floyd, "Algorithm 245: Treesort 3", Commun. ACM 7(12), 1964; Knuth, TAOCP vol. 3, ex. 5.2.3-18).
-// Entries of equal key and node (one node reached by two routes of exactly equal length, as collinear
-// corners give on symmetric maps) come out in the order this layout gives, so the order of every
-// comparison and move below is part of which route is chosen: it is the order of GCC's std::push_heap and
-// std::pop_heap, which planned the recorded routes (tests/sim/test_routes.py), and it is spelt out here so
-// that another standard library plans the same routes. The comparisons are branch-free: a search pushes
-// tens of entries, and mispredicted sift branches were most of its time.
-SOCIALNAV_INLINE inline bool later(const Entry& a, const Entry& b) {
-  return (a.key > b.key) | ((a.key == b.key) & (a.node > b.node));
-}
-
-// Moves `value` up from `hole`, not above `top`.
-SOCIALNAV_INLINE inline void sift_up(Entry* h, int hole, int top, const Entry& value) {
-  int parent = (hole - 1) / 2;
-  while (hole > top && later(h[parent], value)) {
-    h[hole] = h[parent];
-    hole = parent;
-    parent = (hole - 1) / 2;
+// A* (P. E. Hart, N. J. Nilsson, B. Raphael, "A Formal Basis for the Heuristic Determination of Minimum Cost
+// Paths", IEEE Trans. SSC 4(2), 1968) from `start` to `goal` over graph g, the straight distance to the goal
+// its estimate: writes into s.prev the route's nodes back from `last` and returns true, or returns false
+// where the graph joins them nowhere. The start's and the goal's segments to the nodes are checked lazily,
+// when a node comes next (the graph's own edges were checked when it was built): the search stops as soon
+// as no route through the remaining nodes can be shorter, so most of them are never tested. Each node
+// keeps two candidates, the segment straight from the start and its shortest way through the graph so
+// far; the next node is the one of smallest key (route length + estimate), the lower index among equal
+// keys, found by a scan (a map's graph has tens of nodes: cheaper than a heap's pushes and moves). Routes
+// of exactly equal length to a node (through collinear corners, or mirror images on a symmetric map) are
+// common, so which one a node keeps is a rule: the one found first, the start's segment before any
+// through the graph (docs/routes.md; tests/sim/test_routes.py records routes on symmetric maps).
+bool search_route(const RouteGraph& g, Vec2 start, Vec2 goal, double c_start, double c_goal, const EdgeSet& walls,
+                  const ObstacleView& obs, SearchScratch& s, int& last) {
+  const int n = static_cast<int>(g.node.size());
+  s.prev.assign(static_cast<size_t>(n), -1);
+  s.settled.assign(static_cast<size_t>(n), 0);
+  s.to_goal.resize(static_cast<size_t>(n));
+  s.start_key.resize(static_cast<size_t>(n));
+  s.start_g.resize(static_cast<size_t>(n));
+  s.graph_key.assign(static_cast<size_t>(n), kInf);
+  s.graph_g.resize(static_cast<size_t>(n));
+  s.graph_pred.resize(static_cast<size_t>(n));
+  s.key.resize(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    s.to_goal[i] = norm(goal - g.node[i]);
+    s.start_g[i] = norm(g.node[i] - start);
+    s.start_key[i] = s.key[i] = s.start_g[i] + s.to_goal[i];
   }
-  h[hole] = value;
-}
-
-// Fills `hole` from below (the earlier child each time, down to a leaf), then puts `value` in from there.
-SOCIALNAV_INLINE inline void sift_down(Entry* h, int hole, int len, const Entry& value) {
-  const int top = hole;
-  int child = hole;
-  while (child < (len - 1) / 2) {
-    child = 2 * (child + 1);
-    child -= static_cast<int>(later(h[child], h[child - 1]));
-    h[hole] = h[child];
-    hole = child;
+  double best = kInf;
+  last = -1;
+  for (;;) {
+    int i = -1;
+    double k = kInf;
+    for (int j = 0; j < n; ++j)
+      if (s.key[j] < k) {
+        k = s.key[j];
+        i = j;
+      }
+    if (i < 0 || k >= best) break;
+    const bool from_start = s.start_key[i] <= s.graph_key[i];
+    const Vec2 p = g.node[i];
+    if (from_start && !segment_clear(walls, obs, start, p, c_start)) {
+      s.start_key[i] = kInf;
+      s.key[i] = s.graph_key[i];
+      continue;
+    }
+    const double gi = from_start ? s.start_g[i] : s.graph_g[i];
+    s.key[i] = kInf;
+    s.settled[i] = 1;
+    s.prev[i] = from_start ? -1 : s.graph_pred[i];
+    if (gi + s.to_goal[i] < best && segment_clear(walls, obs, p, goal, c_goal)) {
+      best = gi + s.to_goal[i];
+      last = i;
+    }
+    for (int e = g.first[i]; e < g.first[i + 1]; ++e) {
+      const int j = g.neighbour[e];
+      if (s.settled[j]) continue;
+      const double gj = gi + g.length[e];
+      const double kj = gj + s.to_goal[j];
+      if (kj < s.graph_key[j]) {
+        s.graph_key[j] = kj;
+        s.graph_g[j] = gj;
+        s.graph_pred[j] = i;
+        s.key[j] = std::min(s.key[j], kj);
+      }
+    }
   }
-  if ((len & 1) == 0 && child == (len - 2) / 2) {
-    child = 2 * (child + 1);
-    h[hole] = h[child - 1];
-    hole = child - 1;
-  }
-  sift_up(h, hole, top, value);
+  return last >= 0;
 }
 
-void make_queue(std::vector<Entry>& heap) {
-  const int len = static_cast<int>(heap.size());
-  for (int parent = (len - 2) / 2; parent >= 0; --parent) sift_down(heap.data(), parent, len, Entry(heap[parent]));
-}
-
-SOCIALNAV_INLINE inline void push_queue(std::vector<Entry>& heap, const Entry& e) {
-  heap.push_back(e);
-  sift_up(heap.data(), static_cast<int>(heap.size()) - 1, 0, e);
-}
-
-// Removes and returns the first entry.
-SOCIALNAV_INLINE inline Entry pop_queue(std::vector<Entry>& heap) {
-  const Entry first = heap.front();
-  const Entry value = heap.back();
-  heap.pop_back();
-  if (!heap.empty()) sift_down(heap.data(), 0, static_cast<int>(heap.size()), value);
-  return first;
-}
-
-// A* from `start` to `goal` over graph g; writes the route's points (the goal last) and returns true, or
-// returns false where the graph joins them nowhere. The start's and the goal's segments to the nodes are
-// checked lazily, when a node comes out of the queue (the graph's own edges were checked when it was
-// built): the search stops as soon as no route through the remaining nodes can be shorter, so most of
-// them are never tested.
+// The shortest route from `start` to `goal` over graph g (search_route): writes its points (the goal last)
+// and returns true, or returns false where the graph joins them nowhere.
 bool shortest_route(const RouteGraph& g, const ObstacleView& obs, Vec2 start, Vec2 goal, std::vector<Vec2>& points) {
   const double d = g.inflation;
   // The start's and the goal's own clearance (a point inside a solid polygon sees nothing anyway: every
   // segment out of it crosses an edge).
   const EdgeSet& walls = g.walls;
-  auto visible = [&](Vec2 a, Vec2 b, double c) { return segment_clear(walls, obs, a, b, c); };  // c > 0 here
   // the direct test's pass over the edges gives the start's and the goal's clearance too
   double start_clearance, goal_clearance;
   const double direct = segment_clearance(walls, obs, start, goal, start_clearance, goal_clearance);
@@ -160,45 +172,10 @@ bool shortest_route(const RouteGraph& g, const ObstacleView& obs, Vec2 start, Ve
     points.push_back(goal);
     return true;
   }
-  const int n = static_cast<int>(g.node.size());
-  thread_local std::vector<int> prev;
-  thread_local std::vector<uint8_t> settled;
-  thread_local std::vector<Entry> heap;
-  thread_local std::vector<double> to_goal;  // the nodes' straight distances to the goal
-  prev.assign(static_cast<size_t>(n), -1);
-  settled.assign(static_cast<size_t>(n), 0);
-  to_goal.resize(static_cast<size_t>(n));
-  heap.clear();
-  for (int i = 0; i < n; ++i) {
-    to_goal[i] = norm(goal - g.node[i]);
-    const double g0 = norm(g.node[i] - start);
-    heap.push_back({g0 + to_goal[i], g0, i, -1});
-  }
-  make_queue(heap);
-  double best = kInf;
+  thread_local SearchScratch scratch;
   int last = -1;
-  // The entry that stops the search (no route through the remaining nodes can be shorter) is looked at
-  // where it lies: taking it out would only cost a reordering.
-  while (!heap.empty() && !(heap.front().key >= best)) {
-    const Entry e = pop_queue(heap);
-    if (settled[e.node]) continue;
-    const Vec2 p = g.node[e.node];
-    if (e.pred < 0 && !visible(start, p, c_start)) continue;
-    settled[e.node] = 1;
-    prev[e.node] = e.pred;
-    if (e.g + to_goal[e.node] < best && visible(p, goal, c_goal)) {
-      best = e.g + to_goal[e.node];
-      last = e.node;
-    }
-    for (int k = g.first[e.node]; k < g.first[e.node + 1]; ++k) {
-      const int j = g.neighbour[k];
-      if (settled[j]) continue;
-      const double gj = e.g + g.length[k];
-      push_queue(heap, {gj + to_goal[j], gj, j, e.node});
-    }
-  }
-  if (last < 0) return false;
-  for (int i = last; i >= 0; i = prev[i]) points.push_back(g.node[i]);
+  if (!search_route(g, start, goal, c_start, c_goal, walls, obs, scratch, last)) return false;
+  for (int i = last; i >= 0; i = scratch.prev[i]) points.push_back(g.node[i]);
   std::reverse(points.begin(), points.end());
   points.push_back(goal);
   return true;
@@ -408,6 +385,33 @@ EdgeSet compact_edges(const ObstacleView& obstacles) {
   build_edge_arrays(own.data(), e.stride, e.soa.data());
   return e;
 }
+
+namespace {
+
+// Whether the segment [a, b] properly crosses edge i of `edges`: the crossing test of
+// lane_edge_distances_sq, operation for operation, for that edge alone (a crossing makes the segment's
+// distance 0 there, whatever the other edges).
+bool crosses_edge(const EdgeSet& edges, int i, Vec2 a, Vec2 b) {
+  const double* px = edges.soa.data();
+  const int n = edges.stride;
+  const double x = px[i], y = px[n + i], ex = px[2 * n + i], ey = px[3 * n + i];
+  const double abx = b.x - a.x, aby = b.y - a.y;
+  const double ax = a.x - x, ay = a.y - y;
+  const double bx = b.x - x, by = b.y - y;
+  const double qx = x + ex - a.x, qy = y + ey - a.y;
+  const double s1 = aby * ax - abx * ay, s2 = abx * qy - aby * qx;
+  const double s3 = ex * ay - ey * ax, s4 = ex * by - ey * bx;
+  return (s1 * s2 < 0.0) & (s3 * s4 < 0.0);
+}
+
+// The first edge the segment [a, b] properly crosses, -1 where it crosses none.
+int crossing_edge(const EdgeSet& edges, Vec2 a, Vec2 b) {
+  for (int i = 0; i < edges.count; ++i)
+    if (crosses_edge(edges, i, a, b)) return i;
+  return -1;
+}
+
+}  // namespace
 
 double segment_clearance(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b) {
   if (edges.count == 0) return kInf;
@@ -723,6 +727,7 @@ void RouteFollower::replan(const ObstacleView& obstacles, Vec2 start, Vec2 goal,
 
 void RouteFollower::sync() {
   const int n = static_cast<int>(route.point.size());
+  points = route.found ? n : 0;
   if (index < 0 || index >= n) return;  // (no route yet)
   aim = route.point[index];
   aim_remaining = route.remaining[index];
@@ -732,7 +737,7 @@ void RouteFollower::sync() {
 Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance,
                            int step, double dt, int agent) {
   const Vec2 ahead = route_target(obstacles, position, goal, radius, clearance);
-  if (!route.found) return ahead;
+  if (points == 0) return ahead;
   const double remaining = norm(aim - position) + aim_remaining;
   if (step != last_step) {
     last_step = step;
@@ -759,14 +764,17 @@ Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 go
 
 Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius,
                                  double clearance) {
-  if (!route.found) return goal;
+  if (points == 0) return goal;              // no route: straight for the goal
   const EdgeSet& walls = wide_graph->walls;  // planned: the graph is held
-  const int n = static_cast<int>(route.point.size());
+  const int n = points;
   // The two tests below are skipped where their answer is known from an earlier step: a segment's clearance,
   // and the agent's own, change by at most as much as the agent moved (both are 1-Lipschitz in its position).
   bool advanced = false;
   double own = -1.0;  // the agent's own clearance, computed when a test needs it
-  if (index + 1 < n && !(blocked_margin > 0.0 && norm(position - blocked_from) < blocked_margin)) {
+  if (index + 1 < n && !(blocked_margin > 0.0 && norm(position - blocked_from) < blocked_margin) &&
+      !(blocking >= 0 && crosses_edge(walls, blocking, position, next_aim))) {
+    // (Above: the next point is still hidden where the segment to it crosses the wall edge that hid it
+    // last time: its distance is 0, below any c_advance, so the full test would find it hidden too.)
     // Advance to the farthest point seen with half the planned clearance, or with the agent's own where a
     // neighbour pressed it closer to a wall than that.
     double next_clearance;  // (not needed)
@@ -778,6 +786,7 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
         // distance moved, c_advance loses at most 0.99 of it).
         blocked_from = position;
         blocked_margin = (c_advance - seen) / 1.99;
+        blocking = seen == 0.0 ? crossing_edge(walls, position, route.point[index + 1]) : -1;
         break;
       }
       ++index;
@@ -812,7 +821,7 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
     }
   }
   // (after a re-plan, a route of another length)
-  return heading_point(index + 1 >= static_cast<int>(route.point.size()), aim, aim_remaining, next_aim, position, goal);
+  return heading_point(index + 1 >= points, aim, aim_remaining, next_aim, position, goal);
 }
 
 }  // namespace socialnav

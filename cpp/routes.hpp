@@ -6,8 +6,9 @@
 // paths among polyhedral obstacles", Commun. ACM 22(10), 1979; with the configuration-space offset of the
 // same paper). Nodes sit at distance >= d from every edge, beside each convex corner (a wall's ends
 // included); two nodes are joined where the straight segment between them keeps >= d from every edge. Per
-// agent: the shortest route from where it stands to its goal (Dijkstra over the graph, the start and the
-// goal joined to the nodes they see). Per step: the agent heads for the farthest route point it sees with
+// agent: the shortest route from where it stands to its goal (A* over the graph, the start and the goal
+// joined to the nodes they see; of routes of exactly equal length, the one a fixed rule picks, routes.cpp's
+// search_route). Per step: the agent heads for the farthest route point it sees with
 // clearance (string pulling), and re-plans from where it stands once the point it heads for is hidden.
 #pragma once
 
@@ -130,27 +131,31 @@ constexpr double kProgress = 0.2;                        // [m]
 constexpr double kPatience = 3.0;                        // [s]
 constexpr double kYieldTimes[4] = {1.0, 2.5, 4.0, 5.5};  // [s]
 
-// One agent following its route: which point it heads for, re-planning when that point is hidden.
-struct RouteFollower {
-  Route route;
-  int index = 0;                                               // the route point it heads for
-  int replans = 0;                                             // re-plans since the route was first planned
-  int yields = 0;                                              // times it gave way
-  double best_remaining = 0.0;                                 // the shortest remaining route length so far [m]
-  double stalled = 0.0;                                        // time since it last came kProgress closer [s]
-  double yielding = 0.0;                                       // time left stepping back [s]
-  int last_step = -1;                                          // the step the timers were last advanced at
-  std::shared_ptr<const RouteGraph> wide_graph, narrow_graph;  // the map's graphs (radius + clearance, radius)
-  std::shared_ptr<const void> held_map;                        // the map they belong to (plan's `map`)
-  // What the last tests showed (route_target): from seen_from the point headed for was in sight with
-  // seen_margin to spare, from blocked_from the next one was hidden by blocked_margin (< 0: not known).
-  Vec2 seen_from, blocked_from;
-  double seen_margin = -1.0, blocked_margin = -1.0;
+// One agent following its route: which point it heads for, re-planning when that point is hidden. The
+// fields a step reads come first, in the first two of its cache lines (the struct starts one), then the
+// graph it tests against: a step that neither advances nor re-plans touches three lines of it.
+struct alignas(64) RouteFollower {
   // route.point[index], route.remaining[index] and route.point[index + 1] (the goal where there is none),
   // held here: a step that neither advances nor re-plans reads no route array (each follower's arrays are
   // heap blocks of their own, a cache miss apiece at a batch's scale). sync() sets them from the route.
   Vec2 aim, next_aim;
+  // What the last tests showed (route_target): from seen_from the point headed for was in sight with
+  // seen_margin to spare, from blocked_from the next one was hidden by blocked_margin (< 0: not known).
+  Vec2 seen_from, blocked_from;
   double aim_remaining = 0.0;
+  double seen_margin = -1.0, blocked_margin = -1.0;
+  double best_remaining = 0.0;  // the shortest remaining route length so far [m]
+  double stalled = 0.0;         // time since it last came kProgress closer [s]
+  double yielding = 0.0;        // time left stepping back [s]
+  int index = 0;                // the route point it heads for
+  int yields = 0;               // times it gave way
+  int last_step = -1;           // the step the timers were last advanced at
+  int points = 0;               // route.point.size() where a route was found, else 0 (sync() sets it)
+  std::shared_ptr<const RouteGraph> wide_graph, narrow_graph;  // the map's graphs (radius + clearance, radius)
+  std::shared_ptr<const void> held_map;                        // the map they belong to (plan's `map`)
+  int blocking = -1;  // a wall edge the segment to the next point crossed when last found hidden (-1: none)
+  Route route;
+  int replans = 0;  // re-plans since the route was first planned
 
   // Refreshes the copies above after `route` or `index` were set from outside (a restored state).
   void sync();

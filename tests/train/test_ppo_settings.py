@@ -81,7 +81,7 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     assert recorded == plain
 
 
-@pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route", "ppo_lidar_safe"])
+@pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route"])
 def test_shipped_configs_round_trip_through_to_dict(name):
     settings = load_ppo_settings(name)
     again = PPOSettings.from_dict(settings.to_dict())

@@ -12,7 +12,7 @@ them and to users, for one map at a time::
     route.points  # the points to pass, the goal last: through the door
 
 The planner is a visibility graph over the walls' corners offset by the agent's radius plus a clearance
-(Lozano-Pérez & Wesley 1979), shortest routes by Dijkstra; see ``cpp/routes.hpp``.
+(Lozano-Pérez & Wesley 1979), shortest routes by A* (Hart, Nilsson & Raphael 1968); see ``cpp/routes.hpp``.
 """
 
 from __future__ import annotations
