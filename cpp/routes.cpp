@@ -235,6 +235,17 @@ SOCIALNAV_INLINE inline double chunked_min(int n, Distance distance) {
   return best;
 }
 
+// A proper crossing of the segment a + s (b - a) and the edge p + t e: p and q = p + e on opposite sides of
+// the segment's line, a and b on opposite sides of the edge's; (ax, ay) = a - p, (bx, by) = b - p, (qx, qy)
+// = q - a and (abx, aby) = b - a. For doubles or, lane by lane, for Lanes: every test that asks whether a
+// segment crosses an edge does this arithmetic, so that they agree to the bit.
+template <class T>
+SOCIALNAV_INLINE inline auto proper_crossing(T ax, T ay, T bx, T by, T qx, T qy, T ex, T ey, T abx, T aby) {
+  const T s1 = aby * ax - abx * ay, s2 = abx * qy - aby * qx;
+  const T s3 = ex * ay - ey * ax, s4 = ex * by - ey * bx;
+  return (s1 * s2 < T{}) & (s3 * s4 < T{});
+}
+
 // The smallest squared distance between the segment [a, b] and the view's edges, 0 where one crosses it:
 // branch-free over the edge arrays (a wall's return face repeats its own edge), so that the compiler
 // vectorises it, with an AVX2 clone chosen at load time (no contraction: the same values either way).
@@ -262,12 +273,7 @@ SOCIALNAV_ROUTES_AVX2_CLONE double min_edge_distance_sq(const double* __restrict
     const double dqx = qx - sq * abx, dqy = qy - sq * aby;
     const double dist = std::min(std::min(dax * dax + day * day, dbx * dbx + dby * dby),
                                  std::min(dpx * dpx + dpy * dpy, dqx * dqx + dqy * dqy));
-    // a proper crossing: p and q on opposite sides of the segment's line, a and b on opposite sides of the
-    // edge's
-    const double s1 = aby * ax - abx * ay, s2 = abx * qy - aby * qx;
-    const double s3 = ex[i] * ay - ey[i] * ax, s4 = ex[i] * by - ey[i] * bx;
-    const bool crossing = (s1 * s2 < 0.0) & (s3 * s4 < 0.0);
-    return crossing ? 0.0 : dist;
+    return proper_crossing(ax, ay, bx, by, qx, qy, ex[i], ey[i], abx, aby) ? 0.0 : dist;
   });
 }
 
@@ -315,10 +321,7 @@ SOCIALNAV_INLINE inline SegmentDistances lane_edge_distances_sq(const double* __
     const Lanes dqx = qx - sq * abx, dqy = qy - sq * aby;
     const Lanes da = dax * dax + day * day, db = dbx * dbx + dby * dby;
     const Lanes dist = lane_min(lane_min(da, db), lane_min(dpx * dpx + dpy * dpy, dqx * dqx + dqy * dqy));
-    const Lanes s1 = aby * ax - abx * ay, s2 = abx * qy - aby * qx;
-    const Lanes s3 = ex * ay - ey * ax, s4 = ex * by - ey * bx;
-    const auto crossing = (s1 * s2 < zero) & (s3 * s4 < zero);
-    best = lane_min(best, crossing ? zero : dist);
+    best = lane_min(best, proper_crossing(ax, ay, bx, by, qx, qy, ex, ey, abx, aby) ? zero : dist);
     if (kEnds) {
       best_a = lane_min(best_a, da);
       best_b = lane_min(best_b, db);
@@ -388,20 +391,13 @@ EdgeSet compact_edges(const ObstacleView& obstacles) {
 
 namespace {
 
-// Whether the segment [a, b] properly crosses edge i of `edges`: the crossing test of
-// lane_edge_distances_sq, operation for operation, for that edge alone (a crossing makes the segment's
-// distance 0 there, whatever the other edges).
+// Whether the segment [a, b] properly crosses edge i of `edges`: lane_edge_distances_sq's crossing test for
+// that edge alone (a crossing makes the segment's distance 0 there, whatever the other edges).
 bool crosses_edge(const EdgeSet& edges, int i, Vec2 a, Vec2 b) {
   const double* px = edges.soa.data();
   const int n = edges.stride;
   const double x = px[i], y = px[n + i], ex = px[2 * n + i], ey = px[3 * n + i];
-  const double abx = b.x - a.x, aby = b.y - a.y;
-  const double ax = a.x - x, ay = a.y - y;
-  const double bx = b.x - x, by = b.y - y;
-  const double qx = x + ex - a.x, qy = y + ey - a.y;
-  const double s1 = aby * ax - abx * ay, s2 = abx * qy - aby * qx;
-  const double s3 = ex * ay - ey * ax, s4 = ex * by - ey * bx;
-  return (s1 * s2 < 0.0) & (s3 * s4 < 0.0);
+  return proper_crossing(a.x - x, a.y - y, b.x - x, b.y - y, x + ex - a.x, y + ey - a.y, ex, ey, b.x - a.x, b.y - a.y);
 }
 
 // The first edge the segment [a, b] properly crosses, -1 where it crosses none.
