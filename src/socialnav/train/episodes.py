@@ -15,6 +15,20 @@ import numpy as np
 from socialnav.train.worlds import MultiWorld
 
 
+def collisions(terminated: np.ndarray, reward: np.ndarray, success_reward: float) -> np.ndarray:
+    """Which of a step's ended episodes ended in a collision (with a person or a wall).
+
+    Args:
+        terminated: (B,) bool, ended by success or collision.
+        reward: (B,) the step's rewards (success is the one equal to ``success_reward``).
+        success_reward: the preset's success reward.
+
+    Returns:
+        (B,) bool.
+    """
+    return terminated & ~np.isclose(reward, success_reward)
+
+
 @dataclass
 class EpisodeStats:
     """Outcomes of finished episodes (success, collision, timeout) and success times."""
@@ -56,9 +70,10 @@ class EpisodeStats:
             time: (B,) episode time at the end [s].
             success_reward: the preset's success reward.
         """
-        succ = terminated & np.isclose(reward, success_reward)
+        collided = collisions(terminated, reward, success_reward)
+        succ = terminated & ~collided
         self.success += int(succ.sum())
-        self.collision += int((terminated & ~succ).sum())
+        self.collision += int(collided.sum())
         self.timeout += int(truncated.sum())
         self.success_time += float(time[succ].sum())
 

@@ -40,6 +40,7 @@ import torch
 from socialnav._progress import progress_bar
 from socialnav.presets import Preset
 from socialnav.sim.settings import HEADED_KINEMATICS
+from socialnav.train.episodes import collisions
 from socialnav.train.optim import TrainingDiverged
 from socialnav.train.ppo.loss import gaussian_entropy, gaussian_log_prob, ppo_loss
 from socialnav.train.ppo.run import PPO_CURVE_COLUMNS, PPO_STREAM_OFFSET, PPORun, setup_ppo_run
@@ -293,8 +294,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             # CrowdNav++'s potential term: goal_shaping x (metres gained towards the goal this step)
             shaped = reward + s.goal_shaping * (goal_before - distance(final))
             if s.collision_penalty is not None:
-                # a terminal step that is not a success is a collision (a person's or a wall's)
-                collided = term & (reward != success_reward)
+                collided = collisions(term, reward, success_reward)
                 shaped[collided] += s.collision_penalty - reward[collided]
             if s.turn_penalty and kinematics in HEADED_KINEMATICS:
                 # CrowdNav++'s rotational penalty on a unicycle, on the heading change commanded: without
