@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import dataclasses
-from importlib import resources
 
 import numpy as np
 import pytest
@@ -15,11 +13,11 @@ from socialnav.train.ppo.algorithm import collect_rollout
 from socialnav.train.ppo.run import setup_ppo_run
 from socialnav.train.ppo.settings import load_ppo_settings
 from socialnav.train.ppo.state import initial_state
+from tests.train.ppo_smoke import ppo_smoke
 
 
 def _smoke(**changes):
-    path = resources.files("socialnav.configs.train") / "ppo_smoke.yaml"
-    return dataclasses.replace(load_ppo_settings(str(path)), bootstrap_timeouts=False, **changes)
+    return ppo_smoke(bootstrap_timeouts=False, **changes)
 
 
 def _first_rollout(tmp_path, settings):

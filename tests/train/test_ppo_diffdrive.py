@@ -3,7 +3,6 @@ uninterrupted run, and its checkpoint is refused under other limits (docs/kinema
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from importlib import resources
 
@@ -21,13 +20,8 @@ from socialnav.scenarios import make_scenario  # noqa: E402
 from socialnav.settings import ConfigError  # noqa: E402
 from socialnav.sim import World, WorldSettings  # noqa: E402
 from socialnav.train.ppo.algorithm import train_ppo  # noqa: E402
-from socialnav.train.ppo.settings import load_ppo_settings  # noqa: E402
 from tests.train.bit_identical_runs import run_digests  # noqa: E402
-
-
-def _smoke(policy: str = "crowdnav_pp"):
-    path = resources.files("socialnav.configs.train") / "ppo_smoke.yaml"
-    return dataclasses.replace(load_ppo_settings(str(path)), policy=policy)
+from tests.train.ppo_smoke import ppo_smoke  # noqa: E402
 
 
 def _observation(kinematics: str, steps: int = 2):
@@ -54,13 +48,13 @@ def test_the_network_reads_the_features_then_the_twist():
 
 def test_a_network_without_twist_inputs_is_refused_for_a_diff_drive(tmp_path):
     with pytest.raises(ConfigError, match="ppo_mlp.*cannot read a differential drive"):
-        train_ppo(load_preset("wang2022_diffdrive"), tmp_path / "run", _smoke("ppo_mlp"), progress=False,
-                  log=lambda _: None)
+        train_ppo(load_preset("wang2022_diffdrive"), tmp_path / "run", ppo_smoke(policy="ppo_mlp"),
+                  progress=False, log=lambda _: None)
 
 
 def test_trained_resumed_and_evaluated_on_the_diff_drive(tmp_path, capsys):
     preset = load_preset("wang2022_diffdrive")
-    s = _smoke()
+    s = ppo_smoke()
     train_ppo(preset, tmp_path / "whole", s, progress=False, log=lambda _: None)
     # stopped mid-episode (8-step rollouts): the resumed robots go on from the twist they had
     train_ppo(preset, tmp_path / "split", s, progress=False, stop_after=2, log=lambda _: None)
@@ -101,7 +95,7 @@ def test_turn_penalty_takes_the_commanded_turn_squared_from_each_reward(tmp_path
 
     rollouts = []
     for penalty in (0.0, 0.05):
-        s = dataclasses.replace(_smoke(), turn_penalty=penalty, bootstrap_timeouts=False)
+        s = ppo_smoke(turn_penalty=penalty, bootstrap_timeouts=False)
         with contextlib.ExitStack() as stack:
             run = setup_ppo_run(preset, tmp_path / f"run{penalty}", s, stack, progress=False,
                                 log=lambda _: None)
@@ -126,5 +120,6 @@ def test_a_holonomic_run_neither_records_nor_uses_the_turn_penalty(tmp_path):
     from socialnav.train.ppo.run import setup_ppo_run
 
     with contextlib.ExitStack() as stack:
-        run = setup_ppo_run("wang2022", tmp_path / "run", _smoke(), stack, progress=False, log=lambda _: None)
+        run = setup_ppo_run("wang2022", tmp_path / "run", ppo_smoke(), stack, progress=False,
+                            log=lambda _: None)
         assert "turn_penalty" not in run.config["train"] and run.settings.turn_penalty == 0.05625

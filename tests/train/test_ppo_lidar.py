@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from importlib import resources
 
 import numpy as np
 import pytest
@@ -20,16 +19,15 @@ from socialnav.policies.learned_catalog import learned_policy_names
 from socialnav.scenarios import make_scenario
 from socialnav.sim import SensingSettings, World, WorldSettings
 from socialnav.train.ppo.algorithm import train_ppo
-from socialnav.train.ppo.settings import load_ppo_settings
 from tests.train.bit_identical_runs import run_digests
+from tests.train.ppo_smoke import ppo_smoke
 from tests.train.walled_preset import write_walled_preset
 
 MIX = ["narrow_hallway", "circle_crossing_obstacles"]
 
 
 def _smoke():
-    path = resources.files("socialnav.configs.train") / "ppo_smoke.yaml"
-    return dataclasses.replace(load_ppo_settings(str(path)), policy="lidar_ppo", lidar_beams=36)
+    return ppo_smoke(policy="lidar_ppo", lidar_beams=36)
 
 
 @pytest.fixture()

@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
-from importlib import resources
 
 import numpy as np
 import pytest
@@ -23,21 +22,16 @@ from socialnav.settings import ConfigError
 from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.train.ppo.algorithm import collect_rollout, train_ppo
 from socialnav.train.ppo.run import setup_ppo_run
-from socialnav.train.ppo.settings import load_ppo_settings
 from socialnav.train.ppo.state import initial_state
 from socialnav.train.ppo.worlds import step_worlds
 from socialnav.train.worlds import MultiWorld, ppo_policy_config
 from tests.train.bit_identical_runs import run_digests
+from tests.train.ppo_smoke import ppo_smoke
 from tests.train.walled_preset import write_walled_preset
 
 #: a fixed-layout hallway with one person and the circle crossing among pillars drawn per episode
 MIX = ["narrow_hallway", "circle_crossing_obstacles"]
 K = ObstaclePoints().count
-
-
-def _smoke(policy="crowdnav_pp"):
-    path = resources.files("socialnav.configs.train") / "ppo_smoke.yaml"
-    return dataclasses.replace(load_ppo_settings(str(path)), policy=policy)
 
 
 @pytest.fixture()
@@ -54,7 +48,7 @@ def test_only_a_mix_with_walls_records_an_encoding():
 
 def test_the_rollout_stores_the_points_after_the_human_slots(tmp_path, walls_preset):
     with contextlib.ExitStack() as stack:
-        run = setup_ppo_run(walls_preset, tmp_path / "run", _smoke(), stack, progress=False,
+        run = setup_ppo_run(walls_preset, tmp_path / "run", ppo_smoke(), stack, progress=False,
                             log=lambda _: None)
         assert run.obstacle_encoding == ObstaclePoints() and run.n_slots == run.n_humans + K
         state = initial_state(run)
@@ -106,7 +100,7 @@ def test_a_step_keeps_each_episodes_map(walls_preset):
 def test_a_run_resumed_among_walls_ends_as_an_uninterrupted_one(tmp_path, walls_preset, policy):
     """Stopped mid-episode and resumed: the episodes in flight get their maps (pillars drawn per
     episode, the hallway's layout) back, so the files are those of the run that was not stopped."""
-    s = _smoke(policy)
+    s = ppo_smoke(policy=policy)
     train_ppo(walls_preset, tmp_path / "whole", s, progress=False, log=lambda _: None)
     train_ppo(walls_preset, tmp_path / "split", s, progress=False, stop_after=2, log=lambda _: None)
     train_ppo(walls_preset, tmp_path / "split", s, progress=False, log=lambda _: None)
@@ -153,8 +147,9 @@ def test_a_record_whose_network_cannot_take_point_slots_is_refused_among_walls(
                                network_kwargs=two_argument_kwargs)
     catalog.register_learned_policy(spec)
     with pytest.raises(ConfigError, match="'old_mlp': its record's network_kwargs takes no obstacle_slots"):
-        train_ppo(walls_preset, tmp_path / "run", _smoke("old_mlp"), progress=False, log=lambda _: None)
+        train_ppo(walls_preset, tmp_path / "run", ppo_smoke(policy="old_mlp"), progress=False,
+                  log=lambda _: None)
     assert not (tmp_path / "run").exists()
     # on an open floor it trains as before
-    s = dataclasses.replace(_smoke("old_mlp"), total_env_steps=64)
+    s = ppo_smoke(policy="old_mlp", total_env_steps=64)
     assert train_ppo("crowdnav", tmp_path / "open", s, progress=False, log=lambda _: None).finished

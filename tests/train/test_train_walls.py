@@ -4,8 +4,6 @@ encoding, and it is evaluated under the walled preset without a mismatch."""
 
 from __future__ import annotations
 
-from importlib import resources
-
 import numpy as np
 import pytest
 import torch
@@ -18,6 +16,7 @@ from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.train.value.settings import load_train_settings
 from socialnav.train.value.trainer import train
 from socialnav.train.worlds import MultiWorld
+from tests.train.ppo_smoke import ppo_smoke
 from tests.train.walled_preset import write_walled_preset
 
 TINY = """\
@@ -111,13 +110,12 @@ def test_ppo_trains_on_the_walled_mix_with_its_fixed_crowds(tmp_path, walls_pres
     """The PPO trainer steps the same mix: a crowd of 3 beside a preset count of 2 gets 3 slots, and
     the scenarios that do not fix their crowd keep the preset's 2."""
     from socialnav.train.ppo.algorithm import train_ppo
-    from socialnav.train.ppo.settings import load_ppo_settings
 
     data = yaml.safe_load(open(walls_preset))
     data["training"]["n_humans"] = 2
     preset = tmp_path / "two.yaml"
     preset.write_text(yaml.safe_dump(data))
-    settings = load_ppo_settings(str(resources.files("socialnav.configs.train") / "ppo_smoke.yaml"))
+    settings = ppo_smoke()
     result = train_ppo(str(preset), tmp_path / "ppo", settings, progress=False)
     assert result.finished
     config = yaml.safe_load((tmp_path / "ppo" / "config.yaml").read_text())
