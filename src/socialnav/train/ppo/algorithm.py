@@ -240,7 +240,8 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     Rewards get CrowdNav++'s potential term (``goal_shaping`` × metres gained towards the goal; along
     its route around the walls for a network with ``route_goal``), on a unicycle or differential drive
     its rotational penalty (``turn_penalty`` × dθ²), with ``collision_penalty`` set that reward on a
-    collision in place of the preset's, and,
+    collision in place of the preset's (moved towards it linearly over the updates between
+    ``collision_penalty_ramp_start`` and ``_end``), and,
     with ``bootstrap_timeouts``, γ·V(final state) on a timeout.
 
     Args:
@@ -260,6 +261,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     rotation_limit, success_reward = run.preset.world.rotation_limit, run.preset.world.reward.success_reward
     reverse = run.preset.world.diff_drive.max_reverse_speed if kinematics == "diff_drive" else 0.0
     T = s.rollout_steps
+    collision_weight = s.collision_weight(state.update, run.n_updates)  # (1.0 without a ramp)
     # a network heading along its route gains the metres it walks along the route
     distance = route_distance if getattr(net, "route_goal", False) else (lambda o: goal_distance(o.robot))
     t0 = time.perf_counter()
@@ -295,7 +297,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             shaped = reward + s.goal_shaping * (goal_before - distance(final))
             if s.collision_penalty is not None:
                 collided = collisions(term, reward, success_reward)
-                shaped[collided] += s.collision_penalty - reward[collided]
+                shaped[collided] += collision_weight * (s.collision_penalty - reward[collided])
             if s.turn_penalty and kinematics in HEADED_KINEMATICS:
                 # CrowdNav++'s rotational penalty on a unicycle, on the heading change commanded: without
                 # it the network can learn to weave between its turn limits (docs/kinematics.md)
