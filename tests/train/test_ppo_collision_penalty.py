@@ -61,20 +61,26 @@ def _rollout_at(tmp_path, settings, update):
         return collect_rollout(run, state), run
 
 
-@pytest.mark.parametrize(("update", "weight"), [(0, 0.0), (25, 0.0), (40, 0.3), (50, 0.5), (75, 1.0), (99, 1.0)])
+@pytest.mark.parametrize(
+    ("update", "weight"), [(0, 0.0), (25, 0.0), (40, 0.3), (50, 0.5), (75, 1.0), (99, 1.0)]
+)
 def test_the_ramp_moves_a_collision_s_reward_linearly_between_its_start_and_end(update, weight):
-    s = load_ppo_settings(collision_penalty=-1.0, collision_penalty_ramp_start=0.25, collision_penalty_ramp_end=0.75)
+    s = load_ppo_settings(
+        collision_penalty=-1.0, collision_penalty_ramp_start=0.25, collision_penalty_ramp_end=0.75
+    )
     assert s.collision_weight(update, 100) == pytest.approx(weight, abs=1e-12)
-    assert load_ppo_settings(collision_penalty=-1.0).collision_weight(update, 100) == 1.0  # no ramp: from the start
+    no_ramp = load_ppo_settings(collision_penalty=-1.0)
+    assert no_ramp.collision_weight(update, 100) == 1.0  # from the first update
 
 
 def test_halfway_up_the_ramp_a_collision_earns_halfway_between_the_presets_and_the_penalty(tmp_path):
-    """Same rollout (rewards do not steer it): before the ramp the rewards are the preset's, halfway they are
-    lower by half of (0.75 = -0.25 - -1) on the collision steps and nowhere else, and the record names the ramp."""
+    """Same rollout (rewards do not steer it): before the ramp the rewards are the preset's, halfway they
+    are lower by half of 0.75 (-0.25 - -1) on the collision steps and nowhere else; the record names the
+    ramp."""
     ramp = dict(collision_penalty=-1.0, collision_penalty_ramp_start=0.2, collision_penalty_ramp_end=0.6)
     plain, _ = _rollout_at(tmp_path / "plain", _smoke(), 4)
     before, _ = _rollout_at(tmp_path / "before", _smoke(**ramp), 1)
-    halfway, run = _rollout_at(tmp_path / "halfway", _smoke(**ramp), 4)  # 4 of 10 done: halfway from 0.2 to 0.6
+    halfway, run = _rollout_at(tmp_path / "halfway", _smoke(**ramp), 4)  # 4 of 10 done: from 0.2 to 0.6
     torch.testing.assert_close(plain.raws, halfway.raws, rtol=0, atol=0)
     torch.testing.assert_close(plain.rewards, before.rewards, rtol=0, atol=0)
     lower = (plain.rewards - halfway.rewards).numpy()

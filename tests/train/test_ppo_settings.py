@@ -78,10 +78,12 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     assert plain.pop("nonholonomic_log_std_init") == -1.0  # the differential drive's, added later
     assert plain.pop("turn_penalty") == 0.05625  # a unicycle's and differential drive's, added later
     assert plain.pop("collision_penalty") is None  # training's collision reward, added later
+    ramp = (plain.pop("collision_penalty_ramp_start"), plain.pop("collision_penalty_ramp_end"))
+    assert ramp == (0.0, 0.0)  # its ramp, added later
     assert recorded == plain
 
 
-@pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route"])
+@pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route", "ppo_lidar_ramp"])
 def test_shipped_configs_round_trip_through_to_dict(name):
     settings = load_ppo_settings(name)
     again = PPOSettings.from_dict(settings.to_dict())

@@ -113,14 +113,15 @@ class PPOSettings(Settings):
         le=0, record_default=False,
     )
     collision_penalty_ramp_start: float = setting(
-        0.0, "with collision_penalty: the share of the updates after which a collision's reward starts to move "
-        "from the preset's towards collision_penalty (docs/ppo.md, \"Reward\"; left out of records while 0)",
+        0.0, "with collision_penalty: the share of the updates after which a collision's reward starts to "
+        "move from the preset's towards collision_penalty (docs/ppo.md, \"Reward\"; left out of records "
+        "while 0)",
         ge=0, le=1, record_default=False,
     )
     collision_penalty_ramp_end: float = setting(
-        0.0, "with collision_penalty: the share of the updates from which a collision earns collision_penalty, "
-        "reached linearly from collision_penalty_ramp_start (0: from the first update; left out of records "
-        "while 0)",
+        0.0, "with collision_penalty: the share of the updates from which a collision earns "
+        "collision_penalty, reached linearly from collision_penalty_ramp_start (0: from the first update; "
+        "left out of records while 0)",
         ge=0, le=1, record_default=False,
     )
     bootstrap_timeouts: bool = setting(True, "a timeout's last reward adds γ·V(final state) (a truncation)")
@@ -174,15 +175,17 @@ class PPOSettings(Settings):
                         "environment sequences")
         ramped = self.collision_penalty_ramp_start > 0 or self.collision_penalty_ramp_end > 0
         if ramped and self.collision_penalty is None:
-            self.refuse("collision_penalty_ramp_end", "needs collision_penalty: the ramp leads from the preset's "
-                        "collision reward to it")
+            self.refuse("collision_penalty_ramp_end", "needs collision_penalty: the ramp leads from the "
+                        "preset's collision reward to it")
         if self.collision_penalty_ramp_start > self.collision_penalty_ramp_end:
             self.refuse("collision_penalty_ramp_start", f"must be <= collision_penalty_ramp_end "
                         f"({self.collision_penalty_ramp_end})")
 
     def collision_weight(self, update: int, n_updates: int) -> float:
-        """How far a collision's reward has moved from the preset's to ``collision_penalty`` (0 to 1) in the
-        rollout of update ``update + 1`` of ``n_updates``: linear between the ramp's start and end."""
+        """How far a collision's reward has moved from the preset's to ``collision_penalty`` (0 to 1).
+
+        In the rollout of update ``update + 1`` of ``n_updates``: linear between the ramp's start and end.
+        """
         done = update / max(n_updates, 1)
         start, end = self.collision_penalty_ramp_start, self.collision_penalty_ramp_end
         if done >= end:
