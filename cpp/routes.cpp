@@ -689,11 +689,11 @@ void route_distances(const ObstacleView& obstacles, const Vec2* points, int n, V
 }
 
 void RouteFollower::plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance,
-                         std::shared_ptr<const void> map) {
+                         const std::shared_ptr<const PreparedObstacles>& map) {
   if (!map || map != held_map) {  // another map (or one not known): its graphs are looked up afresh
     wide_graph.reset();
     narrow_graph.reset();
-    held_map = std::move(map);
+    held_map = map;
   }
   start_over(obstacles, start, goal, radius, clearance);
   replans = 0;

@@ -152,7 +152,7 @@ struct alignas(64) RouteFollower {
   int last_step = -1;           // the step the timers were last advanced at
   int points = 0;               // route.point.size() where a route was found, else 0 (sync() sets it)
   std::shared_ptr<const RouteGraph> wide_graph, narrow_graph;  // the map's graphs (radius + clearance, radius)
-  std::shared_ptr<const void> held_map;                        // the map they belong to (plan's `map`)
+  std::shared_ptr<const PreparedObstacles> held_map;           // the map they belong to (plan's `map`)
   int blocking = -1;  // a wall edge the segment to the next point crossed when last found hidden (-1: none)
   Route route;
   int replans = 0;  // re-plans since the route was first planned
@@ -161,9 +161,11 @@ struct alignas(64) RouteFollower {
   void sync();
 
   // `map`: the object that owns `obstacles` where the caller has one (the world's slot map); a follower
-  // planning again on the same one keeps the graphs it holds instead of looking them up.
+  // planning again on the same one keeps the graphs it holds instead of looking them up (and takes no
+  // copy of `map`: every slot's followers share it, and a copy's reference count is one atomic counter
+  // that all threads would write).
   void plan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance,
-            std::shared_ptr<const void> map = nullptr);
+            const std::shared_ptr<const PreparedObstacles>& map = nullptr);
   // The point to hand the behaviour's preferred-velocity law (behaviour.hpp) at step `step` of length dt
   // [s] for agent `agent`: heading_point of its route point; while giving way, a point behind it. Calls for the same
   // step (a preview, then the step) advance the timers once.
