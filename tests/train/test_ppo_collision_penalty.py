@@ -69,6 +69,10 @@ def test_the_ramp_moves_a_collision_s_reward_linearly_between_its_start_and_end(
         collision_penalty=-1.0, collision_penalty_ramp_start=0.25, collision_penalty_ramp_end=0.75
     )
     assert s.collision_weight(update, 100) == pytest.approx(weight, abs=1e-12)
+    step = load_ppo_settings(
+        collision_penalty=-1.0, collision_penalty_ramp_start=0.5, collision_penalty_ramp_end=0.5
+    )
+    assert step.collision_weight(update, 100) == (1.0 if update >= 50 else 0.0)  # a ramp of no length: a step
     no_ramp = load_ppo_settings(collision_penalty=-1.0)
     assert no_ramp.collision_weight(update, 100) == 1.0  # from the first update
 

@@ -190,7 +190,9 @@ class PPOSettings(Settings):
         start, end = self.collision_penalty_ramp_start, self.collision_penalty_ramp_end
         if done >= end:
             return 1.0
-        return max(0.0, (done - start) / (end - start))
+        if done <= start:
+            return 0.0
+        return (done - start) / (end - start)
 
     @property
     def batch_steps(self) -> int:
