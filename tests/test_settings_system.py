@@ -164,7 +164,8 @@ def test_to_dict_is_the_plain_dataclass_dict_that_manifests_hash(cls):
 #: Settings added after records were made, with a default other than None (it then means "as before").
 UNRECORDED_DEFAULTS = {"human_routes": "none", "route_clearance": 0.2,
                        "lidar_beams": 180, "lidar_range": 10.0, "lidar_history": 1, "lidar_route_goal": False,
-                       "nonholonomic_log_std_init": -1.0, "turn_penalty": 0.05625}
+                       "nonholonomic_log_std_init": -1.0, "turn_penalty": 0.05625,
+                       "collision_penalty_ramp_start": 0.0, "collision_penalty_ramp_end": 0.0}
 #: Sections declared with record_default=False: left out while they hold their defaults.
 UNRECORDED_SECTIONS = {"sensing": "SensingSettings", "diff_drive": "DiffDriveSettings"}
 
@@ -251,7 +252,8 @@ def _nest(flat: dict[str, Any]) -> dict[str, Any]:
 
 #: The messages of the rules between fields of the classes below (each class's cross_check).
 CROSS_FIELD_RULES = ("steps per episode, more than", "<= rl.capacity", "with wheels under 0.5 m",
-                     "multiple of network.attn_heads", "<= n_envs")
+                     "multiple of network.attn_heads", "<= n_envs", "needs collision_penalty",
+                     "<= collision_penalty_ramp_end")
 
 
 @pytest.mark.parametrize("cls", [WorldSettings, TrainSettings, SweepSettings, EvaluateJobSettings,

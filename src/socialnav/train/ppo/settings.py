@@ -173,10 +173,11 @@ class PPOSettings(Settings):
         if self.minibatches > self.n_envs:
             self.refuse("minibatches", f"must be <= n_envs ({self.n_envs}): a minibatch is a set of whole "
                         "environment sequences")
-        ramped = self.collision_penalty_ramp_start > 0 or self.collision_penalty_ramp_end > 0
-        if ramped and self.collision_penalty is None:
-            self.refuse("collision_penalty_ramp_end", "needs collision_penalty: the ramp leads from the "
-                        "preset's collision reward to it")
+        if self.collision_penalty is None:
+            for ramp in ("collision_penalty_ramp_start", "collision_penalty_ramp_end"):
+                if getattr(self, ramp) > 0:
+                    self.refuse(ramp, "needs collision_penalty: the ramp leads from the preset's collision "
+                                "reward to it")
         if self.collision_penalty_ramp_start > self.collision_penalty_ramp_end:
             self.refuse("collision_penalty_ramp_start", f"must be <= collision_penalty_ramp_end "
                         f"({self.collision_penalty_ramp_end})")
