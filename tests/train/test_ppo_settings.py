@@ -4,11 +4,15 @@ the YAML keys, defaults and to_dict() that checkpoints record are unchanged; eve
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 
 from socialnav.settings import ConfigError, ConfigTypeError
 from socialnav.train.ppo.settings import NetworkSettings, PPOSettings, load_ppo_settings
+
+#: The experiments' PPO configs (not shipped in the package).
+EXPERIMENTS = Path(__file__).resolve().parents[2] / "benchmarks" / "configs"
 
 
 @pytest.mark.parametrize(
@@ -83,9 +87,13 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     assert recorded == plain
 
 
-@pytest.mark.parametrize("name", ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route", "ppo_lidar_ramp"])
+@pytest.mark.parametrize(
+    "name",
+    ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route", "ppo_lidar_ramp.yaml", "ppo_lidar_gamma995.yaml"],
+)
 def test_shipped_configs_round_trip_through_to_dict(name):
-    settings = load_ppo_settings(name)
+    # (the .yaml files: the experiments' configs in benchmarks/configs)
+    settings = load_ppo_settings(EXPERIMENTS / name if name.endswith(".yaml") else name)
     again = PPOSettings.from_dict(settings.to_dict())
     assert again == settings and again.to_dict() == settings.to_dict()
 
