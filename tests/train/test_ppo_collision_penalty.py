@@ -21,18 +21,24 @@ def _smoke(**changes):
     return ppo_smoke(bootstrap_timeouts=False, **changes)
 
 
-def _first_rollout(tmp_path, settings):
+def _first_rollout(tmp_path, settings, update=0):
+    """The first rollout of a 10-update run, collected as if ``update`` of its updates were done; with
+    the run and its state."""
+    settings = dataclasses.replace(settings, total_env_steps=10 * settings.batch_steps)
     with contextlib.ExitStack() as stack:
         run = setup_ppo_run("wang2022", tmp_path, settings, stack, progress=False, log=lambda _: None)
+        assert run.n_updates == 10
         state = initial_state(run)
-        return collect_rollout(run, state), run.config["train"], state
+        state.update = update
+        return collect_rollout(run, state), run, state
 
 
 def test_a_collision_earns_the_set_penalty_and_nothing_else_changes(tmp_path):
     """The same first rollout (rewards do not steer it): every collision step's reward is -1 where the
     preset gives -0.25, every other reward is the same, and the episode statistics keep the preset's."""
-    plain, plain_record, plain_state = _first_rollout(tmp_path / "plain", _smoke())
-    harsh, harsh_record, harsh_state = _first_rollout(tmp_path / "harsh", _smoke(collision_penalty=-1.0))
+    plain, plain_run, plain_state = _first_rollout(tmp_path / "plain", _smoke())
+    harsh, harsh_run, harsh_state = _first_rollout(tmp_path / "harsh", _smoke(collision_penalty=-1.0))
+    plain_record, harsh_record = plain_run.config["train"], harsh_run.config["train"]
     torch.testing.assert_close(plain.raws, harsh.raws, rtol=0, atol=0)
     lower = (plain.rewards - harsh.rewards).numpy()
     collided = np.isclose(lower, 0.75, rtol=0, atol=1e-6)
@@ -48,17 +54,6 @@ def test_a_positive_collision_penalty_is_refused_naming_the_file_and_the_value(t
     path.write_text("collision_penalty: 0.5\n")
     with pytest.raises(ConfigError, match=r"collision_penalty .*0\.5"):
         load_ppo_settings(path)
-
-
-def _rollout_at(tmp_path, settings, update):
-    """The first rollout, collected as if ``update`` of the run's 10 updates were done."""
-    settings = dataclasses.replace(settings, total_env_steps=10 * settings.batch_steps)
-    with contextlib.ExitStack() as stack:
-        run = setup_ppo_run("wang2022", tmp_path, settings, stack, progress=False, log=lambda _: None)
-        assert run.n_updates == 10
-        state = initial_state(run)
-        state.update = update
-        return collect_rollout(run, state), run
 
 
 @pytest.mark.parametrize(
@@ -82,9 +77,9 @@ def test_halfway_up_the_ramp_a_collision_earns_halfway_between_the_presets_and_t
     are lower by half of 0.75 (-0.25 - -1) on the collision steps and nowhere else; the record names the
     ramp."""
     ramp = dict(collision_penalty=-1.0, collision_penalty_ramp_start=0.2, collision_penalty_ramp_end=0.6)
-    plain, _ = _rollout_at(tmp_path / "plain", _smoke(), 4)
-    before, _ = _rollout_at(tmp_path / "before", _smoke(**ramp), 1)
-    halfway, run = _rollout_at(tmp_path / "halfway", _smoke(**ramp), 4)  # 4 of 10 done: from 0.2 to 0.6
+    plain, _, _ = _first_rollout(tmp_path / "plain", _smoke(), 4)
+    before, _, _ = _first_rollout(tmp_path / "before", _smoke(**ramp), 1)
+    halfway, run, _ = _first_rollout(tmp_path / "halfway", _smoke(**ramp), 4)  # 4 of 10 done: 0.2 to 0.6
     torch.testing.assert_close(plain.raws, halfway.raws, rtol=0, atol=0)
     torch.testing.assert_close(plain.rewards, before.rewards, rtol=0, atol=0)
     lower = (plain.rewards - halfway.rewards).numpy()
