@@ -81,8 +81,26 @@ struct SearchScratch {
   std::vector<double> graph_key;  // a node's best entry through the graph so far (+inf: none)
   std::vector<double> graph_g;
   std::vector<int> graph_pred;
-  std::vector<double> key;  // min(start_key, graph_key) of an unsettled node, +inf once settled
+  std::vector<double> key;        // min(start_key, graph_key) of an unsettled node, +inf once settled (padded)
+  std::vector<double> block_min;  // the least key of each kKeyBlock nodes
 };
+
+// The keys are scanned in blocks: the block of least minimum first, then its nodes.
+constexpr int kKeyBlock = 8;
+
+SOCIALNAV_INLINE inline void refresh_block(SearchScratch& s, int i) {
+  const double* k = s.key.data() + (i / kKeyBlock) * kKeyBlock;
+  double m = k[0];
+  for (int j = 1; j < kKeyBlock; ++j) m = k[j] < m ? k[j] : m;
+  s.block_min[i / kKeyBlock] = m;
+}
+
+// This thread's scratch arrays, looked up once per search: a thread_local used in place would have its
+// address computed afresh (a call into the dynamic linker) after every call the search makes.
+__attribute__((noinline)) SearchScratch& thread_scratch() {
+  thread_local SearchScratch scratch;
+  return scratch;
+}
 
 // A* (P. E. Hart, N. J. Nilsson, B. Raphael, "A Formal Basis for the Heuristic Determination of Minimum Cost
 // Paths", IEEE Trans. SSC 4(2), 1968) from `start` to `goal` over graph g, the straight distance to the goal
@@ -107,32 +125,39 @@ bool search_route(const RouteGraph& g, Vec2 start, Vec2 goal, double c_start, do
   s.graph_key.assign(static_cast<size_t>(n), kInf);
   s.graph_g.resize(static_cast<size_t>(n));
   s.graph_pred.resize(static_cast<size_t>(n));
-  s.key.resize(static_cast<size_t>(n));
+  const int blocks = (n + kKeyBlock - 1) / kKeyBlock;
+  s.key.assign(static_cast<size_t>(blocks) * kKeyBlock, kInf);
+  s.block_min.resize(static_cast<size_t>(blocks));
   for (int i = 0; i < n; ++i) {
     s.to_goal[i] = norm(goal - g.node[i]);
     s.start_g[i] = norm(g.node[i] - start);
     s.start_key[i] = s.key[i] = s.start_g[i] + s.to_goal[i];
   }
+  for (int b = 0; b < blocks; ++b) refresh_block(s, b * kKeyBlock);
   double best = kInf;
   last = -1;
   for (;;) {
-    int i = -1;
+    int block = -1;
     double k = kInf;
-    for (int j = 0; j < n; ++j)
-      if (s.key[j] < k) {
-        k = s.key[j];
-        i = j;
+    for (int b = 0; b < blocks; ++b)
+      if (s.block_min[b] < k) {
+        k = s.block_min[b];
+        block = b;
       }
-    if (i < 0 || k >= best) break;
+    if (block < 0 || k >= best) break;
+    int i = block * kKeyBlock;
+    while (s.key[i] != k) ++i;
     const bool from_start = s.start_key[i] <= s.graph_key[i];
     const Vec2 p = g.node[i];
     if (from_start && !segment_clear(walls, obs, start, p, c_start)) {
       s.start_key[i] = kInf;
       s.key[i] = s.graph_key[i];
+      refresh_block(s, i);
       continue;
     }
     const double gi = from_start ? s.start_g[i] : s.graph_g[i];
     s.key[i] = kInf;
+    refresh_block(s, i);
     s.settled[i] = 1;
     s.prev[i] = from_start ? -1 : s.graph_pred[i];
     if (gi + s.to_goal[i] < best && segment_clear(walls, obs, p, goal, c_goal)) {
@@ -148,7 +173,10 @@ bool search_route(const RouteGraph& g, Vec2 start, Vec2 goal, double c_start, do
         s.graph_key[j] = kj;
         s.graph_g[j] = gj;
         s.graph_pred[j] = i;
-        s.key[j] = std::min(s.key[j], kj);
+        if (kj < s.key[j]) {
+          s.key[j] = kj;
+          s.block_min[j / kKeyBlock] = std::min(s.block_min[j / kKeyBlock], kj);
+        }
       }
     }
   }
@@ -172,7 +200,7 @@ bool shortest_route(const RouteGraph& g, const ObstacleView& obs, Vec2 start, Ve
     points.push_back(goal);
     return true;
   }
-  thread_local SearchScratch scratch;
+  SearchScratch& scratch = thread_scratch();
   int last = -1;
   if (!search_route(g, start, goal, c_start, c_goal, walls, obs, scratch, last)) return false;
   for (int i = last; i >= 0; i = scratch.prev[i]) points.push_back(g.node[i]);
@@ -724,6 +752,7 @@ void RouteFollower::replan(const ObstacleView& obstacles, Vec2 start, Vec2 goal,
 void RouteFollower::sync() {
   const int n = static_cast<int>(route.point.size());
   points = route.found ? n : 0;
+  inflation = route.inflation;
   if (index < 0 || index >= n) return;  // (no route yet)
   aim = route.point[index];
   aim_remaining = route.remaining[index];
@@ -775,14 +804,19 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
     // neighbour pressed it closer to a wall than that.
     double next_clearance;  // (not needed)
     double seen = segment_clearance(walls, obstacles, position, next_aim, own, next_clearance);
-    const double c_advance = std::max(std::min(0.5 * (radius + route.inflation), 0.99 * own), kMinClearance);
+    const double c_wide = std::max(0.5 * (radius + inflation), kMinClearance);
+    const double c_advance = std::max(std::min(c_wide, 0.99 * own), kMinClearance);
     for (;;) {
       if (seen < c_advance) {
         // Hidden: it stays hidden while the agent moves less than this (the segment gains at most the
-        // distance moved, c_advance loses at most 0.99 of it).
+        // distance moved, c_advance loses at most 0.99 of it); where the agent is far enough from the walls
+        // that c_advance stays c_wide (0.99 of its own clearance, which loses at most the distance moved,
+        // above c_wide), while it moves less than c_wide - seen.
         blocked_from = position;
         blocked_margin = (c_advance - seen) / 1.99;
-        blocking = seen == 0.0 ? crossing_edge(walls, position, route.point[index + 1]) : -1;
+        if (c_advance == c_wide)
+          blocked_margin = std::max(blocked_margin, (1.0 - 1e-9) * std::min(c_wide - seen, own - c_wide / 0.99));
+        blocking = seen == 0.0 ? crossing_edge(walls, position, advanced ? route.point[index + 1] : next_aim) : -1;
         break;
       }
       ++index;

@@ -132,8 +132,9 @@ constexpr double kPatience = 3.0;                        // [s]
 constexpr double kYieldTimes[4] = {1.0, 2.5, 4.0, 5.5};  // [s]
 
 // One agent following its route: which point it heads for, re-planning when that point is hidden. The
-// fields a step reads come first, in the first two of its cache lines (the struct starts one), then the
-// graph it tests against: a step that neither advances nor re-plans touches three lines of it.
+// fields a step reads come first, in the first three of its cache lines (the struct starts one): a step
+// that neither advances nor re-plans touches those three lines and no others (a batch's followers are
+// megabytes: each line it touches is a likely cache miss).
 struct alignas(64) RouteFollower {
   // route.point[index], route.remaining[index] and route.point[index + 1] (the goal where there is none),
   // held here: a step that neither advances nor re-plans reads no route array (each follower's arrays are
@@ -148,14 +149,16 @@ struct alignas(64) RouteFollower {
   double stalled = 0.0;         // time since it last came kProgress closer [s]
   double yielding = 0.0;        // time left stepping back [s]
   int index = 0;                // the route point it heads for
-  int yields = 0;               // times it gave way
-  int last_step = -1;           // the step the timers were last advanced at
   int points = 0;               // route.point.size() where a route was found, else 0 (sync() sets it)
-  std::shared_ptr<const RouteGraph> wide_graph, narrow_graph;  // the map's graphs (radius + clearance, radius)
-  std::shared_ptr<const PreparedObstacles> held_map;           // the map they belong to (plan's `map`)
-  int blocking = -1;  // a wall edge the segment to the next point crossed when last found hidden (-1: none)
+  int last_step = -1;           // the step the timers were last advanced at
+  int blocking = -1;            // a wall edge the segment to the next point crossed when last found hidden (-1: none)
+  std::shared_ptr<const RouteGraph> wide_graph;       // the map's graph for radius + clearance (its walls are tested)
+  double inflation = 0.0;                             // route.inflation (sync() sets it)
+  int yields = 0;                                     // times it gave way
+  int replans = 0;                                    // re-plans since the route was first planned
+  std::shared_ptr<const RouteGraph> narrow_graph;     // the map's graph for the radius alone
+  std::shared_ptr<const PreparedObstacles> held_map;  // the map they belong to (plan's `map`)
   Route route;
-  int replans = 0;  // re-plans since the route was first planned
 
   // Refreshes the copies above after `route` or `index` were set from outside (a restored state).
   void sync();

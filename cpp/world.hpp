@@ -203,11 +203,17 @@ class World {
                   const ObservationBuffers* obs = nullptr, const ObservationBuffers* final_obs = nullptr);
 
  private:
-  void step_episode(int b, const double* actions, int worker);
+  // targets_ready: route_targets(b) ran for this step (World::step runs it ahead, a block of slots at a time).
+  void step_episode(int b, const double* actions, int worker, bool targets_ready);
+  static constexpr int kRouteBlock = 32;
+  static constexpr int kRoutePrefetch = 2;  // route_targets(r) prefetches slot r + this's followers
+  void prefetch_routes(int b) const;
   // step_episode's phases (world.cpp), in the order it runs them.
-  void human_velocities(int b, int worker);  // the humans' next velocities, into new_velocity_
-  const double* route_targets(int b, int worker, const SlotView& slot);  // human_routes: the route points
-  Vec2 robot_velocity(int b, const double* actions, double& theta);      // the action, clipped; turns theta
+  // The humans' next velocities, into new_velocity_ (targets_ready: route_targets(b) ran for this step).
+  void human_velocities(int b, int worker, bool targets_ready = false);
+  bool routes_slot(int b) const;  // human_routes applies to slot b now (a behaviour here, walls in its map)
+  void route_targets(int b);      // routes_slot(b): each human's route point for this step, into targets_
+  Vec2 robot_velocity(int b, const double* actions, double& theta);  // the action, clipped; turns theta
   Vec2 diff_drive_velocity(int b, const double* actions, double& theta, double v_max);  // within its limits
   struct RobotContacts {
     double dmin = std::numeric_limits<double>::infinity();  // swept clearance to the nearest human [m]
@@ -240,7 +246,7 @@ class World {
   const double* given_velocity_ = nullptr;     // (B, A, 2), see give_human_velocities
   std::vector<std::vector<Vec2>> preferred_;   // (threads, A) the humans' preferred velocities
   std::vector<RouteFollower> routes_;          // (B, A) with human_routes: each human's route
-  std::vector<std::vector<double>> targets_;   // (threads, A, 2) where each human heads this step
+  std::vector<double> targets_;                // (B, A, 2) with human_routes: where each human heads this step
   std::unique_ptr<ThreadPool> own_pool_;       // when no pool was given
   ThreadPool* pool_;
   std::vector<int64_t> refill_slots_;           // refill_done's finished slots, (B,) reserved
