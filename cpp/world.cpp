@@ -662,9 +662,9 @@ int World::step(const double* actions, const StepOutputs* out) {
   pool_->parallel_for(B, [&](int begin, int end, int worker) {
     int done = 0;
     for (int b = begin; b < end; ++b) {
-      // With routes, the route points of a block of slots first, then their steps: the route code and the
-      // behaviour's code each run many slots in a row instead of taking turns at every slot, which evicts
-      // the other's instructions (the routed world stepped 15-25 % slower per ORCA instruction that way).
+      // With routes, the route points of a block of slots first, then their steps: the followers (megabytes
+      // for a batch) are read in one stream, the slots ahead requested while this one's are worked on
+      // (docs/routes.md, "Cost": with this, the routed world's speed ratio no longer fell with the batch).
       if (config_.human_routes && (b - begin) % kRouteBlock == 0)
         for (int r = b; r < std::min(end, b + kRouteBlock); ++r) {
           if (r + kRoutePrefetch < end) prefetch_routes(r + kRoutePrefetch);
