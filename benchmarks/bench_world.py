@@ -104,8 +104,8 @@ def warmed_up_world(batch: int, threads: int, static_map: StaticMap | None, rout
 
 
 def measure_socialnav(batch: int, seconds: float, threads: int, static_map: StaticMap | None = None,
-                      routes: bool = False, lidar: int = 0) -> dict:
-    world, policy, obs = warmed_up_world(batch, threads, static_map, routes, lidar)
+                      lidar: int = 0) -> dict:
+    world, policy, obs = warmed_up_world(batch, threads, static_map, lidar=lidar)
     rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     env_steps, calls = 0, 0
     start, cpu_start = time.perf_counter(), time.process_time()

@@ -150,7 +150,7 @@ void World::human_velocities(int b, int worker, bool targets_ready) {
   // Where each human wants to go (its goal, or the point of its route it heads for), then how it avoids
   // the others (behaviour.hpp).
   const double* targets = slot.goal;
-  if (config_.human_routes && slot.obstacles.count > 0) {
+  if (routes_slot(b)) {
     if (!targets_ready) route_targets(b);
     targets = targets_.data() + row * 2;
   }
@@ -267,7 +267,7 @@ void World::step_episode(int b, const double* actions, int worker, bool targets_
   int8_t& status = buf_.status[b];
   buf_.done[b] = 0;
   buf_.reward[b] = 0.0;
-  if (status != kRunning && status != kContinuing) return;
+  if (!live(b)) return;
   const bool running = status == kRunning;
   if (buf_.steps[b] == 0) {
     record(b, 0);
@@ -499,12 +499,12 @@ void World::preview_humans(double* out) {
       const double* pos = buf_.position + static_cast<size_t>(b) * A * 2;
       const double* radius = buf_.radius + static_cast<size_t>(b) * A;
       const uint8_t* mask = buf_.mask + static_cast<size_t>(b) * A;
-      const bool live = buf_.status[b] == kRunning || buf_.status[b] == kContinuing;
-      if (live) human_velocities(b, worker);
+      const bool stepped = live(b);
+      if (stepped) human_velocities(b, worker);
       const double* v = new_velocity_.data() + static_cast<size_t>(b) * A * 2;
       for (int i = 1; i < A; ++i) {
         double* h = o + 5 * (i - 1);
-        if (!live || !mask[i]) {
+        if (!stepped || !mask[i]) {
           h[0] = h[1] = h[2] = h[3] = h[4] = 0.0;
           continue;
         }
@@ -668,7 +668,7 @@ int World::step(const double* actions, const StepOutputs* out) {
       if (config_.human_routes && (b - begin) % kRouteBlock == 0)
         for (int r = b; r < std::min(end, b + kRouteBlock); ++r) {
           if (r + kRoutePrefetch < end) prefetch_routes(r + kRoutePrefetch);
-          if ((buf_.status[r] == kRunning || buf_.status[r] == kContinuing) && routes_slot(r)) route_targets(r);
+          if (live(r) && routes_slot(r)) route_targets(r);
         }
       step_episode(b, actions, worker, config_.human_routes);
       done += buf_.done[b];

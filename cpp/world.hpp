@@ -211,6 +211,7 @@ class World {
   // step_episode's phases (world.cpp), in the order it runs them.
   // The humans' next velocities, into new_velocity_ (targets_ready: route_targets(b) ran for this step).
   void human_velocities(int b, int worker, bool targets_ready = false);
+  bool live(int b) const { return buf_.status[b] == kRunning || buf_.status[b] == kContinuing; }  // stepped
   bool routes_slot(int b) const;  // human_routes applies to slot b now (a behaviour here, walls in its map)
   void route_targets(int b);      // routes_slot(b): each human's route point for this step, into targets_
   Vec2 robot_velocity(int b, const double* actions, double& theta);  // the action, clipped; turns theta

@@ -208,8 +208,7 @@ LOG: dict[str, tuple[str, str, Callable[[dict], str]]] = {
             f"{_f(d['env_steps_per_s_obstacles'])} env-steps/s, "
             f"{d['ratio_vs_navground_obstacles']}× navground, "
             f"{d['ratio_vs_open_world']} of the open floor"
-            + (f"; routed/unrouted {d['ratio_routed_vs_unrouted']} (goal >= 0.8, interleaved)"
-               if "env_steps_per_s_unrouted_interleaved" in d else "")
+            f"; routed/unrouted {d['ratio_routed_vs_unrouted']} (goal >= 0.8, interleaved)"
         ),
     ),
     "bench_world_lidar.json": (
