@@ -141,7 +141,8 @@ def speed_block() -> str:
             "The same walls, humans on routes",
             f"{walls['env_steps_per_s_routed'] / 1e3:.0f} k env-steps/s",
             f"{walls['ratio_routed_vs_unrouted']:.2f} of the speed without routes "
-            f"(goal 0.8{'' if walls['ratio_routed_vs_unrouted'] >= 0.8 else ', not met'})",
+            f"(goal 0.8{'' if walls['ratio_routed_vs_unrouted'] >= 0.8 else ', not met'}; runs hours apart "
+            "vary: [routes.md](docs/routes.md#cost))",
         ),
         (
             f"Protocol: full `wang2022`, ORCA robot ({protocol['episodes']:,} episodes, scored, stored)",
