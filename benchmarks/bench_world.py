@@ -153,7 +153,8 @@ def routed_vs_unrouted(batch: int, seconds: float, threads: int, static_map: Sta
     process: slices of ``slice_steps`` steps of each in turn, ``seconds`` of each in all. Other processes and
     a virtual machine's changing speed slow both alike, so the ratio of their rates varies far less from
     run to run than that of two measurements taken one after the other (on a 2-core virtual machine
-    those spread from 0.69 to 0.83 for one build; interleaved, within about 0.03)."""
+    those spread from 0.69 to 0.83 for one build; interleaved, within about 0.03 for runs minutes apart,
+    though runs hours apart still spread from 0.76 to 0.84)."""
     # per world: the world, its policy, its observation, env-steps and seconds so far
     worlds = {routed: [*warmed_up_world(batch, threads, static_map, routed), 0, 0.0]
               for routed in (False, True)}

@@ -206,7 +206,7 @@ class World {
   // targets_ready: route_targets(b) ran for this step (World::step runs it ahead, a block of slots at a time).
   void step_episode(int b, const double* actions, int worker, bool targets_ready);
   static constexpr int kRouteBlock = 32;
-  static constexpr int kRoutePrefetch = 2;  // route_targets(r) prefetches slot r + this's followers
+  static constexpr int kRoutePrefetch = 2;  // before route_targets(r), step prefetches slot r + this's followers
   void prefetch_routes(int b) const;
   // step_episode's phases (world.cpp), in the order it runs them.
   // The humans' next velocities, into new_velocity_ (targets_ready: route_targets(b) ran for this step).
