@@ -5,7 +5,8 @@ and the worlds: ppo/run.py), resume or start (ppo/state.py), then per update the
 (:func:`set_learning_rate`), a rollout collected from every environment in lockstep, one native call
 per world of the training mix per step (:func:`collect_rollout`), GAE (:func:`gae`), epochs of
 clipped-objective minibatch steps over whole environment sequences (:func:`ppo_update`,
-:func:`ppo_loss`), validation and curves (ppo/validation.py) and the checkpoint. The network is in
+:func:`ppo_loss`), validation and curves (ppo/validation.py) and the checkpoint. With
+``imitation_updates`` the first updates imitate a planner instead (ppo/imitation.py). The network is in
 policies/learned/attn_graph.py (or ppo_mlp.py), the settings in ppo/settings.py; docs/ppo.md explains
 the choices.
 
@@ -42,6 +43,7 @@ from socialnav.presets import Preset
 from socialnav.sim.settings import HEADED_KINEMATICS
 from socialnav.train.episodes import collisions
 from socialnav.train.optim import TrainingDiverged
+from socialnav.train.ppo.imitation import imitation_actions, imitation_loss, teacher_share
 from socialnav.train.ppo.loss import gaussian_entropy, gaussian_log_prob, ppo_loss
 from socialnav.train.ppo.run import PPO_CURVE_COLUMNS, PPO_STREAM_OFFSET, PPORun, setup_ppo_run
 from socialnav.train.ppo.settings import PPOSettings
@@ -218,6 +220,7 @@ class Rollout:
         dones: (T, n_envs) bool, the episode ended at this step.
         advantages: (T, n_envs) GAE advantages.
         returns: (T, n_envs) advantages + values.
+        imitation: the rollout of an imitation update: ``raws`` hold the teacher's actions, the labels.
     """
 
     h0: torch.Tensor
@@ -232,6 +235,7 @@ class Rollout:
     dones: torch.Tensor
     advantages: torch.Tensor
     returns: torch.Tensor
+    imitation: bool = False
 
 
 def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
@@ -262,6 +266,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
     reverse = run.preset.world.diff_drive.max_reverse_speed if kinematics == "diff_drive" else 0.0
     T = s.rollout_steps
     collision_weight = s.collision_weight(state.update, run.n_updates)  # (1.0 without a ramp)
+    beta = teacher_share(state.update, s.imitation_updates)  # the teacher's share of the steps (DAgger)
     # a network heading along its route gains the metres it walks along the route
     distance = route_distance if getattr(net, "route_goal", False) else (lambda o: goal_distance(o.robot))
     t0 = time.perf_counter()
@@ -285,11 +290,15 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
             rf, hf, mk = network_inputs(net, obs, dt, device, walls)
             robots[t], humans[t], masks[t], starts[t] = rf, hf, mk, state.start
             mean, value, state.h = net.step(rf, hf, mk, state.h, state.start)
-            raw = mean + torch.randn(mean.shape, generator=run.action_gen).to(device) * net.log_std.exp()
+            if beta > 0:  # an imitation update: raw is the teacher's action, the network's label
+                raw, action = imitation_actions(run.teacher, obs, mean, beta, run.action_gen, kinematics,
+                                                rotation_limit, reverse)
+            else:
+                raw = mean + torch.randn(mean.shape, generator=run.action_gen).to(device) * net.log_std.exp()
+                action = squash_actions(raw.double().cpu().numpy(), kinematics, obs.robot[:, 7],
+                                        rotation_limit, reverse)
             raws[t], values[t] = raw, value
             logps[t] = gaussian_log_prob(raw, mean, net.log_std)
-            action = squash_actions(raw.double().cpu().numpy(), kinematics, obs.robot[:, 7], rotation_limit,
-                                    reverse)
             goal_before = distance(obs)
             reward, term, trunc, final, state.obs = step_worlds(run.world, action)
             done = term | trunc
@@ -336,6 +345,7 @@ def collect_rollout(run: PPORun, state: PPOState) -> Rollout:
         dones=dones,
         advantages=advantages,
         returns=returns,
+        imitation=beta > 0,
     )
 
 
@@ -370,6 +380,9 @@ def gae(
 def ppo_update(run: PPORun, state: PPOState, rollout: Rollout) -> None:
     """``epochs`` passes over the rollout in ``minibatches`` random sets of environments each.
 
+    An imitation rollout's passes minimise :func:`~socialnav.train.ppo.imitation.imitation_loss` instead
+    of PPO's.
+
     The observation statistics change only after the update: the rollout was collected and is
     re-evaluated with the same ones, so the first minibatch's probability ratio is 1.
 
@@ -397,7 +410,9 @@ def ppo_update(run: PPORun, state: PPOState, rollout: Rollout) -> None:
                 rollout.h0[envs],
                 rollout.starts[:, envs],
             )
-            loss = ppo_loss(
+            loss = imitation_loss(
+                mean, net.log_std, rollout.raws[:, envs], value, rollout.returns[:, envs], s.value_coef
+            ) if rollout.imitation else ppo_loss(
                 gaussian_log_prob(rollout.raws[:, envs], mean, net.log_std),
                 rollout.logps[:, envs],
                 rollout.advantages[:, envs],

@@ -28,6 +28,7 @@ from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.sim.settings import HEADED_KINEMATICS
 from socialnav.train.curves import Curves
 from socialnav.train.optim import load_optimizer_state
+from socialnav.train.ppo.imitation import build_teacher
 from socialnav.train.ppo.settings import PPO_RESUMABLE_CHANGES, PPOSettings
 from socialnav.train.ppo.worlds import restore_worlds
 from socialnav.train.run_directory import (
@@ -93,6 +94,7 @@ class PPORun(RunFiles):
         world: the training worlds, in lockstep.
         val_world: the validation episodes (``val`` split).
         n_updates: updates in the whole budget.
+        teacher: the planner the first ``imitation_updates`` imitate (ppo/imitation.py), or None.
         resumed: the resume record of ``last.pt`` when the run continues, else None.
         curves: curves.csv of the run.
         say: where progress lines go.
@@ -114,6 +116,7 @@ class PPORun(RunFiles):
     world: MultiWorld
     val_world: MultiWorld
     n_updates: int
+    teacher: Any | None
     resumed: dict[str, Any] | None
     curves: Curves
     say: Callable[[str], None]
@@ -272,6 +275,10 @@ def setup_ppo_run(
     world = MultiWorld(preset, crowd, s.n_envs, "train", seeds["scenario_start"] + PPO_STREAM_OFFSET)
     stack.callback(world.close)
     n_updates = math.ceil(s.total_env_steps / (world.batch_size * s.rollout_steps))
+    if s.imitation_updates > n_updates:
+        raise ConfigError(f"imitation_updates {s.imitation_updates} must be <= the schedule's {n_updates} "
+                          f"updates (total_env_steps {s.total_env_steps})")
+    teacher = build_teacher(s, preset)
     if s.minibatches > world.batch_size:
         raise ConfigError(
             f"minibatches {s.minibatches} must be <= the number of environments ({world.batch_size})"
@@ -310,6 +317,7 @@ def setup_ppo_run(
         world=world,
         val_world=val_world,
         n_updates=n_updates,
+        teacher=teacher,
         resumed=resumed,
         curves=curves,
         say=say,

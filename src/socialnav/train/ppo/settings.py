@@ -25,6 +25,9 @@ MAX_N_ENVS = 16_384
 #: The command-line options of the PPO settings whose names differ from ``--<setting>`` (``socialnav train``).
 PPO_FLAGS = {"n_envs": "--collection-batch", "total_env_steps": "--env-steps"}
 
+#: The planners a PPO run may imitate first (``imitation_teacher``): the native ones that see the walls.
+IMITATION_TEACHERS = ("orca_route", "orca", "social_force_route", "social_force")
+
 #: PPO-setting keys that may change between a run and its resumption (everything else must match).
 PPO_RESUMABLE_CHANGES = ("device", "threads", "checkpoint_every", "log_every", "total_env_steps")
 
@@ -153,6 +156,18 @@ class PPOSettings(Settings):
         False, "lidar_ppo reads its goal as its shortest route around the map's walls heads for it (a global "
         "planner's sub-goal, as DRL-VO's; docs/ppo.md; left out of records while false)",
         record_default=False,
+    )
+    imitation_updates: int = setting(
+        0, "the schedule's first updates imitate imitation_teacher instead of the policy gradient (DAgger: "
+        "the teacher acts in a share of the environments falling linearly from all to none, the network in "
+        "the rest, and the network fits the teacher's action there; docs/ppo.md, \"A warm start by "
+        "imitation\"; 0: none; left out of records while 0)",
+        ge=0, record_default=False,
+    )
+    imitation_teacher: str = setting(
+        "orca_route", "the planner imitated in the imitation_updates, with the preset's parameters for it "
+        "(left out of records while orca_route)",
+        choices=IMITATION_TEACHERS, record_default=False,
     )
     nonholonomic_log_std_init: float = setting(
         -1.0, "initial log σ of the Gaussian action on a unicycle or diff_drive robot, in place of "

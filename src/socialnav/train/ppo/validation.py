@@ -70,7 +70,7 @@ def write_row_if_due(
     n = state.losses.pop("n")
     busy = max(state.collect_time + state.update_time, 1e-9)
     row = {
-        "phase": "ppo",
+        "phase": "imitation" if u <= run.settings.imitation_updates else "ppo",
         "update": u,
         "env_steps": state.env_steps,
         "episodes": state.episodes,
