@@ -165,7 +165,8 @@ def test_to_dict_is_the_plain_dataclass_dict_that_manifests_hash(cls):
 UNRECORDED_DEFAULTS = {"human_routes": "none", "route_clearance": 0.2,
                        "lidar_beams": 180, "lidar_range": 10.0, "lidar_history": 1, "lidar_route_goal": False,
                        "nonholonomic_log_std_init": -1.0, "turn_penalty": 0.05625,
-                       "collision_penalty_ramp_start": 0.0, "collision_penalty_ramp_end": 0.0}
+                       "collision_penalty_ramp_start": 0.0, "collision_penalty_ramp_end": 0.0,
+                       "imitation_updates": 0, "imitation_teacher": "orca_route"}
 #: Sections declared with record_default=False: left out while they hold their defaults.
 UNRECORDED_SECTIONS = {"sensing": "SensingSettings", "diff_drive": "DiffDriveSettings"}
 

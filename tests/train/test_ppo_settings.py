@@ -84,13 +84,15 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     assert plain.pop("collision_penalty") is None  # training's collision reward, added later
     ramp = (plain.pop("collision_penalty_ramp_start"), plain.pop("collision_penalty_ramp_end"))
     assert ramp == (0.0, 0.0)  # its ramp, added later
+    assert (plain.pop("imitation_updates"), plain.pop("imitation_teacher")) == (0, "orca_route")  # added later
     assert recorded == plain
 
 
 @pytest.mark.parametrize(
     "name",
     ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route", "ppo_lidar_ramp.yaml", "ppo_lidar_gamma995.yaml",
-     "ppo_lidar_entropy.yaml", "ppo_lidar_history3.yaml"],
+     "ppo_lidar_entropy.yaml", "ppo_lidar_history3.yaml",
+     "ppo_lidar_imitation.yaml"],
 )
 def test_shipped_configs_round_trip_through_to_dict(name):
     # (the .yaml files: the experiments' configs in benchmarks/configs)

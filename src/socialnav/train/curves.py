@@ -75,7 +75,8 @@ class Curves:
                 for a fresh run (the file is started anew).
             columns: the CSV's columns.
             key: the counter rows are trimmed by on resumption (``episode`` for the value-based
-                trainer, ``update`` for PPO's rows of phase ``ppo``).
+                trainer's rows of phase ``rl``, its imitation's ``il`` rows kept; ``update`` for every
+                row of PPO's, its imitation's ``il`` rows too).
         """
         self.path = path
         self.columns = columns
@@ -87,7 +88,7 @@ class Curves:
                     episode = row_episode(r, key)
                     if episode is None:
                         self.dropped += 1  # a damaged row (e.g. cut short by a kill) is not fatal
-                    elif r["phase"] not in ("rl", "ppo") or episode <= resume_episode:
+                    elif (key != "update" and r["phase"] not in ("rl", "ppo")) or episode <= resume_episode:
                         rows.append(r)
             lines = [",".join(columns)] + [",".join(r.get(c, "") for c in columns) for r in rows]
             atomic_write_text(path, "\n".join(lines) + "\n")

@@ -70,7 +70,7 @@ def write_row_if_due(
     n = state.losses.pop("n")
     busy = max(state.collect_time + state.update_time, 1e-9)
     row = {
-        "phase": "imitation" if u <= run.settings.imitation_updates else "ppo",
+        "phase": "il" if u <= run.settings.imitation_updates else "ppo",  # il: as the value trainer's
         "update": u,
         "env_steps": state.env_steps,
         "episodes": state.episodes,
