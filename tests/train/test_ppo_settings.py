@@ -85,6 +85,7 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     ramp = (plain.pop("collision_penalty_ramp_start"), plain.pop("collision_penalty_ramp_end"))
     assert ramp == (0.0, 0.0)  # its ramp, added later
     assert (plain.pop("imitation_updates"), plain.pop("imitation_teacher")) == (0, "orca_route")  # added later
+    assert [plain.pop(k) for k in ("imitation_lr", "imitation_epochs", "imitation_minibatches")] == [None] * 3
     assert recorded == plain
 
 

@@ -188,6 +188,9 @@ def train_ppo_policy(policy: str, preset: Preset | str, out_dir: str | Path,
 def set_learning_rate(run: PPORun, state: PPOState) -> float:
     """Sets the coming update's learning rate (linearly annealed to 0 with ``anneal_lr``).
 
+    An imitation update with ``imitation_lr`` set uses that rate instead, annealed to 0 over the
+    imitation updates.
+
     Args:
         run: the run.
         state: its state (``update``: the updates done).
@@ -196,8 +199,13 @@ def set_learning_rate(run: PPORun, state: PPOState) -> float:
         The learning rate.
     """
     s = run.settings
-    frac = 1.0 - state.update / run.n_updates
-    lr_now = s.lr * frac if s.anneal_lr else s.lr
+    if state.update < s.imitation_updates and s.imitation_lr is not None:
+        # the imitation's own rate, decayed over the imitation updates; PPO's schedule takes over after
+        frac = 1.0 - state.update / s.imitation_updates
+        lr_now = s.imitation_lr * frac if s.anneal_lr else s.imitation_lr
+    else:
+        frac = 1.0 - state.update / run.n_updates
+        lr_now = s.lr * frac if s.anneal_lr else s.lr
     for group in run.optimizer.param_groups:
         group["lr"] = lr_now
     return lr_now
@@ -380,8 +388,8 @@ def gae(
 def ppo_update(run: PPORun, state: PPOState, rollout: Rollout) -> None:
     """``epochs`` passes over the rollout in ``minibatches`` random sets of environments each.
 
-    An imitation rollout's passes minimise :func:`~socialnav.train.ppo.imitation.imitation_loss` instead
-    of PPO's.
+    An imitation rollout's passes (``imitation_epochs`` of ``imitation_minibatches``, where set) minimise
+    :func:`~socialnav.train.ppo.imitation.imitation_loss` instead of PPO's.
 
     The observation statistics change only after the update: the rollout was collected and is
     re-evaluated with the same ones, so the first minibatch's probability ratio is 1.
@@ -399,9 +407,12 @@ def ppo_update(run: PPORun, state: PPOState, rollout: Rollout) -> None:
     net.train()
     sums = dict.fromkeys(LOSS_TERMS, 0.0)
     n_steps = 0
-    for _ in range(s.epochs):
+    epochs, minibatches = s.epochs, s.minibatches
+    if rollout.imitation:
+        epochs, minibatches = s.imitation_epochs or epochs, s.imitation_minibatches or minibatches
+    for _ in range(epochs):
         order = torch.randperm(run.n_envs, generator=run.minibatch_gen)
-        for envs in torch.tensor_split(order, s.minibatches):
+        for envs in torch.tensor_split(order, minibatches):
             envs = envs.to(run.device)
             mean, value = net.sequence(
                 rollout.robots[:, envs],

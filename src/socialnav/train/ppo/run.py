@@ -279,10 +279,11 @@ def setup_ppo_run(
         raise ConfigError(f"imitation_updates {s.imitation_updates} must be <= the schedule's {n_updates} "
                           f"updates (total_env_steps {s.total_env_steps})")
     teacher = build_teacher(s, preset)
-    if s.minibatches > world.batch_size:
-        raise ConfigError(
-            f"minibatches {s.minibatches} must be <= the number of environments ({world.batch_size})"
-        )
+    for key in ("minibatches", "imitation_minibatches"):
+        if (getattr(s, key) or 0) > world.batch_size:
+            raise ConfigError(
+                f"{key} {getattr(s, key)} must be <= the number of environments ({world.batch_size})"
+            )
     found = open_run_directory(out, config, stack, policy=s.policy, diff=resume_diff, expected_input_dim=-1,
                                map_location=device)
     resumed, ck = found.resume, found.checkpoint
