@@ -173,3 +173,23 @@ def test_the_warm_start_is_recorded_only_when_used():
     assert "imitation_updates" not in PPOSettings().to_dict()
     record = dataclasses.replace(PPOSettings(), imitation_updates=300).to_dict()
     assert record["imitation_updates"] == 300 and "imitation_teacher" not in record
+
+
+def _adam_steps(run_dir):
+    resume = torch.load(run_dir / "last.pt", weights_only=False)["extra"]["resume"]
+    return int(next(iter(resume["optimizer"]["state"].values()))["step"])
+
+
+def test_the_imitation_optimises_with_its_own_rate_and_steps(tmp_path, walls_preset):
+    s = _smoke(imitation_updates=2, imitation_lr=1e-3, imitation_epochs=3, imitation_minibatches=4)
+    train_ppo(walls_preset, tmp_path / "run", s, progress=False, log=lambda _: None)
+    rows = _curves(tmp_path / "run")
+    # imitation_lr decays over the 2 imitation updates; PPO's 3e-4 over the 4 updates goes on from there
+    assert [float(r["lr"]) for r in rows] == pytest.approx([1e-3, 5e-4, 3e-4 * 2 / 4, 3e-4 * 1 / 4])
+    # 2 imitation updates of 3 x 4 minibatch steps, then 2 PPO updates of ppo_smoke's 2 x 2
+    assert _adam_steps(tmp_path / "run") == 2 * 12 + 2 * 4
+
+
+def test_more_imitation_minibatches_than_environments_are_refused(tmp_path, walls_preset):
+    with pytest.raises(ConfigError, match="imitation_minibatches"):
+        PPOSettings.from_dict({"n_envs": 4, "imitation_minibatches": 5})
