@@ -84,8 +84,10 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
     assert plain.pop("collision_penalty") is None  # training's collision reward, added later
     ramp = (plain.pop("collision_penalty_ramp_start"), plain.pop("collision_penalty_ramp_end"))
     assert ramp == (0.0, 0.0)  # its ramp, added later
-    assert (plain.pop("imitation_updates"), plain.pop("imitation_teacher")) == (0, "orca_route")  # added later
-    assert [plain.pop(k) for k in ("imitation_lr", "imitation_epochs", "imitation_minibatches")] == [None] * 3
+    warm_start = (plain.pop("imitation_updates"), plain.pop("imitation_teacher"))
+    assert warm_start == (0, "orca_route")  # the warm start by imitation, added later
+    optimisation = ("imitation_lr", "imitation_epochs", "imitation_minibatches")
+    assert [plain.pop(k) for k in optimisation] == [None] * 3
     assert recorded == plain
 
 

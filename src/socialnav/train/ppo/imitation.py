@@ -8,8 +8,10 @@ step is the teacher's with probability β = 1 − u / U and the network's (its m
 the network fits the teacher's action in every state visited, so that it learns to recover from the
 states its own mistakes lead to. The loss is the Gaussian policy's negative log-likelihood of the
 teacher's action (its σ follows the network's remaining error) plus the value loss on the rollout's
-returns, so that the critic knows the policy it hands to PPO. The updates after them are PPO's, with
-the same learning-rate schedule, counters and checkpoints.
+returns, so that the critic knows the policy it hands to PPO. The imitation updates may have their own
+learning rate, passes and minibatches (``imitation_lr``, ``_epochs``, ``_minibatches``: supervised
+learning wants more and larger steps than a policy-gradient update); the updates after them are PPO's,
+and counters, validation and checkpoints run through both.
 
 The teacher sees what the evaluated planner sees: the world's exact observation with its walls, never
 the network's sensors. Every draw comes from the run's action generator, which ``last.pt`` saves, so a
@@ -70,7 +72,7 @@ def teacher_steps(beta: float, n_envs: int, generator: torch.Generator) -> np.nd
 
 def unsquash_actions(action: np.ndarray, squash: str, v_pref: np.ndarray, rotation_limit: float,
                      max_reverse_speed: float = 0.0) -> np.ndarray:
-    """A raw Gaussian value that :func:`~socialnav.policies.learned.attn_graph.squash_actions` maps to ``action``.
+    """A raw Gaussian value that ``attn_graph.squash_actions`` maps to ``action`` (the teacher's label).
 
     ``radial``: the action itself (the teacher's speed is at most v_pref, where the squash is the
     identity; a faster one is scaled onto the disc first). ``span``: v from [-max_reverse_speed, v_pref]
@@ -138,7 +140,8 @@ def imitation_actions(teacher: Any, obs: Any, mean: torch.Tensor, beta: float, g
 
     v_pref = obs.robot[:, 7]
     taught = np.asarray(teacher.act(obs), dtype=np.float64)
-    label = unsquash_actions(taught, trained_action_squash(kinematics), v_pref, rotation_limit, max_reverse_speed)
+    squash = trained_action_squash(kinematics)
+    label = unsquash_actions(taught, squash, v_pref, rotation_limit, max_reverse_speed)
     own = squash_actions(mean.double().cpu().numpy(), kinematics, v_pref, rotation_limit, max_reverse_speed)
     by_teacher = teacher_steps(beta, len(own), generator)
     action = np.where(by_teacher[:, None], taught, own)

@@ -170,16 +170,16 @@ class PPOSettings(Settings):
         choices=IMITATION_TEACHERS, record_default=False,
     )
     imitation_lr: float | None = setting(
-        None, "the imitation updates' Adam learning rate, decayed linearly to 0 over them with anneal_lr (null: "
-        "the schedule's lr; left out of records while null)", gt=0, record_default=False,
+        None, "the imitation updates' Adam learning rate, decayed linearly to 0 over them with anneal_lr "
+        "(null: the schedule's lr; left out of records while null)", gt=0, record_default=False,
     )
     imitation_epochs: int | None = setting(
         None, "passes over each imitation rollout (null: epochs; left out of records while null)", ge=1,
         record_default=False,
     )
     imitation_minibatches: int | None = setting(
-        None, "minibatches per pass of an imitation update (null: minibatches; left out of records while null)",
-        ge=1, record_default=False,
+        None, "minibatches per pass of an imitation update (null: minibatches; left out of records while "
+        "null)", ge=1, record_default=False,
     )
     nonholonomic_log_std_init: float = setting(
         -1.0, "initial log σ of the Gaussian action on a unicycle or diff_drive robot, in place of "
@@ -198,8 +198,8 @@ class PPOSettings(Settings):
             ConfigError: naming minibatches.
         """
         if (self.imitation_minibatches or 0) > self.n_envs:
-            self.refuse("imitation_minibatches", f"must be <= n_envs ({self.n_envs}): a minibatch is a set of "
-                        "whole environment sequences")
+            self.refuse("imitation_minibatches", f"must be <= n_envs ({self.n_envs}): a minibatch is a "
+                        "set of whole environment sequences")
         if self.minibatches > self.n_envs:
             self.refuse("minibatches", f"must be <= n_envs ({self.n_envs}): a minibatch is a set of whole "
                         "environment sequences")
