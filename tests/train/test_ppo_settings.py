@@ -93,9 +93,8 @@ def test_the_recorded_keys_defaults_and_order_are_unchanged():
 
 @pytest.mark.parametrize(
     "name",
-    ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route", "ppo_lidar_ramp.yaml", "ppo_lidar_gamma995.yaml",
-     "ppo_lidar_entropy.yaml", "ppo_lidar_history3.yaml",
-     "ppo_lidar_imitation.yaml"],
+    ["ppo", "ppo_repo", "ppo_smoke", "ppo_lidar_route", "ppo_lidar_imitation", "ppo_lidar_ramp.yaml",
+     "ppo_lidar_gamma995.yaml", "ppo_lidar_entropy.yaml", "ppo_lidar_history3.yaml"],
 )
 def test_shipped_configs_round_trip_through_to_dict(name):
     # (the .yaml files: the experiments' configs in benchmarks/configs)
