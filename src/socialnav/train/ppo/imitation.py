@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import torch
 
+from socialnav.policies.learned.attn_graph import squash_actions, trained_action_squash
 from socialnav.train.ppo.loss import PPOLoss, gaussian_entropy, gaussian_log_prob
 
 if TYPE_CHECKING:
@@ -90,10 +91,8 @@ def unsquash_actions(action: np.ndarray, squash: str, v_pref: np.ndarray, rotati
     """
     action = np.asarray(action, dtype=np.float64)
     v_pref = np.asarray(v_pref, dtype=np.float64)
-    if squash == "radial":
-        speed = np.hypot(action[:, 0], action[:, 1])
-        scale = np.where(speed > v_pref, v_pref / np.maximum(speed, 1e-300), 1.0)
-        return action * scale[:, None]
+    if squash == "radial":  # the radial squash is its own inverse on the disc
+        return squash_actions(action, "holonomic", v_pref, rotation_limit, squash="radial")
     if squash == "span":
         u0 = 2.0 * (action[:, 0] + max_reverse_speed) / (v_pref + max_reverse_speed) - 1.0
         u1 = action[:, 1] / rotation_limit
@@ -136,8 +135,6 @@ def imitation_actions(teacher: Any, obs: Any, mean: torch.Tensor, beta: float, g
         The (B, 2) raw labels (as ``mean``) and the (B, 2) world actions: the teacher's where it steps,
         the network's mean action squashed elsewhere.
     """
-    from socialnav.policies.learned.attn_graph import squash_actions, trained_action_squash
-
     v_pref = obs.robot[:, 7]
     taught = np.asarray(teacher.act(obs), dtype=np.float64)
     squash = trained_action_squash(kinematics)

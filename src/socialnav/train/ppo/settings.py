@@ -195,14 +195,12 @@ class PPOSettings(Settings):
         more minibatches than environments some would be empty, and the mean of an empty loss is NaN.
 
         Raises:
-            ConfigError: naming minibatches.
+            ConfigError: naming minibatches (or imitation_minibatches).
         """
-        if (self.imitation_minibatches or 0) > self.n_envs:
-            self.refuse("imitation_minibatches", f"must be <= n_envs ({self.n_envs}): a minibatch is a "
-                        "set of whole environment sequences")
-        if self.minibatches > self.n_envs:
-            self.refuse("minibatches", f"must be <= n_envs ({self.n_envs}): a minibatch is a set of whole "
-                        "environment sequences")
+        for key in ("imitation_minibatches", "minibatches"):
+            if (getattr(self, key) or 0) > self.n_envs:
+                self.refuse(key, f"must be <= n_envs ({self.n_envs}): a minibatch is a set of whole "
+                            "environment sequences")
         if self.collision_penalty is None:
             for ramp in ("collision_penalty_ramp_start", "collision_penalty_ramp_end"):
                 if getattr(self, ramp) > 0:
