@@ -1,8 +1,8 @@
 #include "behaviour.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 
 namespace socialnav {
@@ -20,10 +20,14 @@ std::string& duplicate() {  // the first name registered twice, "" if none
   return name;
 }
 
+// x as printf's %g writes it (6 significant digits), in the C locale. std::to_chars rather than an
+// ostringstream: iostreams reach the library's global locale, which a core linked with its own copy of
+// libstdc++ (a toolchain that links it statically) may share with the copy a Python process already loaded,
+// and then crash in; to_chars reads no global state.
 std::string number(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
+  char text[32];
+  const auto end = std::to_chars(text, text + sizeof text, x, std::chars_format::general, 6).ptr;
+  return std::string(text, end);
 }
 
 }  // namespace
@@ -41,14 +45,16 @@ ParamValues::ParamValues(const std::string& behaviour, const std::vector<Behavio
   for (size_t k = 0; k < params.size(); ++k) {
     const BehaviourParam& p = params[k];
     const double v = values[k];
-    const std::string what = behaviour + "." + p.name;
-    if (!std::isfinite(v)) throw std::invalid_argument(what + " must be finite, got " + number(v));
-    if (p.integer && std::floor(v) != v) throw std::invalid_argument(what + " must be an integer, got " + number(v));
-    const std::string got = ", got " + number(v);
-    if (!std::isnan(p.gt) && !(v > p.gt)) throw std::invalid_argument(what + " must be > " + number(p.gt) + got);
-    if (!std::isnan(p.ge) && !(v >= p.ge)) throw std::invalid_argument(what + " must be >= " + number(p.ge) + got);
-    if (!std::isnan(p.lt) && !(v < p.lt)) throw std::invalid_argument(what + " must be < " + number(p.lt) + got);
-    if (!std::isnan(p.le) && !(v <= p.le)) throw std::invalid_argument(what + " must be <= " + number(p.le) + got);
+    // The message is written only for a value that fails a check.
+    auto refuse = [&](const std::string& rule) {
+      throw std::invalid_argument(behaviour + "." + p.name + " must be " + rule + ", got " + number(v));
+    };
+    if (!std::isfinite(v)) refuse("finite");
+    if (p.integer && std::floor(v) != v) refuse("an integer");
+    if (!std::isnan(p.gt) && !(v > p.gt)) refuse("> " + number(p.gt));
+    if (!std::isnan(p.ge) && !(v >= p.ge)) refuse(">= " + number(p.ge));
+    if (!std::isnan(p.lt) && !(v < p.lt)) refuse("< " + number(p.lt));
+    if (!std::isnan(p.le) && !(v <= p.le)) refuse("<= " + number(p.le));
   }
   values_ = values;
 }
