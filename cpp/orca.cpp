@@ -3,13 +3,7 @@
 #include <algorithm>
 #include <limits>
 
-// Function multi-versioning needs ifunc support (GCC or Clang on x86-64 Linux); elsewhere one
-// generic version.
-#if defined(__x86_64__) && defined(__linux__) && (defined(__GNUC__) || defined(__clang__))
-#define SOCIALNAV_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
-#else
-#define SOCIALNAV_AVX2_CLONE
-#endif
+#include "multiversion.hpp"
 
 namespace socialnav {
 

@@ -11,8 +11,7 @@
 #include <unordered_map>
 #include <utility>
 
-// As cpp/orca.cpp's: the per-step kernels get an AVX2 clone, chosen when the library loads.
-#define SOCIALNAV_ROUTES_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
+#include "multiversion.hpp"
 
 namespace socialnav {
 
@@ -30,8 +29,10 @@ inline Vec2 right_normal(Vec2 u) { return Vec2{u.y, -u.x}; }
 #define SOCIALNAV_INLINE __attribute__((always_inline))
 
 // Vectors of kEdgeLanes doubles (GCC's vector extension: each operation is the scalar one, lane by lane).
-// They never cross a call (the helpers below are always inlined), so the default clone's warning that
-// passing them would change the ABI does not apply.
+// They never cross a call (the helpers below are always inlined), so the warning that passing them without
+// AVX would change the ABI does not apply. The helpers are called from always-inlined functions without
+// vector parameters, never straight from an AVX2 clone: Clang refuses such a call (the clone has AVX, the
+// helper has not), inlined or not.
 #pragma GCC diagnostic ignored "-Wpsabi"
 typedef double Lanes __attribute__((vector_size(kEdgeLanes * sizeof(double))));
 
@@ -277,7 +278,7 @@ SOCIALNAV_INLINE inline auto proper_crossing(T ax, T ay, T bx, T by, T qx, T qy,
 // The smallest squared distance between the segment [a, b] and the view's edges, 0 where one crosses it:
 // branch-free over the edge arrays (a wall's return face repeats its own edge), so that the compiler
 // vectorises it, with an AVX2 clone chosen at load time (no contraction: the same values either way).
-SOCIALNAV_ROUTES_AVX2_CLONE double min_edge_distance_sq(const double* __restrict px, int n, Vec2 a, Vec2 b) {
+SOCIALNAV_AVX2_CLONE double min_edge_distance_sq(const double* __restrict px, int n, Vec2 a, Vec2 b) {
   const double* __restrict py = px + n;
   const double* __restrict ex = px + 2 * n;
   const double* __restrict ey = px + 3 * n;
@@ -359,22 +360,25 @@ SOCIALNAV_INLINE inline SegmentDistances lane_edge_distances_sq(const double* __
   return {lanes_min(best), kEnds ? lanes_min(best_a) : kInf, kEnds ? lanes_min(best_b) : kInf};
 }
 
-SOCIALNAV_ROUTES_AVX2_CLONE double lane_edge_distance_sq(const double* __restrict px, int stride, Vec2 a, Vec2 b) {
+SOCIALNAV_AVX2_CLONE double lane_edge_distance_sq(const double* __restrict px, int stride, Vec2 a, Vec2 b) {
   return lane_edge_distances_sq<false>(px, stride, a, b).segment;
 }
 
 // sqrt(lane_edge_distance_sq(px, stride, a, b)) >= c, answered as soon as the edges seen so far are closer
 // than c (the square root is monotone: the minimum can only fall further).
-SOCIALNAV_ROUTES_AVX2_CLONE bool lane_edges_clear(const double* __restrict px, int stride, Vec2 a, Vec2 b, double c) {
+SOCIALNAV_AVX2_CLONE bool lane_edges_clear(const double* __restrict px, int stride, Vec2 a, Vec2 b, double c) {
   return std::sqrt(lane_edge_distances_sq<false>(px, stride, a, b, c).segment) >= c;
 }
 
-SOCIALNAV_ROUTES_AVX2_CLONE SegmentDistances lane_edge_end_distances_sq(const double* __restrict px, int stride, Vec2 a,
-                                                                        Vec2 b) {
+SOCIALNAV_AVX2_CLONE SegmentDistances lane_edge_end_distances_sq(const double* __restrict px, int stride, Vec2 a,
+                                                                 Vec2 b) {
   return lane_edge_distances_sq<true>(px, stride, a, b);
 }
 
-SOCIALNAV_ROUTES_AVX2_CLONE double lane_point_distance_sq(const double* __restrict px, int stride, Vec2 p) {
+// lane_point_distance_sq's body. Like lane_edge_distances_sq it lies outside the cloned function, which only
+// calls it: Clang refuses a call that passes a vector type between a function compiled with AVX (the avx2
+// clone) and one without (the lane helpers), inlined or not, where GCC only warns.
+SOCIALNAV_INLINE inline double lane_point_distance_sq_body(const double* __restrict px, int stride, Vec2 p) {
   const double* __restrict py = px + stride;
   const double* __restrict ex_ = px + 2 * stride;
   const double* __restrict ey_ = px + 3 * stride;
@@ -388,6 +392,10 @@ SOCIALNAV_ROUTES_AVX2_CLONE double lane_point_distance_sq(const double* __restri
     best = lane_min(best, dx * dx + dy * dy);
   }
   return lanes_min(best);
+}
+
+SOCIALNAV_AVX2_CLONE double lane_point_distance_sq(const double* __restrict px, int stride, Vec2 p) {
+  return lane_point_distance_sq_body(px, stride, p);
 }
 
 }  // namespace
@@ -468,7 +476,7 @@ bool visible_with_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b, doubl
 
 namespace {
 
-SOCIALNAV_ROUTES_AVX2_CLONE double min_point_distance_sq(const double* __restrict px, int n, Vec2 p) {
+SOCIALNAV_AVX2_CLONE double min_point_distance_sq(const double* __restrict px, int n, Vec2 p) {
   const double* __restrict py = px + n;
   const double* __restrict ex = px + 2 * n;
   const double* __restrict ey = px + 3 * n;

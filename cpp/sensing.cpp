@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "multiversion.hpp"
 #include "splitmix.hpp"
 
 namespace socialnav {
@@ -159,10 +160,6 @@ bool disc_in_sight(Vec2 eye, Vec2 centre, double radius, const ObstacleView& wal
 
 namespace {
 
-// As cpp/orca.cpp's: the per-beam kernels get an AVX2 clone, chosen when the library loads (no FMA
-// contraction, -ffp-contract=off: the clones give the same bits).
-#define SOCIALNAV_SENSING_AVX2_CLONE __attribute__((target_clones("avx2", "default")))
-
 // atan2 to within 1e-5 rad (a minimax polynomial of atan on [0, 1] and the octant symmetries): only
 // where a scan looks for the beams an occluder may cover, each of which is then tested exactly.
 inline double approx_atan2(double y, double x) {
@@ -230,9 +227,8 @@ inline void for_beam_runs(double lo, double hi, const BeamLayout& b, Fn fn) {
 
 // Beams [i0, i1] against the segment from p along e (sensor frame): where a beam crosses it nearer than
 // what it has, the distance.
-SOCIALNAV_SENSING_AVX2_CLONE void segment_run(const double* __restrict cs, const double* __restrict sn,
-                                              double* __restrict out, int i0, int i1, double px, double py, double ex,
-                                              double ey) {
+SOCIALNAV_AVX2_CLONE void segment_run(const double* __restrict cs, const double* __restrict sn, double* __restrict out,
+                                      int i0, int i1, double px, double py, double ex, double ey) {
   const double num = px * ey - py * ex;
   for (int i = i0; i <= i1; ++i) {
     const double denom = cs[i] * ey - sn[i] * ex;
@@ -244,9 +240,8 @@ SOCIALNAV_SENSING_AVX2_CLONE void segment_run(const double* __restrict cs, const
 }
 
 // Beams [i0, i1] against the disc at c (sensor frame, |c|^2 = dist_sq > r_sq, the eye outside).
-SOCIALNAV_SENSING_AVX2_CLONE void disc_run(const double* __restrict cs, const double* __restrict sn,
-                                           double* __restrict out, int i0, int i1, double cx, double cy, double dist_sq,
-                                           double r_sq) {
+SOCIALNAV_AVX2_CLONE void disc_run(const double* __restrict cs, const double* __restrict sn, double* __restrict out,
+                                   int i0, int i1, double cx, double cy, double dist_sq, double r_sq) {
   for (int i = i0; i <= i1; ++i) {
     const double b = cs[i] * cx + sn[i] * cy;
     const double q = r_sq - (dist_sq - b * b);
@@ -309,7 +304,7 @@ void lidar_scan(Vec2 eye, double heading, const double* beam_cos, const double* 
 
 namespace {
 
-SOCIALNAV_SENSING_AVX2_CLONE void to_float(const double* __restrict ranges, int n, float* __restrict out) {
+SOCIALNAV_AVX2_CLONE void to_float(const double* __restrict ranges, int n, float* __restrict out) {
   for (int i = 0; i < n; ++i) out[i] = static_cast<float>(ranges[i]);
 }
 
