@@ -125,7 +125,11 @@ def package_with(core: Path, tmp_path: Path) -> Path:
 
 
 def run(script: str, package: Path | None, cwd: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, **({"PYTHONPATH": str(package)} if package else {})}
+    """Runs `script` in a fresh interpreter, importing socialnav from `package` (None: the installed one);
+    the PYTHONPATH this process has (where dependencies may live) stays behind it."""
+    env = dict(os.environ)
+    if package:
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(package), os.environ.get("PYTHONPATH", "")) if p)
     return subprocess.run([sys.executable, "-c", script, str(package) if package else "installed"],
                           capture_output=True, text=True, env=env, cwd=cwd, timeout=300)
 
