@@ -1,8 +1,8 @@
 #include "behaviour.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 namespace socialnav {
@@ -20,14 +20,14 @@ std::string& duplicate() {  // the first name registered twice, "" if none
   return name;
 }
 
-// x as printf's %g writes it (6 significant digits), in the C locale. std::to_chars rather than an
-// ostringstream: iostreams reach the library's global locale, which a core linked with its own copy of
-// libstdc++ (a toolchain that links it statically) may share with the copy a Python process already loaded,
-// and then crash in; to_chars reads no global state.
+// x as %g writes it (6 significant digits), as an ostringstream did. snprintf rather than an ostringstream:
+// iostreams reach libstdc++'s global locale, which a core linked with its own copy of libstdc++ (a toolchain
+// that links it statically) may share with the copy a Python process already loaded, and then crash in; C's
+// snprintf is in every C library (std::to_chars for doubles needs GCC 11).
 std::string number(double x) {
   char text[32];
-  const auto end = std::to_chars(text, text + sizeof text, x, std::chars_format::general, 6).ptr;
-  return std::string(text, end);
+  const int n = std::snprintf(text, sizeof text, "%g", x);
+  return std::string(text, n > 0 ? static_cast<size_t>(n) : 0);
 }
 
 }  // namespace
