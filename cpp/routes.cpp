@@ -375,9 +375,8 @@ SOCIALNAV_AVX2_CLONE SegmentDistances lane_edge_end_distances_sq(const double* _
   return lane_edge_distances_sq<true>(px, stride, a, b);
 }
 
-// lane_point_distance_sq's body. Like lane_edge_distances_sq it lies outside the cloned function, which only
-// calls it: Clang refuses a call that passes a vector type between a function compiled with AVX (the avx2
-// clone) and one without (the lane helpers), inlined or not, where GCC only warns.
+// lane_point_distance_sq's body, outside the cloned function as lane_edge_distances_sq is (see Lanes: Clang
+// refuses lane helpers called straight from an AVX2 clone).
 SOCIALNAV_INLINE inline double lane_point_distance_sq_body(const double* __restrict px, int stride, Vec2 p) {
   const double* __restrict py = px + stride;
   const double* __restrict ex_ = px + 2 * stride;

@@ -22,6 +22,7 @@ import os
 import shutil
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import pytest
@@ -34,17 +35,24 @@ pytestmark = [
                        reason="needs cmake (test extra) and nm (binutils)"),
 ]
 
-# Prints a digest of a walled world with routed humans and a 36-beam lidar after 60 steps of the ORCA robot
-# (walls, routes, the lidar and ORCA's obstacle code: the kernels with vector types and AVX2 clones), with
-# the core that sys.argv[1] names ("installed", or a package directory to import it from).
-WORLD_DIGEST = """
-import hashlib, sys
+# The start of each script below: NumPy (and with it the system's libstdc++) first, then the core that
+# sys.argv[1] names ("installed", or a package directory to import it from); sys.argv[2] is this checkout,
+# where the tests' helpers are.
+IMPORT_CORE = """
+import sys
 if sys.argv[1] != "installed":  # leave an editable install's finder out
     sys.meta_path[:] = [f for f in sys.meta_path if "ScikitBuild" not in type(f).__name__]
 import numpy as np
 from socialnav import _core
 if sys.argv[1] != "installed":
     assert _core.__file__.startswith(sys.argv[1]), _core.__file__
+sys.path.append(sys.argv[2])
+"""
+
+# Prints a digest of a walled world with routed humans and a 36-beam lidar after 60 steps of the ORCA robot
+# (walls, routes, the lidar and ORCA's obstacle code: the kernels with vector types and AVX2 clones).
+WORLD_DIGEST = IMPORT_CORE + """
+import hashlib
 from socialnav.maps.static_map import StaticMap
 from socialnav.policies import make_policy
 from socialnav.scenarios import make_scenario
@@ -66,16 +74,12 @@ for array in (world.position, world.velocity, world.status, world.reward):
 print(digest.hexdigest())
 """
 
-# Runs a world with NumPy (and with it the system's libstdc++) loaded first, and the core's error messages.
-RUN_A_WORLD = """
-import sys
-sys.meta_path[:] = [f for f in sys.meta_path if "ScikitBuild" not in type(f).__name__]  # an editable install
-import numpy as np
-from socialnav import _core
-assert _core.__file__.startswith(sys.argv[1]), _core.__file__
+# Runs a world, then asks the core for its error messages.
+RUN_A_WORLD = IMPORT_CORE + """
 from socialnav.scenarios import make_scenario
 from socialnav.sim.settings import WorldSettings
 from socialnav.sim.world import World
+from tests.sim.test_behaviour_registry import _world_arrays
 scenario = make_scenario("circle_crossing", n_humans=5)
 world = World(WorldSettings(threads=2), scenario, 4, split="test", count=4)
 world.reset()
@@ -88,9 +92,7 @@ except TypeError:
 config = _core.WorldConfig()
 config.batch, config.agents = 1, 2
 config.human_behaviour, config.human_params = "orca", [10.0, 65, 5.0, 5.0, 0.01, 0.0]
-arrays = (np.zeros((1, 2, 2)), np.zeros((1, 2, 2)), np.zeros((1, 2, 2)), np.zeros((1, 2)), np.zeros((1, 2)),
-          np.zeros((1, 2), np.uint8), np.zeros(1), np.zeros(1, np.int32), np.zeros(1, np.int8), np.zeros(1),
-          np.zeros(1), np.zeros(1, np.uint8), np.zeros(1, np.int32), np.zeros((1, 2)), np.zeros(1, np.int32))
+arrays = _world_arrays(1, 2)
 try:
     _core.World(config, *arrays, None, None, None)
     raise SystemExit("no error for max_neighbors 65")
@@ -130,7 +132,7 @@ def run(script: str, package: Path | None, cwd: Path) -> subprocess.CompletedPro
     env = dict(os.environ)
     if package:
         env["PYTHONPATH"] = os.pathsep.join(p for p in (str(package), os.environ.get("PYTHONPATH", "")) if p)
-    return subprocess.run([sys.executable, "-c", script, str(package) if package else "installed"],
+    return subprocess.run([sys.executable, "-c", script, str(package) if package else "installed", str(REPO)],
                           capture_output=True, text=True, env=env, cwd=cwd, timeout=300)
 
 
@@ -178,18 +180,16 @@ def test_a_clang_core_steps_a_walled_routed_world_to_the_same_bits(tmp_path: Pat
                     reason="no aarch64-linux-gnu-g++ on this machine (.ci/run installs it where it can)")
 def test_the_core_compiles_for_aarch64(tmp_path: Path) -> None:
     """Every source of the core compiles for 64-bit Arm (the x86 kernels' AVX2 clones and intrinsics are
-    left out there), with the same flags as the module's; the Python and nanobind headers are this
+    left out there), with the module's floating-point flags; the Python and nanobind headers are this
     machine's, which serve for compiling (not linking) an LP64 target."""
-    import sysconfig
-
     nanobind = subprocess.run([sys.executable, "-m", "nanobind", "--include_dir"], capture_output=True,
                               text=True, check=True).stdout.strip()
     robin_map = Path(nanobind).parent / "ext" / "robin_map" / "include"
     includes = [f"-I{d}" for d in (REPO / "cpp", nanobind, robin_map, sysconfig.get_paths()["include"])]
     sources = sorted((REPO / "cpp").glob("*.cpp")) + sorted((REPO / "cpp" / "behaviours").glob("*.cpp"))
+    flags = ["-std=c++17", "-O0", "-ffp-contract=off", "-fno-trapping-math", "-fno-math-errno", *includes]
     failed = {}
     for source in sources:
-        flags = ["-std=c++17", "-O0", "-ffp-contract=off", "-fno-trapping-math", "-fno-math-errno", *includes]
         compiled = subprocess.run(["aarch64-linux-gnu-g++", *flags, "-c", str(source), "-o",
                                    str(tmp_path / (source.stem + ".o"))], capture_output=True, text=True)
         if compiled.returncode != 0:
