@@ -753,6 +753,7 @@ void RouteFollower::replan(const ObstacleView& obstacles, Vec2 start, Vec2 goal,
   plan_with_tiers(obstacles, graph, start, goal, radius, clearance, route);
   index = 0;
   seen_margin = blocked_margin = -1.0;
+  blocking = -1;  // an edge index of the map planned on before: past the end of a map with fewer edges
   sync();
 }
 
