@@ -74,12 +74,11 @@ void corner_nodes(const ObstacleView& obs, int i, double d, std::vector<Vec2>& o
 
 // The search's scratch arrays, one set per thread (one thread-local lookup per search).
 struct SearchScratch {
-  std::vector<int> prev;
-  std::vector<uint8_t> settled;
+  std::vector<int> prev;          // a settled node's predecessor on its route (-1: the start)
   std::vector<double> to_goal;    // the nodes' straight distances to the goal
   std::vector<double> start_key;  // a node's entry straight from the start (+inf once tested and hidden)
   std::vector<double> start_g;    // its route length (the straight distance)
-  std::vector<double> graph_key;  // a node's best entry through the graph so far (+inf: none)
+  std::vector<double> graph_key;  // a node's best entry through the graph so far (+inf: none; -inf: settled)
   std::vector<double> graph_g;
   std::vector<int> graph_pred;
   std::vector<double> key;        // min(start_key, graph_key) of an unsettled node, +inf once settled (padded)
@@ -89,11 +88,11 @@ struct SearchScratch {
 // The keys are scanned in blocks: the block of least minimum first, then its nodes.
 constexpr int kKeyBlock = 8;
 
-SOCIALNAV_INLINE inline void refresh_block(SearchScratch& s, int i) {
-  const double* k = s.key.data() + (i / kKeyBlock) * kKeyBlock;
+SOCIALNAV_INLINE inline void refresh_block(const double* __restrict key, double* __restrict block_min, int i) {
+  const double* k = key + (i / kKeyBlock) * kKeyBlock;
   double m = k[0];
   for (int j = 1; j < kKeyBlock; ++j) m = k[j] < m ? k[j] : m;
-  s.block_min[i / kKeyBlock] = m;
+  block_min[i / kKeyBlock] = m;
 }
 
 // This thread's scratch arrays, looked up once per search: a thread_local used in place would have its
@@ -115,68 +114,86 @@ __attribute__((noinline)) SearchScratch& thread_scratch() {
 // of exactly equal length to a node (through collinear corners, or mirror images on a symmetric map) are
 // common, so which one a node keeps is a rule: the one found first, the start's segment before any
 // through the graph (docs/routes.md; tests/sim/test_routes.py records routes on symmetric maps).
+//
+// A way through the graph whose key is no less than the best route found so far is not recorded: such a
+// node is never taken next (the search ends first), and a later way shorter than it replaces the older
+// candidate all the same, so the route is the one the full bookkeeping would find.
 bool search_route(const RouteGraph& g, Vec2 start, Vec2 goal, double c_start, double c_goal, const EdgeSet& walls,
                   const ObstacleView& obs, SearchScratch& s, int& last) {
   const int n = static_cast<int>(g.node.size());
-  s.prev.assign(static_cast<size_t>(n), -1);
-  s.settled.assign(static_cast<size_t>(n), 0);
+  const int blocks = (n + kKeyBlock - 1) / kKeyBlock;
+  s.prev.resize(static_cast<size_t>(n));
   s.to_goal.resize(static_cast<size_t>(n));
   s.start_key.resize(static_cast<size_t>(n));
   s.start_g.resize(static_cast<size_t>(n));
   s.graph_key.assign(static_cast<size_t>(n), kInf);
   s.graph_g.resize(static_cast<size_t>(n));
   s.graph_pred.resize(static_cast<size_t>(n));
-  const int blocks = (n + kKeyBlock - 1) / kKeyBlock;
   s.key.assign(static_cast<size_t>(blocks) * kKeyBlock, kInf);
   s.block_min.resize(static_cast<size_t>(blocks));
+  // (the arrays as plain pointers: the compiler need not reload them from the vectors after each store)
+  int* __restrict prev = s.prev.data();
+  double* __restrict to_goal = s.to_goal.data();
+  double* __restrict start_key = s.start_key.data();
+  double* __restrict start_g = s.start_g.data();
+  double* __restrict graph_key = s.graph_key.data();
+  double* __restrict graph_g = s.graph_g.data();
+  int* __restrict graph_pred = s.graph_pred.data();
+  double* __restrict key = s.key.data();
+  double* __restrict block_min = s.block_min.data();
+  const Vec2* __restrict node = g.node.data();
+  const int32_t* __restrict first = g.first.data();
+  const int32_t* __restrict neighbour = g.neighbour.data();
+  const double* __restrict length = g.length.data();
   for (int i = 0; i < n; ++i) {
-    s.to_goal[i] = norm(goal - g.node[i]);
-    s.start_g[i] = norm(g.node[i] - start);
-    s.start_key[i] = s.key[i] = s.start_g[i] + s.to_goal[i];
+    to_goal[i] = norm(goal - node[i]);
+    start_g[i] = norm(node[i] - start);
+    start_key[i] = key[i] = start_g[i] + to_goal[i];
   }
-  for (int b = 0; b < blocks; ++b) refresh_block(s, b * kKeyBlock);
+  for (int b = 0; b < blocks; ++b) refresh_block(key, block_min, b * kKeyBlock);
   double best = kInf;
   last = -1;
   for (;;) {
+    // (both scans without branches: which block and which node come next is data the predictor cannot learn)
     int block = -1;
     double k = kInf;
-    for (int b = 0; b < blocks; ++b)
-      if (s.block_min[b] < k) {
-        k = s.block_min[b];
-        block = b;
-      }
+    for (int b = 0; b < blocks; ++b) {
+      const bool less = block_min[b] < k;
+      k = less ? block_min[b] : k;
+      block = less ? b : block;
+    }
     if (block < 0 || k >= best) break;
-    int i = block * kKeyBlock;
-    while (s.key[i] != k) ++i;
-    const bool from_start = s.start_key[i] <= s.graph_key[i];
-    const Vec2 p = g.node[i];
+    unsigned equal = 0;
+    for (int j = 0; j < kKeyBlock; ++j) equal |= static_cast<unsigned>(key[block * kKeyBlock + j] == k) << j;
+    const int i = block * kKeyBlock + __builtin_ctz(equal);
+    const bool from_start = start_key[i] <= graph_key[i];
+    const Vec2 p = node[i];
     if (from_start && !segment_clear(walls, obs, start, p, c_start)) {
-      s.start_key[i] = kInf;
-      s.key[i] = s.graph_key[i];
-      refresh_block(s, i);
+      start_key[i] = kInf;
+      key[i] = graph_key[i];
+      refresh_block(key, block_min, i);
       continue;
     }
-    const double gi = from_start ? s.start_g[i] : s.graph_g[i];
-    s.key[i] = kInf;
-    refresh_block(s, i);
-    s.settled[i] = 1;
-    s.prev[i] = from_start ? -1 : s.graph_pred[i];
-    if (gi + s.to_goal[i] < best && segment_clear(walls, obs, p, goal, c_goal)) {
-      best = gi + s.to_goal[i];
+    const double gi = from_start ? start_g[i] : graph_g[i];
+    key[i] = kInf;
+    refresh_block(key, block_min, i);
+    prev[i] = from_start ? -1 : graph_pred[i];
+    graph_key[i] = -kInf;  // settled: no way through the graph improves on it
+    if (gi + to_goal[i] < best && segment_clear(walls, obs, p, goal, c_goal)) {
+      best = gi + to_goal[i];
       last = i;
     }
-    for (int e = g.first[i]; e < g.first[i + 1]; ++e) {
-      const int j = g.neighbour[e];
-      if (s.settled[j]) continue;
-      const double gj = gi + g.length[e];
-      const double kj = gj + s.to_goal[j];
-      if (kj < s.graph_key[j]) {
-        s.graph_key[j] = kj;
-        s.graph_g[j] = gj;
-        s.graph_pred[j] = i;
-        if (kj < s.key[j]) {
-          s.key[j] = kj;
-          s.block_min[j / kKeyBlock] = std::min(s.block_min[j / kKeyBlock], kj);
+    for (int e = first[i]; e < first[i + 1]; ++e) {
+      const int j = neighbour[e];
+      const double gj = gi + length[e];
+      const double kj = gj + to_goal[j];
+      if (kj < graph_key[j] && kj < best) {
+        graph_key[j] = kj;
+        graph_g[j] = gj;
+        graph_pred[j] = i;
+        if (kj < key[j]) {
+          key[j] = kj;
+          block_min[j / kKeyBlock] = std::min(block_min[j / kKeyBlock], kj);
         }
       }
     }
@@ -316,14 +333,14 @@ SOCIALNAV_AVX2_CLONE double min_edge_distance_sq(const double* __restrict px, in
 //
 // lane_edge_distances_sq gives the segment's squared distance and, with kEnds, a's and b's alone (the
 // point terms of the segment's distance are min_point_distance_sq's, operation for operation): an
-// agent's own clearance comes with its first segment test. With `stop` > 0 it may return early, a
-// segment distance whose square root is below stop, once the edges seen so far are that close.
+// agent's own clearance comes with its first segment test. With `stop_sq` > 0 it may return early, a
+// squared segment distance below stop_sq, once the edges seen so far are that close.
 struct SegmentDistances {
   double segment, a, b;
 };
 template <bool kEnds>
 SOCIALNAV_INLINE inline SegmentDistances lane_edge_distances_sq(const double* __restrict px, int stride, Vec2 a, Vec2 b,
-                                                                double stop = 0.0) {
+                                                                double stop_sq = 0.0) {
   const double* __restrict py = px + stride;
   const double* __restrict ex_ = px + 2 * stride;
   const double* __restrict ey_ = px + 3 * stride;
@@ -355,7 +372,7 @@ SOCIALNAV_INLINE inline SegmentDistances lane_edge_distances_sq(const double* __
       best_a = lane_min(best_a, da);
       best_b = lane_min(best_b, db);
     }
-    if (stop > 0.0 && i + kEdgeLanes < stride && std::sqrt(lanes_min(best)) < stop) break;
+    if (stop_sq > 0.0 && i + kEdgeLanes < stride && lanes_min(best) < stop_sq) break;
   }
   return {lanes_min(best), kEnds ? lanes_min(best_a) : kInf, kEnds ? lanes_min(best_b) : kInf};
 }
@@ -365,9 +382,16 @@ SOCIALNAV_AVX2_CLONE double lane_edge_distance_sq(const double* __restrict px, i
 }
 
 // sqrt(lane_edge_distance_sq(px, stride, a, b)) >= c, answered as soon as the edges seen so far are closer
-// than c (the square root is monotone: the minimum can only fall further).
+// than c (the square root is monotone: the minimum can only fall further). The squares are compared where
+// that decides (c^2 with a relative margin of 1e-12, far above its rounding), the root taken only in between:
+// the same answer as the root's, without its latency on most tests.
 SOCIALNAV_AVX2_CLONE bool lane_edges_clear(const double* __restrict px, int stride, Vec2 a, Vec2 b, double c) {
-  return std::sqrt(lane_edge_distances_sq<false>(px, stride, a, b, c).segment) >= c;
+  const double c_sq = c * c;
+  const double below = c_sq * (1.0 - 1e-12), above = c_sq * (1.0 + 1e-12);
+  const double d_sq = lane_edge_distances_sq<false>(px, stride, a, b, below).segment;
+  if (d_sq < below) return false;
+  if (d_sq >= above) return true;
+  return std::sqrt(d_sq) >= c;
 }
 
 SOCIALNAV_AVX2_CLONE SegmentDistances lane_edge_end_distances_sq(const double* __restrict px, int stride, Vec2 a,
