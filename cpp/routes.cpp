@@ -102,6 +102,20 @@ __attribute__((noinline)) SearchScratch& thread_scratch() {
   return scratch;
 }
 
+// The search's first pass over the nodes: their straight distances to the goal and from the start (norm's
+// arithmetic, lane by lane: the same values), and the start's entries as the keys.
+SOCIALNAV_AVX2_CLONE void node_keys(const double* __restrict x, const double* __restrict y, int n, Vec2 start,
+                                    Vec2 goal, double* __restrict to_goal, double* __restrict start_g,
+                                    double* __restrict start_key, double* __restrict key) {
+  for (int i = 0; i < n; ++i) {
+    const double gx = goal.x - x[i], gy = goal.y - y[i];
+    const double sx = x[i] - start.x, sy = y[i] - start.y;
+    to_goal[i] = std::sqrt(gx * gx + gy * gy);
+    start_g[i] = std::sqrt(sx * sx + sy * sy);
+    start_key[i] = key[i] = start_g[i] + to_goal[i];
+  }
+}
+
 // A* (P. E. Hart, N. J. Nilsson, B. Raphael, "A Formal Basis for the Heuristic Determination of Minimum Cost
 // Paths", IEEE Trans. SSC 4(2), 1968) from `start` to `goal` over graph g, the straight distance to the goal
 // its estimate: writes into s.prev the route's nodes back from `last` and returns true, or returns false
@@ -145,11 +159,7 @@ bool search_route(const RouteGraph& g, Vec2 start, Vec2 goal, double c_start, do
   const int32_t* __restrict first = g.first.data();
   const int32_t* __restrict neighbour = g.neighbour.data();
   const double* __restrict length = g.length.data();
-  for (int i = 0; i < n; ++i) {
-    to_goal[i] = norm(goal - node[i]);
-    start_g[i] = norm(node[i] - start);
-    start_key[i] = key[i] = start_g[i] + to_goal[i];
-  }
+  node_keys(g.node_x.data(), g.node_y.data(), n, start, goal, to_goal, start_g, start_key, key);
   for (int b = 0; b < blocks; ++b) refresh_block(key, block_min, b * kKeyBlock);
   double best = kInf;
   last = -1;
@@ -538,6 +548,10 @@ RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation) {
   for (const Vec2& c : candidates)
     if (obstacle_clearance(obstacles, c) >= inflation) g.node.push_back(c);
   const int n = static_cast<int>(g.node.size());
+  for (const Vec2& p : g.node) {
+    g.node_x.push_back(p.x);
+    g.node_y.push_back(p.y);
+  }
   std::vector<std::vector<std::pair<int, double>>> adjacent(static_cast<size_t>(n));
   const double c = inflation * (1.0 - 1e-9);
   for (int i = 0; i < n; ++i)
@@ -682,11 +696,20 @@ void plan_route_around(const ObstacleView& walls, const Vec2* centres, const dou
   if (!out.found) plan_route(walls, start, goal, radius, clearance, out);
 }
 
-Vec2 heading_point(bool last_leg, Vec2 w, double w_remaining, Vec2 next, Vec2 position, Vec2 goal) {
+namespace {
+
+// heading_point with the agent's distance to w, norm(w - position), given.
+inline Vec2 heading_point_at(bool last_leg, Vec2 w, double w_remaining, Vec2 next, Vec2 position, Vec2 goal,
+                             double to_point) {
   if (last_leg) return goal;
-  const double to_point = norm(w - position);
   if (to_point < 1e-9) return next;
   return position + ((to_point + w_remaining) / to_point) * (w - position);
+}
+
+}  // namespace
+
+Vec2 heading_point(bool last_leg, Vec2 w, double w_remaining, Vec2 next, Vec2 position, Vec2 goal) {
+  return heading_point_at(last_leg, w, w_remaining, next, position, goal, last_leg ? 0.0 : norm(w - position));
 }
 
 Vec2 heading_point(const Route& route, int index, Vec2 position, Vec2 goal) {
@@ -793,9 +816,10 @@ void RouteFollower::sync() {
 
 Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance,
                            int step, double dt, int agent) {
-  const Vec2 ahead = route_target(obstacles, position, goal, radius, clearance);
+  double to_aim = 0.0;  // norm(aim - position), once for the three uses
+  const Vec2 ahead = route_target(obstacles, position, goal, radius, clearance, to_aim);
   if (points == 0) return ahead;
-  const double remaining = norm(aim - position) + aim_remaining;
+  const double remaining = to_aim + aim_remaining;
   if (step != last_step) {
     last_step = step;
     if (yielding > 0.0) {
@@ -815,12 +839,12 @@ Vec2 RouteFollower::target(const ObstacleView& obstacles, Vec2 position, Vec2 go
   }
   if (yielding <= 0.0) return ahead;
   const Vec2 away = position - aim;
-  const double len = norm(away);
+  const double len = to_aim;  // (norm(away): the same squares)
   return len > 1e-9 ? position + (1.0 / len) * away : ahead;
 }
 
 Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius,
-                                 double clearance) {
+                                 double clearance, double& to_aim) {
   if (points == 0) return goal;              // no route: straight for the goal
   const EdgeSet& walls = wide_graph->walls;  // planned: the graph is held
   const int n = points;
@@ -828,7 +852,9 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
   // and the agent's own, change by at most as much as the agent moved (both are 1-Lipschitz in its position).
   bool advanced = false;
   double own = -1.0;  // the agent's own clearance, computed when a test needs it
-  if (index + 1 < n && !(blocked_margin > 0.0 && norm(position - blocked_from) < blocked_margin) &&
+  // (the distance moved compared in squares, with a margin far above their rounding: no root taken)
+  if (index + 1 < n &&
+      !(blocked_margin > 0.0 && abs_sq(position - blocked_from) < blocked_margin * blocked_margin * (1.0 - 1e-12)) &&
       !(blocking >= 0 && crosses_edge(walls, blocking, position, next_aim))) {
     // (Above: the next point is still hidden where the segment to it crosses the wall edge that hid it
     // last time: its distance is 0, below any c_advance, so the full test would find it hidden too.)
@@ -883,7 +909,8 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
     }
   }
   // (after a re-plan, a route of another length)
-  return heading_point(index + 1 >= points, aim, aim_remaining, next_aim, position, goal);
+  to_aim = norm(aim - position);
+  return heading_point_at(index + 1 >= points, aim, aim_remaining, next_aim, position, goal, to_aim);
 }
 
 }  // namespace socialnav

@@ -48,6 +48,7 @@ struct RouteGraph {
   double inflation = 0.0;
   EdgeSet walls;
   std::vector<Vec2> node;
+  std::vector<double> node_x, node_y;  // the nodes' coordinates again, as two arrays (the search's first pass)
   std::vector<int32_t> first;
   std::vector<int32_t> neighbour;
   std::vector<double> length;
@@ -176,7 +177,9 @@ struct alignas(64) RouteFollower {
               double dt, int agent);
 
  private:
-  Vec2 route_target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance);
+  // (to_aim: set to norm(aim - position) where a route was found)
+  Vec2 route_target(const ObstacleView& obstacles, Vec2 position, Vec2 goal, double radius, double clearance,
+                    double& to_aim);
   // The route from `start` afresh (same map: the held graphs), index at its first point.
   void replan(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance);
   // replan, and the giving-way timers too: what an agent pushed off its route does.
