@@ -13,6 +13,7 @@
 
 #include "behaviour.hpp"
 #include "behaviours/builtin_params.hpp"
+#include "multiversion.hpp"
 #include "observation_layout.hpp"
 #include "orca.hpp"
 #include "robot_policies.hpp"
@@ -880,6 +881,28 @@ NB_MODULE(_core, m) {
       "The shortest route (routes.hpp) of an agent of radius [m] from start to goal keeping clearance [m] from the "
       "walls where it can: (points, found, inflation), the points to pass with the goal last; found False: no "
       "route at any inflation (points: the goal alone).");
+
+  m.def(
+      "route_kernel_values",
+      [](Array<double> a, Array<double> b, double c, Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets,
+         bool baseline) {
+        checked(a, "a", 2);
+        checked(b, "b", 2);
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        const socialnav::EdgeSet edges = socialnav::compact_edges(walls.view());
+        const std::array<double, 6> v = socialnav::route_kernel_values(edges, vec(a), vec(b), c, baseline);
+        return nb::make_tuple(v[0], v[1], v[2], v[3], v[4], v[5] != 0.0);
+      },
+      "a"_a, "b"_a, "c"_a, "obstacle_vertices"_a, "obstacle_offsets"_a, "baseline"_a = false,
+      "What the route kernels give for the segment [a, b] over the map's edges (tests): squared distances of the "
+      "segment, of a and of b, the segment's again from the kernel without the ends, a's from the point kernel, and "
+      "whether the segment's clearance is >= c; from the build this CPU dispatches to (x86-64-v4, AVX2 or the "
+      "baseline), or with baseline=True from the baseline build.");
+  m.def(
+      "route_kernel_build", [] { return std::string(socialnav::avx512_clone_build()); },
+      "The build of the route kernels this CPU runs: 'x86-64-v4', 'avx2' or 'baseline'.");
 
   m.def(
       "route_distances",

@@ -1,12 +1,14 @@
 #include "routes.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <deque>
 #include <limits>
 #include <mutex>
 #include <queue>
+#include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -387,7 +389,7 @@ SOCIALNAV_INLINE inline SegmentDistances lane_edge_distances_sq(const double* __
   return {lanes_min(best), kEnds ? lanes_min(best_a) : kInf, kEnds ? lanes_min(best_b) : kInf};
 }
 
-SOCIALNAV_AVX2_CLONE double lane_edge_distance_sq(const double* __restrict px, int stride, Vec2 a, Vec2 b) {
+SOCIALNAV_AVX512_CLONE double lane_edge_distance_sq(const double* __restrict px, int stride, Vec2 a, Vec2 b) {
   return lane_edge_distances_sq<false>(px, stride, a, b).segment;
 }
 
@@ -395,7 +397,7 @@ SOCIALNAV_AVX2_CLONE double lane_edge_distance_sq(const double* __restrict px, i
 // than c (the square root is monotone: the minimum can only fall further). The squares are compared where
 // that decides (c^2 with a relative margin of 1e-12, far above its rounding), the root taken only in between:
 // the same answer as the root's, without its latency on most tests.
-SOCIALNAV_AVX2_CLONE bool lane_edges_clear(const double* __restrict px, int stride, Vec2 a, Vec2 b, double c) {
+SOCIALNAV_INLINE inline bool lane_edges_clear_body(const double* __restrict px, int stride, Vec2 a, Vec2 b, double c) {
   const double c_sq = c * c;
   const double below = c_sq * (1.0 - 1e-12), above = c_sq * (1.0 + 1e-12);
   const double d_sq = lane_edge_distances_sq<false>(px, stride, a, b, below).segment;
@@ -404,8 +406,12 @@ SOCIALNAV_AVX2_CLONE bool lane_edges_clear(const double* __restrict px, int stri
   return std::sqrt(d_sq) >= c;
 }
 
-SOCIALNAV_AVX2_CLONE SegmentDistances lane_edge_end_distances_sq(const double* __restrict px, int stride, Vec2 a,
-                                                                 Vec2 b) {
+SOCIALNAV_AVX512_CLONE bool lane_edges_clear(const double* __restrict px, int stride, Vec2 a, Vec2 b, double c) {
+  return lane_edges_clear_body(px, stride, a, b, c);
+}
+
+SOCIALNAV_AVX512_CLONE SegmentDistances lane_edge_end_distances_sq(const double* __restrict px, int stride, Vec2 a,
+                                                                   Vec2 b) {
   return lane_edge_distances_sq<true>(px, stride, a, b);
 }
 
@@ -427,11 +433,37 @@ SOCIALNAV_INLINE inline double lane_point_distance_sq_body(const double* __restr
   return lanes_min(best);
 }
 
-SOCIALNAV_AVX2_CLONE double lane_point_distance_sq(const double* __restrict px, int stride, Vec2 p) {
+SOCIALNAV_AVX512_CLONE double lane_point_distance_sq(const double* __restrict px, int stride, Vec2 p) {
   return lane_point_distance_sq_body(px, stride, p);
 }
 
+// The kernels above as the baseline build runs them (not cloned: the target's default instructions), for
+// route_kernel_values.
+__attribute__((noinline)) std::array<double, 6> baseline_kernel_values(const double* px, int stride, Vec2 a, Vec2 b,
+                                                                       double c) {
+  const SegmentDistances d = lane_edge_distances_sq<true>(px, stride, a, b);
+  return {d.segment,
+          d.a,
+          d.b,
+          lane_edge_distances_sq<false>(px, stride, a, b).segment,
+          lane_point_distance_sq_body(px, stride, a),
+          lane_edges_clear_body(px, stride, a, b, c) ? 1.0 : 0.0};
+}
+
 }  // namespace
+
+std::array<double, 6> route_kernel_values(const EdgeSet& edges, Vec2 a, Vec2 b, double c, bool baseline) {
+  if (edges.count == 0) throw std::invalid_argument("route_kernel_values: a map without edges");
+  const double* px = edges.soa.data();
+  if (baseline) return baseline_kernel_values(px, edges.stride, a, b, c);
+  const SegmentDistances d = lane_edge_end_distances_sq(px, edges.stride, a, b);
+  return {d.segment,
+          d.a,
+          d.b,
+          lane_edge_distance_sq(px, edges.stride, a, b),
+          lane_point_distance_sq(px, edges.stride, a),
+          lane_edges_clear(px, edges.stride, a, b, c) ? 1.0 : 0.0};
+}
 
 double segment_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b) {
   if (obstacles.count == 0) return kInf;

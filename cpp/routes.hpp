@@ -12,6 +12,7 @@
 // clearance (string pulling), and re-plans from where it stands once the point it heads for is hidden.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -66,6 +67,13 @@ constexpr int kRouteCacheMaps = 4096;
 // Graphs in the cache now (tests and the cost measurement read it).
 int route_cache_size();
 void clear_route_cache();
+
+// What the route kernels give for the segment [a, b] over `edges` (a map with edges): the squared distances
+// of the segment (0 where it crosses an edge) and of a and of b alone, the segment's again from the kernel
+// without the ends, a's from the point kernel, and 1 where the segment's clearance is >= c (else 0); from the
+// build the CPU's dispatch picked (x86-64-v4, AVX2 or the baseline: multiversion.hpp) or, with `baseline`,
+// from the baseline build. Every build runs the same operations, so the two agree bit for bit (tested).
+std::array<double, 6> route_kernel_values(const EdgeSet& edges, Vec2 a, Vec2 b, double c, bool baseline);
 
 // The distance [m] between the segment [a, b] and the nearest obstacle edge: 0 where it crosses one or ends
 // inside a solid polygon; +inf without obstacles.

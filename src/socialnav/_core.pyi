@@ -577,6 +577,16 @@ def plan_route(start: Annotated[NDArray[numpy.float64], dict(order='C', device='
     The shortest route (routes.hpp) of an agent of radius [m] from start to goal keeping clearance [m] from the walls where it can: (points, found, inflation), the points to pass with the goal last; found False: no route at any inflation (points: the goal alone).
     """
 
+def route_kernel_values(a: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], b: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], c: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], baseline: bool = False) -> tuple:
+    """
+    What the route kernels give for the segment [a, b] over the map's edges (tests): squared distances of the segment, of a and of b, the segment's again from the kernel without the ends, a's from the point kernel, and whether the segment's clearance is >= c; from the build this CPU dispatches to (x86-64-v4, AVX2 or the baseline), or with baseline=True from the baseline build.
+    """
+
+def route_kernel_build() -> str:
+    """
+    The build of the route kernels this CPU runs: 'x86-64-v4', 'avx2' or 'baseline'.
+    """
+
 def route_distances(points: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], goal: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], out: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> None:
     """
     Free-space distances [m] of a disc of radius from each of points (n, 2) to goal (2,) around the obstacles (the visibility graph inflated by the radius), written into out (n,); inf where the goal cannot be reached.

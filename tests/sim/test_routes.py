@@ -284,3 +284,56 @@ def test_a_bad_routes_setting_is_named():
         WorldSettings(human_routes="fastest")
     with pytest.raises(ConfigError, match="route_clearance"):
         WorldSettings(route_clearance=-0.1)
+
+
+def test_the_route_kernels_give_the_baseline_builds_values_bit_for_bit():
+    """The route kernels run in the widest build the CPU has (x86-64-v4, AVX2 or the baseline:
+    cpp/multiversion.hpp). Every build must give the baseline's values to the bit, or routes would differ
+    between machines: on random maps of walls and polygons, random segments (some through walls, some of
+    length 0, some with an end on a vertex) and clearances, all six values agree exactly."""
+    rng = np.random.default_rng(7)
+    build = _core.route_kernel_build()
+    cases = differ = 0
+    for _ in range(60):
+        polygons = []
+        for _ in range(int(rng.integers(1, 14))):
+            centre = rng.uniform(-4, 4, 2)
+            if rng.random() < 0.6:  # a wall segment
+                half = rng.uniform(0.2, 2.5) * np.array([math.cos(a := rng.uniform(0, math.pi)), math.sin(a)])
+                polygons.append(np.array([centre - half, centre + half]))
+            else:  # a convex polygon, counter-clockwise
+                angles = np.sort(rng.uniform(0, 2 * math.pi, int(rng.integers(3, 7))))
+                polygons.append(centre + rng.uniform(0.2, 1.5) * np.c_[np.cos(angles), np.sin(angles)])
+        vertices = np.concatenate(polygons)
+        offsets = np.concatenate([[0], np.cumsum([len(p) for p in polygons])]).astype(np.int64)
+        for k in range(40):
+            a = rng.uniform(-6, 6, 2)
+            if k % 13 == 0:  # a point
+                b = a.copy()
+            elif k % 7 == 0:  # an end on a vertex
+                b = vertices[int(rng.integers(len(vertices)))].copy()
+            else:
+                b = rng.uniform(-6, 6, 2)
+            c = float(rng.choice([1e-6, 0.1, 0.3, 0.55, 2.0]))
+            got = _core.route_kernel_values(a, b, c, vertices, offsets)
+            want = _core.route_kernel_values(a, b, c, vertices, offsets, baseline=True)
+            cases += 1
+            differ += any(not (x == y or (x != x and y != y)) for x, y in zip(got, want, strict=True))
+    print(f"route kernels ({build}) against the baseline build: {cases} segments, {differ} differ")
+    assert cases == 2400 and differ == 0
+
+
+def test_the_route_kernels_values_are_the_distances():
+    """The kernel values by hand: a wall from (0, 0) to (2, 0); the segment from (1, 1) to (3, 2) passes it
+    at distance 1 (its end (1, 1) is closest), a at 1, b at sqrt(1 + 4); the segment (1, -1) -> (1, 1)
+    crosses it."""
+    wall = np.array([[0.0, 0.0], [2.0, 0.0]])
+    offsets = np.array([0, 2], dtype=np.int64)
+
+    def values(a, b, c):
+        return _core.route_kernel_values(np.array(a), np.array(b), c, wall, offsets)
+
+    assert values((1.0, 1.0), (3.0, 2.0), 0.99) == (1.0, 1.0, 5.0, 1.0, 1.0, True)
+    assert values((1.0, 1.0), (3.0, 2.0), 1.01)[5] is False
+    seg, *_, clear = values((1.0, -1.0), (1.0, 1.0), 1e-6)
+    assert seg == 0.0 and clear is False
