@@ -336,7 +336,8 @@ def cmd_list(args: argparse.Namespace) -> int:
     for o in data["observations"]:
         widths = ", ".join(f"{key} {'/'.join(f'{len(c)} ({f})' for f, c in cols.items())}"
                            for key, cols in o["columns"].items())
-        print(f"  {o['name']}: {o['description']}" + (f" [{widths}]" if widths else ""))
+        # a key's columns per row (per human slot, per obstacle point, per lidar beam)
+        print(f"  {o['name']}: {o['description']}" + (f" [columns per row: {widths}]" if widths else ""))
     print("Presets: " + ", ".join(data["presets"]))
     print("Gymnasium ids (gym.make / gym.make_vec; docs/simulator.md):")
     for env_id, scenario in data["gym_ids"].items():

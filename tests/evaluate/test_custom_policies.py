@@ -396,3 +396,28 @@ def test_a_policy_parameter_called_name(tmp_path, capsys):
     code, out, err = evaluate(capsys, tmp_path, "--policy", f"{MODULE}:Named", "--policy-arg", "name=ours")
     assert code == 0, err
     assert json.loads(out)["rows"][0]["policy"] == "ours"
+
+
+class LidarSeeker(GoalSeeker):
+    """A policy that brings a lidar and whose describe() names nothing (the manifest records both)."""
+
+    sensors = {"lidar_beams": 8}
+
+    def act(self, observation):
+        assert observation.lidar is not None and observation.lidar.shape[1] == 8
+        return super().act(observation)
+
+    def describe(self):
+        return {}
+
+
+def test_a_module_policys_lidar_is_recorded_and_it_replays_without_a_name(tmp_path, capsys):
+    argv = ["evaluate", "--policy", f"{MODULE}:LidarSeeker", "--scenario", "passing", "--episodes", "2",
+            "--out", str(tmp_path), "--quiet"]
+    assert main(argv) == 0
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    assert manifest["policy_sensors"] == {"lidar_beams": 8}
+    assert "sensing" not in manifest["preset"]["world"]  # the preset's defaults, as given
+    capsys.readouterr()
+    assert main(["replay", str(tmp_path), "--episode", "passing/invisible/1"]) == 0
+    assert "identical" in capsys.readouterr().out

@@ -5,9 +5,11 @@ observation setting (both sides named)."""
 
 import hashlib
 import json
+from importlib import resources
 
 import numpy as np
 import pytest
+import yaml
 
 pytest.importorskip(
     "stable_baselines3", reason="stable-baselines3 is not installed (pip install 'socialnav[sb3]')"
@@ -147,7 +149,7 @@ def test_a_model_blind_to_walls_is_refused_among_walls_unless_allowed(tmp_path, 
              "--visibility", "invisible"]
     code, _, err = evaluate(capsys, "--policy", f"sb3:{model5}", "--out", str(tmp_path / "refused"), *walls)
     assert code != 0
-    assert ("walls: the model's observation has no obstacle points (obstacle_points = 0), preset "
+    assert ("walls: the model's observation has no obstacle points (obstacle_points = 0) nor a lidar, preset "
             "'francis2023' evaluates scenarios with walls (") in err and "narrow_hallway" in err
     assert "--allow-preset-mismatch" in err
     out = tmp_path / "allowed"
@@ -156,3 +158,33 @@ def test_a_model_blind_to_walls_is_refused_among_walls_unless_allowed(tmp_path, 
     assert code == 0, err
     recorded = json.dumps(json.loads((out / "manifest.json").read_text()))
     assert "obstacle_points = 0" in recorded  # the mismatch is recorded in the results
+
+
+LIDAR = ObservationSettings(frame="robot", max_humans=5, parts=("robot", "humans", "lidar"))
+
+
+def test_a_lidar_model_brings_its_lidar_and_refuses_another(tmp_path, capsys):
+    # docs/perception.md: a saved model records its sensing; sb3:PATH evaluates it with the same lidar
+    model = train(tmp_path / "lidar.zip", preset="crowdnav", observation=LIDAR,
+                  world={"sensing": {"lidar_beams": 12, "lidar_range": 5.0}})
+    out = tmp_path / "brought"
+    code, _, err = evaluate(capsys, "--policy", f"sb3:{model}", "--preset", "crowdnav", "--out", str(out),
+                            *PASSING)
+    assert code == 0, err
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["policy"]["sensors"] == {"lidar_beams": 12, "lidar_fov": 2 * np.pi, "lidar_range": 5.0}
+    # a lidar sees the walls: a walled preset is no mismatch for it
+    code, _, err = evaluate(capsys, "--policy", f"sb3:{model}", "--preset", "francis2023", "--scenario",
+                            "narrow_hallway", "--episodes", "1", "--visibility", "invisible", "--no-progress",
+                            "--out", str(tmp_path / "walls"))
+    assert code == 0, err
+    data = yaml.safe_load((resources.files("socialnav.configs") / "crowdnav.yaml").read_text())
+    data["name"] = "lidar24"
+    data["world"]["sensing"] = {"lidar_beams": 24}
+    other = tmp_path / "lidar24.yaml"
+    other.write_text(yaml.safe_dump(data))
+    code, _, err = evaluate(capsys, "--policy", f"sb3:{model}", "--preset", str(other), "--out",
+                            str(tmp_path / "refused"), *PASSING)
+    assert code != 0
+    assert ("lidar.zip under preset 'lidar24': the policy brings a lidar the world already has in another "
+            "form: lidar_beams 24 (world) vs 12, lidar_range 10.0 (world) vs 5.0 (the model file's)") in err

@@ -94,10 +94,11 @@ def test_a_scenario_with_walls_shows_them_by_default(scenario, edges):
 def test_a_learner_observation_blind_to_the_walls_warns():
     from socialnav.sim import LearnerObservation, ObservationSettings
 
-    with pytest.warns(UserWarning, match=r"scenario 'narrow_hallway' has walls, but "
-                                         r"ObservationSettings.obstacle_points is 0"):
+    with pytest.warns(UserWarning, match=r"scenario 'narrow_hallway' has walls, but none of the learner's "
+                                         r"observation parts \['robot', 'humans', 'obstacle_points'\] shows "
+                                         r"them \(obstacle_points = 0\)"):
         LearnerObservation(gym.make("socialnav/CircleCrossing-v0", scenario="narrow_hallway"))
-    with pytest.warns(UserWarning, match="obstacle_points is 0"):
+    with pytest.warns(UserWarning, match=r"obstacle_points = 0\)"):
         LearnerObservation(gym.make("socialnav/CircleCrossing-v0", static_map=ACROSS.to_dict()))
     import warnings
 
@@ -105,6 +106,10 @@ def test_a_learner_observation_blind_to_the_walls_warns():
         warnings.simplefilter("error")
         LearnerObservation(gym.make("socialnav/CircleCrossing-v0", scenario="narrow_hallway"),
                            ObservationSettings(obstacle_points=16))
+        # a lidar sees the walls without reading the maps
+        LearnerObservation(gym.make("socialnav/CircleCrossing-v0", scenario="narrow_hallway",
+                                    world={"sensing": {"lidar_beams": 8}}),
+                           ObservationSettings(parts=("robot", "humans", "lidar")))
         LearnerObservation(gym.make("socialnav/CircleCrossing-v0"))  # an open floor: nothing to see
 
 

@@ -222,6 +222,14 @@ def test_preset_keyword_configures_the_env_as_the_protocol():
                    world={"time_limit": 10.0})
     assert env.reset(seed=0)[0]["humans"].shape == (3, 5)
     assert env.unwrapped._cfg.settings.time_limit == 10.0 and env.unwrapped._cfg.settings.dt == 0.25
+    # a section given is merged field by field: a lidar added keeps the preset's 5 m detection range
+    env = gym.make("socialnav/CircleCrossing-v0", preset="wang2022_partial",
+                   world={"sensing": {"lidar_beams": 8}})
+    sensing = env.unwrapped._cfg.settings.sensing
+    assert (sensing.range, sensing.lidar_beams) == (5.0, 8)
+    obs, _ = env.reset(seed=0)
+    seen = obs["humans"][obs["human_mask"].astype(bool)]
+    assert obs["lidar"].shape == (8,) and (np.hypot(*(seen[:, :2] - obs["robot"][:2]).T) <= 5.0).all()
     with pytest.raises(Exception, match="unknown preset"):
         gym.make("socialnav/CircleCrossing-v0", preset="wang2023")
 

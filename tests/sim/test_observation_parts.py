@@ -313,3 +313,136 @@ def test_training_refuses_a_record_observing_other_parts(monkeypatch):
         check_observation_parts("sarl")
     with pytest.raises(ValueError, match="holding 'robot'"):
         dataclasses.replace(sarl, observation_parts=("humans",))
+
+
+class NearestVertex(ObservationPart):
+    """A part that reads the walls: the distance to the nearest vertex of the episode's map (1e3 without)."""
+
+    name = "nearest_vertex"
+    description = "distance to the nearest wall vertex"
+    columns = {"nearest_vertex": {"world": ("distance",), "robot": ("distance",)}}
+
+    def compute(self, data, ctx):
+        out = np.full((data.batch_size, 1), 1e3)
+        for b, smap in enumerate(data.maps):
+            if smap is not None and smap.polygons:
+                v = np.concatenate(smap.polygons)
+                out[b, 0] = np.min(np.hypot(v[:, 0] - data.robot[b, 0], v[:, 1] - data.robot[b, 1]))
+        return {"nearest_vertex": out.astype(ctx.np_dtype)}
+
+
+def test_a_part_that_reads_the_walls_gets_each_episodes_map_in_every_wrapper():
+    # circle_crossing_obstacles draws a map per episode: no env-wide map stands in for it
+    register_observation_part(NearestVertex)
+    try:
+        parts = ("robot", "humans", "nearest_vertex")
+        walled = "circle_crossing_obstacles"
+        raw = SocialNavEnv(scenario=walled, observation_parts=(*RAW_PARTS, "nearest_vertex"))
+        expected, _ = raw.reset(seed=0)
+        assert expected["nearest_vertex"][0] < 100
+        env = LearnerObservation(SocialNavEnv(scenario=walled), ObservationSettings(parts=parts))
+        got, _ = env.reset(seed=0)
+        np.testing.assert_allclose(got["nearest_vertex"], expected["nearest_vertex"], rtol=1e-6)
+        venv = SocialNavVectorEnv(2, scenario=walled, observation_parts=(*RAW_PARTS, "nearest_vertex"))
+        raw_obs, _ = venv.reset(seed=0)
+        venv.close()
+        learner = LearnerObservationVector(SocialNavVectorEnv(2, scenario=walled),
+                                           ObservationSettings(parts=parts))
+        obs, _ = learner.reset(seed=0)
+        np.testing.assert_allclose(obs["nearest_vertex"], raw_obs["nearest_vertex"], rtol=1e-6)
+        assert (obs["nearest_vertex"] < 100).all()
+        learner.close()
+        env.close()
+        raw.close()
+        # the built-ins that never read the maps say so; the obstacle parts and outside parts read them
+        never = ("robot", "humans", "lidar", "robot_twist")
+        assert not any(get_observation_part(n).reads_maps for n in never)
+        assert get_observation_part("obstacle_points").reads_maps and NearestVertex.reads_maps
+    finally:
+        unregister_observation_part("nearest_vertex")
+
+
+def test_lidar_readings_stay_inside_the_declared_box():
+    # a no-return beam reads float32(lidar_range), which rounds above lidar_range for e.g. 1.1 or 2.7
+    from socialnav.sim.parts.builtin import LidarPart
+    from socialnav.sim.settings import SensingSettings
+
+    part, outside = LidarPart(), []
+    for lidar_range in (1.1, 2.7, 3.3, 7.7, 10.0):
+        for scale in (1.0, 1.5, 0.7):
+            for dtype in ("float32", "float64"):
+                ctx = PartContext(length_scale=scale, dtype=dtype,
+                                  sensing=SensingSettings(lidar_beams=3, lidar_range=lidar_range))
+                scan = np.full((1, 3), lidar_range, dtype=np.float32)  # what the world writes
+                data = PartInput.from_arrays(np.zeros((1, 9)), np.zeros((1, 0, 5)), np.zeros((1, 0), bool),
+                                             sensors={"lidar": scan})
+                if not part.spaces(ctx)["lidar"].contains(part.compute(data, ctx)["lidar"][0]):
+                    outside.append((lidar_range, scale, dtype))
+    assert outside == []
+    env = LearnerObservation(SocialNavEnv(world={"sensing": {"lidar_beams": 16, "lidar_range": 1.1}}),
+                             ObservationSettings(dtype="float64", parts=("robot", "humans", "lidar")))
+    check_env(env, skip_render_check=True)
+    env.close()
+
+
+def test_learner_layouts_refuse_parts_they_cannot_give_when_built():
+    from socialnav.settings import ConfigError
+
+    walls = {"scenario": "narrow_hallway"}
+    with pytest.raises(ValueError, match="'obstacle_edges' is the raw env's"):
+        LearnerObservation(SocialNavEnv(**walls),
+                           ObservationSettings(parts=("robot", "humans", "obstacle_edges")))
+    with pytest.raises(ConfigError, match=r"observation.obstacle_points asks for obstacle points, but "
+                                          r"observation.parts \['robot', 'humans'\] lack the part"):
+        ObservationSettings(obstacle_points=16, parts=("robot", "humans"))
+    with pytest.raises(ConfigError, match="observation.parts must name at least one part"):
+        ObservationSettings(parts=())
+    with pytest.raises(ConfigError, match="observation.max_humans must be an integer"):
+        ObservationSettings(max_humans=True)
+    # the raw env given parts without its lidar: refused when the wrapper is built, not at reset
+    lidar_env = SocialNavEnv(world={"sensing": {"lidar_beams": 8}}, observation_parts=("robot", "humans"))
+    with pytest.raises(ValueError, match=r"read the raw env's key\(s\) lidar, which the env does not give: "
+                                         r"its observation_parts \['robot', 'humans'\] lack 'lidar'"):
+        LearnerObservation(lidar_env, ObservationSettings(parts=("robot", "humans", "lidar")))
+    with pytest.raises(TypeError, match="observation_parts must be a list of part names, got the text"):
+        SocialNavEnv(observation_parts="robot")
+
+
+def test_networks_refuse_parts_they_cannot_read_when_built():
+    pytest.importorskip("torch")
+    from socialnav.policies.learned import ValuePolicy
+    from socialnav.policies.learned.sarl import SARL
+    from socialnav.sim.obstacle_points import ObstaclePoints
+
+    with pytest.raises(ValueError, match="observation part.s. lidar of a network are not sets of agents"):
+        ValuePolicy(SARL(), observation_parts=("robot", "humans", "lidar"))
+    encoding = ObstaclePoints(8, 0.5, 4.0, 0.0).to_dict()
+    with pytest.raises(ValueError, match="'humans' of a network moves and comes after the static "
+                                         "'obstacle_points'"):
+        ValuePolicy(SARL(), obstacle_encoding=encoding,
+                    observation_parts=("robot", "obstacle_points", "humans"))
+
+
+def test_the_same_part_class_defined_again_replaces_itself():
+    # a notebook cell run twice defines a new class object of the same name and module
+    def define():
+        class Again(ObservationPart):
+            name = "again"
+            description = "a part defined twice"
+            columns = {"again": {"world": ("x",)}}
+
+            def compute(self, data, ctx):
+                return {"again": np.zeros((data.batch_size, 1), dtype=ctx.np_dtype)}
+
+        return Again
+
+    first, second = define(), define()
+    try:
+        register_observation_part(first)
+        register_observation_part(second)
+        assert type(get_observation_part("again")) is second
+        other = type("Again", (first,), {"__qualname__": "Other"})
+        with pytest.raises(ValueError, match=r"already registered to .*Again \(pass replace=True"):
+            register_observation_part(other)
+    finally:
+        unregister_observation_part("again")

@@ -341,3 +341,26 @@ def test_the_vector_env_and_the_sb3_adapter_carry_the_lidar():
     sb3_env.step_wait()
     sb3_env.close()
     assert sb3_env.training_record()["sensing"]["lidar_beams"] == 24
+
+
+def test_a_policy_trained_with_other_detections_is_noted_not_refused(tmp_path, capsys):
+    # a full-observation checkpoint under wang2022_partial: an experiment of its own, said once
+    pytest.importorskip("torch")
+    from socialnav.cli import main
+    from socialnav.policies.building import shipped_checkpoint
+    from socialnav.policies.learned_loading import perception_note
+    from socialnav.presets import load_preset
+
+    partial, full = load_preset("wang2022_partial"), load_preset("wang2022")
+    assert perception_note("checkpoint c.pt", None, full) is None
+    assert perception_note("checkpoint c.pt", {"lidar_beams": 90}, full) is None  # a lidar is brought
+    assert perception_note("checkpoint c.pt", None, partial) == (
+        "checkpoint c.pt was trained with other detections than preset 'wang2022_partial' gives (range None "
+        "-> 5.0, training -> evaluation): it is evaluated with the preset's (docs/perception.md)")
+    assert perception_note("model m.zip", {"range": 5.0}, partial) is None
+    checkpoint = shipped_checkpoint("sarl", "wang2022")
+    assert main(["evaluate", "--policy", "sarl", "--checkpoint", str(checkpoint), "--preset",
+                 "wang2022_partial", "--scenario", "circle_crossing", "--episodes", "1", "--out",
+                 str(tmp_path / "run"), "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    assert err.count("was trained with other detections than preset 'wang2022_partial'") == 1

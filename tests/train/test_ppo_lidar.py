@@ -118,6 +118,21 @@ def test_a_missing_or_other_lidar_is_named():
                                                                             "lidar_range": 8.0})
     assert added.sensing == SensingSettings(range=5.0, lidar_beams=36, lidar_range=8.0)
     assert WorldSettings().with_sensors({}) == WorldSettings()
+    # a lidar field the world sets (with no beams yet) is the world's: a full-circle lidar clashes with it
+    sector = WorldSettings(sensing=SensingSettings(lidar_fov=1.0))
+    with pytest.raises(ValueError, match=r"lidar_fov 1.0 \(world\) vs 6.28"):
+        sector.with_sensors({"lidar_beams": 36})
+    assert sector.with_sensors({"lidar_beams": 36, "lidar_fov": 1.0}).sensing.lidar_beams == 36
+    # the same beams with another sector, and the world's own noise kept
+    noisy = WorldSettings(sensing=SensingSettings(lidar_beams=36, lidar_fov=3.0, lidar_noise=0.1))
+    with pytest.raises(ValueError, match=r"lidar_fov 3.0 \(world\) vs 6.28"):
+        noisy.with_sensors({"lidar_beams": 36})
+    assert WorldSettings(sensing=SensingSettings(lidar_noise=0.1)).with_sensors(
+        {"lidar_beams": 36}).sensing.lidar_noise == 0.1
+    # the detections are the preset's: a policy cannot bring a longer detection range (or a misspelt key)
+    for key in ("range", "lidr_beams"):
+        with pytest.raises(ValueError, match=f"lidar settings only .*, not {key}: what the robot detects"):
+            WorldSettings(sensing=SensingSettings(range=5.0)).with_sensors({key: 90})
 
 
 def test_trained_among_walls_it_brings_its_lidar_to_the_evaluation(tmp_path, walls_preset, capsys):

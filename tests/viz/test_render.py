@@ -363,7 +363,7 @@ def test_env_human_mode_without_display_is_a_clear_error(monkeypatch):
         SocialNavEnv(render_mode="video")
 
 
-def test_html_page_of_one_episode(run_dir, tmp_path):
+def test_html_page_of_one_episode(run_dir, tmp_path, capsys):
     import json
     import re
 
@@ -378,6 +378,11 @@ def test_html_page_of_one_episode(run_dir, tmp_path):
     assert [e["id"] for e in data["episodes"]] == ["passing/invisible/2"]
     assert data["episodes"][0]["side"][1] in ("left", "right", "unlabelled")
     assert "<script src" not in text and "viewer-canvas" in text
+    # the page's viewer switches its own overlays: an --overlay would be dropped, so it is refused
+    assert main(["render", str(run_dir), "--episode", "passing/invisible/2", "--out",
+                 str(tmp_path / "l.html"), "--overlay", "lidar", "--quiet"]) == 2
+    assert "--overlay lidar: the html page draws no --overlay" in capsys.readouterr().err
+    assert not (tmp_path / "l.html").exists()
 
 
 def test_a_log_without_radii_renders_as_metrics_scores_it(tmp_path, capsys):

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -159,6 +159,9 @@ class EnvConfig:
         self.v_pref = float(self.scenario.robot_v_pref)
         self.table = discrete_actions(self.settings.kinematics, self.v_pref, self.settings.rotation_limit)
         given = observation_parts
+        if isinstance(given, str):  # tuple() would split it into letters
+            raise TypeError(f"observation_parts must be a list of part names, got the text {given!r} (write "
+                            f"[{given!r}])")
         self.parts = default_raw_parts(self.settings) if given is None else tuple(given)
         #: The env's observation: the parts, composed in the world's own layout.
         self.composition = raw_composition(self.scenario.n_humans, self.settings.kinematics, self.max_edges,
@@ -218,7 +221,12 @@ class EnvConfig:
 
 
 def _preset_defaults(preset: Any, scenario: str, scenario_params: dict | None, world: Any):
-    """Scenario parameters and world settings of a protocol preset (explicit arguments win)."""
+    """Scenario parameters and world settings of a protocol preset (explicit arguments win).
+
+    A ``world`` dict overrides the preset's world key by key, and within a section (``sensing``,
+    ``reward``, ...) field by field: ``world={"sensing": {"lidar_beams": 8}}`` adds a lidar to the preset's
+    detections.
+    """
     from socialnav.presets import Preset, load_preset
 
     p = preset if isinstance(preset, Preset) else load_preset(preset)
@@ -233,7 +241,15 @@ def _preset_defaults(preset: Any, scenario: str, scenario_params: dict | None, w
     if world is None:
         world = p.world
     elif not isinstance(world, WorldSettings):
-        world = {**dataclasses.asdict(p.world), **dict(world)}
+        # a section given (sensing, reward, ...) overrides the preset's key by key, not whole
+        merged = dataclasses.asdict(p.world)
+        for key, value in dict(world).items():
+            section = getattr(p.world, key, None)
+            if dataclasses.is_dataclass(section) and isinstance(value, Mapping):
+                merged[key] = {**merged[key], **dict(value)}
+            else:
+                merged[key] = value
+        world = merged
     return params, world
 
 

@@ -48,6 +48,8 @@ def make_transform(cfg: Any, settings: ObservationSettings | dict[str, Any] | No
     Raises:
         ConfigError: A dict with an unknown field or a bad value (named).
         TypeError: ``settings`` is neither.
+        ValueError: A part the learner's layout cannot give, or that reads a sensor key the raw env's
+            ``observation_parts`` lack (named).
     """
     if isinstance(settings, dict):
         settings = ObservationSettings.from_dict(settings)
@@ -55,27 +57,38 @@ def make_transform(cfg: Any, settings: ObservationSettings | dict[str, Any] | No
         raise TypeError(f"observation settings must be an ObservationSettings or a dict of its fields, got "
                         f"{type(settings).__name__}")
     settings = settings or ObservationSettings()
-    if getattr(cfg, "has_walls", False) and not settings.obstacle_points:
-        warnings.warn(
-            f"scenario {cfg.scenario.name!r} has walls, but ObservationSettings.obstacle_points is 0: the "
-            "learner's observation has no obstacle keys, so a policy trained on it cannot see the walls "
-            "(set obstacle_points, e.g. 16; docs/walls_learned.md)",
-            stacklevel=3,
-        )
-    return ObservationTransform(
+    transform = ObservationTransform(
         settings, cfg.scenario.n_humans, cfg.settings.kinematics, cfg.action_set,
         static_map=getattr(cfg, "static_map", None), sensing=cfg.settings.sensing,
     )
+    raw = getattr(cfg, "composition", None)
+    missing = [] if raw is None else [k for k in transform.composition.sensor_keys if k not in raw.spaces()]
+    if missing:
+        raise ValueError(
+            f"the learner's observation parts {list(settings.parts)} read the raw env's key(s) "
+            f"{', '.join(missing)}, which the env does not give: its observation_parts {list(cfg.parts)} "
+            f"lack {', '.join(repr(k) for k in missing)} (add them, or leave observation_parts unset: the "
+            "default adds the world's sensors)"
+        )
+    if getattr(cfg, "has_walls", False) and not transform.composition.shows_walls:
+        warnings.warn(
+            f"scenario {cfg.scenario.name!r} has walls, but none of the learner's observation parts "
+            f"{list(settings.parts)} shows them (obstacle_points = {settings.obstacle_points}), so a policy "
+            "trained on it cannot see the walls (set obstacle_points, e.g. 16, or add the part 'lidar'; "
+            "docs/walls_learned.md)",
+            stacklevel=3,
+        )
+    return transform
 
 
 def observation_maps(env: Any, transform: ObservationTransform) -> Any:
     """Each row's static map in the observation ``env`` last returned, where the transform encodes walls.
 
-    None (the transform's own map for every row) where it encodes no walls. The socialnav envs keep the
-    maps of what they last returned; Gymnasium's vector envs of socialnav env copies are asked copy by
-    copy (``get_attr``).
+    None (the transform's own map for every row) where none of its parts reads the walls
+    (``ObservationPart.reads_maps``). The socialnav envs keep the maps of what they last returned;
+    Gymnasium's vector envs of socialnav env copies are asked copy by copy (``get_attr``).
     """
-    if not transform.settings.obstacle_points:
+    if not transform.composition.reads_maps:
         return None
     raw = env.unwrapped
     maps = getattr(raw, "observation_maps", None)
@@ -210,7 +223,7 @@ class LearnerObservationVector(VectorWrapper):
 
     def _final_maps(self) -> Any:
         """Slot -> the static map of its ``final_obs`` (None: the transform's own map)."""
-        if not self.transform.settings.obstacle_points:
+        if not self.transform.composition.reads_maps:
             return None
         finals = getattr(self.env.unwrapped, "final_observation_maps", None)
         if finals is not None:  # the native vector env

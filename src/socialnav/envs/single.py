@@ -58,8 +58,9 @@ class SocialNavEnv(gym.Env):
         max_obstacle_edges: Edges in the observation's ``obstacles`` (zero-padded); default: the
             most an episode's map can have (the map's, or the walled scenario's bound).
         observation_parts: The observation's named parts, in order (default
-            :data:`~socialnav.envs.config.RAW_PARTS`: ``robot``, ``humans``, ``obstacle_edges``); it must
-            hold ``robot`` and ``humans``. A part registered from outside the package adds its keys.
+            :data:`~socialnav.envs.config.RAW_PARTS`: ``robot``, ``humans``, ``obstacle_edges``, then
+            ``lidar`` where the world has one and ``robot_twist`` for a differential drive); it must hold
+            ``robot`` and ``humans``. A part registered from outside the package adds its keys.
     """
 
     metadata = {"render_modes": available_render_modes(), "render_fps": 4}

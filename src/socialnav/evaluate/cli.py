@@ -116,6 +116,7 @@ def cmd_evaluate(args: argparse.Namespace, report_writer: Callable[[], Callable[
     from socialnav.evaluate.report import mismatch_caveats, table2, table3, table_notes, with_caveats
     from socialnav.evaluate.runner import run_protocol
     from socialnav.policies.building import LOOKAHEAD_SETTINGS, build_policy, refuse_lookahead_setting
+    from socialnav.policies.registry import policy_record
     from socialnav.presets import load_preset
 
     if args.batch_size < 1:
@@ -163,6 +164,10 @@ def cmd_evaluate(args: argparse.Namespace, report_writer: Callable[[], Callable[
         # describe() may not record (a changed --policy-arg must not resume into the old results)
         extra["policy_entry"] = args.policy
         extra["policy_args"] = overrides
+    sensors = dict(getattr(policy, "sensors", None) or {})
+    if sensors and "sensors" not in policy_record(policy):
+        # the lidar it brings to the preset's world (the manifest's world.sensing is the preset's)
+        extra["policy_sensors"] = sensors
     if args.checkpoint:  # by content: a resume never mixes two networks saved at one path
         from socialnav._io import file_sha256
 

@@ -49,11 +49,11 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
     from socialnav.policies.registry import SB3_PREFIX, get_policy_entry
 
     desc = dict(manifest.get("policy") or {})
+    if manifest.get("policy_entry"):  # a policy of the user's module, whose describe() may name nothing
+        return _rebuild_from_module(manifest, desc, preset)
     name = desc.get("policy")
     if not name:
         raise ResultsError("manifest.json: the policy's name (policy.policy) is not recorded")
-    if manifest.get("policy_entry"):
-        return _rebuild_from_module(manifest, desc, preset)
     try:
         entry = get_policy_entry(name)
     except KeyError as err:

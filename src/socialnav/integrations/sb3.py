@@ -135,12 +135,12 @@ class SocialNavVecEnv(VecEnv):
         if dones.any():
             done = np.flatnonzero(dones)
             finals = [info["final_obs"][b] for b in done]
-            encodes_walls = bool(self.transform.settings.obstacle_points)
+            reads_maps = self.transform.composition.reads_maps
             terminal = self.transform(
                 np.stack([f["robot"] for f in finals]),
                 np.stack([f["humans"] for f in finals]),
                 np.stack([f["human_mask"] for f in finals]),
-                [self.venv.final_observation_maps[int(b)] for b in done] if encodes_walls else None,
+                [self.venv.final_observation_maps[int(b)] for b in done] if reads_maps else None,
                 {k: np.stack([f[k] for f in finals]) for k in sensor_arrays(finals[0])},
             )
             final_info = info["final_info"]

@@ -30,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -90,10 +91,12 @@ class SB3Policy:
         self._objects = objects or {}
         self.model = model
         settings = ObservationSettings.from_dict(record["observation"])
+        sensing = recorded_sensing(record)
         self.transform = ObservationTransform(
-            settings, settings.max_humans, record["kinematics"], record["action_set"],
-            sensing=recorded_sensing(record),
+            settings, settings.max_humans, record["kinematics"], record["action_set"], sensing=sensing,
         )
+        #: The lidar the model reads, which it brings to the world it acts in (docs/perception.md).
+        self.sensors = model_sensors(settings, sensing)
         self._table = None
         if record["action_set"] == "discrete":
             from socialnav.sim.actions import discrete_actions
@@ -143,6 +146,7 @@ class SB3Policy:
             "action_set": self.record["action_set"],
             "record": "inferred" if self.inferred else "saved",
             **({"preset_mismatch_allowed": self.preset_mismatch} if self.preset_mismatch else {}),
+            **({"sensors": dict(self.sensors)} if self.sensors else {}),
         }
 
     # Simulation workers get the exact bytes that were hashed, not whatever the path holds by then.
@@ -199,6 +203,11 @@ def load_sb3_policy(
         record, spaces = recorded, record_spaces(path, saved, recorded)
     objects = safe_custom_objects(path, saved, algorithm, *spaces)
     model = load_model(path, algorithm, data, objects, device)
+    from socialnav.policies.learned_loading import perception_note
+
+    note = perception_note(f"model {path}", record.get("sensing"), preset)
+    if note:
+        warnings.warn(note, UserWarning, stacklevel=2)
     mismatch = _check(path, model, record, preset, {k: v for k, v in observation.items() if v is not None})
     if mismatch and not allow_preset_mismatch:
         raise SB3ModelError(
@@ -215,6 +224,19 @@ def load_sb3_policy(
         mismatch,
         objects,
     )
+
+
+def model_sensors(settings: ObservationSettings, sensing: Any) -> dict[str, Any]:
+    """The sensing settings a model brings (its lidar's beams, sector and range), {} for none.
+
+    What its scan's layout and scale depend on; the noise of the returns stays the world's, as for
+    ``lidar_ppo``.
+    """
+    from socialnav.sim.settings import LIDAR_GEOMETRY
+
+    if "lidar" not in settings.parts or sensing is None or not sensing.lidar_beams:
+        return {}
+    return {key: getattr(sensing, key) for key in LIDAR_GEOMETRY}
 
 
 def _require_sb3(spec: str) -> None:
@@ -285,15 +307,20 @@ def _check(path: Path, model: Any, record: dict[str, Any], preset: Any, asked: d
             f"{path}: observation space {show_space(model.observation_space)} of the model, "
             f"{show_space(expected_obs)} from its recorded observation setting {settings}"
         )
+    try:  # the lidar it reads, which it brings to a world without one (the evaluation's rule)
+        world.with_sensors(model_sensors(ObservationSettings(**settings), recorded_sensing(record)))
+    except ValueError as err:
+        raise SB3ModelError(f"{path} under {where}: {err} (the model file's); evaluate it under a preset "
+                            "without a lidar, to which it brings its own, or with the same lidar") from None
     mismatch = []
     if not math.isclose(float(record["dt"]), world.dt, rel_tol=1e-9):
         mismatch.append(f"dt {record['dt']!r} in the model file, {world.dt!r} in {where}")
     walled = walled_scenarios((*preset.evaluation.multi_human, *preset.evaluation.single_human))
-    if walled and not settings.get("obstacle_points"):
+    if walled and not transform.composition.shows_walls:
         # as for the project's checkpoints trained without walls: the model's input has no obstacles
         mismatch.append(
-            f"walls: the model's observation has no obstacle points (obstacle_points = 0), {where} evaluates "
-            f"scenarios with walls ({', '.join(walled)}) that it cannot see"
+            f"walls: the model's observation has no obstacle points (obstacle_points = 0) nor a lidar, "
+            f"{where} evaluates scenarios with walls ({', '.join(walled)}) that it cannot see"
         )
     return mismatch
 

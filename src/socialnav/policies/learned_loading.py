@@ -203,6 +203,38 @@ def preset_mismatches(config: dict[str, Any], preset: Any) -> list[str]:
     return out
 
 
+def perception_note(what: str, trained: Any, preset: Any) -> str | None:
+    """A note where ``preset``'s robot detects the humans otherwise than the one ``what`` was trained with.
+
+    Not a mismatch that refuses the policy: evaluating a policy under another perception than its training
+    one (a full-observation policy under ``wang2022_partial``) is an experiment of its own. The lidar is not
+    compared: a policy that reads one brings it (``WorldSettings.with_sensors``).
+
+    Args:
+        what: The policy's source, for the note ("checkpoint PATH").
+        trained: The training world's ``sensing`` section as recorded (None or {}: the exact defaults).
+        preset: The evaluation's preset.
+    """
+    from socialnav.settings import ConfigError, from_dict
+    from socialnav.sim.settings import LIDAR_FIELDS, SensingSettings
+
+    if preset is None or (trained is not None and not isinstance(trained, dict)):
+        return None
+    try:
+        before = from_dict(SensingSettings, trained or {}, "sensing")
+    except ConfigError:
+        return None  # a record of another version: nothing to compare
+    now = preset.world.sensing
+    changed = [f"{f.name} {getattr(before, f.name)!r} -> {getattr(now, f.name)!r}"
+               for f in dataclasses.fields(SensingSettings)
+               if f.name not in LIDAR_FIELDS and getattr(before, f.name) != getattr(now, f.name)]
+    if not changed:
+        return None
+    return (f"{what} was trained with other detections than preset {preset.name!r} gives "
+            f"({', '.join(changed)}, training -> evaluation): it is evaluated with the preset's "
+            "(docs/perception.md)")
+
+
 def checked_preset_mismatches(
     checkpoint: Any, config: dict[str, Any], preset: Any, allow: bool
 ) -> list[str]:
@@ -218,6 +250,12 @@ def checked_preset_mismatches(
             f"reward and robot v_pref cannot be compared with preset {preset.name!r}, and are assumed to "
             "match (socialnav train records them)", UserWarning, stacklevel=3,
         )
+    trained = config.get("preset")
+    trained_world = trained.get("world") if isinstance(trained, dict) else None
+    sensing = trained_world.get("sensing") if isinstance(trained_world, dict) else None
+    note = perception_note(f"checkpoint {checkpoint}", sensing, preset)
+    if note:
+        warnings.warn(note, UserWarning, stacklevel=3)
     mismatch = preset_mismatches(config, preset) if preset is not None else []
     kinematics = [m for m in mismatch if m.startswith("kinematics ")]
     if kinematics:  # the network's actions would be read in another action space: never meaningful

@@ -109,7 +109,9 @@ class ObservationSettings:
     def __post_init__(self) -> None:
         check(self.frame in FRAMES, "observation.frame", self.frame, f"must be one of {', '.join(FRAMES)}")
         check(
-            self.max_humans is None or (isinstance(self.max_humans, int) and self.max_humans >= 1),
+            self.max_humans is None
+            or (isinstance(self.max_humans, int) and not isinstance(self.max_humans, bool)
+                and self.max_humans >= 1),
             "observation.max_humans",
             self.max_humans,
             "must be an integer >= 1 or None",
@@ -131,6 +133,14 @@ class ObservationSettings:
             "must be an integer >= 0",
         )
         object.__setattr__(self, "parts", check_part_names(self.parts, "observation.parts", check))
+        check(bool(self.parts), "observation.parts", list(self.parts), "must name at least one part")
+        check(
+            not self.obstacle_points or "obstacle_points" in self.parts,
+            "observation.obstacle_points",
+            self.obstacle_points,
+            f"asks for obstacle points, but observation.parts {list(self.parts)} lack the part "
+            "'obstacle_points' that gives them (add it, or set obstacle_points to 0)",
+        )
 
     @property
     def obstacle_encoding(self) -> ObstaclePoints | None:

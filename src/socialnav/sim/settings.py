@@ -64,6 +64,12 @@ class RewardSettings(Settings):
         return self.collision_penalty if p is None else p
 
 
+#: The lidar's settings (``SensingSettings``), which a policy may bring to its world (``with_sensors``).
+LIDAR_FIELDS = ("lidar_beams", "lidar_fov", "lidar_range", "lidar_noise")
+#: Those its scan's layout and scale depend on: brought at their defaults where a policy names none.
+LIDAR_GEOMETRY = ("lidar_beams", "lidar_fov", "lidar_range")
+
+
 @dataclass(frozen=True)
 class SensingSettings(Settings):
     """What the robot perceives (docs/perception.md); the defaults are the world's exact state.
@@ -196,23 +202,39 @@ class WorldSettings(Settings):
         return ("diff_drive",) if self.kinematics == "diff_drive" else ()
 
     def with_sensors(self, sensors: Mapping[str, Any] | None) -> WorldSettings:
-        """These settings with the robot's sensors a policy brings (``sensing`` fields, e.g. its lidar).
+        """These settings with the lidar a policy brings (``sensing``'s lidar fields, e.g. its beams).
 
-        A policy that reads a sensor the protocol's world lacks (``lidar_ppo``'s lidar, or a policy of
-        one's own declaring ``sensors = {"lidar_beams": 90}``) acts in the world with it added; the
-        detections, the humans and every metric are unchanged (docs/perception.md).
+        A policy that reads a lidar the protocol's world lacks (``lidar_ppo``'s, an SB3 model's, or a policy
+        of one's own declaring ``sensors = {"lidar_beams": 90}``) acts in the world with it added; the
+        detections, the humans and every metric are unchanged (docs/perception.md). The lidar it brings has
+        the beams, sector and range it names, the defaults for those it does not (a full circle, 10 m), and
+        the world's noise unless it names one.
 
         Raises:
-            ValueError: The world already has a lidar other than the one asked for.
+            ValueError: A key that is not a lidar setting (the detections are the preset's), or a lidar the
+                world already has in another form: one with beams, or a lidar field the world sets to
+                other than its default (e.g. a 1-rad ``lidar_fov`` for a policy trained on the full circle).
         """
         if not sensors:
             return self
-        current = self.sensing
-        clash = [k for k, v in sensors.items() if current.lidar_beams and getattr(current, k, v) != v]
+        current, default = self.sensing, SensingSettings()
+        other = sorted(k for k in sensors if k not in LIDAR_FIELDS)
+        if other:
+            raise ValueError(
+                f"a policy's sensors name lidar settings only ({', '.join(LIDAR_FIELDS)}), not "
+                f"{', '.join(other)}: what the robot detects is the preset's world.sensing "
+                "(docs/perception.md)"
+            )
+        brought = {k: sensors.get(k, getattr(default, k)) for k in LIDAR_GEOMETRY}
+        if "lidar_noise" in sensors:
+            brought["lidar_noise"] = sensors["lidar_noise"]
+        # the world's lidar fields are its own where it has a lidar, or where it sets them
+        clash = [k for k, v in brought.items() if getattr(current, k) != v
+                 and (current.lidar_beams or getattr(current, k) != getattr(default, k))]
         if clash:
-            shown = ", ".join(f"{k} {getattr(current, k)!r} (world) vs {sensors[k]!r}" for k in clash)
+            shown = ", ".join(f"{k} {getattr(current, k)!r} (world) vs {brought[k]!r}" for k in clash)
             raise ValueError(f"the policy brings a lidar the world already has in another form: {shown}")
-        return dataclasses.replace(self, sensing=dataclasses.replace(current, **dict(sensors)))
+        return dataclasses.replace(self, sensing=dataclasses.replace(current, **brought))
 
     def cross_check(self) -> None:
         """Resolves ``human_params``; refuses episodes longer than `MAX_STEPS` samples.

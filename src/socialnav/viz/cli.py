@@ -190,6 +190,11 @@ def _run_render(args: argparse.Namespace) -> int:
         fmt = suffix or "png"
     if args.out and suffix not in ("", fmt):
         raise ValueError(f"--out {args.out} does not end in .{fmt} (the --format)")
+    if fmt == "html" and overlays:
+        # the page's viewer has its own switches (trails, M_I, M_II, M_VI) and no lidar
+        raise ValueError(f"--overlay {' '.join(args.overlay)}: the html page draws no --overlay (its viewer "
+                         "switches the metric overlays itself and has no lidar); use --format png, svg, gif "
+                         "or mp4")
     smap = map_from_args(args)
     log = {**layout_from_args(args), "ego": args.ego}
     with warnings.catch_warnings(record=True) as caught:  # said as `socialnav metrics` says them

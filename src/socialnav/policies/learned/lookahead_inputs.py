@@ -27,6 +27,7 @@ import torch
 from socialnav.sim.obstacle_points import ObstaclePoints
 from socialnav.sim.parts.base import NETWORK_PARTS, PartContext, PartInput
 from socialnav.sim.parts.composition import ObservationComposition
+from socialnav.sim.parts.registry import get_observation_part
 
 __all__ = [
     "LookaheadInputs",
@@ -79,18 +80,31 @@ def network_composition(
     """The networks' composition of ``parts``: the robot's state and sets of agents, ``encoding``'s points.
 
     Raises:
-        ValueError: ``parts`` lacks ``robot``, or names a part that is not a set of agents.
+        ValueError: ``parts`` lacks ``robot``, names a part that is not a set of agents, or lists a moving
+            set after a static one.
+        UnknownObservationPartError: A name no part has.
     """
     parts = tuple(parts)
     if "robot" not in parts:
         raise ValueError(f"observation parts {list(parts)} of a network lack 'robot' (its state is what the "
                          "lookahead propagates)")
-    composition = ObservationComposition(parts, PartContext.for_networks(encoding))
-    other = [p.name for p in composition.parts if p.name != "robot" and not p.is_agent_set]
+    # what the networks can read is decided by the parts' kinds, before any part lays itself out (a
+    # sensor part would otherwise complain of the world it lacks, which no world setting can fix)
+    found = [get_observation_part(name) for name in parts]
+    other = [p.name for p in found if p.name != "robot" and not p.is_agent_set]
     if other:
         raise ValueError(f"observation part(s) {', '.join(other)} of a network are not sets of agents: the "
                          "value and PPO networks read the robot's state and sets of agents only")
-    return composition
+    seen_static = None
+    for part in found:
+        if part.name == "robot":
+            continue
+        if part.static:
+            seen_static = seen_static or part.name
+        elif seen_static:
+            raise ValueError(f"observation part {part.name!r} of a network moves and comes after the static "
+                             f"{seen_static!r}: static agents (obstacle points) must come last")
+    return ObservationComposition(parts, PartContext.for_networks(encoding))
 
 
 def encode_state_arrays(

@@ -20,6 +20,7 @@ import numpy as np
 import torch
 
 from socialnav.policies.learned.attn_graph import squash_actions
+from socialnav.policies.learned.lookahead_inputs import network_composition
 from socialnav.policies.learned.ppo_inputs import network_inputs, network_sensors
 from socialnav.sim.observation import Observation
 from socialnav.sim.obstacle_points import ObstaclePoints
@@ -83,6 +84,7 @@ class RecurrentActorPolicy:
             None if obstacle_encoding is None else ObstaclePoints.from_dict(obstacle_encoding)
         )
         self.observation_parts = tuple(observation_parts)
+        network_composition(self.obstacle_encoding, self.observation_parts)  # refuses parts it cannot read
         #: The sensing settings the network brings to the world it acts in (its lidar), {} for none.
         self.sensors = network_sensors(network)
         self._h: torch.Tensor | None = None

@@ -12,7 +12,8 @@ An observation part is a registered class that declares, once:
 
 A consumer composes the parts it needs by name (:class:`ObservationComposition`), as Stable-Baselines3
 gives each key of a dict observation its own feature extractor. The built-in parts
-(:mod:`socialnav.sim.parts.builtin`): ``robot``, ``humans``, ``obstacle_points``, ``obstacle_edges``. A
+(:mod:`socialnav.sim.parts.builtin`): ``robot``, ``humans``, ``obstacle_points``, ``obstacle_edges``,
+``lidar``, ``robot_twist``. A
 part from outside the package is registered with :func:`register_observation_part` or through the entry
 point group ``socialnav.observations`` (docs/extending.md).
 """
@@ -222,6 +223,16 @@ class ObservationPart:
     columns: ClassVar[Mapping[str, Mapping[str, tuple[str, ...]]]] = {}
     #: Its agents never move (the lookahead keeps them where they are; they come after moving agents).
     static: ClassVar[bool] = False
+    #: It reads the walls (``PartInput.maps`` or ``obstacles``), so the learner wrappers and the SB3
+    #: adapter hand it each episode's map. True unless a part declares otherwise: a part that never reads
+    #: them may say so, which spares a vector env of env copies a query of every copy's map per step.
+    reads_maps: ClassVar[bool] = True
+    #: Its keys show the walls without reading the maps (a sensor's readings, as the lidar's): with a part
+    #: that reads the maps, what tells a learner wrapper that a policy trained on the layout sees the walls.
+    sees_walls: ClassVar[bool] = False
+    #: The raw observation's sensor keys it reads from ``PartInput.sensors`` (:data:`SENSOR_KEYS`): a
+    #: learner wrapper refuses, when it is built, a raw env whose observation lacks one.
+    sensor_keys: ClassVar[tuple[str, ...]] = ()
 
     def frames(self) -> tuple[str, ...]:
         """The frames this part can be laid out in."""

@@ -53,6 +53,7 @@ class RobotPart(ObservationPart):
     """The robot's state and goal: position, velocity, radius, goal, preferred speed, heading."""
 
     name = "robot"
+    reads_maps = False
     description = "the robot's state and goal (world: 9 columns; robot frame: 6)"
     columns = {"robot": ROBOT_COLUMNS}
 
@@ -91,6 +92,7 @@ class HumansPart(ObservationPart):
     """The humans: K slots of human rows with their mask (the nearest K real humans, real ones first)."""
 
     name = "humans"
+    reads_maps = False
     description = "the humans, K slots with a mask (world: 5 columns each; robot frame: 7)"
     columns = {"humans": HUMAN_COLUMNS}
 
@@ -201,6 +203,19 @@ class ObstacleEdgesPart(ObservationPart):
     description = "the episode's obstacle edges (E, 4) with a mask, world frame (the raw env's walls)"
     columns = {"obstacles": EDGE_COLUMNS}
 
+    def check_context(self, ctx: PartContext) -> None:
+        """Refuses every layout but the raw env's, whose edge count E is its world's.
+
+        Raises:
+            ValueError: A learner's layout (``ObservationSettings.parts``), which has no edge count.
+        """
+        super().check_context(ctx)
+        if not ctx.raw:
+            raise ValueError("observation part 'obstacle_edges' is the raw env's (E, its world's edge "
+                             "count); a learner's observation (ObservationSettings.parts) shows the walls "
+                             "with the part 'obstacle_points' (ObservationSettings.obstacle_points, e.g. 16) "
+                             "or 'lidar'")
+
     def spaces(self, ctx: PartContext) -> dict[str, Any]:
         """``obstacles`` (E, 4) and ``obstacle_mask`` (E,); none where E = 0."""
         from gymnasium import spaces
@@ -233,6 +248,9 @@ class LidarPart(ObservationPart):
     """The robot's 2-D lidar scan (``world.sensing.lidar_beams`` beams; docs/perception.md)."""
 
     name = "lidar"
+    reads_maps = False
+    sees_walls = True
+    sensor_keys = ("lidar",)
     description = "the robot's 2-D lidar: (beams,) ranges along the beams about its heading (world.sensing)"
     columns = {"lidar": {"world": ("range",), "robot": ("range",)}}
 
@@ -246,7 +264,11 @@ class LidarPart(ObservationPart):
 
         sensing = _lidar_sensing(ctx)
         dtype = np.float32 if ctx.raw else ctx.np_dtype
-        high = sensing.lidar_range / ctx.length_scale
+        # the largest reading as compute() derives it from the world's float32 scan (a no-return beam
+        # reads float32(lidar_range), which may round above lidar_range), so that every reading is inside
+        high = float(np.float32(sensing.lidar_range)) / ctx.length_scale
+        if not ctx.raw:
+            high = float(np.asarray(high).astype(dtype))
         return {"lidar": spaces.Box(0.0, high, shape=(sensing.lidar_beams,), dtype=dtype)}
 
     def compute(self, data: PartInput, ctx: PartContext) -> dict[str, np.ndarray]:
@@ -280,6 +302,8 @@ class RobotTwistPart(ObservationPart):
     """
 
     name = "robot_twist"
+    reads_maps = False
+    sensor_keys = ("robot_twist",)
     description = "a diff_drive robot's (v, ω) of its last step, from which its acceleration limits act"
     columns = {"robot_twist": {"world": ("v", "omega"), "robot": ("v", "omega")}}
 

@@ -47,6 +47,13 @@ class ObservationComposition:
         #: The parts that give keys in this layout (one without keys, such as obstacle_points without
         #: an encoding, is not asked to compute anything).
         self.active = tuple(p for p in self.parts if p.name in owner.values())
+        #: Whether a part that gives keys reads the walls (``ObservationPart.reads_maps``): then the
+        #: wrappers hand each episode's map to every call.
+        self.reads_maps = any(p.reads_maps for p in self.active)
+        #: Whether the keys show the walls (a part that reads the maps, or a sensor that sees them).
+        self.shows_walls = any(p.reads_maps or p.sees_walls for p in self.active)
+        #: The raw sensor keys the parts that give keys read (``ObservationPart.sensor_keys``).
+        self.sensor_keys = tuple(dict.fromkeys(k for p in self.active for k in p.sensor_keys))
 
     def spaces(self) -> dict[str, Any]:
         """One episode's keys (in part order) and their Gymnasium spaces."""

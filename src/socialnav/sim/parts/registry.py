@@ -45,7 +45,8 @@ def register_observation_part(part: Any = None, *, replace: bool = False) -> Any
 
     Args:
         part: An :class:`ObservationPart` subclass or instance.
-        replace: Allow replacing a part registered under the same name.
+        replace: Allow replacing a part registered under the same name by another class (the same class
+            defined again, as a notebook cell run twice or a reloaded module defines it, replaces itself).
 
     Returns:
         ``part`` (so the decorator leaves the class in place).
@@ -66,11 +67,17 @@ def register_observation_part(part: Any = None, *, replace: bool = False) -> Any
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"observation part {part!r}: name must be an identifier, got {name!r}")
     with _LOCK:
-        if not replace and name in _REGISTRY and type(_REGISTRY[name]) is not type(instance):
+        taken = name in _REGISTRY and _qualified(type(_REGISTRY[name])) != _qualified(type(instance))
+        if not replace and taken:
+            # the same class defined again (a notebook cell run twice, importlib.reload) replaces itself
             raise ValueError(f"observation part name {name!r} is already registered to "
-                             f"{type(_REGISTRY[name]).__module__}.{type(_REGISTRY[name]).__qualname__}")
+                             f"{_qualified(type(_REGISTRY[name]))} (pass replace=True to replace it)")
         _REGISTRY[name] = instance
     return part
+
+
+def _qualified(cls: type) -> str:
+    return f"{cls.__module__}.{cls.__qualname__}"
 
 
 def unregister_observation_part(name: str) -> None:
