@@ -585,10 +585,12 @@ RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation) {
     g.node_y.push_back(p.y);
   }
   std::vector<std::vector<std::pair<int, double>>> adjacent(static_cast<size_t>(n));
-  const double c = inflation * (1.0 - 1e-9);
+  // visible_with_clearance's answer over the compact edges, which stops at the first edge closer than c: most
+  // pairs of a large map's nodes are hidden, and the graph has one test per pair
+  const double c = std::max(inflation * (1.0 - 1e-9), kMinClearance);
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j)
-      if (visible_with_clearance(obstacles, g.node[i], g.node[j], c)) {
+      if (segment_clear(g.walls, obstacles, g.node[i], g.node[j], c)) {
         const double len = norm(g.node[j] - g.node[i]);
         adjacent[i].emplace_back(j, len);
         adjacent[j].emplace_back(i, len);
@@ -891,11 +893,14 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
     // (Above: the next point is still hidden where the segment to it crosses the wall edge that hid it
     // last time: its distance is 0, below any c_advance, so the full test would find it hidden too.)
     // Advance to the farthest point seen with half the planned clearance, or with the agent's own where a
-    // neighbour pressed it closer to a wall than that.
-    double next_clearance;  // (not needed)
+    // neighbour pressed it closer to a wall than that, or, on the last leg, with the goal's own where the goal
+    // lies closer to a wall than that (the world keeps goals only a radius from the walls; the search plans
+    // the last leg with the goal's clearance alike): a goal could never be seen otherwise.
+    double next_clearance;
     double seen = segment_clearance(walls, obstacles, position, next_aim, own, next_clearance);
     const double c_wide = std::max(0.5 * (radius + inflation), kMinClearance);
-    const double c_advance = std::max(std::min(c_wide, 0.99 * own), kMinClearance);
+    double c_advance = std::max(std::min(c_wide, 0.99 * own), kMinClearance);
+    if (index + 2 == n) c_advance = std::max(std::min(c_advance, 0.99 * next_clearance), kMinClearance);
     for (;;) {
       if (seen < c_advance) {
         // Hidden: it stays hidden while the agent moves less than this (the segment gains at most the
@@ -915,7 +920,13 @@ Vec2 RouteFollower::route_target(const ObstacleView& obstacles, Vec2 position, V
       seen_from = position;
       seen_margin = seen - std::max(0.99 * radius, kMinClearance);
       if (index + 1 == n) break;
-      seen = segment_clearance(walls, obstacles, position, route.point[index + 1]);
+      if (index + 2 == n) {  // the goal next: its own clearance may lower the bar (above)
+        double here;
+        seen = segment_clearance(walls, obstacles, position, route.point[index + 1], here, next_clearance);
+        c_advance = std::max(std::min(c_advance, 0.99 * next_clearance), kMinClearance);
+      } else {
+        seen = segment_clearance(walls, obstacles, position, route.point[index + 1]);
+      }
     }
     if (advanced) sync();
   }

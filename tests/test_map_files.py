@@ -328,3 +328,33 @@ def test_closed_ring_repeating_its_first_vertex_is_accepted(tmp_path: Path) -> N
 def test_other_coincident_vertices_are_still_refused(tmp_path: Path, polygon: str, match: str) -> None:
     with pytest.raises(MapFileError, match=match):
         load_map(_write(tmp_path, f"polygons: [{polygon}]\n"))
+
+
+@pytest.mark.parametrize("text, match", [
+    ("walls: [[[0, 0], [1" + "0" * 400 + ", 0]]]\n",
+     r"map\.yaml: field 'walls\[0\]': <an integer of 401 digits> is too large a number"),
+    ("rectangles: [{x: 0, y: 0, width: 1" + "0" * 400 + ", height: 1}]\n",
+     r"map\.yaml: field 'rectangles\[0\]\.width': <an integer of 401 digits> is too large a number"),
+    ("units: [m]\nwalls: [[[0, 0], [1, 0]]]\n", r"map\.yaml: field 'units': \['m'\] is not one of m, cm, mm"),
+    ("units: {a: 1}\nwalls: [[[0, 0], [1, 0]]]\n", r"map\.yaml: field 'units': \{'a': 1\} is not one of"),
+    ("# only a comment\n", r"map\.yaml: the file is empty"),
+])
+def test_yaml_values_python_cannot_take_are_named_too(tmp_path: Path, text: str, match: str) -> None:
+    with pytest.raises(MapFileError, match=match):
+        load_map(_write(tmp_path, text))
+
+
+def test_svg_rotation_about_a_point_and_transform_errors_name_the_element(tmp_path: Path) -> None:
+    def svg(body: str) -> Path:
+        return _write(tmp_path, f'<svg xmlns="http://www.w3.org/2000/svg">{body}</svg>', "map.svg")
+
+    # rotate(90, 1, 0) maps (2, 0) to (1, 1); with the y flip the wall runs from (1, -1) to (1, 0)
+    m = load_map(svg('<line x1="1" y1="0" x2="2" y2="0" transform="rotate(90, 1, 0)"/>'))
+    np.testing.assert_allclose(m.polygons[0], [[1.0, 0.0], [1.0, -1.0]], atol=1e-12)
+    with pytest.raises(MapFileError, match=r"<rect> id='door_frame' attribute 'transform': skewX\(3\)"):
+        load_map(svg('<rect id="door_frame" width="1" height="1" transform="skewX(3)"/>'))
+    with pytest.raises(MapFileError, match=r"<line> attribute 'transform': translate\(1e400\): a number is too "
+                                           r"large"):
+        load_map(svg('<line x2="1" transform="translate(1e400)"/>'))
+    with pytest.raises(MapFileError, match=r"<svg> id='inner': a nested <svg> with x, viewBox is not supported"):
+        load_map(svg('<svg id="inner" x="5" viewBox="0 0 1 1"><line x2="1"/></svg>'))

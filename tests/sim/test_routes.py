@@ -89,6 +89,11 @@ def test_bad_arguments_are_named():
         plan_route(door_map(), (0.0, -1.0), (1.0, 1.0), radius=0.0)
     with pytest.raises(TypeError, match="StaticMap"):
         plan_route([[0, 0], [1, 1]], (0.0, -1.0), (1.0, 1.0), radius=0.3)
+    # beyond the maps' coordinate bound, and a NaN among the points of route_distances
+    with pytest.raises(ValueError, match=r"start \[1e\+300, 0.0\] is not finite or farther than the maps' bound"):
+        plan_route(door_map(), (1e300, 0.0), (1.0, 1.0), radius=0.3)
+    with pytest.raises(ValueError, match=r"point \[nan, 0.0\] is not finite"):
+        route_distances(door_map(), [[0.0, -1.0], [math.nan, 0.0]], (1.0, 1.0), 0.3)
 
 
 def _segments_clearance(static_map, points):
@@ -337,3 +342,50 @@ def test_the_route_kernels_values_are_the_distances():
     assert values((1.0, 1.0), (3.0, 2.0), 1.01)[5] is False
     seg, *_, clear = values((1.0, -1.0), (1.0, 1.0), 1e-6)
     assert seg == 0.0 and clear is False
+
+
+def _one_human_arrives(static_map, start, goal, human_model="orca", routes="shortest", seconds=40.0):
+    """Whether one human walking from start to goal on the map (the robot far away) reaches its goal."""
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    from socialnav.scenarios import HumanArrays, Scenario, register_scenario
+    from socialnav.scenarios import registry as scenario_registry
+
+    @register_scenario("test_one_walk")
+    @dataclass(frozen=True, kw_only=True)
+    class OneWalk(Scenario):
+        s: ClassVar = np.array([start], dtype=float)
+        g: ClassVar = np.array([goal], dtype=float)
+
+        def sample_humans(self, rng, indices):
+            b = len(rng)
+            return HumanArrays(start=np.broadcast_to(self.s, (b, 1, 2)).copy(),
+                               goal=np.broadcast_to(self.g, (b, 1, 2)).copy(),
+                               radius=np.full((b, 1), 0.3), v_pref=np.full((b, 1), 1.0))
+
+        def robot_endpoints(self):
+            return np.array([1000.0, 1000.0]), np.array([1000.0, 1001.0])
+
+    settings = WorldSettings(human_model=human_model, human_routes=routes, threads=1, continue_after_success=True,
+                             continuation_cap=seconds)
+    try:
+        with World(settings, OneWalk(n_humans=1), 1, split="test", count=1, static_map=static_map) as world:
+            world.reset()
+            world.position[:, 0] = world.goal[:, 0] = 1000.0
+            while world.busy:
+                finished = world.step(np.zeros((1, 2))).finished
+            tr = finished[0]
+    finally:
+        scenario_registry._REGISTRY.pop("test_one_walk", None)
+    path = np.concatenate([tr.positions[:, 1], tr.continuation[:, 1]])
+    return bool((np.linalg.norm(path - np.asarray(goal), axis=-1) <= 0.3).any())
+
+
+def test_a_goal_closer_to_a_wall_than_the_route_clearance_is_reached():
+    # a 4 x 4 m room with a 1.2 m door; the goal 0.35 m from its west wall, which the world allows (> the
+    # 0.3 m radius) but the 0.4 m the route's other legs keep (radius + clearance / 2) would not
+    outline = [[-0.6, 0.0], [-2.0, 0.0], [-2.0, 4.0], [2.0, 4.0], [2.0, 0.0], [0.6, 0.0]]
+    room = StaticMap(tuple([a, b] for a, b in zip(outline[:-1], outline[1:], strict=True)))  # wall segments
+    assert _one_human_arrives(room, (1.0, -3.0), (-1.65, 3.0))
+    assert _one_human_arrives(room, (1.0, -3.0), (-1.5, 3.0))  # 0.5 m from it: as before

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from socialnav import _core
-from socialnav.maps.static_map import StaticMap
+from socialnav.maps.static_map import MAX_COORDINATE, StaticMap
 
 __all__ = ["DEFAULT_CLEARANCE", "ROBOT_CLEARANCE", "Route", "plan_route", "route_distances", "route_goals"]
 
@@ -65,7 +65,16 @@ def _point(value: object, name: str) -> np.ndarray:
     p = np.asarray(value, dtype=np.float64).reshape(-1)
     if p.shape != (2,) or not np.all(np.isfinite(p)):
         raise ValueError(f"{name} must be a finite (x, y) point, got {value!r}")
+    _within_bounds(p[None], name)
     return p
+
+
+def _within_bounds(points: np.ndarray, name: str) -> None:
+    # the bound of every map coordinate: the geometry's tolerances are sized for it
+    far = np.flatnonzero(~(np.abs(points) <= MAX_COORDINATE).all(axis=1))
+    if far.size:
+        raise ValueError(f"{name} {points[far[0]].tolist()} is not finite or farther than the maps' bound "
+                         f"(|x|, |y| <= {MAX_COORDINATE:,.0f} m)")
 
 
 def plan_route(static_map: StaticMap | None, start: object, goal: object, radius: float,
@@ -83,7 +92,8 @@ def plan_route(static_map: StaticMap | None, start: object, goal: object, radius
         The route (its points exclude the start).
 
     Raises:
-        ValueError: A point that is not a finite (x, y), a radius <= 0 or a clearance < 0.
+        ValueError: A point that is not a finite (x, y) within the maps' coordinate bound, a radius <= 0
+            or a clearance < 0.
     """
     vertices, offsets = _flat(static_map)
     points, found, inflation = _core.plan_route(_point(start, "start"), _point(goal, "goal"), float(radius),
@@ -106,8 +116,12 @@ def route_distances(static_map: StaticMap | None, points: np.ndarray, goal: obje
 
     Returns:
         (n,) distances, inf where the goal cannot be reached.
+
+    Raises:
+        ValueError: A point or the goal not finite or beyond the maps' coordinate bound, or a radius <= 0.
     """
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
+    _within_bounds(pts, "point")
     vertices, offsets = _flat(static_map)
     out = np.empty(len(pts))
     _core.route_distances(pts, _point(goal, "goal"), float(radius), vertices, offsets, out)

@@ -205,7 +205,12 @@ def _collect(elem: Any, transform: np.ndarray, inside: bool, drawing: _Drawing, 
                            "levels of elements")
     if tag in _NOT_DRAWN or _hidden(elem):
         return
-    here = transform @ _parse_transform(elem.get("transform", ""), tag, source)
+    if tag == "svg" and depth > 1:
+        placed = [a for a in ("x", "y", "viewBox") if elem.get(a) is not None]
+        if placed:  # its own viewport would move and scale what it holds, which is not read here
+            raise MapFileError(f"{source}: {_describe(elem)}: a nested <svg> with {', '.join(placed)} is not "
+                               "supported (use a <g> with a transform)")
+    here = transform @ _parse_transform(elem.get("transform", ""), _describe(elem), source)
     own = _is_obstacle_label(elem)
     flag = inside or own
     n_shapes = len(drawing.shapes)
@@ -219,30 +224,37 @@ def _collect(elem: Any, transform: np.ndarray, inside: bool, drawing: _Drawing, 
         drawing.labelled.append((elem, len(drawing.shapes) > n_shapes))
 
 
-def _parse_transform(text: str, tag: str, source: str) -> np.ndarray:
+def _parse_transform(text: str, element: str, source: str) -> np.ndarray:
+    """The matrix of a ``transform`` attribute; ``element`` names its element in a message."""
     if re.sub(_TRANSFORM, " ", text).replace(",", " ").strip():
-        raise MapFileError(f"{source}: <{tag}> attribute 'transform': cannot parse {short(text)}")
+        raise MapFileError(f"{source}: {element} attribute 'transform': cannot parse {short(text)}")
     m = np.eye(3)
     for name, args in re.findall(_TRANSFORM, text):
         if re.sub(NUMBER, " ", args).replace(",", " ").strip():
             raise MapFileError(
-                f"{source}: <{tag}> attribute 'transform': {name}({args.strip()}): "
+                f"{source}: {element} attribute 'transform': {name}({args.strip()}): "
                 f"{args.strip()!r} is not a list of numbers"
             )
         v = [float(x) for x in re.findall(NUMBER, args)]
+        if not all(math.isfinite(x) for x in v):
+            raise MapFileError(f"{source}: {element} attribute 'transform': {name}({args.strip()}): a number "
+                               "is too large (not finite)")
         if name == "translate" and len(v) in (1, 2):
             t = np.array([[1, 0, v[0]], [0, 1, v[1] if len(v) == 2 else 0.0], [0, 0, 1]])
         elif name == "scale" and len(v) in (1, 2):
             t = np.diag([v[0], v[1] if len(v) == 2 else v[0], 1.0])
-        elif name == "rotate" and len(v) == 1:
+        elif name == "rotate" and len(v) in (1, 3):
             c, s = math.cos(math.radians(v[0])), math.sin(math.radians(v[0]))
             t = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+            if len(v) == 3:  # about (cx, cy): translate(cx, cy) rotate(a) translate(-cx, -cy)
+                cx, cy = v[1], v[2]
+                t = np.array([[1, 0, cx], [0, 1, cy], [0, 0, 1]]) @ t @ np.array([[1, 0, -cx], [0, 1, -cy], [0, 0, 1]])
         elif name == "matrix" and len(v) == 6:
             a, b, c, d, e, f = v
             t = np.array([[a, c, e], [b, d, f], [0, 0, 1]])
         else:
-            raise MapFileError(f"{source}: <{tag}> attribute 'transform': {name}({args.strip()}) is not "
-                               "supported (translate, scale, rotate(angle), matrix)")
+            raise MapFileError(f"{source}: {element} attribute 'transform': {name}({args.strip()}) is not "
+                               "supported (translate, scale, rotate(angle[, cx, cy]), matrix)")
         m = m @ t
     return m
 

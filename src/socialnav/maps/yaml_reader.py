@@ -42,6 +42,9 @@ def map_from_yaml(text: str, *, source: str = "<map>") -> StaticMap:
         data = load_yaml(text)
     except yaml.YAMLError as err:
         raise MapFileError(f"{source}: not valid YAML: {' '.join(str(err).split())}") from None
+    if data is None:
+        raise MapFileError(f"{source}: the file is empty (expected a mapping with 'polygons', 'walls' or "
+                           "'rectangles')")
     if not isinstance(data, dict):
         raise MapFileError(f"{source}: expected a mapping with 'polygons', 'walls' or 'rectangles', "
                            f"got {type(data).__name__}")
@@ -50,7 +53,7 @@ def map_from_yaml(text: str, *, source: str = "<map>") -> StaticMap:
         raise MapFileError(f"{source}: unknown field {unknown[0]!r} (value {short(data[unknown[0]])}); "
                            f"valid fields: {', '.join(_YAML_KEYS)}")
     units = data.get("units", "m")
-    if units not in _UNITS:
+    if not isinstance(units, str) or units not in _UNITS:
         raise MapFileError(f"{source}: field 'units': {units!r} is not one of {', '.join(_UNITS)}")
     factor = _UNITS[units]
     polys: list[np.ndarray] = []
@@ -94,7 +97,15 @@ def _points(item: Any, field: str, source: str, at_least: int) -> np.ndarray:
         )
     if len(item) < at_least:
         raise MapFileError(f"{source}: field '{field}': needs at least {at_least} points, got {len(item)}")
-    return np.array(item, dtype=np.float64)
+    return np.array([[_float(c, field, source) for c in p] for p in item], dtype=np.float64)
+
+
+def _float(value: Any, field: str, source: str) -> float:
+    """A coordinate as a float; an integer too large for one is named (float() overflows on it)."""
+    try:
+        return float(value)
+    except OverflowError:
+        raise MapFileError(f"{source}: field '{field}': {short(value)} is too large a number") from None
 
 
 def _rectangle(item: Any, field: str, source: str) -> np.ndarray:
@@ -105,7 +116,7 @@ def _rectangle(item: Any, field: str, source: str) -> np.ndarray:
         raise MapFileError(
             f"{source}: field '{field}': expected {{x, y, width, height}} numbers, got {short(item)}"
         )
-    x, y, w, h = (float(item[k]) for k in keys)
+    x, y, w, h = (_float(item[k], f"{field}.{k}", source) for k in keys)
     if not (w > 0 and h > 0):
         raise MapFileError(f"{source}: field '{field}': width and height must be > 0, got {w} x {h}")
     return np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]])
