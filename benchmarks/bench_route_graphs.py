@@ -62,7 +62,8 @@ def build_ms(static_map: StaticMap, repeats: int) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--max-walls", type=int, default=200, help="the largest map's wall segments (>= 50)")
     parser.add_argument("--repeats", type=int, default=3, help="builds per map, the best kept")
     add_record_arguments(parser, "bench_route_graphs")

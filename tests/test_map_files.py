@@ -353,8 +353,8 @@ def test_svg_rotation_about_a_point_and_transform_errors_name_the_element(tmp_pa
     np.testing.assert_allclose(m.polygons[0], [[1.0, 0.0], [1.0, -1.0]], atol=1e-12)
     with pytest.raises(MapFileError, match=r"<rect> id='door_frame' attribute 'transform': skewX\(3\)"):
         load_map(svg('<rect id="door_frame" width="1" height="1" transform="skewX(3)"/>'))
-    with pytest.raises(MapFileError, match=r"<line> attribute 'transform': translate\(1e400\): a number is too "
-                                           r"large"):
+    with pytest.raises(MapFileError, match=r"<line> attribute 'transform': translate\(1e400\): a number "
+                                           r"is too large"):
         load_map(svg('<line x2="1" transform="translate(1e400)"/>'))
-    with pytest.raises(MapFileError, match=r"<svg> id='inner': a nested <svg> with x, viewBox is not supported"):
+    with pytest.raises(MapFileError, match=r"<svg> id='inner': a nested <svg> with x, viewBox is not "):
         load_map(svg('<svg id="inner" x="5" viewBox="0 0 1 1"><line x2="1"/></svg>'))

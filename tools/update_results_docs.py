@@ -220,6 +220,14 @@ LOG: dict[str, tuple[str, str, Callable[[dict], str]]] = {
             f"lidar_vs_navground {d['lidar_vs_navground']} (goal >= 8)"
         ),
     ),
+    "bench_route_graphs.json": (
+        "route graphs of office-like grid maps, first plan on each",
+        "python benchmarks/bench_route_graphs.py --max-walls 400",
+        lambda d: (
+            f"{d['graph_ms_100_walls']} ms for 100 wall segments, {d['graph_ms_200_walls']} ms for 200; "
+            f"growth exponent {d['growth_exponent']}"
+        ),
+    ),
     "bench_world_obstacles_1thread.json": (
         "the same on 1 thread",
         "python benchmarks/bench_world.py --obstacles --threads 1",

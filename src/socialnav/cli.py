@@ -106,8 +106,9 @@ def error_line(err: BaseException) -> str:
 
 def _resume_hint(args: argparse.Namespace) -> str:
     if args.command == "train":
-        return ("re-run the same command to resume from the last checkpoint (last.pt, written every "
-                "checkpoint_every RL episodes or PPO updates; the work since it is done again)")
+        return ("re-run the same command to resume from the last checkpoint (during imitation il_state.pt, "
+                "then last.pt, written every checkpoint_every RL episodes or PPO updates; the work since it "
+                "is done again)")
     if args.command in ("evaluate", "sweep", "reproduce"):
         return "finished results are kept; re-run the same command to resume"
     return "nothing was written"

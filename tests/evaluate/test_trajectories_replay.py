@@ -293,3 +293,23 @@ def test_replay_from_another_directory_says_where_a_relative_checkpoint_was_look
     err = capsys.readouterr().err
     assert "the policy's checkpoint ck/sarl.pt does not exist (looked for from" in err
     assert "relative to the directory it was started from; replay from that directory" in err
+
+
+def test_replay_refuses_a_checkpoint_replaced_since_the_run(tmp_path, capsys):
+    # another network saved at the same path would replay other decisions: named, not a "DIFFERS"
+    pytest.importorskip("torch")
+    import shutil
+
+    from socialnav.cli import main
+    from socialnav.policies.building import shipped_checkpoint
+
+    ckpt = tmp_path / "sarl.pt"
+    shutil.copy(shipped_checkpoint("sarl", "wang2022"), ckpt)
+    argv = ["evaluate", "--policy", "sarl", "--checkpoint", str(ckpt), "--scenario", "circle_crossing",
+            "--episodes", "1", "--visibility", "invisible", "--out", str(tmp_path / "run"), "--quiet"]
+    assert main(argv) == 0
+    episode = ["replay", str(tmp_path / "run"), "--episode", "circle_crossing/invisible/0", "--quiet"]
+    assert main(episode) == 0
+    shutil.copy(shipped_checkpoint("om_sarl", "wang2022"), ckpt)
+    assert main(episode) == 2
+    assert f"checkpoint {ckpt} changed since the run (SHA-256 recorded: " in capsys.readouterr().err

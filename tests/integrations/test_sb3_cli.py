@@ -140,6 +140,17 @@ def test_discrete_and_unrecorded_models(tmp_path, capsys):
     assert policy["record"] == "inferred" and policy["observation"]["dtype"] == "float64"
     assert policy["observation"]["max_humans"] == 5  # the raw 5-human layout, padded on passing
     assert all(np.isfinite(r["success_rate"]) for r in json.loads(stdout)["rows"])
+    # plain model.save on the adapter (the learner's float32 layout): refused, saying what the raw one is
+    venv = SocialNavVecEnv("socialnav/CircleCrossing-v0", 2, preset="wang2022")
+    PPO("MultiInputPolicy", venv, n_steps=16, batch_size=16, n_epochs=1, device="cpu").learn(16).save(
+        tmp_path / "adapter.zip"
+    )
+    venv.close()
+    code, _, err = evaluate(capsys, "--policy", f"sb3:{tmp_path / 'adapter.zip'}", "--policy-arg", "algo=PPO",
+                            "--out", str(tmp_path / "p3"), *PASSING)
+    assert code != 0
+    assert "not the raw env's (float64, world frame, SI units: {human_mask: MultiBinary(5)" in err
+    assert "must be saved with socialnav.integrations.sb3.save_model, which records the conversion" in err
 
 
 def test_a_model_blind_to_walls_is_refused_among_walls_unless_allowed(tmp_path, capsys):

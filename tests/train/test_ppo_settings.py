@@ -23,6 +23,11 @@ EXPERIMENTS = Path(__file__).resolve().parents[2] / "benchmarks" / "configs"
         ("device: gpu", "device must be one of 'cpu', 'cuda', 'auto', got 'gpu'"),
         ("epochs: 2.5", "epochs must be of type int, got 2.5"),
         ("lr: '0.1'", "lr must be a number, got the text '0.1' (write the number without quotes)"),
+        ("total_env_steps: 1e7",  # the project's YAML reads it as the float 1e7, as YAML 1.2 does
+         "total_env_steps must be an integer, got 10000000.0 (write it in digits: 10000000)"),
+        ("total_env_steps: 1.0e+7", "total_env_steps must be an integer, got 10000000.0 (write it in digits: "
+         "10000000)"),
+        ("lr: nan", "lr must be a number, got the text 'nan'"),
         ("network: {attn_heads: 0}", "network.attn_heads must be >= 1, got 0"),
         ("network: {prediction_steps: 51}", "network.prediction_steps must be in [0, 50], got 51"),
         ("network: {attn_size: 30}",

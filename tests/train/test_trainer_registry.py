@@ -203,3 +203,22 @@ def test_an_entry_point_registers_it_for_list_train_and_a_sweep(tmp_path):
     assert (tmp_path / "sweep" / "train" / "rs" / "best.pt").is_file()
     record = json.loads((tmp_path / "sweep" / "train" / "rs" / "config.json").read_text())
     assert record["trainer"] == "random_search"
+
+
+def test_a_refused_resume_names_what_changes_the_training_first(tmp_path):
+    # another preset differs in its name, description and evaluation settings too: those come last
+    from socialnav.settings import ConfigError
+    from socialnav.train.run_directory import refuse_other_settings
+
+    saved = {"preset": {"name": "crowdnav", "description": "a", "evaluation": {k: 1 for k in "abcdef"},
+                        "robot": {"v_pref": 1.0}, "world": {"dt": 0.25}}}
+    config = {"preset": {"name": "wang2022", "description": "b", "evaluation": {k: 2 for k in "abcdef"},
+                         "robot": {"v_pref": 1.5}, "world": {"dt": 0.25}}}
+    diff = ["preset.description", *(f"preset.evaluation.{k}" for k in "abcdef"), "preset.name",
+            "preset.robot.v_pref"]
+    with pytest.raises(ConfigError) as err:
+        refuse_other_settings(saved, config, diff, tmp_path)
+    message = str(err.value)
+    assert message.index("preset.robot.v_pref: 1.0 -> 1.5") < message.index("preset.description")
+    assert "; and 3 more); use another --out, or the run's own settings: its config.yaml (--config) and " \
+           "the preset it was trained under (--preset)" in message

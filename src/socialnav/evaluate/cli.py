@@ -245,7 +245,8 @@ def add_replay_parser(sub: argparse._SubParsersAction) -> None:
 def _run_replay(args: argparse.Namespace) -> int:
     from socialnav.evaluate.replay import replay_episode
 
-    result = replay_episode(args.results, args.episode)
+    with warnings_said_once(sort=False):  # the policy's load notes, as `evaluate` says them
+        result = replay_episode(args.results, args.episode)
     if args.out:
         from socialnav.trajectory import write_trajectories
 

@@ -67,6 +67,13 @@ def rebuild_policy(manifest: dict[str, Any], preset: Any) -> Any:
         if checkpoint and not Path(checkpoint).is_file():
             raise ResultsError(f"manifest.json: the policy's checkpoint {checkpoint} does not exist"
                                + _relative_hint(checkpoint))
+        recorded_sha = manifest.get("checkpoint_sha256")
+        if checkpoint and recorded_sha:
+            from socialnav._io import file_sha256
+
+            if file_sha256(checkpoint) != recorded_sha:  # another network saved at the same path
+                raise ResultsError(f"manifest.json: checkpoint {checkpoint} changed since the run (SHA-256 "
+                                   f"recorded: {recorded_sha}); replay needs the network the run used")
         # The recorded settings the policy takes (information, planning depth and width, scorer for the
         # value-based ones; deterministic for PPO); the device is not recorded and changes no decision.
         params = {k: desc[k] for k in entry.parameters if k in desc and k != "device"}

@@ -269,10 +269,15 @@ def infer_record(path: Path, saved: dict[str, Any], preset: Any) -> tuple[dict[s
             observation_space = space
             break
     if observation_space is None:
+        humans = max(int(preset.evaluation.n_humans), 1)
+        raw = observation_and_action_spaces(humans, world, v_pref, "continuous")[0]
         raise SB3ModelError(
             f"{path} carries no socialnav record and its observation space {_show_declared(declared)} is not "
-            "the raw env's, so how it converted observations is unknown: save it with "
-            "socialnav.integrations.sb3.save_model"
+            f"the raw env's (float64, world frame, SI units: {show_space(raw)} under preset "
+            f"{preset.name!r}), "
+            "so how it converted observations is unknown. A model trained on SocialNavVecEnv, whose "
+            "default observation is the learner's (float32), must be saved with "
+            "socialnav.integrations.sb3.save_model, which records the conversion"
         )
     declared_action = saved.get("action_space")
     discrete = _serialized(declared_action) and "Discrete" in str(declared_action.get(":type:"))

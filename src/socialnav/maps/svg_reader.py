@@ -248,7 +248,8 @@ def _parse_transform(text: str, element: str, source: str) -> np.ndarray:
             t = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
             if len(v) == 3:  # about (cx, cy): translate(cx, cy) rotate(a) translate(-cx, -cy)
                 cx, cy = v[1], v[2]
-                t = np.array([[1, 0, cx], [0, 1, cy], [0, 0, 1]]) @ t @ np.array([[1, 0, -cx], [0, 1, -cy], [0, 0, 1]])
+                to_origin = np.array([[1, 0, -cx], [0, 1, -cy], [0, 0, 1]])
+                t = np.array([[1, 0, cx], [0, 1, cy], [0, 0, 1]]) @ t @ to_origin
         elif name == "matrix" and len(v) == 6:
             a, b, c, d, e, f = v
             t = np.array([[a, c, e], [b, d, f], [0, 0, 1]])

@@ -124,9 +124,17 @@ def _coerce(value: Any, hint: Any, path: str) -> Any:
     if hint is float and isinstance(value, float) and not math.isfinite(value):
         raise ConfigError(f"{path} must be a finite number, got {value!r}")
     if hint is int and isinstance(value, str) and _is_number(value):
+        number = float(value)
+        if _EXPONENT_FORM.fullmatch(value.strip()) and number.is_integer():  # 1e7: YAML 1.1 keeps it as text
+            raise ConfigError(
+                f"{path} must be an integer, got {value.strip()} (write it in digits: {int(number)})"
+            )
         raise ConfigError(
             f"{path} must be an integer, got the text {short_repr(value)} (write the number without quotes)"
         )
+    if hint is int and isinstance(value, float) and math.isfinite(value) and value.is_integer():
+        # 1e7 or 1.0e7 (YAML's float forms): the integer is what was meant, in digits
+        raise ConfigError(f"{path} must be an integer, got {value!r} (write it in digits: {int(value)})")
     if hint in (float, int, str, bool) and not isinstance(value, hint):
         raise ConfigError(f"{path} must be of type {hint.__name__}, got {short_repr(value)}")
     if hint is int and isinstance(value, bool):
@@ -155,11 +163,11 @@ _EXPONENT_FORM = re.compile(r"[-+]?(\d+(\.\d*)?|\.\d+)[eE][-+]?\d+")
 
 
 def _is_number(text: str) -> bool:
+    """Whether the text spells a finite number (YAML's .nan and .inf are the non-finite ones, written so)."""
     try:
-        float(text)
+        return math.isfinite(float(text))
     except ValueError:
         return False
-    return True
 
 
 def _kind(value: Any) -> str:

@@ -94,7 +94,7 @@ def add_train_parser(sub: argparse._SubParsersAction) -> None:
         default=None,
         help=f"{only('compile')}compile the training steps (RL: one compiled graph per gradient step where "
         "the network allows; faster; needs a C++ compiler; a compiled run's floating-point results differ "
-        "from an eager one's, see docs/training.md)",
+        "from an eager one's, see docs/training_speed.md)",
     )
     tr.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     tr.add_argument("--quiet", action="store_true", dest="no_progress", help="same as --no-progress")

@@ -194,12 +194,21 @@ def refuse_other_settings(saved: dict[str, Any], config: dict[str, Any], diff: l
         ConfigError: ``diff`` names keys.
     """
     if diff:
-        if "policy" in diff:  # another policy's run: said first, not 6th of 30
-            diff = ["policy", *(k for k in diff if k != "policy")]
+        # what changes the training first (another policy, then the world and the robot), not the 6th of 30
+        # behind the preset's name, description and evaluation settings
+        def weight(key: str) -> int:
+            if key == "policy":
+                return 0
+            if key.startswith(("preset.world.", "preset.robot.", "preset.training.", "train.")):
+                return 1
+            return 2 if key.startswith("preset.") else 1
+
+        diff = sorted(diff, key=weight)  # (stable: each group keeps its order)
         changes = "; ".join(f"{k}: {dotted(saved, k)!r} -> {dotted(config, k)!r}" for k in diff[:6])
         raise ConfigError(
-            f"{out} holds a run with other settings ({changes}{'; ...' if len(diff) > 6 else ''}); "
-            f"use another --out or the run's own settings (config.yaml)"
+            f"{out} holds a run with other settings ({changes}"
+            f"{f'; and {len(diff) - 6} more' if len(diff) > 6 else ''}); use another --out, or the run's own "
+            f"settings: its config.yaml (--config) and the preset it was trained under (--preset)"
         )
 
 

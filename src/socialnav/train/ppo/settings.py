@@ -78,7 +78,8 @@ class PPOSettings(Settings):
       and ``log_std_init``.
     """
 
-    policy: str = setting("crowdnav_pp", "PPO policy to train: crowdnav_pp or ppo_mlp (train --policy)")
+    policy: str = setting("crowdnav_pp",
+                          "PPO policy to train: crowdnav_pp, ppo_mlp or lidar_ppo (train --policy)")
     n_envs: int = setting(
         128, "environments stepped in lockstep (split over the training mix)", ge=1, le=MAX_N_ENVS
     )

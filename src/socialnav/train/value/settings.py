@@ -3,8 +3,8 @@
 Defaults follow RGL's configuration (CrowdNav's `train.config`) with one measured deviation:
 ``rl.gradient_steps_per_episode`` (the replay ratio) is 10, not 100. RGL's 100 steps of batch 100
 per collected episode costs about 1 M gradient steps for 10 000 episodes, i.e. hours on a 2-core CPU;
-docs/training.md has the measurements behind the chosen default. Set it back to 100 in a YAML file
-(``rl: {gradient_steps_per_episode: 100}``) for RGL's ratio.
+docs/training_speed.md ("Replay ratio") has the measurements behind the chosen default. Set it back
+to 100 in a YAML file (``rl: {gradient_steps_per_episode: 100}``) for RGL's ratio.
 """
 
 from __future__ import annotations
@@ -20,13 +20,13 @@ from socialnav.train.settings_files import DEVICES, flat_diff, load_settings_fil
 
 INFORMATION = ("constant_velocity", "oracle", "learned")
 REWARD_RULES = ("end", "swept")
-#: How RL's value targets are formed (docs/training.md, "TD targets"): ``recomputed`` (ours: every
-#: transition kept, the target r + γ̄·V_target(s')·(1 − terminal) computed at each gradient step) or
-#: ``rgl_repo`` (the RGL repository's explorer as first published, commit 012e4af: a finished episode's
-#: last transition and every timed-out episode are dropped; the target r + γ̄·V_target(s') is computed
-#: once, when the episode is stored, with the target network of that moment) or ``rgl_repo_final`` (the
-#: repository's final version, commit 8dcd445: the same storage rule, the target r + γ̄·V_target(s')
-#: computed at each gradient step).
+#: How RL's value targets are formed (docs/training.md, "The RGL repository's value targets"):
+#: ``recomputed`` (ours: every transition kept, the target r + γ̄·V_target(s')·(1 − terminal) computed
+#: at each gradient step) or ``rgl_repo`` (the RGL repository's explorer as first published, commit
+#: 012e4af: a finished episode's last transition and every timed-out episode are dropped; the target
+#: r + γ̄·V_target(s') is computed once, when the episode is stored, with the target network of that
+#: moment) or ``rgl_repo_final`` (the repository's final version, commit 8dcd445: the same storage rule,
+#: the target r + γ̄·V_target(s') computed at each gradient step).
 TD_TARGETS = ("recomputed", "rgl_repo", "rgl_repo_final")
 #: Settings added after runs were started: a resumed run whose saved config lacks one of these keys is
 #: taken to have had this value (so older run directories stay resumable).
@@ -74,7 +74,7 @@ class RLSettings(Settings):
     capacity: int = setting(100000, "replay memory [transitions]", ge=1)
     batch_size: int = setting(100, "minibatch size", ge=1)
     gradient_steps_per_episode: float = setting(
-        10.0, "replay ratio; RGL: 100 (see docs/training.md)", ge=0
+        10.0, "replay ratio; RGL: 100 (see docs/training_speed.md, \"Replay ratio\")", ge=0
     )
     warmup_transitions: int = setting(
         1000, "no gradient step before the memory holds this many transitions", ge=0
@@ -89,7 +89,8 @@ class RLSettings(Settings):
         0.9, "discount per second of travel at v_pref: γ^(dt·v_pref) per step", gt=0, le=1
     )
     td_targets: str = setting(
-        "recomputed", "how the value targets are formed (docs/training.md, \"TD targets\")",
+        "recomputed",
+        "how the value targets are formed (docs/training.md, \"The RGL repository's value targets\")",
         choices=TD_TARGETS,
     )
 
@@ -138,7 +139,7 @@ class TrainSettings(Settings):
             VM, after a compilation at the start of RL (≈ 35 s cold, seconds with Inductor's cache);
             needs a C++ compiler at run time. Off by default: a compiled run is reproducible for its
             seed, but its floating-point results differ from the eager run's (the shipped
-            checkpoints come from eager runs). See docs/training.md, "Compiled training".
+            checkpoints come from eager runs). See docs/training_speed.md, "Compiled training".
         checkpoint_every: write last.pt every this many RL episodes (and at the end).
         log_every: one curves.csv row every this many RL episodes.
         cadrl_one_human: train CADRL with one human (its authors' setting) in every scenario of the mix.
@@ -153,7 +154,8 @@ class TrainSettings(Settings):
     seed: int = setting(0, "master seed (the run's other seeds derive from it)", ge=0, le=2**32 - 1)
     device: str = setting("cpu", "torch device; auto: cuda when available", choices=DEVICES)
     threads: int = setting(0, "torch intra-op threads (0: all cores, at most 8)", ge=0)
-    compile: bool = setting(False, "compile the training steps (docs/training.md, \"Compiled training\")")
+    compile: bool = setting(False,
+                            "compile the training steps (docs/training_speed.md, \"Compiled training\")")
     checkpoint_every: int = setting(500, "write last.pt every this many RL episodes (and at the end)", ge=1)
     log_every: int = setting(100, "one curves.csv row every this many RL episodes", ge=1)
     cadrl_one_human: bool = setting(True, "train CADRL with one human (its authors' setting)")
