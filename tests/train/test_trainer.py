@@ -224,6 +224,28 @@ def test_cadrl_trains_with_one_human(tmp_path, tiny):
     assert config["n_humans"] == 1 and res.finished
 
 
+def test_a_resume_that_would_end_before_best_pts_episode_is_refused(tmp_path, tiny, quick_preset,
+                                                                     monkeypatch):
+    # a validation after the last last.pt found a new best, then the run was killed: best.pt is ahead
+    from socialnav.settings import ConfigError
+
+    out = tmp_path / "run"
+    settings = dataclasses.replace(load_train_settings(tiny), checkpoint_every=100)  # last.pt: episode 0
+    monkeypatch.setattr(rl_phase, "better", lambda new, old: True)  # every validation is a new best
+    train("sarl", quick_preset, out, settings, progress=False, stop_after=12)
+    resumed_at = torch.load(out / "last.pt", weights_only=True)["extra"]["resume"]["episode"]
+    best_at = load_checkpoint(out / "best.pt", "sarl").extra["episode"]
+    assert resumed_at < best_at
+    short = dataclasses.replace(settings, rl=dataclasses.replace(settings.rl, episodes=best_at - 1))
+    with pytest.raises(ConfigError, match=f"best.pt holds the network of the validation at RL episode "
+                                          f"{best_at}, written after last.pt \\(episode {resumed_at}\\)"):
+        train("sarl", quick_preset, out, short, progress=False)
+    # the full budget: the resumed run gets there again, and best.pt and the reported best agree
+    result = train("sarl", quick_preset, out, settings, progress=False)
+    assert result.finished
+    assert load_checkpoint(out / "best.pt", "sarl").extra["episode"] == result.best_val["episode"] >= best_at
+
+
 def test_damaged_curve_rows_do_not_block_resume(tmp_path, tiny, quick_preset):
     out = tmp_path / "run"
     settings = load_train_settings(tiny)

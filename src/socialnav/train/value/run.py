@@ -127,6 +127,31 @@ class ValueRun(RunFiles):
         )
 
 
+def refuse_ending_before_best(out: Path, name: str, resumed_at: int, episodes: int, device: Any) -> None:
+    """Refuses to resume a run so that it ends before the episode whose network best.pt holds.
+
+    A validation that found a new best after last.pt was written, before the run stopped, left best.pt
+    ahead of last.pt. The resumed run is bit-identical, so it writes the same best.pt again when it gets
+    there; a run shortened to end before that episode would report another best than best.pt holds.
+
+    Raises:
+        ConfigError: ``episodes`` ends the run before best.pt's episode (both named).
+    """
+    from socialnav.policies.learned import load_checkpoint
+
+    path = out / "best.pt"
+    if not path.is_file():
+        return
+    best_at = int(load_checkpoint(path, name, -1, map_location=device).extra.get("episode", 0))
+    if resumed_at < best_at and episodes < best_at:
+        raise ConfigError(
+            f"{out}: best.pt holds the network of the validation at RL episode {best_at}, written after "
+            f"last.pt (episode {resumed_at}) before the run stopped; rl.episodes {episodes} would end the "
+            f"run before it, reporting another best than best.pt holds: give rl.episodes >= {best_at} (the "
+            "resumed run writes that best.pt again), or remove best.pt"
+        )
+
+
 def value_policy_config(preset: Preset, settings: TrainSettings) -> dict[str, Any]:
     """The keyword arguments the evaluator passes to ValuePolicy (policies/learned_loading.py).
 
@@ -287,6 +312,7 @@ def setup_run(
         if rl.episodes < min(saved_budget, int(resumed["episode"])):
             raise ConfigError(f"{out}: rl.episodes {rl.episodes} is below the {resumed['episode']} RL "
                               "episodes this run has done: give at least as many (more extends it)")
+        refuse_ending_before_best(out, name, int(resumed["episode"]), rl.episodes, device)
         net.load_state_dict(ck.model.state_dict())
         if predictor is not None and ck.predictor is not None:
             predictor.load_state_dict(ck.predictor.state_dict())
