@@ -883,6 +883,54 @@ NB_MODULE(_core, m) {
       "route at any inflation (points: the goal alone).");
 
   m.def(
+      "plan_route_around",
+      [](Array<double> start, Array<double> goal, double radius, double clearance, Array<double> obstacle_vertices,
+         Array<int64_t> obstacle_offsets, Array<double> centres, Array<double> radii) {
+        if (!(radius > 0.0) || !(clearance >= 0.0) || !std::isfinite(radius) || !std::isfinite(clearance))
+          throw std::invalid_argument("plan_route_around: radius must be > 0 and clearance >= 0 (finite), got " +
+                                      std::to_string(radius) + " and " + std::to_string(clearance));
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const int n = static_cast<int>(radii.shape(0));
+        checked(centres, "centres", 2 * static_cast<size_t>(n));
+        std::vector<Vec2> c(static_cast<size_t>(n));
+        for (int k = 0; k < n; ++k) c[k] = Vec2{centres.data()[2 * k], centres.data()[2 * k + 1]};
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        socialnav::Route route;
+        {
+          nb::gil_scoped_release release;
+          socialnav::plan_route_around(walls.view(), c.data(), radii.data(), n, vec(start), vec(goal), radius,
+                                       clearance, route);
+        }
+        nb::list points;
+        for (const Vec2& p : route.point) points.append(nb::make_tuple(p.x, p.y));
+        return nb::make_tuple(points, route.found, route.inflation);
+      },
+      "start"_a, "goal"_a, "radius"_a, "clearance"_a, "obstacle_vertices"_a, "obstacle_offsets"_a, "centres"_a,
+      "radii"_a,
+      "plan_route among the walls and n standing discs (centres (n, 2), radii (n,)), each taken as the regular "
+      "octagon around it: the route-following robot policies' planner (routes.hpp, plan_route_around).");
+
+  m.def(
+      "route_graph_around_matches",
+      [](Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets, Array<double> centres, Array<double> radii,
+         double inflation) {
+        const int P = polygon_count(obstacle_vertices, obstacle_offsets);
+        const int n = static_cast<int>(radii.shape(0));
+        checked(centres, "centres", 2 * static_cast<size_t>(n));
+        if (P == 0 || n == 0 || !(inflation > 0.0))
+          throw std::invalid_argument("route_graph_around_matches: a map, discs and an inflation > 0");
+        std::vector<Vec2> c(static_cast<size_t>(n));
+        for (int k = 0; k < n; ++k) c[k] = Vec2{centres.data()[2 * k], centres.data()[2 * k + 1]};
+        const socialnav::PreparedObstacles walls =
+            socialnav::prepare_obstacles(obstacle_vertices.data(), obstacle_offsets.data(), P);
+        return socialnav::route_graph_around_matches(walls.view(), c.data(), radii.data(), n, inflation);
+      },
+      "obstacle_vertices"_a, "obstacle_offsets"_a, "centres"_a, "radii"_a, "inflation"_a,
+      "Whether plan_route_around's graph (the walls' cached graph with the discs' octagons added) equals the full "
+      "build over the walls and the octagons, bit for bit (tests).");
+
+  m.def(
       "route_kernel_values",
       [](Array<double> a, Array<double> b, double c, Array<double> obstacle_vertices, Array<int64_t> obstacle_offsets,
          bool baseline) {

@@ -34,6 +34,8 @@ struct EdgeSet {
   bool has_solid = false;  // some polygon has an interior (then a segment's end may lie inside one)
 };
 EdgeSet compact_edges(const ObstacleView& obstacles);
+// The edges of vertices [begin, end) alone (whole polygons: a polygon's vertices are consecutive).
+EdgeSet compact_edges(const ObstacleView& obstacles, int begin, int end);
 // segment_clearance and edge_clearance (below) over an EdgeSet of `obstacles` (the same map).
 double segment_clearance(const EdgeSet& edges, const ObstacleView& obstacles, Vec2 a, Vec2 b);
 double edge_clearance(const EdgeSet& edges, Vec2 p);
@@ -58,6 +60,13 @@ struct RouteGraph {
 // Builds the graph of `obstacles` (the unsplit map) for inflation d > 0. Cost: O(V) nodes (one or two
 // per convex corner), O(V^2 * E) segment tests for the edges.
 RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation);
+
+// build_route_graph(obstacles, inflation), built from `walls_graph`, the graph of the map's first
+// `wall_vertices` vertices alone (its walls), for the polygons after them (plan_route_around's people):
+// the same nodes, edges and lengths, bit for bit, without testing again the pairs of wall nodes the walls
+// already hide.
+RouteGraph build_route_graph_around(const RouteGraph& walls_graph, const ObstacleView& obstacles, int wall_vertices,
+                                    double inflation);
 
 // The graph of a map with this content and inflation, built on first use and then shared (process-wide,
 // thread-safe; keyed by the vertices' coordinates, so every episode with the same map shares one graph,
@@ -108,11 +117,15 @@ struct Route {
 void plan_route(const ObstacleView& obstacles, Vec2 start, Vec2 goal, double radius, double clearance, Route& out);
 
 // plan_route among the walls and n standing discs (centres, radii [m]; e.g. people who do not move), each
-// taken as the regular octagon around it: the global planner's obstacle layer. Its graph is built for this call
-// (nothing cached: the discs change from step to step). Where no route avoids the discs, the route among
-// the walls alone.
+// taken as the regular octagon around it: the global planner's obstacle layer. Its graph is the walls'
+// cached one with the octagons added for this call (build_route_graph_around: the discs change from step to
+// step). Where no route avoids the discs, the route among the walls alone.
 void plan_route_around(const ObstacleView& walls, const Vec2* centres, const double* radii, int n, Vec2 start,
                        Vec2 goal, double radius, double clearance, Route& out);
+// Whether plan_route_around's graph for inflation d (the walls' cached graph with the discs added) equals the
+// full build over the walls and the discs, bit for bit (tests).
+bool route_graph_around_matches(const ObstacleView& walls, const Vec2* centres, const double* radii, int n,
+                                double inflation);
 
 // The point an agent at `position` heading for point `index` of `route` hands its model's preferred-velocity
 // law (behaviour.hpp): the goal on the last leg (or without a route); before, a point beyond route point

@@ -577,6 +577,16 @@ def plan_route(start: Annotated[NDArray[numpy.float64], dict(order='C', device='
     The shortest route (routes.hpp) of an agent of radius [m] from start to goal keeping clearance [m] from the walls where it can: (points, found, inflation), the points to pass with the goal last; found False: no route at any inflation (points: the goal alone).
     """
 
+def plan_route_around(start: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], goal: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radius: float, clearance: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], centres: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radii: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')]) -> tuple:
+    """
+    plan_route among the walls and n standing discs (centres (n, 2), radii (n,)), each taken as the regular octagon around it: the route-following robot policies' planner (routes.hpp, plan_route_around).
+    """
+
+def route_graph_around_matches(obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], centres: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], radii: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], inflation: float) -> bool:
+    """
+    Whether plan_route_around's graph (the walls' cached graph with the discs' octagons added) equals the full build over the walls and the octagons, bit for bit (tests).
+    """
+
 def route_kernel_values(a: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], b: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], c: float, obstacle_vertices: Annotated[NDArray[numpy.float64], dict(order='C', device='cpu')], obstacle_offsets: Annotated[NDArray[numpy.int64], dict(order='C', device='cpu')], baseline: bool = False) -> tuple:
     """
     What the route kernels give for the segment [a, b] over the map's edges (tests): squared distances of the segment, of a and of b, the segment's again from the kernel without the ends, a's from the point kernel, and whether the segment's clearance is >= c; from the build this CPU dispatches to (x86-64-v4, AVX2 or the baseline), or with baseline=True from the baseline build.

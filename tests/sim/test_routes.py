@@ -389,3 +389,42 @@ def test_a_goal_closer_to_a_wall_than_the_route_clearance_is_reached():
     room = StaticMap(tuple([a, b] for a, b in zip(outline[:-1], outline[1:], strict=True)))  # wall segments
     assert _one_human_arrives(room, (1.0, -3.0), (-1.65, 3.0))
     assert _one_human_arrives(room, (1.0, -3.0), (-1.5, 3.0))  # 0.5 m from it: as before
+
+
+def test_the_graph_around_standing_people_is_the_full_build_bit_for_bit():
+    # orca_route plans around the walls and the people standing still: the walls' cached graph with their
+    # octagons added must be the graph a full build over both would give (same nodes, edges, lengths)
+    rng = np.random.default_rng(11)
+    maps = [door_map(), PILLARS]
+    for _ in range(25):
+        polys = []
+        for _ in range(rng.integers(1, 8)):
+            c = rng.uniform(-4, 4, 2)
+            if rng.random() < 0.5:
+                a, half = rng.uniform(0, math.pi), rng.uniform(0.25, 2.0)
+                polys.append(np.array([c - half * np.array([math.cos(a), math.sin(a)]),
+                                       c + half * np.array([math.cos(a), math.sin(a)])]))
+            else:
+                k, r = int(rng.integers(3, 6)), rng.uniform(0.3, 1.2)
+                angles = np.sort(rng.uniform(0, 2 * math.pi, k))
+                polys.append(c + r * np.stack([np.cos(angles), np.sin(angles)], 1))
+        try:
+            maps.append(StaticMap(tuple(polys)))
+        except ValueError:  # a self-intersecting draw
+            continue
+    cases = 0
+    for smap in maps:
+        vertices, offsets = smap.to_flat()
+        for _ in range(4):
+            n = int(rng.integers(1, 5))
+            centres, radii = rng.uniform(-5, 5, (n, 2)), rng.uniform(0.2, 0.5, n)
+            for inflation in (0.3, 0.5):
+                assert _core.route_graph_around_matches(vertices, offsets, centres, radii, inflation)
+                cases += 1
+    assert cases >= 150
+    # and a route around a person standing in a door goes through the other door
+    two_doors = StaticMap(([[-6.0, 0.0], [-2.6, 0.0]], [[-1.4, 0.0], [1.4, 0.0]], [[2.6, 0.0], [6.0, 0.0]]))
+    vertices, offsets = two_doors.to_flat()
+    points, found, _ = _core.plan_route_around(np.array([-2.0, -3.0]), np.array([-2.0, 3.0]), 0.3, 0.2,
+                                               vertices, offsets, np.array([-2.0, 0.0]), np.array([0.3]))
+    assert found and any(p[0] > 1.4 for p in points)  # by the door at x = 2 (the other is taken)
