@@ -172,6 +172,41 @@ def test_a_plugin_deriving_from_a_built_in_is_registered_under_its_entry_point(
     assert get_scenario("random") is RandomPlacement  # the built-in keeps its name
 
 
+def test_a_plugin_under_a_built_in_name_is_a_warning_and_the_others_still_load(
+        isolated: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    from socialnav.scenarios.square import RandomPlacement
+
+    @dataclass(frozen=True, kw_only=True)
+    class Clash(RandomPlacement):
+        pass
+
+    @dataclass(frozen=True, kw_only=True)
+    class Lane(RandomPlacement):
+        pass
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", lambda group: [
+        _FakeEntryPoint("circle_crossing", Clash), _FakeEntryPoint("lane", Lane)])
+    with pytest.warns(RuntimeWarning, match="could not register scenario plugin 'circle_crossing'.*already "
+                                            "registered"):
+        assert get_scenario("lane") is Lane  # the plugin after the bad one is registered
+    assert get_scenario("circle_crossing") is not Clash
+
+
+def test_a_scenario_parameter_may_have_an_upper_bound() -> None:
+    from socialnav.scenarios import param
+    from socialnav.settings import ConfigError
+
+    @dataclass(frozen=True, kw_only=True)
+    class Bounded(Scenario):
+        share: float = param(0.5, "a share", ge=0, le=1)
+
+        def sample_humans(self, rng: EpisodeRandom, indices: np.ndarray) -> HumanArrays:
+            raise NotImplementedError
+
+    with pytest.raises(ConfigError, match="share must be in \\[0, 1\\], got 1.5"):
+        Bounded(n_humans=1, share=1.5)
+
+
 def test_unregistered_scenario_cannot_generate() -> None:
     @dataclass(frozen=True, kw_only=True)
     class Anonymous(Scenario):

@@ -181,3 +181,40 @@ def test_render_cli_map_scale(tmp_path, capsys) -> None:
     )
     assert main(["render", str(plain), "--map-scale", "0.01"]) == 2
     assert capsys.readouterr().err.strip() == "socialnav render: error: --map-scale needs --map"
+
+
+ARC_HARNESS = NODE_HARNESS.replace(
+    "const fills = calls",
+    "const bad = calls.filter(([k, args]) => k === \"arc\" && !args.every(Number.isFinite));\n"
+    "console.log(JSON.stringify({ arcs: calls.filter(([k]) => k === \"arc\").length, bad: bad.length }));\n"
+    "const fills = calls")
+
+
+def test_a_person_in_view_for_part_of_a_log_is_drawn_only_then(tmp_path) -> None:
+    """A long-format log whose person comes into view at 1 s and leaves at 2 s: every format renders it."""
+    import shutil
+    import subprocess
+
+    rows = ["t,agent,role,x,y,radius,gx,gy,v_pref,outcome"]
+    for k in range(31):
+        rows.append(f"{k / 10},0,robot,0.0,{-3 + 0.2 * k:.3f},0.3,0.0,3.0,1.0,success")
+        if 10 <= k <= 20:
+            rows.append(f"{k / 10},1,human,1.5,{-1 + 0.1 * (k - 10):.3f},0.3,,,,success")
+    log = tmp_path / "late.csv"
+    log.write_text("\n".join(rows) + "\n")
+    for suffix in ("png", "svg", "html"):
+        assert main(["render", str(log), "--out", str(tmp_path / f"late.{suffix}"), "--quiet"]) == 0, suffix
+    page = (tmp_path / "late.html").read_text()
+    data = json.loads(re.search(r'<script id="episode-data" type="application/json">(.*?)</script>', page,
+                                re.S).group(1))
+    pos = data["episodes"][0]["pos"]
+    assert pos[2:4] == [None, None] and None not in pos[2 * 2 * 10: 2 * 2 * 10 + 4]  # out of view, then in
+    node = shutil.which("node")
+    if node is None:
+        pytest.skip("node is not installed")
+    (tmp_path / "harness.js").write_text(ARC_HARNESS)
+    out = subprocess.run([node, str(tmp_path / "harness.js"), str(tmp_path / "late.html")],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    drawn = json.loads(out.stdout.strip().splitlines()[0])
+    assert drawn["arcs"] > 0 and drawn["bad"] == 0  # no disc drawn at a position not in view

@@ -24,6 +24,8 @@ def param(
     unit: str = "",
     gt: float | None = None,
     ge: float | None = None,
+    lt: float | None = None,
+    le: float | None = None,
     choices: tuple[str, ...] | None = None,
 ) -> Any:
     """Declares a scenario setting: a dataclass field carrying its doc, unit and validator.
@@ -34,9 +36,11 @@ def param(
         unit: SI unit of the value.
         gt: The value must be strictly greater than this.
         ge: The value must be greater than or equal to this.
+        lt: The value must be strictly less than this.
+        le: The value must be less than or equal to this.
         choices: Allowed values of a string option.
 
     Returns:
         A `dataclasses.field` (see `socialnav.settings.setting`).
     """
-    return setting(default, doc, unit=unit, gt=gt, ge=ge, choices=choices)
+    return setting(default, doc, unit=unit, gt=gt, ge=ge, lt=lt, le=le, choices=choices)

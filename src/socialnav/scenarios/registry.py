@@ -142,7 +142,13 @@ def _load_plugins() -> None:
         # registered itself: its own name (not one inherited from a built-in it derives from) maps to it
         own = obj.__dict__.get("name") if isinstance(obj, type) else None
         if isinstance(obj, type) and issubclass(obj, Scenario) and not (own and _REGISTRY.get(own) is obj):
-            register_scenario(ep.name)(obj)
+            try:
+                register_scenario(ep.name)(obj)
+            except (TypeError, ValueError) as exc:  # a taken name: a warning, as for the other plugin kinds
+                import warnings
+
+                warnings.warn(f"could not register scenario plugin {ep.name!r} ({ep.value}): {exc}",
+                              RuntimeWarning, stacklevel=2)
 
 
 def get_scenario(name: str) -> type[Scenario]:

@@ -132,6 +132,8 @@ def plot_trajectory(
                 alpha=0.5,
             )
         for k in stamps:
+            if not np.isfinite(pos[k, a]).all():  # not in view then (a log's person who came or left)
+                continue
             alpha = 0.15 + 0.75 * (k / K if K else 1.0)
             face = ROBOT_FACE if a == 0 else colour
             ax.add_patch(
@@ -154,8 +156,11 @@ def plot_trajectory(
                     color="black" if a == 0 else "white",
                     alpha=min(1, alpha + 0.2),
                 )
-        ax.plot(*traj.positions[0, a], "s", color=colour, ms=5, alpha=0.8)
-        ax.plot(*traj.goals[a], "*", color=colour, ms=11 if a == 0 else 7, alpha=0.9)
+        seen = np.flatnonzero(np.isfinite(traj.positions[:, a]).all(axis=1))
+        if seen.size:  # where it was first seen
+            ax.plot(*traj.positions[seen[0], a], "s", color=colour, ms=5, alpha=0.8)
+        if np.isfinite(traj.goals[a]).all():
+            ax.plot(*traj.goals[a], "*", color=colour, ms=11 if a == 0 else 7, alpha=0.9)
     hits = np.flatnonzero(view.collision)
     if hits.size:
         ax.plot(pos[hits, 0, 0], pos[hits, 0, 1], "x", color=VIOLATION, ms=12, mew=2.5, label="collision")
@@ -179,6 +184,8 @@ def plot_trajectory(
     if "velocity_rectangles" in overlays:
         for k in stamps[1:]:
             for a in range(traj.n_agents):
+                if not (np.isfinite(pos[k, a]).all() and np.isfinite(view.velocities[k, a]).all()):
+                    continue  # not in view then
                 rect = velocity_rectangle(pos[k, a], view.velocities[k, a], traj.radii[a], tau)
                 if rect is None:
                     continue

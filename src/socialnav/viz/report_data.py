@@ -314,7 +314,7 @@ def episode_json(
         "n_main": view.n_main,
         "radii": [round(float(r), 4) for r in traj.radii],
         "goals": np.round(traj.goals, 3).tolist(),
-        "pos": np.rint(view.positions * SCALE).astype(np.int64).reshape(-1).tolist(),
+        "pos": _scaled_or_null(view.positions),
         "m1": _bits(view.m1),
         "m2": _bits(view.m2),
         "collision": _bits(view.collision),
@@ -322,6 +322,14 @@ def episode_json(
         "values": values,
         **among_walls,
     }
+
+
+def _scaled_or_null(positions: np.ndarray) -> list[int | None]:
+    """Positions as integers in 1/SCALE m, None (JSON null) where an agent is not in view (NaN in a log)."""
+    flat = np.asarray(positions, dtype=np.float64).reshape(-1)
+    finite = np.isfinite(flat)
+    scaled = np.rint(np.where(finite, flat, 0.0) * SCALE).astype(np.int64).tolist()
+    return [v if ok else None for v, ok in zip(scaled, finite.tolist(), strict=True)]
 
 
 def single_episode_data(

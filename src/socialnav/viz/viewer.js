@@ -78,7 +78,7 @@
     const ep = DATA.episodes[index];
     if (!ep) return;
     if (!ep.P) {
-      ep.P = ep.pos.map((v) => v / DATA.scale); // decode once: (S * A * 2) metres
+      ep.P = ep.pos.map((v) => (v === null ? NaN : v / DATA.scale)); // decode once: (S * A * 2) metres; NaN: not in view
       ep.S = ep.P.length / (2 * ep.radii.length);
       ep.W = (ep.walls || []).map((w) => w.map((v) => v / DATA.scale)); // [x, y, x, y, ...] metres
       // routes planned at the start (socialnav/viz/routes.py): [agent, [x, y, x, y, ...] metres]
@@ -104,7 +104,10 @@
   function fitView() {
     const ep = state.ep;
     let x0 = Infinity, x1 = -Infinity, y0 = Infinity, y1 = -Infinity;
-    const take = (x, y) => { x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y); };
+    const take = (x, y) => {
+      if (!Number.isFinite(x) || !Number.isFinite(y)) return; // an agent not in view then (a log)
+      x0 = Math.min(x0, x); x1 = Math.max(x1, x); y0 = Math.min(y0, y); y1 = Math.max(y1, y);
+    };
     for (let i = 0; i < ep.P.length; i += 2) take(ep.P[i], ep.P[i + 1]);
     ep.goals.forEach(([x, y]) => take(x, y));
     const pad = Math.max(...ep.radii) + 0.6;
@@ -136,7 +139,7 @@
     if (k < 1) return null;
     const [x, y] = P(k, a), [px, py] = P(k - 1, a);
     const vx = (x - px) / ep.dt, vy = (y - py) / ep.dt, sp = Math.hypot(vx, vy);
-    if (sp <= 1e-6) return null;
+    if (!(sp > 1e-6)) return null; // standing, or not in view (NaN)
     const ux = vx / sp, uy = vy / sp, nx = -uy, ny = ux, r = ep.radii[a], t = DATA.tau;
     const tx = x + t * vx, ty = y + t * vy;
     return [[x + r * nx, y + r * ny], [x - r * nx, y - r * ny], [tx - r * nx, ty - r * ny], [tx + r * nx, ty + r * ny]];
@@ -183,7 +186,13 @@
     if ($("ov-trails").checked) {
       for (let a = 0; a < A; a++) {
         ctx.beginPath();
-        for (let j = 0; j <= k; j++) { const [x, y] = P(j, a); j ? ctx.lineTo(X(x), Y(y)) : ctx.moveTo(X(x), Y(y)); }
+        let pen = false; // lifted where the agent is not in view
+        for (let j = 0; j <= k; j++) {
+          const [x, y] = P(j, a);
+          if (!Number.isFinite(x)) { pen = false; continue; }
+          pen ? ctx.lineTo(X(x), Y(y)) : ctx.moveTo(X(x), Y(y));
+          pen = true;
+        }
         ctx.strokeStyle = colour(a); ctx.globalAlpha = 0.6; ctx.lineWidth = 1.5; ctx.stroke(); ctx.globalAlpha = 1;
       }
     }
@@ -201,6 +210,7 @@
     }
     for (let a = A - 1; a >= 0; a--) {
       const [x, y] = P(k, a);
+      if (!Number.isFinite(x)) continue;
       circle(x, y, ep.radii[a], a === 0 ? ROBOT_FACE : colour(a), colour(a), a === 0 ? 2 : 1);
     }
     if ($("ov-m1").checked) {
