@@ -207,3 +207,33 @@ def test_a_long_file_missing_required_columns_is_read_as_a_table_with_a_note(tmp
                       r"fields do not include continuation \(not read\)"):
         (tr,) = load_trajectories(path, radius=0.3)
     assert tr.radii[0] == 0.3
+
+
+def test_epoch_stamps_in_integer_nanoseconds_and_parquet_timestamps_are_exact(tmp_path: Path) -> None:
+    # ROS stamps: nanoseconds since 1970 (1.7e18, beyond float64's exact integers); 10 Hz for 2 s, the
+    # robot walking 1 m/s up x = 0, a person standing 2 m to its side. Exact: 2.0 s, 20 steps of 0.1 s.
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    base = 1_700_000_000_123_456_789
+    stamps = [base + k * 100_000_000 for k in range(21)]
+    rows = [f"{s},0,0.0,{0.1 * k:.1f},robot" for k, s in enumerate(stamps)]
+    rows += [f"{s},1,2.0,1.0,human" for s in stamps]
+    path = _csv(tmp_path / "ros.csv", "stamp,id,x,y,role", rows)
+    (tr,) = _load(path, columns="time=stamp", time_unit="ns", radius=0.3)
+    assert tr.dt == 0.1 and tr.n_steps == 20 and tr.n_steps * tr.dt == 2.0
+    assert tr.settings["t0"] == pytest.approx(base * 1e-9, abs=1e-6)
+    table = pa.table({"stamp": pa.array(stamps * 2, pa.timestamp("ns")), "id": [0] * 21 + [1] * 21,
+                      "x": [0.0] * 21 + [2.0] * 21, "y": [0.1 * k for k in range(21)] + [1.0] * 21,
+                      "role": ["robot"] * 21 + ["human"] * 21})
+    pq.write_table(table, tmp_path / "ros.parquet")
+    (tp,) = _load(tmp_path / "ros.parquet", columns="time=stamp", radius=0.3)  # the column's own unit
+    assert tp.dt == 0.1 and tp.n_steps == 20
+    np.testing.assert_allclose(tp.positions, tr.positions, atol=1e-12)  # (the CSV wrote 0.1 k rounded)
+
+
+def test_a_clock_error_prints_an_epoch_stamp_to_the_microsecond(tmp_path: Path) -> None:
+    rows = ["1700000002.1,0,0.0,0.0,robot", "1700000002.0,0,0.0,0.1,robot"]
+    with pytest.raises(TrajectoryFormatError, match=r"time goes backwards for agent 0: 1700000002.1 -> "
+                                                    r"1700000002 s"):
+        _load(_csv(tmp_path / "back.csv", "stamp,id,x,y,role", rows), columns="time=stamp", radius=0.3)

@@ -297,10 +297,12 @@ def read_table(
         raise TrajectoryFormatError(f"{path}: no data rows")
     lscale, tscale = _LENGTH[length_unit], _TIME[time_unit]
     col = {f: _numeric(table, c, fail, f) for f, c in mapping.items()
-           if f in ("time", "x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref")}
-    for f in ("time", "x", "y"):
+           if f in ("x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref")}
+    for f in ("x", "y"):
         _require_finite(col[f], fail, mapping[f])
-    t = col["time"] * tscale
+    # seconds after the file's first stamp (exact for integer clocks), and that stamp: epoch stamps keep
+    # their sub-millisecond differences, which float seconds since 1970 would round away
+    t, origin = _times(table, mapping["time"], fail, tscale)
     xy = np.stack([col["x"], col["y"]], axis=1) * lscale
     agent = _ids(table, mapping["id"], fail)
     scene_key = (_strings(table, mapping["scene"]) if "scene" in mapping
@@ -326,7 +328,8 @@ def read_table(
         ids, grid = scene_from_tracks(name=name, source=str(path), t=t[rows], agent=agent[rows], xy=xy[rows],
                                       rows=rows, velocity=None if vel is None else vel[rows], dt=dt,
                                       max_gap=max_gap, anchor=robot_id, time_column=mapping["time"],
-                                      fail=fail)
+                                      fail=fail, time_origin=origin)
+        grid["t0"] = origin + grid["t0"]  # the file's clock again
         a_of_row = np.searchsorted(ids, agent[rows])
         per_agent = {}
         for f in ("radius", "gx", "gy", "v_pref"):
@@ -370,6 +373,33 @@ def _load(path: Path) -> Any:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise TrajectoryFormatError(f"{path}: cannot be read as {suffix[1:]} ({first})") from None
     raise TrajectoryFormatError(f"{path}: unsupported suffix {path.suffix!r}; use .csv or .parquet")
+
+
+def _times(table: Any, column: str, fail: _Fail, scale: float) -> tuple[np.ndarray, float]:
+    """The time column as seconds after its earliest stamp, and that stamp [s].
+
+    Integer clocks (ROS nanoseconds since 1970 exceed float64's 2^53 exact integers) and Parquet
+    timestamps (their own unit, whatever ``scale`` says) are differenced as integers first.
+    """
+    import pyarrow as pa
+
+    col = table.column(column)
+    kind = col.type
+    if pa.types.is_timestamp(kind) or pa.types.is_integer(kind):
+        if col.null_count:
+            row = int(np.flatnonzero(np.asarray(col.is_null().to_numpy(zero_copy_only=False)))[0])
+            raise fail(column, row, "missing value")
+        if pa.types.is_timestamp(kind):
+            scale = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}[kind.unit]
+            ints = col.cast(pa.int64()).to_numpy(zero_copy_only=False)
+        else:
+            ints = col.to_numpy(zero_copy_only=False).astype(np.int64)
+        first = int(ints.min())
+        return (ints - first).astype(np.float64) * scale, float(first) * scale
+    values = _numeric(table, column, fail, "time")
+    _require_finite(values, fail, column)
+    first = float(values.min())
+    return (values - first) * scale, first * scale
 
 
 def _numeric(table: Any, column: str, fail: _Fail, field: str) -> np.ndarray:

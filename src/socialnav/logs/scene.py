@@ -149,7 +149,8 @@ class Scene:
         k0, k1 = int(ks[0]), int(ks[-1])
         if ks.size != k1 - k0 + 1:
             gap = int(np.flatnonzero(~self.present[k0 : k1 + 1, ego])[0]) + k0
-            raise SceneError(f"{label}{row}: absent at t = {self.t0 + gap * self.dt:g} s inside its track "
+            at = clock(self.t0 + gap * self.dt)
+            raise SceneError(f"{label}{row}: absent at t = {at} s inside its track "
                              "(a gap longer than --max-gap, default twice its median step); the robot must "
                              "be present at every sample: pass --max-gap S to bridge gaps of up to S seconds "
                              "by interpolation")
@@ -222,6 +223,12 @@ def _plain(value: Any) -> Any:
 
 
 # ------------------------------------------------------------------------------------ grid building
+def clock(t: float) -> str:
+    """A time [s] for a message: ``%g``, with the fractional digits an epoch stamp needs (1.7e9 s)."""
+    t = float(t)
+    return f"{t:.6f}".rstrip("0").rstrip(".") if abs(t) >= 1e5 else f"{t:g}"
+
+
 def scene_from_tracks(
     *,
     name: str,
@@ -236,6 +243,7 @@ def scene_from_tracks(
     anchor: Any = None,
     time_column: str = "t",
     fail: Any,
+    time_origin: float = 0.0,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Put the samples of one scene on a grid (see the module docstring).
 
@@ -255,6 +263,7 @@ def scene_from_tracks(
             passes through its first sample and, with the default ``dt``, its step is adjusted so that
             the grid also passes through its last one.
         time_column: The name of the time column in the file, for messages.
+        time_origin: What ``t`` is counted from [s, the file's clock], for messages.
         fail: ``fail(column, row, message) -> Exception`` naming the file.
 
     Returns:
@@ -272,13 +281,15 @@ def scene_from_tracks(
         same = np.flatnonzero(np.diff(ts[by_time]) == 0)
         if same.size:  # reported before ordering problems: the clearer diagnosis
             a, b = sorted((int(rows[sel[by_time[same[0]]]]), int(rows[sel[by_time[same[0] + 1]]])))
-            raise fail(time_column, b, f"duplicated sample: agent {ids[i]} at t = {ts[by_time[same[0]]]:g} s "
-                       f"also at {getattr(fail, 'unit', 'row')} {a + 1}")
+            at = clock(time_origin + ts[by_time[same[0]]])
+            raise fail(time_column, b, f"duplicated sample: agent {ids[i]} at t = {at} s also at "
+                       f"{getattr(fail, 'unit', 'row')} {a + 1}")
         d = np.diff(ts)
         if np.any(d <= 0):
             j = int(np.flatnonzero(d <= 0)[0])
             raise fail(time_column, int(rows[sel[j + 1]]), f"time goes backwards for agent {ids[i]}: "
-                       f"{ts[j]:g} -> {ts[j + 1]:g} s (rows must be in time order per agent)")
+                       f"{clock(time_origin + ts[j])} -> {clock(time_origin + ts[j + 1])} s (rows must be in "
+                       "time order per agent)")
         steps_all.append(d)
     steps = np.concatenate(steps_all) if steps_all else np.zeros(0)
     requested = dt
