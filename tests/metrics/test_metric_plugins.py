@@ -66,3 +66,33 @@ def test_without_the_plugin_nothing_changes(tmp_path):
                             text=True, env=subprocess_env(), cwd=tmp_path)
     assert listed.returncode == 0, listed.stderr
     assert "final_goal_gap" not in {m["name"] for m in json.loads(listed.stdout)["metrics"]}
+
+
+FRAGILE = '''
+from socialnav.metrics import register_metric
+
+
+@register_metric("fragile", unit="1", direction="none", outputs={"value": "1"}, reference="a test plugin")
+def fragile(traj):
+    """Fails on every episode."""
+    return {"value": 1.0 / 0.0}
+'''
+
+
+def test_a_plugin_metric_that_raises_is_named_with_the_episode(tmp_path):
+    site = tmp_path / "site"
+    info = site / "fragile_metric-0.1.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: fragile-metric\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[socialnav.metrics]\nfragile = fragile_metric\n")
+    (site / "fragile_metric.py").write_text(FRAGILE)
+    run = _run(["evaluate", "--policy", "linear", "--preset", "crowdnav", "--episodes", "2",
+                "--out", str(tmp_path / "run"), "--no-progress"], tmp_path)
+    assert run.returncode == 2, run.stderr
+    assert "metric 'fragile' failed on episode" in run.stderr
+    assert "ZeroDivisionError: float division by zero" in run.stderr
+    assert "Traceback" not in run.stderr
+    log = subprocess.run([sys.executable, "-c", "import socialnav.logs as l; print(l.example_log())"],
+                         capture_output=True, text=True, env=subprocess_env()).stdout.strip()
+    scored = _run(["metrics", log, "--ego", "all", "--json"], tmp_path)
+    assert scored.returncode == 2 and "metric 'fragile' failed on episode" in scored.stderr, scored.stderr

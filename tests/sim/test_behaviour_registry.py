@@ -211,14 +211,29 @@ def test_a_python_behaviours_bad_output_is_named(dummy):
         def velocities(self, state, preferred):
             return np.full(state.position.shape, math.nan)
 
+    @register_human_behaviour
+    class Raising(dummy):
+        name = "raising"
+
+        def velocities(self, state, preferred):
+            raise ZeroDivisionError("my behaviour broke")
+
     try:
         world = World(WorldSettings(human_model="broken"), make_scenario("circle_crossing", n_humans=1), 1,
+                      split="test", start=7, count=1)
+        world.reset()
+        with pytest.raises(ValueError, match=r"behaviour 'broken' gave human 0 of episode 7 \(slot 0\) at "
+                                             r"t = 0 s the non-finite velocity \(nan, nan\)"):
+            world.step(np.zeros((1, 2)))
+        world = World(WorldSettings(human_model="raising"), make_scenario("circle_crossing", n_humans=1), 1,
                       split="test", count=1)
         world.reset()
-        with pytest.raises(ValueError, match="behaviour 'broken' gave human 0 of slot 0 the non-finite"):
+        with pytest.raises(RuntimeError, match="pedestrian behaviour 'raising' failed: ZeroDivisionError: my "
+                                               "behaviour broke"):
             world.step(np.zeros((1, 2)))
     finally:
         unregister_human_behaviour("broken")
+        unregister_human_behaviour("raising")
 
 
 def test_registration_refuses_taken_names(dummy):

@@ -19,7 +19,7 @@ from typing import Any
 from socialnav.metrics.registry import Metric, list_metrics
 from socialnav.trajectory import Trajectory
 
-__all__ = ["ParamsSpec", "UnknownOutcomeWarning", "fill_missing_keys", "score_episode", "score_keys"]
+__all__ = ["MetricError", "ParamsSpec", "UnknownOutcomeWarning", "fill_missing_keys", "score_episode", "score_keys"]
 
 
 class UnknownOutcomeWarning(UserWarning):
@@ -108,6 +108,9 @@ def score_episode(
         ``{flat key: value}`` with the same keys for every episode with a static map, and for every
         episode without one (see :func:`score_keys`; ``map_only`` metrics are left out there).
 
+    Raises:
+        MetricError: A metric raised (its name and the episode are said, its exception chained).
+
     Warns:
         UnknownOutcomeWarning: ``require_success`` is True and the outcome is ``unknown``, so every
             social metric is NaN (a log without outcome: pass ``require_success=False``).
@@ -126,9 +129,18 @@ def score_episode(
         if metric.social and gated:
             row.update(dict.fromkeys(keys, float("nan")))
             continue
-        values = metric.fn(traj, **variant)
-        row.update({k: float(values[out]) for k, out in zip(keys, metric.outputs, strict=True)})
+        try:
+            values = metric.fn(traj, **variant)
+            row.update({k: float(values[out]) for k, out in zip(keys, metric.outputs, strict=True)})
+        except Exception as exc:  # a metric of one's own that fails: said with the metric and the episode
+            episode = traj.settings.get("episode", "?")
+            raise MetricError(f"metric {metric.name!r} failed on episode {episode!r}: {type(exc).__name__}: "
+                              f"{exc}") from exc
     return row
+
+
+class MetricError(RuntimeError):
+    """A metric raised while scoring an episode (the metric and the episode are named)."""
 
 
 _DEFAULT_PLAN: tuple[tuple[int, ...], list[tuple[Metric, dict[str, Any], list[str]]]] | None = None

@@ -80,12 +80,16 @@ class PythonHumans:
 
         Raises:
             ValueError: The behaviour returned an array of another shape, or a non-finite velocity for
-                a human it moves (the behaviour and the slot are named).
+                a human it moves (the behaviour, the episode, its slot and the time are named).
+            RuntimeError: The behaviour raised (named, its exception chained).
         """
         state = human_state(world)
         name = type(self.behaviour).name
-        preferred = np.asarray(self.behaviour.preferred_velocity(state), dtype=np.float64)
-        out = np.asarray(self.behaviour.velocities(state, preferred), dtype=np.float64)
+        try:
+            preferred = np.asarray(self.behaviour.preferred_velocity(state), dtype=np.float64)
+            out = np.asarray(self.behaviour.velocities(state, preferred), dtype=np.float64)
+        except Exception as exc:  # the behaviour's own failure, said with whose it is
+            raise RuntimeError(f"pedestrian behaviour {name!r} failed: {type(exc).__name__}: {exc}") from exc
         shape = state.position.shape
         if out.shape != shape:
             raise ValueError(f"pedestrian behaviour {name!r}: velocities must have shape {shape} (B, N, 2), "
@@ -93,8 +97,11 @@ class PythonHumans:
         bad = state.mask & ~np.isfinite(out).all(axis=-1)
         if bad.any():
             slot, human = (int(i) for i in np.argwhere(bad)[0])
-            raise ValueError(f"pedestrian behaviour {name!r} gave human {human} of slot {slot} the "
-                             f"non-finite velocity {tuple(out[slot, human])}")
+            episode = int(world.episode_index[slot])
+            at = float(world.steps[slot]) * world.settings.dt
+            velocity = tuple(float(v) for v in out[slot, human])
+            raise ValueError(f"pedestrian behaviour {name!r} gave human {human} of episode {episode} (slot "
+                             f"{slot}) at t = {at:g} s the non-finite velocity {velocity}")
         np.copyto(self.velocity[:, 1:], np.where(state.mask[..., None], out, 0.0))
 
 
