@@ -19,7 +19,8 @@ from typing import Any
 from socialnav.metrics.registry import Metric, list_metrics
 from socialnav.trajectory import Trajectory
 
-__all__ = ["MetricError", "ParamsSpec", "UnknownOutcomeWarning", "fill_missing_keys", "score_episode", "score_keys"]
+__all__ = ["MetricError", "ParamsSpec", "UnknownOutcomeWarning", "fill_missing_keys", "score_episode",
+           "score_keys"]
 
 
 class UnknownOutcomeWarning(UserWarning):
