@@ -96,3 +96,20 @@ def test_a_plugin_metric_that_raises_is_named_with_the_episode(tmp_path):
                          capture_output=True, text=True, env=subprocess_env()).stdout.strip()
     scored = _run(["metrics", log, "--ego", "all", "--json"], tmp_path)
     assert scored.returncode == 2 and "metric 'fragile' failed on episode" in scored.stderr, scored.stderr
+
+
+def test_a_resume_after_a_plugin_metrics_code_changed_is_refused(tmp_path):
+    # chunks scored by two versions of one metric would be averaged together: the module's hash is recorded
+    argv = ["evaluate", "--policy", "linear", "--preset", "crowdnav", "--episodes", "2", "--out",
+            str(tmp_path / "run"), "--no-progress", "--quiet"]
+    first = _run(argv, tmp_path)
+    assert first.returncode == 0, first.stderr
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    assert set(manifest["extension_sources"]) == {"metric:final_goal_gap"}
+    again = _run(argv, tmp_path)
+    assert again.returncode == 0, again.stderr  # unchanged: resumed (nothing to do)
+    module = tmp_path / "site" / "final_gap_metric.py"
+    module.write_text(module.read_text().replace("traj.goals[0]", "traj.goals[0] * 1.0"))
+    changed = _run(argv, tmp_path)
+    assert changed.returncode == 2
+    assert "extension_sources.metric:final_goal_gap" in changed.stderr, changed.stderr

@@ -65,6 +65,46 @@ def policy_sources(policy: Policy) -> dict[str, str]:
     return out
 
 
+def _outside_source(obj: Any) -> str | None:
+    """SHA-256 of the source file of the module defining ``obj``, where that is outside socialnav."""
+    module = getattr(obj, "__module__", None) or ""
+    path = getattr(sys.modules.get(module), "__file__", None)
+    if not path or module.split(".")[0] == "socialnav" or not Path(path).is_file():
+        return None
+    return file_sha256(path)
+
+
+def extension_sources(preset: Preset, cells: list[Cell]) -> dict[str, str]:
+    """SHA-256 of the modules outside socialnav that a run's humans, scenarios and metrics come from.
+
+    Recorded in the manifest beside ``policy_sources`` so that a resume never mixes results of a pedestrian
+    behaviour, scenario or metric of one's own whose code changed (or a metric added or removed: each
+    registered metric from outside is a key); socialnav's own are covered by the package version.
+
+    Returns:
+        ``{"behaviour:<name>": sha, "scenario:<name>": sha, "metric:<name>": sha, ...}``; empty where
+        everything is socialnav's.
+    """
+    from socialnav.metrics.registry import list_metrics
+    from socialnav.scenarios import get_scenario
+    from socialnav.sim.behaviours import human_behaviour
+
+    out: dict[str, str] = {}
+    behaviour = human_behaviour(preset.world.human_model).behaviour
+    sha = None if behaviour is None else _outside_source(behaviour)
+    if sha:
+        out[f"behaviour:{preset.world.human_model}"] = sha
+    for name in sorted({c.scenario for c in cells}):
+        sha = _outside_source(get_scenario(name))
+        if sha:
+            out[f"scenario:{name}"] = sha
+    for metric in list_metrics():
+        sha = _outside_source(metric.fn)
+        if sha:
+            out[f"metric:{metric.name}"] = sha
+    return out
+
+
 def protocol_manifest(
     policy: Policy,
     preset: Preset,
@@ -91,6 +131,7 @@ def protocol_manifest(
         The manifest, as plain JSON data.
     """
     sources = policy_sources(policy)
+    extensions = extension_sources(preset, cells)
     return _normalised(
         {
             # information only (run_identity leaves it out): a run resumed by a newer release continues
@@ -98,6 +139,7 @@ def protocol_manifest(
             "preset": preset.to_dict(),
             "policy": {"label": label, **policy_record(policy)},
             **({"policy_sources": sources} if sources else {}),
+            **({"extension_sources": extensions} if extensions else {}),
             "cells": [
                 {"scenario": c.scenario, "visibility": c.visibility, "episodes": c.episodes} for c in cells
             ],
