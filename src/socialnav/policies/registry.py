@@ -182,6 +182,13 @@ def get_policy_entry(name: str) -> PolicyEntry:
         return _entry_from_path(name)
     _load_plugins()
     if name not in _REGISTRY:
+        # a learned policy a trainer plugin registers (its LearnedPolicySpec): import those, then the catalog
+        from socialnav.policies import learned_loading
+        from socialnav.train.registry import load_trainer_plugins
+
+        load_trainer_plugins()
+        learned_loading.register_catalog()
+    if name not in _REGISTRY:
         hint = f" (did you mean {name.lower()!r}? names are lower case)" if name.lower() in _REGISTRY else ""
         raise KeyError(
             f"unknown policy {name!r}{hint}; valid: {', '.join(sorted(_REGISTRY))}, or module.path:ClassName "
