@@ -196,8 +196,8 @@ def test_an_entry_point_registers_it_for_list_train_and_a_sweep(tmp_path):
     assert json.loads(trained.stdout.splitlines()[-1])["candidates"] == 2
     # its checkpoint evaluated from the command line (the policy comes with the trainer's plugin)
     evaluated = _socialnav(env, tmp_path, "evaluate", "--policy", "tiny_actor", "--checkpoint",
-                           str(tmp_path / "run" / "best.pt"), "--preset", "crowdnav", "--episodes", "2", "--out",
-                           str(tmp_path / "eval"), "--no-progress", "--quiet")
+                           str(tmp_path / "run" / "best.pt"), "--preset", "crowdnav", "--episodes", "2",
+                           "--out", str(tmp_path / "eval"), "--no-progress", "--quiet")
     assert evaluated.returncode == 0, evaluated.stderr
     sweep = tmp_path / "sweep.yaml"
     sweep.write_text(f"jobs:\n  - {{kind: train, policy: tiny_actor, preset: crowdnav, config: {config}, "
