@@ -237,3 +237,13 @@ def test_a_clock_error_prints_an_epoch_stamp_to_the_microsecond(tmp_path: Path) 
     with pytest.raises(TrajectoryFormatError, match=r"time goes backwards for agent 0: 1700000002.1 -> "
                                                     r"1700000002 s"):
         _load(_csv(tmp_path / "back.csv", "stamp,id,x,y,role", rows), columns="time=stamp", radius=0.3)
+
+
+def test_the_grid_step_is_the_robots_however_many_people_a_slower_tracker_logs(tmp_path: Path) -> None:
+    # the robot at 20 Hz for 2 s; six people logged by a 5 Hz tracker (more of their steps than the robot's):
+    # the step is the robot's 0.05 s, not the pooled median 0.2 s
+    rows = [f"{k * 0.05:.2f},0,0.0,{k * 0.05:.4f},robot" for k in range(41)]
+    for person in range(1, 7):
+        rows += [f"{k * 0.2:.1f},{person},{2.0 + person},1.0,human" for k in range(11)]
+    (tr,) = _load(_csv(tmp_path / "burst.csv", "t,id,x,y,role", rows), radius=0.3)
+    assert tr.dt == pytest.approx(0.05) and tr.n_steps == 40

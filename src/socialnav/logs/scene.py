@@ -274,6 +274,7 @@ def scene_from_tracks(
     ids, starts = np.unique(agent[order], return_index=True)
     bounds = np.append(starts, len(order))
     steps_all = []
+    anchor_steps = None  # the logged robot's own steps: its clock sets the grid, whoever else is in view
     for i in range(len(ids)):
         sel = order[bounds[i] : bounds[i + 1]]
         ts = t[sel]
@@ -291,7 +292,12 @@ def scene_from_tracks(
                        f"{clock(time_origin + ts[j])} -> {clock(time_origin + ts[j + 1])} s (rows must be in "
                        "time order per agent)")
         steps_all.append(d)
-    steps = np.concatenate(steps_all) if steps_all else np.zeros(0)
+        if anchor is not None and str(ids[i]) == str(anchor) and d.size:
+            anchor_steps = d
+    if anchor_steps is not None:
+        steps = anchor_steps
+    else:
+        steps = np.concatenate(steps_all) if steps_all else np.zeros(0)
     requested = dt
     if dt is None:
         if steps.size == 0:
