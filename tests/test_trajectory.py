@@ -337,3 +337,24 @@ def test_nan_positions_without_a_mask_point_to_present() -> None:
     present[1, 1] = False
     masked = Trajectory.from_positions(pos, 0.25, radii=0.3, goals=np.zeros((2, 2)), present=present)
     assert not masked.present[1, 1]
+
+
+def test_resampling_leaves_a_person_the_tracker_lost_absent(tmp_path: Path) -> None:
+    # the robot walks up x = 0 at 1 m/s for 10 s (10 Hz, jittered); a person is seen standing at x = 5 from
+    # 1 to 2 s and at x = -5 from 8 to 9 s: in between it is absent, not walked through the robot
+    rows = ["episode,t,agent,role,x,y,radius,gx,gy,v_pref,outcome"]
+    for k in range(101):
+        t = 0.1 * k + (0.002 if k % 3 == 1 else 0.0)
+        rows.append(f"0,{t:.4f},0,robot,0.0,{-5 + t:.4f},0.3,0.0,5.0,1.0,success")
+    for k in range(11):
+        rows.append(f"0,{1 + 0.1 * k:.1f},1,human,5.0,0.0,0.3,-5.0,0.0,1.0,success")
+    for k in range(11):
+        rows.append(f"0,{8 + 0.1 * k:.1f},1,human,-5.0,0.0,0.3,-5.0,0.0,1.0,success")
+    path = tmp_path / "lost.csv"
+    path.write_text("\n".join(rows) + "\n")
+    (traj,) = read_trajectories(path, resample=True)
+    seen = traj.presence[:, 1]
+    times = np.arange(traj.n_steps + 1) * traj.dt
+    assert seen[(times > 1.05) & (times < 1.95)].all() and seen[(times > 8.05) & (times < 8.95)].all()
+    assert not seen[(times > 2.2) & (times < 7.8)].any()
+    assert np.nanmin(np.linalg.norm(traj.positions[seen, 1] - traj.positions[seen, 0], axis=-1)) > 4.9

@@ -206,6 +206,10 @@ def step_fitted_to(span: float, step: float) -> float:
     return span / max(1, round(span / step)) if span > 0 else step
 
 
+#: A person's gap longer than this many of its median steps is a lost track (absent there), not bridged.
+MAX_GAP_STEPS = 2.0
+
+
 def resample_to_grid(
     per_agent: list[dict[str, Any]], dt: float, fit_step: bool, where: str = "resampling"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray, np.ndarray | None, float]:
@@ -213,7 +217,8 @@ def resample_to_grid(
 
     The robot's whole run is kept: a human whose track starts after the robot's or ends before it is
     absent outside its own track (nothing is extrapolated), instead of the grid being cut to the span
-    every agent shares. With ``fit_step`` (no step requested) the step is adjusted, by less than half a
+    every agent shares; inside its track it is absent in a gap longer than ``MAX_GAP_STEPS`` of its
+    median steps (a tracker that lost it: not interpolated across). With ``fit_step`` (no step requested) the step is adjusted, by less than half a
     step over the run, so that the grid ends on the robot's last sample.
 
     Args:
@@ -246,6 +251,13 @@ def resample_to_grid(
     grid = t0 + dt * np.arange(k + 1)
     tol = time_tolerance(dt, grid)
     present = np.stack([(grid >= t[0] - tol) & (grid <= t[-1] + tol) for t, _ in main], axis=1)
+    for a, (t, _) in enumerate(main[1:], start=1):  # a person the tracker lost is absent, not interpolated
+        steps = np.diff(t)
+        if steps.size < 2:
+            continue
+        longest = MAX_GAP_STEPS * float(np.median(steps))  # as a table's default --max-gap
+        for i in np.flatnonzero(steps > longest + tol):
+            present[(grid > t[i] + tol) & (grid < t[i + 1] - tol), a] = False
     present[:, 0] = True
     pos = np.stack([np.stack([np.interp(grid, t, x[:, d]) for d in (0, 1)], -1) for t, x in main], 1)
     if per_agent[0]["vel"] is not None:
