@@ -218,8 +218,9 @@ def resample_to_grid(
     The robot's whole run is kept: a human whose track starts after the robot's or ends before it is
     absent outside its own track (nothing is extrapolated), instead of the grid being cut to the span
     every agent shares; inside its track it is absent in a gap longer than ``MAX_GAP_STEPS`` of its
-    median steps (a tracker that lost it: not interpolated across). With ``fit_step`` (no step requested) the step is adjusted, by less than half a
-    step over the run, so that the grid ends on the robot's last sample.
+    median steps (a tracker that lost it: not interpolated across). With ``fit_step`` (no step
+    requested) the step is adjusted, by less than half a step over the run, so that the grid ends on
+    the robot's last sample.
 
     Args:
         per_agent: The episode's agents, robot first.
