@@ -247,3 +247,11 @@ def test_the_grid_step_is_the_robots_however_many_people_a_slower_tracker_logs(t
         rows += [f"{k * 0.2:.1f},{person},{2.0 + person},1.0,human" for k in range(11)]
     (tr,) = _load(_csv(tmp_path / "burst.csv", "t,id,x,y,role", rows), radius=0.3)
     assert tr.dt == pytest.approx(0.05) and tr.n_steps == 40
+
+
+def test_a_person_the_tracker_lost_is_named_with_the_time(tmp_path: Path) -> None:
+    rows = [f"{0.1 * k:.1f},0,0.0,{0.1 * k:.1f},robot" for k in range(5)]
+    rows += ["0.0,7,2.0,0.0,human", "0.1,7,,,human", "0.2,7,2.0,0.0,human"]
+    with pytest.raises(TrajectoryFormatError, match=r"column 'x', row 7: missing value \(agent 7 at t = 0.1 "
+                                                    r"s\): leave out the rows of samples where an agent was"):
+        _load(_csv(tmp_path / "lost.csv", "t,id,x,y,role", rows), radius=0.3)

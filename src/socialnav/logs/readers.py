@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from socialnav.logs.scene import Scene, id_matches, scene_from_tracks
+from socialnav.logs.scene import Scene, clock, id_matches, scene_from_tracks
 from socialnav.trajectory import OUTCOMES, AssumedValueWarning, TrajectoryFormatError
 
 __all__ = [
@@ -298,13 +298,18 @@ def read_table(
     lscale, tscale = _LENGTH[length_unit], _TIME[time_unit]
     col = {f: _numeric(table, c, fail, f) for f, c in mapping.items()
            if f in ("x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref")}
-    for f in ("x", "y"):
-        _require_finite(col[f], fail, mapping[f])
     # seconds after the file's first stamp (exact for integer clocks), and that stamp: epoch stamps keep
     # their sub-millisecond differences, which float seconds since 1970 would round away
     t, origin = _times(table, mapping["time"], fail, tscale)
-    xy = np.stack([col["x"], col["y"]], axis=1) * lscale
     agent = _ids(table, mapping["id"], fail)
+    for f in ("x", "y"):
+        lost = np.flatnonzero(np.isnan(col[f]))
+        if lost.size:  # a tracker's lost person, usually: said with whom and when
+            row = int(lost[0])
+            raise fail(mapping[f], row, f"missing value (agent {agent[row]} at t = {clock(origin + t[row])} "
+                       "s): leave out the rows of samples where an agent was not seen (it is absent there)")
+        _require_finite(col[f], fail, mapping[f])
+    xy = np.stack([col["x"], col["y"]], axis=1) * lscale
     scene_key = (_strings(table, mapping["scene"]) if "scene" in mapping
                  else np.full(table.num_rows, path.stem, dtype=object))
     vel = None
