@@ -363,10 +363,11 @@ def _prepare(job: Job, out: Path, statuses: dict[str, dict[str, Any]]) -> _EvalJ
                 "failed or has not finished"
             )
         checkpoint = str(trained)
-    preset = job_preset(job.params)
     batch_size = int(job.get("batch_size", 256))
     trajectories = bool(job.get("trajectories", True))
     try:
+        # the job's preset too: a grid axis (another human_model, say) can make a preset its values refuse
+        preset = job_preset(job.params)
         policy = build_job_policy(job.params, preset, checkpoint)
         cells = plan_cells(preset, job.get("scenarios"), job.get("episodes"), job.get("visibility"))
         validate_cells(preset, cells, batch_size)
