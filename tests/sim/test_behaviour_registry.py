@@ -179,6 +179,11 @@ def test_world_settings_validate_a_python_behaviours_parameters(dummy):
     with pytest.raises(ConfigError, match=r"unknown setting\(s\) human_params.sped_factor \(did you mean "
                                           r"human_params.speed_factor\?\)"):
         WorldSettings(human_model="dummy", human_params={"sped_factor": 0.5})
+    # in a file's world section, the names keep their path (the message read 'world.unknown setting(s)')
+    with pytest.raises(ConfigError, match=r"^my.yaml: unknown setting\(s\) world.human_params.sped_factor "
+                                          r"\(did you mean world.human_params.speed_factor\?\)"):
+        WorldSettings.from_dict({"human_model": "dummy", "human_params": {"sped_factor": 2}},
+                                source="my.yaml", section="world")
     with pytest.raises(ConfigError, match="human_model must be one of 'orca', 'social_force', 'linear', 'd"):
         WorldSettings(human_model="dumy")
 

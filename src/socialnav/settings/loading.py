@@ -67,7 +67,12 @@ def from_dict(cls: type[T], data: Mapping[str, Any] | None, path: str = "") -> T
     except ConfigError as err:
         if err.field is not None:  # raised by the instance: name it by its path in this mapping
             raise type(err)(f"{where}{err.field} {err.detail}") from None
-        if path and not str(err).startswith(path):
+        message = str(err)
+        if path and message.startswith("unknown setting(s) "):  # its names, each put under this path
+            names, sep, valid = message[len("unknown setting(s) "):].partition("; valid: ")
+            names = re.sub(r"(^|, |did you mean )", lambda m: f"{m.group(1)}{path}.", names)
+            raise type(err)(f"unknown setting(s) {names}{sep}{valid}") from None
+        if path and not message.startswith(path):
             raise type(err)(f"{path}.{err}") from None
         raise
 
