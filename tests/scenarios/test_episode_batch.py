@@ -170,3 +170,21 @@ def test_validate_names_the_episode() -> None:
     with pytest.raises(ValueError, match=r"human_radius must be > 0 for real humans: episode .*row 1 of the "
                        r"batch\), human 0 has 0.0"):
         dataclasses.replace(bt, human_radius=radius).validate()
+
+
+def test_validate_refuses_agents_that_start_overlapping() -> None:
+    # a scenario of one's own that stacks people, or puts one on the robot: the episode would open with a
+    # collision nobody caused
+    bt = _batch(3)
+    start = bt.human_start.copy()
+    start[1, 2] = start[1, 0] + np.array([0.5, 0.0])  # 0.5 m apart, radii 0.3 + 0.3
+    with pytest.raises(ValueError, match=r"episode 1 \(seed 1001, row 1 of the batch\): humans 0 and 2 start "
+                                         r"overlapping \(centres 0.5 m apart, radii 0.3 \+ 0.3 m\)"):
+        dataclasses.replace(bt, human_start=start).validate()
+    start = bt.human_start.copy()
+    start[0, 1] = bt.robot_start[0] + np.array([0.0, 0.2])
+    with pytest.raises(ValueError, match=r"human 1 starts overlapping the robot \(centres 0.2 m apart"):
+        dataclasses.replace(bt, human_start=start).validate()
+    start = bt.human_start.copy()
+    start[1, 2] = start[1, 0] + np.array([0.6, 0.0])  # touching: allowed
+    dataclasses.replace(bt, human_start=start).validate()

@@ -134,7 +134,7 @@ def test_entry_point_plugins_lazy(isolated: None, monkeypatch: pytest.MonkeyPatc
         def sample_humans(self, rng: EpisodeRandom, indices: np.ndarray) -> HumanArrays:
             b = len(rng)
             z = np.zeros((b, self.n_humans))
-            s = np.stack([z, z + 1.0], axis=-1)
+            s = np.stack([z + np.arange(self.n_humans), z + 1.0], axis=-1)  # 1 m apart
             return HumanArrays(s, -s, z + 0.3, z + 1.0)
 
     calls: list[str] = []

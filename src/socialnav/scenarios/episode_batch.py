@@ -148,9 +148,35 @@ class EpisodeBatch:
         for name in _BN2_FIELDS + _BN_FIELDS:
             if np.any(getattr(self, name)[~mask] != 0):
                 raise ValueError(f"EpisodeBatch.{name} must be 0 in padded slots")
+        self._validate_starts()
         if self.static_maps is not None:
             self._validate_maps()
         return self
+
+    def _validate_starts(self) -> None:
+        """No two agents start overlapping: the episode would open with a collision nobody caused."""
+        mask = self.human_mask
+        starts, radii = self.human_start, self.human_radius
+        # a margin far below any placement, far above rounding: touching discs are allowed
+        slack = 1e-9
+        to_robot = np.linalg.norm(starts - self.robot_start[:, None, :], axis=-1)
+        bad = np.argwhere(mask & (to_robot < (radii + self.robot_radius[:, None]) * (1.0 - slack)))
+        if bad.size:
+            row, human = (int(i) for i in bad[0])
+            raise ValueError(f"EpisodeBatch: {self._which(row)}: human {human} starts overlapping the robot "
+                             f"(centres {to_robot[row, human]:.4g} m apart, radii {radii[row, human]:g} + "
+                             f"{self.robot_radius[row]:g} m)")
+        if starts.shape[1] < 2:
+            return
+        gap = np.linalg.norm(starts[:, :, None, :] - starts[:, None, :, :], axis=-1)
+        both = mask[:, :, None] & mask[:, None, :]
+        upper = np.triu(np.ones(gap.shape[1:], dtype=bool), k=1)
+        bad = np.argwhere(both & upper & (gap < (radii[:, :, None] + radii[:, None, :]) * (1.0 - slack)))
+        if bad.size:
+            row, i, j = (int(k) for k in bad[0])
+            raise ValueError(f"EpisodeBatch: {self._which(row)}: humans {i} and {j} start overlapping "
+                             f"(centres {gap[row, i, j]:.4g} m apart, radii {radii[row, i]:g} + "
+                             f"{radii[row, j]:g} m)")
 
     def _validate_maps(self) -> None:
         """Every map a StaticMap, and no start or goal covered by an obstacle (distance < radius)."""
