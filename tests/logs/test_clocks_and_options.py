@@ -255,3 +255,14 @@ def test_a_person_the_tracker_lost_is_named_with_the_time(tmp_path: Path) -> Non
     with pytest.raises(TrajectoryFormatError, match=r"column 'x', row 7: missing value \(agent 7 at t = 0.1 "
                                                     r"s\): leave out the rows of samples where an agent was"):
         _load(_csv(tmp_path / "lost.csv", "t,id,x,y,role", rows), radius=0.3)
+
+
+def test_a_person_in_view_after_the_robots_last_sample_has_an_aggregated_time(tmp_path: Path) -> None:
+    # the robot walks 2 s (10 Hz); a person, goal unknown, is seen from 0 to 3 s, walking off at 1 m/s: its
+    # observed exit (3 s) is its arrival, so M_III = 2 + 3 s (it was NaN: the window ends with the robot)
+    rows = [f"{0.1 * k:.1f},0,0.0,{0.1 * k:.2f},robot,success" for k in range(21)]
+    rows += [f"{0.1 * k:.1f},1,{2 + 0.1 * k:.2f},1.0,human,success" for k in range(31)]
+    (tr,) = _load(_csv(tmp_path / "outlives.csv", "t,id,x,y,role,outcome", rows), radius=0.3)
+    scores = score_episode(tr)
+    assert scores["m3_aggregated_time.unresolved@cap_s=100"] == 0
+    assert scores["m3_aggregated_time.time_s@cap_s=100"] == pytest.approx(5.0)

@@ -178,10 +178,15 @@ class Scene:
                           AssumedValueWarning,
                           stacklevel=2)
         arrival = None
+        last_k = np.array([np.flatnonzero(self.present[:, a])[-1] for a in order], dtype=float)
         if human_as_robot:
-            last_k = np.array([np.flatnonzero(self.present[:, a])[-1] for a in order], dtype=float)
             arrival = (last_k - k0) * self.dt  # observed exit, seconds after the ego's start
             arrival[0] = np.nan  # the ego's own time is its track
+        elif (unknown_goal & (last_k > k1)).any():
+            # a person still in view after the robot's last sample, its goal assumed where it was last seen:
+            # its observed exit is its arrival (the window, cut at the robot's end, never shows it there)
+            arrival = np.where(unknown_goal & (last_k > k1), (last_k - k0) * self.dt, np.nan)
+            arrival[0] = np.nan
         settings = {
             **self.settings, "scene": self.name, "source": self.source, "t0": self.t0 + k0 * self.dt,
             "agent_ids": [_plain(self.ids[a]) for a in order], "ego": _plain(self.ids[ego]),
