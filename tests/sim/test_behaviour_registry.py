@@ -283,3 +283,32 @@ def test_evaluate_runs_a_preset_whose_humans_follow_an_entry_point_behaviour(tmp
     assert manifest["preset"]["world"]["human_params"] == {"speed_factor": 0.3333}
     rows = json.loads(result.stdout.strip().splitlines()[-1])
     assert rows  # one JSON object with the summary
+
+
+def test_a_python_behaviour_reads_the_episode_time_and_index(dummy):
+    # a person who walks one second and stands the next: time lives in the state, not in the behaviour
+    @register_human_behaviour
+    class StopAndGo(dummy):
+        name = "stop_and_go"
+
+        def velocities(self, state, preferred):
+            walking = (np.floor(state.time / 1.0) % 2 == 0)[:, None, None]
+            return np.where(walking, preferred, 0.0)
+
+    try:
+        scenario = make_scenario("circle_crossing", n_humans=1)
+        world = World(WorldSettings(human_model="stop_and_go", dt=0.25), scenario, 1, split="test", start=3,
+                      count=1)
+        world.reset()
+        moved = []
+        for _ in range(8):
+            before = world.position[0, 1].copy()
+            world.step(np.zeros((1, 2)))
+            moved.append(bool(np.linalg.norm(world.position[0, 1] - before) > 1e-12))
+        assert moved == [True] * 4 + [False] * 4  # t = 0..0.75 s walking, 1..1.75 s standing
+        from socialnav.sim.python_humans import human_state
+
+        state = human_state(world)
+        assert state.time[0] == pytest.approx(2.0) and state.episode[0] == 3
+    finally:
+        unregister_human_behaviour("stop_and_go")

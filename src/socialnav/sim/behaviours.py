@@ -67,6 +67,9 @@ class HumanState:
         robot_visible: Whether the humans see (react to) the robot.
         dt: The step [s].
         static_maps: (B,) each slot's static map (a StaticMap, or None for an open floor).
+        time: (B,) float64 each slot's episode time [s] at this step (a behaviour keeps no state between
+            calls: what depends on time reads it here, e.g. a person who stops 2 s in every 5).
+        episode: (B,) int64 each slot's episode index (-1 for a slot without one).
     """
 
     position: np.ndarray
@@ -81,6 +84,8 @@ class HumanState:
     robot_visible: bool
     dt: float
     static_maps: Sequence[Any]
+    time: np.ndarray | None = None
+    episode: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

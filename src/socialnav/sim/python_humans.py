@@ -54,6 +54,8 @@ def human_state(world: Any) -> HumanState:
         robot_visible=settings.visibility == "visible",
         dt=float(settings.dt),
         static_maps=tuple(world.static_maps),
+        time=_read_only(world.steps * float(settings.dt)),
+        episode=_read_only(world.episode_index),
     )
 
 
