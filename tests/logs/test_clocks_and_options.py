@@ -266,3 +266,22 @@ def test_a_person_in_view_after_the_robots_last_sample_has_an_aggregated_time(tm
     scores = score_episode(tr)
     assert scores["m3_aggregated_time.unresolved@cap_s=100"] == 0
     assert scores["m3_aggregated_time.time_s@cap_s=100"] == pytest.approx(5.0)
+
+
+def test_resampling_is_said_with_its_reason_and_step(tmp_path: Path) -> None:
+    rows = [f"{0.1 * k:.1f},0,0.0,{0.1 * k:.2f},robot" for k in range(21)]
+    rows += [f"{0.1 * k:.1f},1,2.0,1.0,human" for k in range(21)]
+    table = _csv(tmp_path / "regular.csv", "t,id,x,y,role", rows)
+    with pytest.warns(AssumedValueWarning, match=r"the requested step --dt 0.05 s, linearly interpolated "
+                                                 r"onto a 0.05 s grid"):
+        load_trajectories(table, dt=0.05, radius=0.3)
+    long_rows = ["episode,t,agent,role,x,y,radius,gx,gy,v_pref,outcome"]
+    for k in range(21):
+        t = 0.1 * k + (0.003 if k % 2 else 0.0)
+        long_rows.append(f"0,{t:.3f},0,robot,0.0,{t:.3f},0.3,0.0,2.0,1.0,success")
+        long_rows.append(f"0,{t:.3f},1,human,2.0,1.0,0.3,2.0,1.0,1.0,success")
+    path = tmp_path / "jitter.csv"
+    path.write_text("\n".join(long_rows) + "\n")
+    with pytest.warns(AssumedValueWarning, match=r"1 of 1 episode\(s\) linearly interpolated onto a 0.1 s "
+                                                 r"grid \(--resample\)"):
+        load_trajectories(path, resample=True)

@@ -133,6 +133,11 @@ def load_trajectories(
 
         trajs = read_trajectories(path, resample=resample, dt=dt)
         check_speeds(path, trajs, max_speed)
+        resampled = [tr for tr in trajs if tr.settings.get("resampled")]
+        if resampled:
+            steps = sorted({f"{tr.dt:g}" for tr in resampled})
+            warnings.warn(f"{path}: {len(resampled)} of {len(trajs)} episode(s) linearly interpolated onto a "
+                          f"{' / '.join(steps)} s grid (--resample)", AssumedValueWarning, stacklevel=2)
         for tr in trajs:
             tr.settings.setdefault("source", str(path))
         if ego is None:
@@ -160,9 +165,11 @@ def load_trajectories(
                             max_speed=max_speed, length_unit=length_unit, time_unit=time_unit)
     for scene in scenes:
         if scene.resampled:
-            warnings.warn(f"{path}: scene {scene.name!r}: timestamps not on one clock shared by all agents "
-                          "(jitter, or agents logged at other rates or times), linearly interpolated onto "
-                          f"a {scene.dt:g} s grid", AssumedValueWarning, stacklevel=2)
+            why = (f"the requested step --dt {dt:g} s" if dt is not None else
+                   "timestamps not on one clock shared by all agents (jitter, or agents logged at other "
+                   "rates or times)")
+            warnings.warn(f"{path}: scene {scene.name!r}: {why}, linearly interpolated onto a {scene.dt:g} s "
+                          "grid", AssumedValueWarning, stacklevel=2)
     return _select(path, scenes, ego)
 
 
