@@ -573,19 +573,46 @@ double obstacle_clearance(const ObstacleView& obstacles, Vec2 p) {
   return std::max(swept_obstacle_clearance(obstacles, p, p, 0.0), 0.0);
 }
 
-RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation) {
-  RouteGraph g;
-  g.inflation = inflation;
-  g.walls = compact_edges(obstacles);
+namespace {
+
+// The corners of vertices [begin, end) that keep the inflation from every obstacle of the map, appended.
+void add_corner_nodes(const ObstacleView& obstacles, int begin, int end, double inflation, std::vector<Vec2>& nodes) {
   std::vector<Vec2> candidates;
-  for (int i = 0; i < obstacles.count; ++i) corner_nodes(obstacles, i, inflation, candidates);
+  for (int i = begin; i < end; ++i) corner_nodes(obstacles, i, inflation, candidates);
   for (const Vec2& c : candidates)
-    if (obstacle_clearance(obstacles, c) >= inflation) g.node.push_back(c);
-  const int n = static_cast<int>(g.node.size());
+    if (obstacle_clearance(obstacles, c) >= inflation) nodes.push_back(c);
+}
+
+// The nodes' coordinates again, as two arrays (the search's first pass reads them).
+void store_node_arrays(RouteGraph& g) {
   for (const Vec2& p : g.node) {
     g.node_x.push_back(p.x);
     g.node_y.push_back(p.y);
   }
+}
+
+// The adjacency lists (each in increasing neighbour order) as the graph's compressed rows.
+void store_adjacency(RouteGraph& g, const std::vector<std::vector<std::pair<int, double>>>& adjacent) {
+  const int n = static_cast<int>(adjacent.size());
+  g.first.assign(static_cast<size_t>(n) + 1, 0);
+  for (int i = 0; i < n; ++i) {
+    g.first[i + 1] = g.first[i] + static_cast<int32_t>(adjacent[i].size());
+    for (const auto& [j, len] : adjacent[i]) {
+      g.neighbour.push_back(j);
+      g.length.push_back(len);
+    }
+  }
+}
+
+}  // namespace
+
+RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation) {
+  RouteGraph g;
+  g.inflation = inflation;
+  g.walls = compact_edges(obstacles);
+  add_corner_nodes(obstacles, 0, obstacles.count, inflation, g.node);
+  const int n = static_cast<int>(g.node.size());
+  store_node_arrays(g);
   std::vector<std::vector<std::pair<int, double>>> adjacent(static_cast<size_t>(n));
   // visible_with_clearance's answer over the compact edges, which stops at the first edge closer than c: most
   // pairs of a large map's nodes are hidden, and the graph has one test per pair
@@ -597,14 +624,7 @@ RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation) {
         adjacent[i].emplace_back(j, len);
         adjacent[j].emplace_back(i, len);
       }
-  g.first.assign(static_cast<size_t>(n) + 1, 0);
-  for (int i = 0; i < n; ++i) {
-    g.first[i + 1] = g.first[i] + static_cast<int32_t>(adjacent[i].size());
-    for (const auto& [j, len] : adjacent[i]) {
-      g.neighbour.push_back(j);
-      g.length.push_back(len);
-    }
-  }
+  store_adjacency(g, adjacent);
   return g;
 }
 
@@ -658,15 +678,9 @@ RouteGraph build_route_graph_around(const RouteGraph& walls_graph, const Obstacl
       old_index.push_back(k);
     }
   const int kept = static_cast<int>(g.node.size());
-  std::vector<Vec2> candidates;
-  for (int i = wall_vertices; i < obstacles.count; ++i) corner_nodes(obstacles, i, inflation, candidates);
-  for (const Vec2& c : candidates)
-    if (obstacle_clearance(obstacles, c) >= inflation) g.node.push_back(c);
+  add_corner_nodes(obstacles, wall_vertices, obstacles.count, inflation, g.node);
   const int n = static_cast<int>(g.node.size());
-  for (const Vec2& p : g.node) {
-    g.node_x.push_back(p.x);
-    g.node_y.push_back(p.y);
-  }
+  store_node_arrays(g);
   std::vector<std::vector<std::pair<int, double>>> adjacent(static_cast<size_t>(n));
   const double c = std::max(inflation * (1.0 - 1e-9), kMinClearance);
   std::vector<uint8_t> wall_neighbour(static_cast<size_t>(base_n), 0);
@@ -693,14 +707,7 @@ RouteGraph build_route_graph_around(const RouteGraph& walls_graph, const Obstacl
         wall_neighbour[walls_graph.neighbour[e]] = 0;
     }
   }
-  g.first.assign(static_cast<size_t>(n) + 1, 0);
-  for (int i = 0; i < n; ++i) {
-    g.first[i + 1] = g.first[i] + static_cast<int32_t>(adjacent[i].size());
-    for (const auto& [j, len] : adjacent[i]) {
-      g.neighbour.push_back(j);
-      g.length.push_back(len);
-    }
-  }
+  store_adjacency(g, adjacent);
   return g;
 }
 

@@ -24,13 +24,15 @@ def final_goal_gap(traj):
 '''
 
 
-def _site(tmp_path: Path) -> Path:
+def _site(tmp_path: Path, metric: str = "final_goal_gap", module: str = "final_gap_metric",
+          source: str = PLUGIN) -> Path:
+    """A site folder holding the plugin module and the dist-info whose entry point names it."""
     site = tmp_path / "site"
-    info = site / "final_gap_metric-0.1.dist-info"
+    info = site / f"{module}-0.1.dist-info"
     info.mkdir(parents=True)
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: final-gap-metric\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text("[socialnav.metrics]\nfinal_goal_gap = final_gap_metric\n")
-    (site / "final_gap_metric.py").write_text(PLUGIN)
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {module.replace('_', '-')}\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(f"[socialnav.metrics]\n{metric} = {module}\n")
+    (site / f"{module}.py").write_text(source)
     return site
 
 
@@ -80,12 +82,7 @@ def fragile(traj):
 
 
 def test_a_plugin_metric_that_raises_is_named_with_the_episode(tmp_path):
-    site = tmp_path / "site"
-    info = site / "fragile_metric-0.1.dist-info"
-    info.mkdir(parents=True)
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: fragile-metric\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text("[socialnav.metrics]\nfragile = fragile_metric\n")
-    (site / "fragile_metric.py").write_text(FRAGILE)
+    _site(tmp_path, "fragile", "fragile_metric", FRAGILE)
     run = _run(["evaluate", "--policy", "linear", "--preset", "crowdnav", "--episodes", "2",
                 "--out", str(tmp_path / "run"), "--no-progress"], tmp_path)
     assert run.returncode == 2, run.stderr

@@ -694,43 +694,21 @@ def test_the_html_report_reads_a_sweeps_job_directories(tmp_path):
 def test_a_job_whose_preset_its_grid_values_refuse_is_a_failed_job_not_a_crash(tmp_path):
     # human_params of a behaviour of one's own, and a grid axis that switches to ORCA (whose parameters
     # live in world.orca): that job is refused by name; the sweep reports it and goes on
-    import importlib.util
-    import textwrap
-
     from socialnav.sim.behaviours import register_human_behaviour, unregister_human_behaviour
+    from tests.sim.test_behaviour_registry import _plugin_module
 
-    module = tmp_path / "pacer_behaviour.py"
-    module.write_text(textwrap.dedent('''
-        from dataclasses import dataclass
-
-        from socialnav.settings import setting
-        from socialnav.sim.behaviours import HumanBehaviour
-
-
-        @dataclass(frozen=True)
-        class Pacer(HumanBehaviour):
-            name = "pacer"
-            description = "straight to the goal at a fraction of v_pref (a test behaviour)"
-            pace: float = setting(0.5, "fraction of the preferred velocity walked", gt=0, le=1)
-
-            def velocities(self, state, preferred):
-                return self.pace * preferred
-    '''))
-    spec = importlib.util.spec_from_file_location("pacer_behaviour", module)
-    loaded = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(loaded)
-    register_human_behaviour(loaded.Pacer)
+    register_human_behaviour(_plugin_module(tmp_path).HalfSpeed)  # "dummy", speed_factor
     try:
         data = load_preset("wang2022").to_dict()
-        data["world"]["human_model"] = "pacer"
-        data["world"]["human_params"] = {"pace": 0.5}
+        data["world"]["human_model"] = "dummy"
+        data["world"]["human_params"] = {"speed_factor": 0.5}
         (tmp_path / "pacer.yaml").write_text(yaml.safe_dump(data))
         path = write_sweep(tmp_path, {"jobs": [{"kind": "evaluate", "policy": "linear",
                                                 "preset": str(tmp_path / "pacer.yaml"), "episodes": 1,
                                                 "scenarios": ["passing"], "human_model": ["orca"]}]})
         result = run_sweep(load_sweep(path), tmp_path / "out", LocalExecutor(1), progress=False)
     finally:
-        unregister_human_behaviour("pacer")
+        unregister_human_behaviour("dummy")
     (name,) = result.jobs
     assert result.jobs[name]["status"] == "failed"
     assert "human_params" in result.jobs[name]["error"]
