@@ -182,11 +182,10 @@ def get_policy_entry(name: str) -> PolicyEntry:
         return _entry_from_path(name)
     _load_plugins()
     if name not in _REGISTRY:
-        # a learned policy a trainer plugin registers (its LearnedPolicySpec): import those, then the catalog
+        # a learned policy a trainer plugin brings (its LearnedPolicySpec): import those, then the catalog
         from socialnav.policies import learned_loading
-        from socialnav.train.registry import load_trainer_plugins
 
-        load_trainer_plugins()
+        _import_trainer_plugins()
         learned_loading.register_catalog()
     if name not in _REGISTRY:
         hint = f" (did you mean {name.lower()!r}? names are lower case)" if name.lower() in _REGISTRY else ""
@@ -196,6 +195,25 @@ def get_policy_entry(name: str) -> PolicyEntry:
             f"(docs/train_your_own.md), or exec:COMMAND, a planner program (docs/exec_protocol.md)"
         )
     return _REGISTRY[name]
+
+
+_trainer_plugins_imported = False
+
+
+def _import_trainer_plugins() -> None:
+    """Imports the modules of the ``socialnav.trainers`` entry points once.
+
+    A trainer plugin's learned policies register their records on import (the trainers themselves are
+    socialnav.train's to register; this layer may not import it).
+    """
+    global _trainer_plugins_imported
+    if _trainer_plugins_imported:
+        return
+    _trainer_plugins_imported = True
+    from socialnav.plugins import load_entry_points
+
+    for _ in load_entry_points("socialnav.trainers", "trainer"):
+        pass
 
 
 def make_policy(name: str, /, **params: Any) -> Policy:
