@@ -299,9 +299,11 @@ double segment_segment_distance(Vec2 p0, Vec2 p1, Vec2 a, Vec2 b) {
   return std::sqrt(best);
 }
 
-bool inside_solid(const ObstacleView& obstacles, Vec2 c) {
+bool inside_solid(const ObstacleView& obstacles, Vec2 c) { return inside_solid(obstacles, c, 0, obstacles.count); }
+
+bool inside_solid(const ObstacleView& obstacles, Vec2 c, int begin, int end) {
   bool parity = false;
-  for (int i = 0; i < obstacles.count; ++i) {
+  for (int i = begin; i < end; ++i) {
     const ObstacleVertex& v = obstacles.vertex[i];
     if (!v.solid) continue;
     const Vec2 a = v.point, b = obstacles.vertex[v.next].point;
@@ -334,15 +336,19 @@ bool disc_touches_obstacles(const ObstacleView& obstacles, Vec2 c, double radius
 }
 
 double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius) {
+  return swept_obstacle_clearance(obstacles, p0, p1, radius, 0, obstacles.count);
+}
+
+double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius, int begin, int end) {
   double best = std::numeric_limits<double>::infinity();
   bool any_solid = false;
-  for (int i = 0; i < obstacles.count; ++i) {
+  for (int i = begin; i < end; ++i) {
     const ObstacleVertex& v = obstacles.vertex[i];
     any_solid = any_solid || v.solid;
     if (!v.own_edge) continue;
     best = std::min(best, segment_segment_distance(p0, p1, v.point, obstacles.vertex[v.next].point));
   }
-  if (any_solid && best > 0.0 && inside_solid(obstacles, p1)) best = 0.0;
+  if (any_solid && best > 0.0 && inside_solid(obstacles, p1, begin, end)) best = 0.0;
   return best - radius;
 }
 

@@ -172,6 +172,8 @@ double segment_segment_distance(Vec2 p0, Vec2 p1, Vec2 a, Vec2 b);
 
 // True when c lies inside one of the solid polygons (even-odd rule; segments contain nothing).
 bool inside_solid(const ObstacleView& obstacles, Vec2 c);
+// inside_solid over the polygons of vertices [begin, end) alone (a polygon's vertices are consecutive).
+bool inside_solid(const ObstacleView& obstacles, Vec2 c, int begin, int end);
 
 // True when a disc of `radius` centred at c overlaps an obstacle: closer than `radius` to an edge, or
 // centred inside a solid polygon (swept_disc_hits_obstacles(obstacles, c, c, radius) up to rounding at
@@ -183,6 +185,9 @@ bool disc_touches_obstacles(const ObstacleView& obstacles, Vec2 c, double radius
 // the path ends inside a solid polygon; +inf without obstacles. < 0 means the disc touched an
 // obstacle during the move (a thin wall crossed within one step included).
 double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius);
+// swept_obstacle_clearance over the polygons of vertices [begin, end) alone: the same operations, so that the
+// clearance over a whole map is the least of its parts'.
+double swept_obstacle_clearance(const ObstacleView& obstacles, Vec2 p0, Vec2 p1, double radius, int begin, int end);
 
 // swept_obstacle_clearance(obstacles, p0, p1, radius) < 0, the same answer without the distances to
 // the edges whose bounding box is clearly farther than `radius` from the path's, and stopping at the

@@ -537,10 +537,6 @@ double segment_clearance(const EdgeSet& edges, const ObstacleView& obstacles, Ve
   return best > 0.0 && edges.has_solid && inside_solid(obstacles, b) ? 0.0 : best;
 }
 
-bool visible_with_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b, double c) {
-  return segment_clearance(obstacles, a, b) >= std::max(c, kMinClearance);
-}
-
 namespace {
 
 SOCIALNAV_AVX2_CLONE double min_point_distance_sq(const double* __restrict px, int n, Vec2 p) {
@@ -614,8 +610,8 @@ RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation) {
   const int n = static_cast<int>(g.node.size());
   store_node_arrays(g);
   std::vector<std::vector<std::pair<int, double>>> adjacent(static_cast<size_t>(n));
-  // visible_with_clearance's answer over the compact edges, which stops at the first edge closer than c: most
-  // pairs of a large map's nodes are hidden, and the graph has one test per pair
+  // segment_clearance(obstacles, a, b) >= c over the compact edges, stopping at the first edge closer than c:
+  // most pairs of a large map's nodes are hidden, and the graph has one test per pair
   const double c = std::max(inflation * (1.0 - 1e-9), kMinClearance);
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j)
@@ -627,37 +623,6 @@ RouteGraph build_route_graph(const ObstacleView& obstacles, double inflation) {
   store_adjacency(g, adjacent);
   return g;
 }
-
-namespace {
-
-// obstacle_clearance over the polygons of vertices [begin, end) alone: the same operations (the distance to
-// each own edge, 0 inside a solid polygon), so that the clearance of a whole map is the least of its parts'.
-double range_clearance(const ObstacleView& obstacles, int begin, int end, Vec2 p) {
-  double best = kInf;
-  bool any_solid = false;
-  for (int i = begin; i < end; ++i) {
-    const ObstacleVertex& v = obstacles.vertex[i];
-    any_solid = any_solid || v.solid;
-    if (!v.own_edge) continue;
-    best = std::min(best, segment_segment_distance(p, p, v.point, obstacles.vertex[v.next].point));
-  }
-  if (any_solid && best > 0.0) {
-    bool parity = false;  // inside_solid over the range: a polygon's vertices are consecutive
-    for (int i = begin; i < end; ++i) {
-      const ObstacleVertex& v = obstacles.vertex[i];
-      if (!v.solid) continue;
-      const Vec2 a = v.point, b = obstacles.vertex[v.next].point;
-      if ((a.y > p.y) != (b.y > p.y) && p.x < a.x + (p.y - a.y) * (b.x - a.x) / (b.y - a.y)) parity = !parity;
-      if (v.next < i) {
-        if (parity) return 0.0;
-        parity = false;
-      }
-    }
-  }
-  return std::max(best, 0.0);
-}
-
-}  // namespace
 
 RouteGraph build_route_graph_around(const RouteGraph& walls_graph, const ObstacleView& obstacles, int wall_vertices,
                                     double inflation) {
@@ -672,11 +637,14 @@ RouteGraph build_route_graph_around(const RouteGraph& walls_graph, const Obstacl
   const EdgeSet added = compact_edges(obstacles, wall_vertices, obstacles.count);
   const int base_n = static_cast<int>(walls_graph.node.size());
   std::vector<int> old_index;  // a kept wall node's index in walls_graph
-  for (int k = 0; k < base_n; ++k)
-    if (range_clearance(obstacles, wall_vertices, obstacles.count, walls_graph.node[k]) >= inflation) {
-      g.node.push_back(walls_graph.node[k]);
+  for (int k = 0; k < base_n; ++k) {
+    // obstacle_clearance over the added polygons alone (a wall node keeps the inflation from the walls)
+    const Vec2 p = walls_graph.node[k];
+    if (swept_obstacle_clearance(obstacles, p, p, 0.0, wall_vertices, obstacles.count) >= inflation) {
+      g.node.push_back(p);
       old_index.push_back(k);
     }
+  }
   const int kept = static_cast<int>(g.node.size());
   add_corner_nodes(obstacles, wall_vertices, obstacles.count, inflation, g.node);
   const int n = static_cast<int>(g.node.size());

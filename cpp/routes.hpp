@@ -88,10 +88,6 @@ std::array<double, 6> route_kernel_values(const EdgeSet& edges, Vec2 a, Vec2 b, 
 // inside a solid polygon; +inf without obstacles.
 double segment_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b);
 
-// True when a disc of radius c moving straight from a to b touches no obstacle edge (and b is outside the
-// solid polygons): `b` is visible from `a` with clearance c (segment_clearance >= c).
-bool visible_with_clearance(const ObstacleView& obstacles, Vec2 a, Vec2 b, double c);
-
 // The distance from p to the nearest obstacle edge (0 inside a solid polygon; +inf without obstacles).
 double obstacle_clearance(const ObstacleView& obstacles, Vec2 p);
 // The same distance to the nearest edge without the inside test, over the view's edge arrays (a view with
