@@ -49,16 +49,15 @@ def policy_sources(policy: Policy) -> dict[str, str]:
         ValueError: A declared source file does not exist.
     """
     out: dict[str, str] = {}
-    module = type(policy).__module__
-    path = getattr(sys.modules.get(module), "__file__", None)
-    if path and module.split(".")[0] != "socialnav" and Path(path).is_file():
-        out["module"] = file_sha256(path)  # by content: a script run and its import are one policy
+    module_sha = _outside_source(type(policy))  # by content: a script run and its import are one policy
+    if module_sha:
+        out["module"] = module_sha
     declared = getattr(policy, "source_files", None)
     for item in declared() if callable(declared) else ():
         item = Path(item)
         if not item.is_file():
             raise ValueError(
-                f"policy {getattr(policy, 'name', module)!r} declares source file {item}, "
+                f"policy {getattr(policy, 'name', type(policy).__module__)!r} declares source file {item}, "
                 "which does not exist"
             )
         out[str(item)] = file_sha256(item)

@@ -99,8 +99,7 @@ class PythonHumans:
         bad = state.mask & ~np.isfinite(out).all(axis=-1)
         if bad.any():
             slot, human = (int(i) for i in np.argwhere(bad)[0])
-            episode = int(world.episode_index[slot])
-            at = float(world.steps[slot]) * world.settings.dt
+            episode, at = int(state.episode[slot]), float(state.time[slot])
             velocity = tuple(float(v) for v in out[slot, human])
             raise ValueError(f"pedestrian behaviour {name!r} gave human {human} of episode {episode} (slot "
                              f"{slot}) at t = {at:g} s the non-finite velocity {velocity}")
