@@ -16,6 +16,19 @@ from typing import Any
 
 import numpy as np
 
+from socialnav.logs.columns import (
+    Fail,
+    agent_ids,
+    check_text,
+    group_codes,
+    load_table,
+    numeric_column,
+    per_agent_value,
+    read_times,
+    require_finite,
+    scene_constant,
+    string_column,
+)
 from socialnav.logs.scene import Scene, clock, id_matches, scene_from_tracks
 from socialnav.trajectory import OUTCOMES, AssumedValueWarning, TrajectoryFormatError
 
@@ -80,15 +93,6 @@ def parse_columns(spec: str | Mapping[str, str] | None) -> dict[str, str]:
     return out
 
 
-class _Fail:
-    def __init__(self, path: Path, unit: str = "row") -> None:
-        self.path, self.unit = path, unit
-
-    def __call__(self, column: str, row: int | None, message: str) -> TrajectoryFormatError:
-        where = f"column '{column}'" + ("" if row is None else f", {self.unit} {row + 1}")
-        return TrajectoryFormatError(f"{self.path}: {where}: {message}")
-
-
 def _check_path(path: Path) -> None:
     if path.is_dir():
         raise TrajectoryFormatError(f"{path}: is a directory, not a trajectory file")
@@ -96,17 +100,6 @@ def _check_path(path: Path) -> None:
         raise FileNotFoundError(f"{path}: no such file")
     if path.stat().st_size == 0:
         raise TrajectoryFormatError(f"{path}: empty file")
-
-
-def _check_text(path: Path) -> None:
-    head = path.read_bytes()[:4096]
-    if b"\x00" in head:
-        raise TrajectoryFormatError(f"{path}: binary data (NUL bytes), not a text file")
-    try:
-        head.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        if exc.start < len(head) - 4:  # not just a multi-byte character cut at 4096
-            raise TrajectoryFormatError(f"{path}: not UTF-8 text (byte {exc.start}); is it binary?") from None
 
 
 # ------------------------------------------------------------------------------------ ETH/UCY
@@ -138,8 +131,8 @@ def read_eth_ucy(
     """
     path = Path(path)
     _check_path(path)
-    _check_text(path)
-    fail = _Fail(path, "line")
+    check_text(path)
+    fail = Fail(path, "line")
     if not np.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be > 0, got {fps!r}")
     names = ("frame", "id", "x", "y")
@@ -195,7 +188,7 @@ def _assumed_radius(path: Path, radius: float | None, why: str) -> float:
     return float(radius)
 
 
-def _check_speeds(fail: _Fail, t: np.ndarray, agent: np.ndarray, xy: np.ndarray, rows: np.ndarray,
+def _check_speeds(fail: Fail, t: np.ndarray, agent: np.ndarray, xy: np.ndarray, rows: np.ndarray,
                   max_speed: float, column: str) -> None:
     """Reject steps faster than ``max_speed`` (metres vs millimetres, or ms vs s, usually)."""
     order = np.lexsort((t, agent))
@@ -264,8 +257,8 @@ def read_table(
         raise ValueError(f"units: length one of {list(_LENGTH)}, time one of {list(_TIME)}; "
                          f"got {length_unit!r}, {time_unit!r}")
     mapping = parse_columns(columns)
-    table = _load(path)
-    fail = _Fail(path)
+    table = load_table(path)
+    fail = Fail(path)
     names = table.column_names
     for field in FIELDS:
         if field not in mapping:
@@ -296,33 +289,33 @@ def read_table(
     if table.num_rows == 0:
         raise TrajectoryFormatError(f"{path}: no data rows")
     lscale, tscale = _LENGTH[length_unit], _TIME[time_unit]
-    col = {f: _numeric(table, c, fail, f) for f, c in mapping.items()
+    col = {f: numeric_column(table, c, fail, f) for f, c in mapping.items()
            if f in ("x", "y", "vx", "vy", "radius", "gx", "gy", "v_pref")}
     # seconds after the file's first stamp (exact for integer clocks), and that stamp: epoch stamps keep
     # their sub-millisecond differences, which float seconds since 1970 would round away
-    t, origin = _times(table, mapping["time"], fail, tscale)
-    agent = _ids(table, mapping["id"], fail)
+    t, origin = read_times(table, mapping["time"], fail, tscale)
+    agent = agent_ids(table, mapping["id"], fail)
     for f in ("x", "y"):
         lost = np.flatnonzero(np.isnan(col[f]))
         if lost.size:  # a tracker's lost person, usually: said with whom and when
             row = int(lost[0])
             raise fail(mapping[f], row, f"missing value (agent {agent[row]} at t = {clock(origin + t[row])} "
                        "s): leave out the rows of samples where an agent was not seen (it is absent there)")
-        _require_finite(col[f], fail, mapping[f])
+        require_finite(col[f], fail, mapping[f])
     xy = np.stack([col["x"], col["y"]], axis=1) * lscale
-    scene_key = (_strings(table, mapping["scene"]) if "scene" in mapping
+    scene_key = (string_column(table, mapping["scene"]) if "scene" in mapping
                  else np.full(table.num_rows, path.stem, dtype=object))
     vel = None
     if "vx" in col and "vy" in col:
         vel = np.stack([col["vx"], col["vy"]], axis=1) * lscale
-        _require_finite(vel[:, 0], fail, mapping["vx"])
-        _require_finite(vel[:, 1], fail, mapping["vy"])
-    roles = _strings(table, mapping["role"]) if "role" in mapping else None
-    outcomes = _strings(table, mapping["outcome"]) if "outcome" in mapping else None
+        require_finite(vel[:, 0], fail, mapping["vx"])
+        require_finite(vel[:, 1], fail, mapping["vy"])
+    roles = string_column(table, mapping["role"]) if "role" in mapping else None
+    outcomes = string_column(table, mapping["outcome"]) if "outcome" in mapping else None
     if "radius" not in col:
         radius = _assumed_radius(path, radius, "no radius column")
     all_rows = np.arange(table.num_rows)
-    _check_speeds(fail, t, _group_codes(scene_key, agent), xy, all_rows, max_speed, mapping["x"])
+    _check_speeds(fail, t, group_codes(scene_key, agent), xy, all_rows, max_speed, mapping["x"])
     scenes = []
     keys, first = np.unique(scene_key.astype(str), return_index=True)
     inverse = np.searchsorted(keys, scene_key.astype(str))
@@ -339,7 +332,7 @@ def read_table(
         per_agent = {}
         for f in ("radius", "gx", "gy", "v_pref"):
             if f in col:
-                per_agent[f] = _per_agent(col[f] * lscale, rows,
+                per_agent[f] = per_agent_value(col[f] * lscale, rows,
                                           a_of_row, len(ids), fail, mapping[f])
         radii = per_agent.get("radius", np.full(len(ids), radius))
         if np.any(~np.isfinite(radii)) or np.any(radii < 0):
@@ -351,7 +344,7 @@ def read_table(
         robot_index = None if robot_id is None else int(np.flatnonzero(ids.astype(str) == str(robot_id))[0])
         outcome = "unknown"
         if outcomes is not None:
-            outcome = _scene_constant(outcomes[rows], rows, fail, mapping["outcome"]) or "unknown"
+            outcome = scene_constant(outcomes[rows], rows, fail, mapping["outcome"]) or "unknown"
             if outcome not in OUTCOMES:
                 raise fail(mapping["outcome"], int(rows[0]), f"must be one of {OUTCOMES}, got {outcome!r}")
         scenes.append(_make_scene(path, name, ids, grid, radii, v_pref, goals, robot_index, outcome,
@@ -359,131 +352,8 @@ def read_table(
     return scenes
 
 
-def _load(path: Path) -> Any:
-    import pyarrow as pa
-
-    suffix = path.suffix.lower()
-    try:
-        if suffix == ".parquet":
-            import pyarrow.parquet as pq
-
-            return pq.read_table(path)
-        if suffix in (".csv", ".txt", ".tsv"):
-            import pyarrow.csv as pcsv
-
-            _check_text(path)
-            delimiter = "\t" if suffix == ".tsv" else ","
-            return pcsv.read_csv(path, parse_options=pcsv.ParseOptions(delimiter=delimiter))
-    except (pa.ArrowInvalid, pa.ArrowNotImplementedError, OSError) as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise TrajectoryFormatError(f"{path}: cannot be read as {suffix[1:]} ({first})") from None
-    raise TrajectoryFormatError(f"{path}: unsupported suffix {path.suffix!r}; use .csv or .parquet")
-
-
-def _times(table: Any, column: str, fail: _Fail, scale: float) -> tuple[np.ndarray, float]:
-    """The time column as seconds after its earliest stamp, and that stamp [s].
-
-    Integer clocks (ROS nanoseconds since 1970 exceed float64's 2^53 exact integers) and Parquet
-    timestamps (their own unit, whatever ``scale`` says) are differenced as integers first.
-    """
-    import pyarrow as pa
-
-    col = table.column(column)
-    kind = col.type
-    if pa.types.is_timestamp(kind) or pa.types.is_integer(kind):
-        if col.null_count:
-            row = int(np.flatnonzero(np.asarray(col.is_null().to_numpy(zero_copy_only=False)))[0])
-            raise fail(column, row, "missing value")
-        if pa.types.is_timestamp(kind):
-            scale = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}[kind.unit]
-            ints = col.cast(pa.int64()).to_numpy(zero_copy_only=False)
-        else:
-            ints = col.to_numpy(zero_copy_only=False).astype(np.int64)
-        first = int(ints.min())
-        return (ints - first).astype(np.float64) * scale, float(first) * scale
-    values = _numeric(table, column, fail, "time")
-    _require_finite(values, fail, column)
-    first = float(values.min())
-    return (values - first) * scale, first * scale
-
-
-def _numeric(table: Any, column: str, fail: _Fail, field: str) -> np.ndarray:
-    import pyarrow as pa
-
-    col = table.column(column)
-    try:
-        return col.cast(pa.float64()).to_numpy(zero_copy_only=False).astype(np.float64)
-    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-        for i, v in enumerate(col.to_pylist()):
-            try:
-                float(v) if v is not None else None
-            except (TypeError, ValueError):
-                raise fail(column, i, f"not a number: {v!r} ({field})") from None
-        raise fail(column, None, f"not numeric ({field})") from None
-
-
-def _require_finite(values: np.ndarray, fail: _Fail, column: str) -> None:
-    bad = np.flatnonzero(~np.isfinite(values))
-    if bad.size:
-        v = values[bad[0]]
-        raise fail(column, int(bad[0]), "missing value" if np.isnan(v) else f"value is {v} (not finite)")
-
-
-def _strings(table: Any, column: str) -> np.ndarray:
-    return np.array(["" if v is None else str(v) for v in table.column(column).to_pylist()], dtype=object)
-
-
-def _ids(table: Any, column: str, fail: _Fail) -> np.ndarray:
-    values = table.column(column).to_pylist()
-    for i, v in enumerate(values):
-        if v is None or (isinstance(v, float) and not np.isfinite(v)) or v == "":
-            raise fail(column, i, "missing agent id")
-    if all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in values):
-        return np.asarray(values, dtype=np.int64)
-    if all(isinstance(v, float) and v == int(v) for v in values):
-        return np.asarray(values, dtype=np.int64)
-    return np.array([str(v) for v in values], dtype=object)
-
-
-def _group_codes(scene: np.ndarray, agent: np.ndarray) -> np.ndarray:
-    pairs = np.array([f"{s}\x1f{a}" for s, a in zip(scene, agent, strict=True)], dtype=object)
-    return np.unique(pairs, return_inverse=True)[1]
-
-
-def _per_agent(values: np.ndarray, rows: np.ndarray, a_of_row: np.ndarray, n: int, fail: _Fail,
-               column: str) -> np.ndarray:
-    """One value per agent; a column that varies within an agent's rows is an error."""
-    out = np.full(n, np.nan)
-    v = values[rows]
-    for a in range(n):
-        sel = np.flatnonzero(a_of_row == a)
-        vals = v[sel]
-        finite = np.isfinite(vals)
-        if not finite.any():
-            continue
-        ref = vals[finite][0]
-        diff = np.flatnonzero(finite & (vals != ref))
-        if diff.size:
-            raise fail(column, int(rows[sel[diff[0]]]), f"value {vals[diff[0]]:g} differs from {ref:g}; it "
-                       "must be constant per agent")
-        out[a] = ref
-    return out
-
-
-def _scene_constant(values: np.ndarray, rows: np.ndarray, fail: _Fail, column: str) -> str | None:
-    nonempty = [i for i, v in enumerate(values) if v not in ("", "nan", "None")]
-    if not nonempty:
-        return None
-    ref = values[nonempty[0]]
-    for i in nonempty:
-        if values[i] != ref:
-            raise fail(column, int(rows[i]), f"value {values[i]!r} differs from {ref!r}; it must be constant "
-                       "per scene")
-    return str(ref)
-
-
 def _robot_id(path: Path, name: str, agent: np.ndarray, roles: np.ndarray | None, rows: np.ndarray,
-              robot: Any, fail: _Fail, mapping: dict[str, str]) -> Any:
+              robot: Any, fail: Fail, mapping: dict[str, str]) -> Any:
     """The id of the scene's robot: ``robot`` when given, else the agent whose role is ``robot``, else None.
 
     A role column must give each agent one role; ``robot`` overriding it is said in a note.
